@@ -1,0 +1,34 @@
+# ergopose: make test | make demo | make bench
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.deps-installed
+
+.PHONY: test demo bench install clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+
+# Third-party dependencies: reinstalled only when pyproject.toml or constraints.txt change.
+$(STAMP): pyproject.toml constraints.txt | $(PY)
+	$(PY) -m pip install -q "setuptools>=68" wheel
+	$(PY) -m pip install -q -c constraints.txt ".[test]"
+	touch $(STAMP)
+
+# The package itself (not editable, so the installed copy carries assessments/ and templates/).
+install: $(STAMP)
+	$(PY) -m pip install -q --no-deps --force-reinstall --no-build-isolation .
+
+test: install
+	$(PY) -m pytest -q
+
+demo: install
+	$(PY) -m ergopose demo
+
+bench: install
+	$(PY) -m pip install -q -c constraints.txt ".[bench]"
+	$(PY) bench/run.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info

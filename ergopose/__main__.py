@@ -1,0 +1,3 @@
+from ergopose.cli import main
+
+raise SystemExit(main())

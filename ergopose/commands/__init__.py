@@ -1,0 +1,1 @@
+"""Subcommands of the ``ergopose`` command line; see ergopose.cli."""

@@ -1,0 +1,1 @@
+"""Camera geometry: lens models, cameras in the world, virtual views, triangulation."""

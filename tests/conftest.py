@@ -1,0 +1,26 @@
+"""Shared fixtures: paths to ../shared data, seeded random generators."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+SHARED = REPO.parent / "shared"
+DATA = SHARED / "data"
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator: every random source in the tests is reproducible."""
+    return np.random.default_rng(20181001)
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The real data in ../shared/data (see each folder's SOURCE.md)."""
+    if not DATA.is_dir():
+        pytest.fail(f"../shared/data is missing (expected at {DATA}); it comes with every clone's workspace")
+    return DATA
