@@ -1,0 +1,1 @@
+"""Calibrating real cameras: intrinsics, extrinsics and an accuracy check."""

@@ -1,0 +1,1 @@
+"""Joint angles, RULA and REBA scoring, shift aggregation and CSV export."""

@@ -1,0 +1,1 @@
+"""2D pose: model management, person finding, upright views, keypoint decoding."""
