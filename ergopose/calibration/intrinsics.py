@@ -1,0 +1,413 @@
+"""Intrinsic calibration of a fisheye camera from board images.
+
+The Kannala-Brandt fit goes through ``cv2.fisheye.calibrate`` with
+CALIB_RECOMPUTE_EXTRINSIC | CALIB_CHECK_COND | CALIB_FIX_SKEW and object points shaped
+(N, 1, 3) float64. With CALIB_CHECK_COND OpenCV stops on a board view that makes the problem
+ill-conditioned and names its index ("... Ill-conditioned matrix for input array 7"): that view
+is dropped (and reported) and the fit runs again.
+
+For lenses wider than 180 degrees a Double Sphere model can be fitted afterwards: a least-squares
+fit (scipy.optimize.least_squares) over the same corners and the per-view board poses,
+initialised from the Kannala-Brandt result.
+
+The core never prints; long work reports through ``progress``.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Sequence
+
+import cv2
+import numpy as np
+
+from ergopose.calibration._so3 import rotation_matrices, rotation_vectors
+from ergopose.calibration.boards import Board, Detection, detect_board
+from ergopose.errors import ConfigError, InputError
+from ergopose.progress import ProgressCallback, report
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".pgm", ".ppm")
+
+#: cv2.fisheye.calibrate flags (the pitfalls: recompute extrinsics every iteration, refuse
+#: ill-conditioned views, no skew).
+FISHEYE_FLAGS = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_CHECK_COND | cv2.fisheye.CALIB_FIX_SKEW
+#: Termination: 100 iterations or a parameter change below 1e-10.
+FISHEYE_CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-10)
+
+DEFAULT_MIN_IMAGES = 8
+#: Share of the 4 x 4 grid of image cells that must hold at least one detected corner.
+DEFAULT_MIN_COVERAGE = 0.5
+COVERAGE_GRID = 4
+
+MODELS = ("kannala_brandt", "double_sphere")
+
+_ILL_CONDITIONED = re.compile(r"input array (\d+)")
+
+
+@dataclass(frozen=True)
+class DroppedImage:
+    """An image left out of the fit: ``source`` (file name) and ``reason`` (for a human)."""
+
+    source: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class IntrinsicsResult:
+    """The outcome of an intrinsic calibration.
+
+    model: "kannala_brandt" or "double_sphere".
+    lens: the fitted lens model (ergopose.geometry.lenses).
+    image_size: (width, height), pixels.
+    rms: RMS reprojection error over all used corners, pixels (sqrt of the mean squared
+        distance between detected and reprojected corners).
+    camera_matrix, distortion: the Kannala-Brandt fit in OpenCV's form ((3, 3) and (4,)), also
+        kept when ``model`` is double_sphere (it is the starting point).
+    kb_rms: RMS of the Kannala-Brandt fit, pixels.
+    used: sources of the images in the fit, in order.
+    dropped: images left out and why (no board found, ill-conditioned, ...).
+    rotations_cam_from_board: (M, 3, 3) board pose per used image.
+    translations_cam: (M, 3) board origin in the camera frame per used image, metres.
+    per_view_rms: (M,) RMS reprojection error per used image, pixels.
+    coverage: share of image cells (4 x 4 grid) holding at least one used corner.
+    max_theta_observed: largest angle from the optical axis among the used corners, radians.
+    """
+
+    model: str
+    lens: object
+    image_size: tuple[int, int]
+    rms: float
+    camera_matrix: np.ndarray
+    distortion: np.ndarray
+    kb_rms: float
+    used: tuple[str, ...]
+    dropped: tuple[DroppedImage, ...]
+    rotations_cam_from_board: np.ndarray
+    translations_cam: np.ndarray
+    per_view_rms: np.ndarray
+    coverage: float
+    max_theta_observed: float
+    details: dict = field(default_factory=dict)
+
+
+# ------------------------------------------------------------------------ images
+def list_images(folder: str | Path) -> list[Path]:
+    """Image files in ``folder`` (not recursive), sorted by name; InputError if there are none."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("image folder not found", path=folder)
+    paths = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+    if not paths:
+        raise InputError(f"no images ({', '.join(IMAGE_SUFFIXES)}) in this folder", path=folder)
+    return paths
+
+
+def read_gray(path: str | Path) -> np.ndarray:
+    """A grayscale uint8 image; InputError naming the file if it cannot be read."""
+    path = Path(path)
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None:
+        raise InputError("cannot read this image (missing, corrupt or not an image); "
+                         "replace it or remove it from the folder", path=path)
+    return image
+
+
+def detect_in_images(paths: Sequence[str | Path], board: Board,
+                     progress: ProgressCallback | None = None) -> tuple[list[Detection], list[DroppedImage]]:
+    """Detect the board in every image; images without a board are returned as dropped.
+
+    All images must have the same size (InputError naming the first that differs).
+    """
+    detections: list[Detection] = []
+    dropped: list[DroppedImage] = []
+    size: tuple[int, int] | None = None
+    first = None
+    for i, path in enumerate(paths):
+        image = read_gray(path)
+        this = (image.shape[1], image.shape[0])
+        if size is None:
+            size, first = this, Path(path).name
+        elif this != size:
+            raise InputError(f"image is {this[0]}x{this[1]} but {first} is {size[0]}x{size[1]}; "
+                             f"all images of one camera must have the same size", path=path)
+        det = detect_board(image, board, source=Path(path).name)
+        if det is None:
+            dropped.append(DroppedImage(Path(path).name, "no board found"))
+        else:
+            detections.append(det)
+        report(progress, "detect", i + 1, len(paths), unit="image")
+    return detections, dropped
+
+
+def image_size_of(detections: Sequence[Detection]) -> tuple[int, int]:
+    sizes = {d.image_size for d in detections}
+    if len(sizes) != 1:
+        raise InputError(f"detections come from images of different sizes: {sorted(sizes)}")
+    return sizes.pop()
+
+
+# ---------------------------------------------------------------------- coverage
+def image_coverage(detections: Sequence[Detection], image_size: tuple[int, int], grid: int = COVERAGE_GRID) -> float:
+    """Share of the ``grid`` x ``grid`` image cells that hold at least one detected corner."""
+    if not detections:
+        return 0.0
+    pixels = np.concatenate([d.pixels for d in detections])
+    w, h = image_size
+    cx = np.clip((pixels[:, 0] / w * grid).astype(int), 0, grid - 1)
+    cy = np.clip((pixels[:, 1] / h * grid).astype(int), 0, grid - 1)
+    return len(set(zip(cx.tolist(), cy.tolist()))) / float(grid * grid)
+
+
+# ------------------------------------------------------------------- Kannala-Brandt
+def _kb_lens(K: np.ndarray, D: np.ndarray):
+    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
+
+    return KannalaBrandt.from_opencv(K, D)
+
+
+def _opencv_points(detections: Sequence[Detection], board: Board) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    obj_all = board.object_points()
+    objs = [obj_all[d.ids].reshape(-1, 1, 3).astype(np.float64) for d in detections]
+    imgs = [d.pixels.reshape(-1, 1, 2).astype(np.float64) for d in detections]
+    return objs, imgs
+
+
+def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size: tuple[int, int], *,
+                      min_images: int = DEFAULT_MIN_IMAGES, criteria=FISHEYE_CRITERIA,
+                      flags: int = FISHEYE_FLAGS, progress: ProgressCallback | None = None):
+    """cv2.fisheye.calibrate with ill-conditioned views dropped and the fit retried.
+
+    Returns (rms, K, D, rvecs (M, 3), tvecs (M, 3), kept detections, dropped images).
+    Raises InputError when fewer than ``min_images`` views remain or OpenCV fails otherwise.
+    """
+    kept = list(detections)
+    dropped: list[DroppedImage] = []
+    attempt = 0
+    while True:
+        if len(kept) < min_images:
+            raise InputError(_too_few_message(len(kept), min_images, dropped))
+        objs, imgs = _opencv_points(kept, board)
+        attempt += 1
+        report(progress, "calibrate", attempt, None, unit="attempt",
+               message=f"{len(kept)} boards")
+        try:
+            rms, K, D, rvecs, tvecs = cv2.fisheye.calibrate(
+                objs, imgs, tuple(int(v) for v in image_size), None, None, flags=flags, criteria=criteria)
+        except cv2.error as exc:
+            text = str(exc)
+            match = _ILL_CONDITIONED.search(text)
+            if "CALIB_CHECK_COND" in text and match and int(match.group(1)) < len(kept):
+                bad = kept.pop(int(match.group(1)))
+                dropped.append(DroppedImage(bad.source, "ill-conditioned (board too small, too far or "
+                                                        "too oblique in this view)"))
+                continue
+            raise InputError(f"cv2.fisheye.calibrate failed on {len(kept)} boards: "
+                             f"{text.strip().splitlines()[-1]}; take more images with the board "
+                             f"filling more of the view") from None
+        if not (np.isfinite(rms) and np.all(np.isfinite(K)) and np.all(np.isfinite(D))):
+            raise InputError("the fisheye fit did not converge (non-finite result); take more images "
+                             "with the board at different distances and angles")
+        rv = np.asarray(rvecs, np.float64).reshape(-1, 3)
+        tv = np.asarray(tvecs, np.float64).reshape(-1, 3)
+        return float(rms), np.asarray(K, np.float64), np.asarray(D, np.float64).ravel(), rv, tv, kept, dropped
+
+
+def _too_few_message(n: int, need: int, dropped: Sequence[DroppedImage]) -> str:
+    msg = f"only {n} usable board image(s), at least {need} are needed"
+    if dropped:
+        reasons: dict[str, int] = {}
+        for d in dropped:
+            reasons[d.reason] = reasons.get(d.reason, 0) + 1
+        msg += " (left out: " + ", ".join(f"{k}: {v}" for k, v in reasons.items()) + ")"
+    return msg + "; take more images with the whole board visible and sharp"
+
+
+def reprojection_errors(lens, detections: Sequence[Detection], board: Board,
+                        rotations_cam_from_board: np.ndarray, translations_cam: np.ndarray) -> list[np.ndarray]:
+    """Per view, (N,) distances (pixels) between detected corners and corners projected by ``lens``."""
+    obj_all = board.object_points()
+    out = []
+    for det, R, t in zip(detections, rotations_cam_from_board, translations_cam):
+        points_cam = obj_all[det.ids] @ R.T + t
+        proj = lens.project(points_cam)
+        out.append(np.linalg.norm(proj - det.pixels, axis=-1))
+    return out
+
+
+def _rms(errors: Sequence[np.ndarray]) -> float:
+    e = np.concatenate(errors)
+    return float(np.sqrt(np.mean(e ** 2)))
+
+
+def _max_theta(detections, board, R, t) -> float:
+    obj_all = board.object_points()
+    thetas = []
+    for det, Ri, ti in zip(detections, R, t):
+        p = obj_all[det.ids] @ Ri.T + ti
+        thetas.append(np.arctan2(np.linalg.norm(p[:, :2], axis=-1), p[:, 2]))
+    return float(np.max(np.concatenate(thetas)))
+
+
+def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
+                             *, min_images: int = DEFAULT_MIN_IMAGES, min_coverage: float = DEFAULT_MIN_COVERAGE,
+                             dropped: Sequence[DroppedImage] = (), criteria=FISHEYE_CRITERIA,
+                             progress: ProgressCallback | None = None) -> IntrinsicsResult:
+    """Fit a Kannala-Brandt lens (cv2.fisheye.calibrate) to board detections.
+
+    ``dropped``: images already left out (e.g. no board found), carried into the result.
+    Raises InputError for too few boards or poor coverage of the image.
+    """
+    dropped = list(dropped)
+    if not detections:
+        raise InputError("the board was not found in any image; check the board spec (inner corners for a "
+                         "checkerboard, squares for ChArUco) and that the whole board is visible")
+    if len(detections) < min_images:
+        raise InputError(_too_few_message(len(detections), min_images, dropped))
+    size = image_size if image_size is not None else image_size_of(detections)
+    coverage = image_coverage(detections, size)
+    if coverage < min_coverage:
+        raise InputError(
+            f"poor coverage: the detected corners fill {coverage:.0%} of the image (4x4 cells), at least "
+            f"{min_coverage:.0%} is needed; take more images with the board near the image edges and corners, "
+            f"not only in one place")
+    rms, K, D, rv, tv, kept, ill = fisheye_calibrate(detections, board, size, min_images=min_images,
+                                                     criteria=criteria, progress=progress)
+    dropped.extend(ill)
+    R = rotation_matrices(rv)
+    lens = _kb_lens(K, D)
+    errors = reprojection_errors(lens, kept, board, R, tv)
+    return IntrinsicsResult(
+        model="kannala_brandt", lens=lens, image_size=tuple(size), rms=float(rms), camera_matrix=K, distortion=D,
+        kb_rms=float(rms), used=tuple(d.source for d in kept), dropped=tuple(dropped),
+        rotations_cam_from_board=R, translations_cam=tv,
+        per_view_rms=np.array([np.sqrt(np.mean(e ** 2)) for e in errors]),
+        coverage=image_coverage(kept, size), max_theta_observed=_max_theta(kept, board, R, tv),
+        details={"opencv_rms": float(rms), "model_rms": _rms(errors), "kept_detections": tuple(kept)},
+    )
+
+
+# --------------------------------------------------------------------- Double Sphere
+def _ds_lens(params: np.ndarray):
+    from ergopose.geometry.lenses.double_sphere import DoubleSphere
+
+    fx, fy, cx, cy, xi, alpha = (float(v) for v in params)
+    return DoubleSphere(fx, fy, cx, cy, xi, alpha)
+
+
+_BIG = 1e3  # residual (pixels) for a corner the trial model cannot project
+
+
+def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressCallback | None = None) -> IntrinsicsResult:
+    """Refine a Double Sphere lens and the board poses over the corners of a Kannala-Brandt fit.
+
+    Step 1: fit (fx, fy, cx, cy, xi, alpha) to the KB projection of rays up to the largest observed
+    angle (plus 5 degrees). Step 2: joint least squares over all corners and per-view poses
+    (scipy.optimize.least_squares, trf, sparse finite-difference Jacobian).
+    """
+    from scipy.optimize import least_squares
+    from scipy.sparse import lil_matrix
+
+    kept: tuple[Detection, ...] = kb.details["kept_detections"]
+    K = kb.camera_matrix
+    # step 1: match the KB projection over the observed field of view
+    theta_max = min(kb.max_theta_observed + np.radians(5.0), kb.lens.max_theta)
+    th, ph = np.meshgrid(np.linspace(0.0, theta_max, 40), np.linspace(0.0, 2 * np.pi, 24, endpoint=False))
+    rays = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1).reshape(-1, 3)
+    target = kb.lens.project(rays)
+    ok = np.all(np.isfinite(target), axis=-1)
+    rays, target = rays[ok], target[ok]
+
+    lower = np.array([1.0, 1.0, -np.inf, -np.inf, -1.0, 0.0])
+    upper = np.array([np.inf, np.inf, np.inf, np.inf, 1.0, 1.0])
+
+    def resid_fit(p):
+        try:
+            proj = _ds_lens(p).project(rays)
+        except ConfigError:  # parameters outside the model's valid range
+            return np.full(rays.size // 3 * 2, _BIG)
+        r = (proj - target).ravel()
+        return np.where(np.isfinite(r), r, _BIG)
+
+    # near the axis a Double Sphere with xi = 0 has the focal length of the KB fit: start from it
+    best = None
+    for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5)):
+        start = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0])
+        res = least_squares(resid_fit, start, bounds=(lower, upper), x_scale="jac", max_nfev=400)
+        if best is None or res.cost < best.cost:
+            best = res
+    intr0 = best.x
+    report(progress, "double_sphere", 1, 2, unit="step")
+
+    # step 2: joint refinement over corners and poses
+    obj_all = board.object_points()
+    views = np.concatenate([np.full(len(d.ids), i) for i, d in enumerate(kept)])
+    obj = np.concatenate([obj_all[d.ids] for d in kept])
+    pix = np.concatenate([d.pixels for d in kept])
+    M = len(kept)
+    rv0 = rotation_vectors(kb.rotations_cam_from_board)
+    x0 = np.concatenate([intr0, np.concatenate([rv0, kb.translations_cam], axis=1).ravel()])
+
+    def resid(x):
+        intr = x[:6]
+        pose = x[6:].reshape(M, 6)
+        R = rotation_matrices(pose[:, :3])
+        pts = np.einsum("nij,nj->ni", R[views], obj) + pose[views, 3:]
+        try:
+            proj = _ds_lens(intr).project(pts)
+        except ConfigError:
+            return np.full(pix.size, _BIG)
+        r = (proj - pix).ravel()
+        return np.where(np.isfinite(r), r, _BIG)
+
+    n_res = pix.size
+    sparsity = lil_matrix((n_res, 6 + 6 * M), dtype=int)
+    sparsity[:, :6] = 1
+    rows = np.arange(n_res)
+    for j in range(6):
+        sparsity[rows, 6 + 6 * np.repeat(views, 2) + j] = 1
+    lo = np.concatenate([lower, np.full(6 * M, -np.inf)])
+    hi = np.concatenate([upper, np.full(6 * M, np.inf)])
+    x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
+    res = least_squares(resid, x0, bounds=(lo, hi), jac_sparsity=sparsity, x_scale="jac",
+                        xtol=1e-12, ftol=1e-12, max_nfev=200)
+    report(progress, "double_sphere", 2, 2, unit="step")
+    lens = _ds_lens(res.x[:6])
+    pose = res.x[6:].reshape(M, 6)
+    R = rotation_matrices(pose[:, :3])
+    t = pose[:, 3:].copy()
+    errors = reprojection_errors(lens, kept, board, R, t)
+    return replace(
+        kb, model="double_sphere", lens=lens, rms=_rms(errors), rotations_cam_from_board=R, translations_cam=t,
+        per_view_rms=np.array([np.sqrt(np.mean(e ** 2)) for e in errors]),
+        details={**kb.details, "model_rms": _rms(errors), "ds_init_rms": float(np.sqrt(np.mean(best.fun ** 2)))},
+    )
+
+
+def calibrate_intrinsics(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
+                         *, model: str = "kannala_brandt", min_images: int = DEFAULT_MIN_IMAGES,
+                         min_coverage: float = DEFAULT_MIN_COVERAGE, dropped: Sequence[DroppedImage] = (),
+                         progress: ProgressCallback | None = None) -> IntrinsicsResult:
+    """Kannala-Brandt fit, then (model="double_sphere") a Double Sphere refinement."""
+    if model not in MODELS:
+        raise InputError(f"unknown lens model {model!r}; expected one of {', '.join(MODELS)}")
+    kb = calibrate_kannala_brandt(detections, board, image_size, min_images=min_images, min_coverage=min_coverage,
+                                  dropped=dropped, progress=progress)
+    if model == "kannala_brandt":
+        return kb
+    return fit_double_sphere(kb, board, progress=progress)
+
+
+def calibrate_images(paths: Sequence[str | Path], board: Board, *, model: str = "kannala_brandt",
+                     min_images: int = DEFAULT_MIN_IMAGES, min_coverage: float = DEFAULT_MIN_COVERAGE,
+                     progress: ProgressCallback | None = None) -> IntrinsicsResult:
+    """Detect the board in every image and calibrate (what ``ergopose calibrate intrinsics`` runs)."""
+    detections, dropped = detect_in_images(paths, board, progress=progress)
+    if not detections:
+        names = ", ".join(Path(p).name for p in list(paths)[:3]) + (" ..." if len(paths) > 3 else "")
+        raise InputError(f"the board ({board.spec()}) was not found in any of {len(paths)} image(s) ({names}); "
+                         f"check the board spec (checkerboard: INNER corners; charuco: squares) and that the "
+                         f"whole board is visible and sharp")
+    return calibrate_intrinsics(detections, board, image_size_of(detections), model=model, min_images=min_images,
+                                min_coverage=min_coverage, dropped=dropped, progress=progress)
