@@ -174,27 +174,61 @@ def _opencv_points(detections: Sequence[Detection], board: Board) -> tuple[list[
     return objs, imgs
 
 
+def degenerate_reason(detection: Detection) -> str | None:
+    """Why a view's corners cannot define a board pose (OpenCV's initialisation fails on them), or None.
+
+    Corners on top of each other (closest pair < 0.5 px) or on one line (spread across the
+    line < 2 px).
+    """
+    p = detection.pixels
+    if len(p) < 4:
+        return "fewer than 4 corners"
+    d = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=-1)
+    d[np.diag_indices(len(p))] = np.inf
+    if d.min() < 0.5:
+        return "corners on top of each other"
+    sv = np.linalg.svd(p - p.mean(axis=0), compute_uv=False)
+    if sv[-1] / np.sqrt(len(p)) < 2.0:
+        return "corners on one line (board seen edge-on)"
+    return None
+
+
+def _calibrate_once(kept, board, image_size, flags, criteria):
+    objs, imgs = _opencv_points(kept, board)
+    return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None, flags=flags,
+                                 criteria=criteria)
+
+
 def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size: tuple[int, int], *,
                       min_images: int = DEFAULT_MIN_IMAGES, criteria=FISHEYE_CRITERIA,
                       flags: int = FISHEYE_FLAGS, progress: ProgressCallback | None = None):
-    """cv2.fisheye.calibrate with ill-conditioned views dropped and the fit retried.
+    """cv2.fisheye.calibrate with bad views dropped and the fit retried.
+
+    1. Views whose corners are degenerate (:func:`degenerate_reason`) are dropped up front.
+    2. CALIB_CHECK_COND errors name the ill-conditioned view ("... input array 7"): it is dropped
+       and the fit runs again.
+    3. Any other OpenCV error (e.g. the InitExtrinsics assertion) names no view: the views are
+       left out one at a time (least spread first) until the fit succeeds; that view is dropped.
 
     Returns (rms, K, D, rvecs (M, 3), tvecs (M, 3), kept detections, dropped images).
-    Raises InputError when fewer than ``min_images`` views remain or OpenCV fails otherwise.
+    Raises InputError when fewer than ``min_images`` views remain or no single view explains a failure.
     """
-    kept = list(detections)
+    kept: list[Detection] = []
     dropped: list[DroppedImage] = []
+    for det in detections:
+        reason = degenerate_reason(det)
+        if reason is None:
+            kept.append(det)
+        else:
+            dropped.append(DroppedImage(det.source, reason))
     attempt = 0
     while True:
         if len(kept) < min_images:
             raise InputError(_too_few_message(len(kept), min_images, dropped))
-        objs, imgs = _opencv_points(kept, board)
         attempt += 1
-        report(progress, "calibrate", attempt, None, unit="attempt",
-               message=f"{len(kept)} boards")
+        report(progress, "calibrate", attempt, None, unit="attempt", message=f"{len(kept)} boards")
         try:
-            rms, K, D, rvecs, tvecs = cv2.fisheye.calibrate(
-                objs, imgs, tuple(int(v) for v in image_size), None, None, flags=flags, criteria=criteria)
+            rms, K, D, rvecs, tvecs = _calibrate_once(kept, board, image_size, flags, criteria)
         except cv2.error as exc:
             text = str(exc)
             match = _ILL_CONDITIONED.search(text)
@@ -203,15 +237,33 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
                 dropped.append(DroppedImage(bad.source, "ill-conditioned (board too small, too far or "
                                                         "too oblique in this view)"))
                 continue
-            raise InputError(f"cv2.fisheye.calibrate failed on {len(kept)} boards: "
-                             f"{text.strip().splitlines()[-1]}; take more images with the board "
-                             f"filling more of the view") from None
+            culprit = _find_failing_view(kept, board, image_size, flags, criteria)
+            last_line = text.strip().splitlines()[-1]
+            if culprit is None:
+                raise InputError(f"cv2.fisheye.calibrate failed on {len(kept)} boards ({last_line}); take more "
+                                 f"images with the whole board sharp and at different distances and angles") from None
+            bad = kept.pop(culprit)
+            dropped.append(DroppedImage(bad.source, f"OpenCV failed on this view ({last_line})"))
+            continue
         if not (np.isfinite(rms) and np.all(np.isfinite(K)) and np.all(np.isfinite(D))):
             raise InputError("the fisheye fit did not converge (non-finite result); take more images "
                              "with the board at different distances and angles")
         rv = np.asarray(rvecs, np.float64).reshape(-1, 3)
         tv = np.asarray(tvecs, np.float64).reshape(-1, 3)
         return float(rms), np.asarray(K, np.float64), np.asarray(D, np.float64).ravel(), rv, tv, kept, dropped
+
+
+def _find_failing_view(kept, board, image_size, flags, criteria) -> int | None:
+    """Index of a view whose removal lets the fit succeed (views with the least spread tried first)."""
+    spread = [np.linalg.svd(d.pixels - d.pixels.mean(axis=0), compute_uv=False)[-1] for d in kept]
+    for i in np.argsort(spread):
+        trial = kept[:i] + kept[i + 1:]
+        try:
+            _calibrate_once(trial, board, image_size, flags, criteria)
+        except cv2.error:
+            continue
+        return int(i)
+    return None
 
 
 def _too_few_message(n: int, need: int, dropped: Sequence[DroppedImage]) -> str:

@@ -20,6 +20,7 @@ class JYData:
     left: list[Detection]
     right: list[Detection]
     object_points: list[np.ndarray]
+    size: tuple[int, int] = JY_SIZE
 
 
 def _read_fs(path, n_values: int) -> list[np.ndarray]:
