@@ -1,0 +1,212 @@
+"""Scoring settings: the choices RULA and REBA leave open, with documented defaults.
+
+The worksheets settle most of the scoring (assessments/rula.toml, assessments/reba.toml); what
+they leave open is collected here: boundaries the wording does not settle, tolerances for the
+single-point "neutral" and "upright" postures, thresholds that turn measured angles into the
+yes/no adjustments, the time windows of muscle use and activity, and worksheet variants in
+circulation. docs/scoring.md explains every setting.
+
+Values a user types are in degrees, seconds, kilograms and metres (the names say which); the
+scoring converts degrees to radians where it compares them with measured angles.
+
+A settings file is TOML: either top-level keys, or a ``[scoring]`` table inside a larger
+session settings file (then only that table is read). Unknown names are an error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+from ergopose.errors import ConfigError
+
+BOUNDARY_CHOICES = ("higher", "lower")
+VARIANT_CHOICES = ("single", "separate")
+UNKNOWN_FLAG_CHOICES = ("absent", "missing")
+
+
+@dataclass(frozen=True)
+class ScoringSettings:
+    """Every open choice of the scoring, with the default ergopose uses.
+
+    Boundaries not settled by the worksheets' wording (an angle exactly on the edge):
+        rula_open_boundary: "higher" -- RULA's own pattern ("X or more") gives the shared end
+            point to the higher-scoring band: upper arm +20/+45, neck 10, trunk 20.
+        reba_open_boundary: "lower" -- REBA's own pattern ("> X") gives it to the lower band:
+            trunk +20, upper arm +20/+45, knee 30.
+    Tolerances of single-point postures (degrees; an angle within +-tolerance counts as the
+    neutral posture, the tolerance edge itself included):
+        wrist_neutral_deg: 5 -- RULA wrist "neutral" (step 3).
+        trunk_upright_deg: 5 -- RULA and REBA trunk "upright".
+        neck_extension_deg: 5 -- neck "in extension" counts beyond this many degrees of extension.
+    Thresholds of the yes/no adjustments (a flag column in the posture table overrides them):
+        shoulder_raised_deg: 10 -- shoulder_elevation above this is a raised shoulder.
+        upper_arm_abducted_deg: 30 -- upper_arm_abduction above this is an abducted arm.
+        trunk_twisted_deg / trunk_side_bent_deg: 10 -- |trunk_twist| / |trunk_side_bend| above
+            this (EN 1005-4 treats 10 degrees of trunk twist or side bend as the first limit).
+        neck_twisted_deg / neck_side_bent_deg: 10 -- the same for the neck.
+        wrist_deviated_deg: 10 -- |wrist_deviation| (radial/ulnar) above this.
+        across_midline_m: 0.05 -- the wrist is across the midline when it lies more than this
+            far (metres) beyond the trunk's midsagittal plane, on the other arm's side.
+        out_to_side_m: 0.35 -- the wrist is out to the side when it lies more than this far
+            (metres) from the midsagittal plane on its own side.
+    Muscle use (RULA) and activity (REBA), from the time series:
+        rula_static_hold_s: 60 -- RULA "mainly static, e.g. held > 1 min" (600 = the "> 10 min"
+            variant of one commercial sheet).
+        reba_static_hold_s: 60 -- REBA "held > 1 min".
+        static_includes_neutral: False -- a body part resting in its lowest-scoring band is not
+            a static load; True counts any unchanged band.
+        repetition_amplitude_deg: 15 -- an action is a rise and fall of a joint angle by at
+            least this much (the prominence of the angle's peak).
+        repetition_window_s: 60 -- repetitions are counted in a window this long centred on
+            each frame.
+        rula_repetitions_per_min: 4 -- RULA "repeated 4 or more times/min" (>=).
+        reba_repetitions_per_min: 4 -- REBA "repeated more than 4 times/min" (>).
+        rapid_change_deg: 30, rapid_change_window_s: 1 -- REBA "rapid large-range changes":
+            an angle that spans more than rapid_change_deg within rapid_change_window_s.
+        max_gap_s: 1 -- frames further apart than this break a hold (tracking lost).
+    Worksheet variants:
+        rula_lower_arm_adjust: "single" -- one +1 for working across the midline or out to the
+            side (original); "separate" -- a +1 for each (some sheets; can exceed Table A).
+        reba_twist_side_adjust: "single" -- one +1 for twisted or side-flexed neck/trunk
+            (original); "separate" -- a +1 for each (some sheets; can exceed Table A).
+    Unknown yes/no inputs (NaN flags, missing load):
+        unknown_flags: "absent" -- an unknown flag adds nothing (the score is a lower bound and
+            the rows are counted in rula_unknown_flags / reba_unknown_flags); "missing" -- the
+            step score becomes missing.
+    """
+
+    rula_open_boundary: str = "higher"
+    reba_open_boundary: str = "lower"
+
+    wrist_neutral_deg: float = 5.0
+    trunk_upright_deg: float = 5.0
+    neck_extension_deg: float = 5.0
+
+    shoulder_raised_deg: float = 10.0
+    upper_arm_abducted_deg: float = 30.0
+    trunk_twisted_deg: float = 10.0
+    trunk_side_bent_deg: float = 10.0
+    neck_twisted_deg: float = 10.0
+    neck_side_bent_deg: float = 10.0
+    wrist_deviated_deg: float = 10.0
+    across_midline_m: float = 0.05
+    out_to_side_m: float = 0.35
+
+    rula_static_hold_s: float = 60.0
+    reba_static_hold_s: float = 60.0
+    static_includes_neutral: bool = False
+    repetition_amplitude_deg: float = 15.0
+    repetition_window_s: float = 60.0
+    rula_repetitions_per_min: float = 4.0
+    reba_repetitions_per_min: float = 4.0
+    rapid_change_deg: float = 30.0
+    rapid_change_window_s: float = 1.0
+    max_gap_s: float = 1.0
+
+    rula_lower_arm_adjust: str = "single"
+    reba_twist_side_adjust: str = "single"
+
+    unknown_flags: str = "absent"
+
+    def __post_init__(self) -> None:
+        _validate(dataclasses.asdict(self), source=None)
+
+    def replace(self, **changes: Any) -> "ScoringSettings":
+        """A copy with some settings changed (unknown names raise ConfigError)."""
+        return from_mapping({**dataclasses.asdict(self), **changes})
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+_CHOICES: dict[str, tuple[str, ...]] = {
+    "rula_open_boundary": BOUNDARY_CHOICES,
+    "reba_open_boundary": BOUNDARY_CHOICES,
+    "rula_lower_arm_adjust": VARIANT_CHOICES,
+    "reba_twist_side_adjust": VARIANT_CHOICES,
+    "unknown_flags": UNKNOWN_FLAG_CHOICES,
+}
+
+#: Settings that must be > 0 (the rest of the numbers must be >= 0).
+_POSITIVE = {
+    "rula_static_hold_s", "reba_static_hold_s", "repetition_amplitude_deg", "repetition_window_s",
+    "rula_repetitions_per_min", "reba_repetitions_per_min", "rapid_change_deg",
+    "rapid_change_window_s", "max_gap_s",
+}
+
+#: Angles that must stay below 90 degrees to mean anything.
+_BELOW_90 = {
+    "wrist_neutral_deg", "trunk_upright_deg", "neck_extension_deg", "shoulder_raised_deg",
+    "upper_arm_abducted_deg", "trunk_twisted_deg", "trunk_side_bent_deg", "neck_twisted_deg",
+    "neck_side_bent_deg", "wrist_deviated_deg",
+}
+
+
+def _validate(values: Mapping[str, Any], source: str | None) -> None:
+    kinds = {f.name: f.type for f in fields(ScoringSettings)}
+    for name, value in values.items():
+        if name in _CHOICES:
+            if value not in _CHOICES[name]:
+                raise ConfigError(f"expected one of {', '.join(_CHOICES[name])}, got {value!r}",
+                                  path=source, field=name)
+        elif kinds[name] in ("bool", bool):
+            if not isinstance(value, bool):
+                raise ConfigError(f"expected true or false, got {value!r}", path=source, field=name)
+        else:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ConfigError(f"expected a number, got {value!r}", path=source, field=name)
+            if name in _POSITIVE and value <= 0:
+                raise ConfigError(f"must be greater than 0, got {value}", path=source, field=name)
+            if value < 0:
+                raise ConfigError(f"must not be negative, got {value}", path=source, field=name)
+            if name in _BELOW_90 and value >= 90:
+                raise ConfigError(f"must be below 90 degrees, got {value}", path=source, field=name)
+
+
+def setting_names() -> tuple[str, ...]:
+    return tuple(f.name for f in fields(ScoringSettings))
+
+
+def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None) -> ScoringSettings:
+    """Settings from a mapping of names to values; unknown names raise one ConfigError naming them."""
+    src = None if source is None else str(source)
+    known = set(setting_names())
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise ConfigError(f"unknown scoring setting(s): {', '.join(unknown)} (known: {', '.join(sorted(known))})",
+                          path=src)
+    kinds = {f.name: f.type for f in fields(ScoringSettings)}
+    clean: dict[str, Any] = {}
+    for name, value in values.items():
+        if kinds[name] in ("float", float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        clean[name] = value
+    _validate(clean, source=src)
+    return ScoringSettings(**clean)
+
+
+def load_settings(path: str | os.PathLike | None) -> ScoringSettings:
+    """Read a TOML settings file (top-level keys or a [scoring] table); None gives the defaults."""
+    if path is None:
+        return ScoringSettings()
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError("the settings file does not exist", path=p) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the settings file ({exc})", path=p) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML ({exc})", path=p) from None
+    if "scoring" in data:
+        section = data["scoring"]
+        if not isinstance(section, dict):
+            raise ConfigError("expected a table", path=p, field="scoring")
+        return from_mapping(section, source=p)
+    return from_mapping(data, source=p)
