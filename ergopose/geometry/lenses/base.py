@@ -19,6 +19,7 @@ Models are frozen dataclasses: parameters never change after construction.
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
@@ -77,6 +78,20 @@ class BlockwiseLens(LensModel):
         """(..., 2) pixels -> (..., 3) unit rays in the camera frame; NaN outside the domain."""
         return _blockwise(self._unproject_block, pixels, 2, 3, out, "pixels")
 
+    def to_dict(self) -> dict[str, Any]:
+        """``kind`` and every constructor parameter, as plain floats."""
+        return {"kind": self.kind, **{f.name: getattr(self, f.name) for f in _init_fields(self)}}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "BlockwiseLens":
+        """Build from a :meth:`to_dict` table; ConfigError names a missing, unknown or bad field."""
+        return cls(**parameters_from_dict(data, cls.kind, tuple(f.name for f in _init_fields(cls))))
+
+    def _coerce_parameters(self) -> None:
+        """In ``__post_init__`` of a frozen dataclass: every parameter becomes a finite float."""
+        for f in _init_fields(self):
+            object.__setattr__(self, f.name, finite_number(getattr(self, f.name), f"lens.{f.name}"))
+
     @abstractmethod
     def _project_block(self, points: np.ndarray, out: np.ndarray) -> None: ...
 
@@ -94,10 +109,15 @@ def _blockwise(kernel, data: Any, width_in: int, width_out: int, out: np.ndarray
     flat_in = arr.reshape(-1, width_in)
     flat_out = out.reshape(-1, width_out)
     n = flat_in.shape[0]
-    for start in range(0, n, BLOCK_POINTS):
-        stop = min(start + BLOCK_POINTS, n)
-        kernel(flat_in[start:stop], flat_out[start:stop])
+    with np.errstate(all="ignore"):  # NaN marks the points outside the domain, by design
+        for start in range(0, n, BLOCK_POINTS):
+            stop = min(start + BLOCK_POINTS, n)
+            kernel(flat_in[start:stop], flat_out[start:stop])
     return out
+
+
+def _init_fields(obj_or_cls: Any) -> tuple:
+    return tuple(f for f in dataclasses.fields(obj_or_cls) if f.init)
 
 
 # --- helpers shared by the models (parameter parsing and array shapes) ---------------------------

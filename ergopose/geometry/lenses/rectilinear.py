@@ -12,20 +12,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from ergopose.errors import ConfigError
 from ergopose.geometry.lenses.base import (
     BlockwiseLens,
-    parameters_from_dict,
     require_finite,
     require_positive,
 )
-
-_FIELDS = ("fx", "fy", "cx", "cy")
-
 
 @dataclass(frozen=True)
 class Rectilinear(BlockwiseLens):
@@ -39,8 +35,7 @@ class Rectilinear(BlockwiseLens):
     kind: ClassVar[str] = "rectilinear"
 
     def __post_init__(self) -> None:
-        for name in _FIELDS:
-            object.__setattr__(self, name, float(getattr(self, name)))
+        self._coerce_parameters()
         require_positive(self.kind, fx=self.fx, fy=self.fy)
         require_finite(self.kind, cx=self.cx, cy=self.cy)
 
@@ -103,10 +98,3 @@ class Rectilinear(BlockwiseLens):
         np.multiply(x, z, out=out[:, 0])
         np.multiply(y, z, out=out[:, 1])
         out[:, 2] = z
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "Rectilinear":
-        return cls(**parameters_from_dict(data, cls.kind, _FIELDS))
