@@ -172,3 +172,20 @@ def test_cards_map_onto_the_schema():
         assert card.channel_order == "RGB"
     cmd = det.source.pip_download_command("/tmp/x")
     assert cmd[1:4] == ["-m", "pip", "download"] and "--no-deps" in cmd and cmd[-1] == "mediapipe==0.10.14"
+
+
+@pytest.mark.network
+def test_cli_fetch_list_verify_on_a_good_cache(fetched_model_dir, tmp_path, capsys, monkeypatch):
+    from ergopose import cli
+
+    cache = _copy_cache(fetched_model_dir[0], tmp_path / "cache")
+    monkeypatch.setenv(models.ENV_MODEL_DIR, str(cache))  # the environment variable picks the cache
+    assert cli.main(["models", "verify"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("ok  ") == 2 and str(cache / "pose_landmark_full.tflite") in out
+    assert cli.main(["models", "list"]) == 0
+    out = capsys.readouterr().out
+    assert "blazepose_detector  [ok]" in out and "blazepose_landmark_full  [ok]" in out
+    monkeypatch.setattr(subprocess, "run", lambda *a, **k: pytest.fail("nothing to download"))
+    assert cli.main(["models", "fetch"]) == 0
+    assert capsys.readouterr().out.count("ok  ") == 2

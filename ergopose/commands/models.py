@@ -1,0 +1,156 @@
+"""``ergopose models fetch | list | verify``: the 2D pose model cache."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ergopose.cli_progress import ProgressBars
+from ergopose.errors import ErgoposeError, ModelError
+from ergopose.pose.models import (
+    ENV_MODEL_DIR,
+    MODEL_CARDS,
+    corrupt_message,
+    fetch_models,
+    model_status,
+    resolve_model_dir,
+    sha256_file,
+)
+
+USER_ONNX_FOLDER = "onnx"
+
+HELP = f"""\
+The 2D pose models live in a cache folder: --model-dir, else ${ENV_MODEL_DIR}, else
+~/.cache/ergopose/models. The BlazePose models come from the mediapipe 0.10.14 wheel on PyPI
+(Apache-2.0), downloaded with pip; only the two model files are kept, each checked against its
+pinned SHA-256. Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's
+'{USER_ONNX_FOLDER}' folder (docs/models.md)."""
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    parser = subparsers.add_parser(
+        "models", help="fetch, list and verify the 2D pose models",
+        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    actions = parser.add_subparsers(dest="models_action", metavar="ACTION", title="actions")
+
+    def common(p):
+        p.add_argument("--model-dir", metavar="DIR", help=f"model cache folder (default: ${ENV_MODEL_DIR} or ~/.cache/ergopose/models)")
+
+    fetch = actions.add_parser("fetch", help="download the models (with pip) and check them")
+    common(fetch)
+    fetch.add_argument("names", nargs="*", metavar="NAME", help=f"models to fetch (default: all: {', '.join(MODEL_CARDS)})")
+    fetch.add_argument("--force", action="store_true", help="download again even if the cached files are fine")
+    fetch.add_argument("--wheel", metavar="FILE", help="take the files from a local copy of the wheel instead of downloading")
+    fetch.set_defaults(func=run_fetch)
+
+    lst = actions.add_parser("list", help="show the model cards and what is in the cache")
+    common(lst)
+    lst.set_defaults(func=run_list)
+
+    verify = actions.add_parser("verify", help="re-hash the cached files; fails on a missing or changed file")
+    common(verify)
+    verify.add_argument("names", nargs="*", metavar="NAME", help="models to verify (default: all)")
+    verify.set_defaults(func=run_verify)
+
+    parser.set_defaults(func=lambda args: _usage(parser))
+    return parser
+
+
+def _usage(parser: argparse.ArgumentParser) -> int:
+    parser.print_help()
+    return 0
+
+
+def run_fetch(args: argparse.Namespace) -> int:
+    names = args.names or None
+    paths = fetch_models(names, ProgressBars(), model_dir=args.model_dir, force=args.force, wheel=args.wheel)
+    for path in paths:
+        print(f"ok  {path}")
+    return 0
+
+
+def _user_cards(model_dir: Path):
+    """(card path, card or error) for every TOML card in the cache's onnx folder."""
+    from ergopose.pose.onnx_models import load_onnx_card
+
+    folder = model_dir / USER_ONNX_FOLDER
+    out = []
+    for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
+        try:
+            out.append((path, load_onnx_card(path)))
+        except ErgoposeError as exc:
+            out.append((path, exc))
+    return out
+
+
+def _user_state(card) -> str:
+    if not card.file.is_file():
+        return "missing"
+    if card.sha256 is None:
+        return "unpinned"
+    return "ok" if sha256_file(card.file) == card.sha256 else "corrupt"
+
+
+def run_list(args: argparse.Namespace) -> int:
+    model_dir = resolve_model_dir(args.model_dir)
+    out = sys.stdout
+    out.write(f"model cache: {model_dir}\n\n")
+    for name, card in MODEL_CARDS.items():
+        status = model_status(name, model_dir)
+        w, h = card.input_size
+        out.write(f"{name}  [{status.state}]\n")
+        out.write(f"  {card.title}\n")
+        out.write(f"  file     {status.path}\n")
+        out.write(f"  sha256   {card.file.sha256}\n")
+        out.write(f"  source   {card.source.requirement} wheel (PyPI), {card.file.path_in_source}\n")
+        out.write(f"  licence  {card.licence}\n")
+        out.write(f"  input    {w} x {h} {card.channel_order}, range {card.normalisation.range[0]:g}..{card.normalisation.range[1]:g}\n")
+        schema = sum(i >= 0 for i in card.keypoint_schema)
+        out.write(f"  output   {len(card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n")
+    for path, card in _user_cards(model_dir):
+        if isinstance(card, ErgoposeError):
+            out.write(f"{path.stem}  [invalid card]\n  {card}\n\n")
+            continue
+        w, h = card.input_size
+        schema = sum(i >= 0 for i in card.schema_index)
+        out.write(f"{card.name}  [{_user_state(card)}]  (your ONNX model)\n")
+        out.write(f"  file     {card.file}\n  card     {path}\n  licence  {card.licence}\n  source   {card.source}\n")
+        out.write(f"  input    {w} x {h} {card.channel_order}\n")
+        out.write(f"  output   {card.output_type}, {len(card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n")
+    return 0
+
+
+def run_verify(args: argparse.Namespace) -> int:
+    model_dir = resolve_model_dir(args.model_dir)
+    problems: list[ModelError] = []
+    for name in args.names or list(MODEL_CARDS):
+        status = model_status(name, model_dir)
+        if status.state == "ok":
+            print(f"ok  {name}  {status.path}")
+        elif status.state == "missing":
+            problems.append(ModelError(f"model {name!r} is not in the cache; run 'ergopose models fetch'", path=status.path))
+        else:
+            problems.append(ModelError(corrupt_message(status), path=status.path))
+    if not args.names:
+        for path, card in _user_cards(model_dir):
+            if isinstance(card, ErgoposeError):
+                problems.append(ModelError(str(card)))
+                continue
+            state = _user_state(card)
+            if state == "ok":
+                print(f"ok  {card.name}  {card.file}")
+            elif state == "unpinned":
+                print(f"ok  {card.name}  {card.file}  (no sha256 in its card: not checked)")
+            else:
+                problems.append(ModelError(
+                    "ONNX model file is missing" if state == "missing"
+                    else "ONNX model file differs from the sha256 in its card",
+                    path=card.file,
+                ))
+    if problems:
+        if len(problems) == 1:
+            raise problems[0]
+        raise ModelError(f"{problems[0]} (and {len(problems) - 1} more problem(s))")
+    return 0
