@@ -219,38 +219,45 @@ def _check_min_views(min_views: int) -> int:
     return int(min_views)
 
 
-def _solve_sym3(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Solve N x = c for the symmetric 3x3 N = M[..., :3, :3], c = -M[..., :3, 3] (Cramer).
+def _solve_sym3(M: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solve N x = c, N = M[..., :3, :3, :] (symmetric), c = -M[..., :3, 3, :], by Cramer's rule.
 
-    Returns x (..., 3) and a boolean (...,) mask of well-posed systems (det(N) clearly > 0).
+    M: (..., 4, 4, J), joints last so every entry is one contiguous (..., J) slice.
+    usable: (..., J) bool, joints to solve at all (enough views).
+    Returns x (..., 3, J), NaN where not usable or not well posed (det(N) not clearly > 0),
+    and the (..., J) mask of solved joints.
     """
-    a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
-    d, e, f = M[..., 1, 1], M[..., 1, 2], M[..., 2, 2]
-    r0, r1, r2 = M[..., 0, 3], M[..., 1, 3], M[..., 2, 3]
+    a, b, c = M[..., 0, 0, :], M[..., 0, 1, :], M[..., 0, 2, :]
+    d, e, f = M[..., 1, 1, :], M[..., 1, 2, :], M[..., 2, 2, :]
     c00 = d * f - e * e
     c01 = c * e - b * f
     c02 = b * e - c * d
-    c11 = a * f - c * c
-    c12 = b * c - a * e
-    c22 = a * d - b * b
     det = a * c00 + b * c01 + c * c02
     tr3 = (a + d + f) * (1.0 / 3.0)
-    ok = det > _DEGENERATE * tr3 * tr3 * tr3
-    with np.errstate(invalid="ignore", divide="ignore"):
-        inv_det = np.where(ok, -1.0 / det, np.nan)
-    x = np.stack([
-        (c00 * r0 + c01 * r1 + c02 * r2) * inv_det,
-        (c01 * r0 + c11 * r1 + c12 * r2) * inv_det,
-        (c02 * r0 + c12 * r1 + c22 * r2) * inv_det,
-    ], axis=-1)
+    ok = (det > _DEGENERATE * tr3 * tr3 * tr3) & usable
+    inv = np.where(ok, -1.0 / det, np.nan)
+    r0, r1, r2 = M[..., 0, 3, :] * inv, M[..., 1, 3, :] * inv, M[..., 2, 3, :] * inv
+    x = np.empty(M.shape[:-3] + (3,) + M.shape[-1:])
+    x[..., 0, :] = c00 * r0 + c01 * r1 + c02 * r2
+    x[..., 1, :] = c01 * r0 + (a * f - c * c) * r1 + (b * c - a * e) * r2
+    x[..., 2, :] = c02 * r0 + (b * c - a * e) * r1 + (a * d - b * b) * r2
     return x, ok
 
 
-def _rms(residuals: np.ndarray, used: np.ndarray, count: np.ndarray) -> np.ndarray:
-    """RMS over the view axis (-2) of residuals where used; inf stays inf."""
-    sq = np.where(used, residuals, 0.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(np.einsum("...vj,...vj->...j", sq, sq) / count)
+def _residuals(diff_a: np.ndarray, diff_b: np.ndarray, in_front: np.ndarray, used: np.ndarray,
+               ok: np.ndarray, views_used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-view residual hypot(diff_a, diff_b) (..., V, J) and its RMS over views (..., J).
+
+    NaN where an observation is not used or its point not solved; +inf where ``in_front`` is
+    False for a used observation (the point is behind that view / ray origin).
+    """
+    dist = np.where(in_front, np.hypot(diff_a, diff_b), np.inf)
+    used_ok = used & ok[..., None, :]
+    residuals = np.where(used_ok, dist, np.nan)
+    sq = np.where(used_ok, dist, 0.0)
+    sq *= sq
+    rms = np.sqrt(sq.sum(axis=-2) / np.where(ok, views_used, 0))  # 0/0 -> NaN where not solved
+    return residuals, rms
 
 
 # --------------------------------------------------------------------------------------------
@@ -272,8 +279,8 @@ def triangulate_dlt(projections, pixels, weights=None, min_views: int = 2, *,
         closed form; "svd": unit homogeneous vector minimising |A x| (smallest eigenvector of
         A^T A), the classic DLT.
     normalize_rows: divide each row by the norm of its first three entries (default), so a row's
-        residual is a point-to-plane distance in metres and pixel coordinates in the hundreds do
-        not dominate; False keeps the raw rows (as Pose2Sim does).
+        residual is a point-to-plane distance in metres and neither the scale of P nor pixel
+        coordinates in the hundreds weigh in; False keeps the raw rows (as Pose2Sim does).
 
     The leading dimensions (``...``) of the three inputs broadcast. Returns a :class:`Triangulation`
     (shapes and NaN meaning documented there).
@@ -284,61 +291,57 @@ def triangulate_dlt(projections, pixels, weights=None, min_views: int = 2, *,
     _check_tail(uv, (2,), "pixels", "(..., V, J, 2)")
     if uv.ndim < 3:
         raise InputError(f"expected shape (..., V, J, 2), got {uv.shape}", field="pixels")
-    V = uv.shape[-3]
-    if P.shape[-3] != V:
-        raise InputError(f"{P.shape[-3]} projection matrices for {V} views of pixels",
+    if P.ndim < 3 or P.shape[-3] != uv.shape[-3]:
+        raise InputError(f"{P.shape[:-2]} projection matrices for {uv.shape[-3]} views of pixels",
                          field="projections")
     min_views = _check_min_views(min_views)
     if solver not in ("normal", "svd"):
         raise InputError(f"unknown solver {solver!r} (use 'normal' or 'svd')", field="solver")
     w = _weights(weights)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _dlt(P, uv, w, min_views, solver, normalize_rows)
 
-    finite = np.isfinite(uv[..., 0]) & np.isfinite(uv[..., 1])
+
+def _dlt(P, uv, w, min_views, solver, normalize_rows) -> Triangulation:
+    # Joints last throughout: (..., V, J) per observation, (..., V, 2, 4, J) rows, (..., 4, 4, J).
+    u, v = uv[..., 0], uv[..., 1]
+    used = np.isfinite(u + v)  # False when either is NaN or inf
     if w is None:
-        used = finite
         scale = used.astype(np.float64)
     else:
-        used = finite & (w > 0)  # NaN weights compare False: excluded
+        used = used & (w > 0)  # NaN weights compare False: excluded
         scale = np.where(used, w, 0.0)
-    uv0 = np.where(used[..., None], uv, 0.0)
-
-    # Rows (u p2 - p0), (v p2 - p1): (..., V, J, 2, 4).
-    rows = uv0[..., None] * P[..., None, 2:3, :] - P[..., None, :2, :]
+    uv0 = np.where(used[..., None], uv, 0.0).swapaxes(-1, -2)  # (..., V, 2, J)
+    # Rows (u p2 - p0), (v p2 - p1) of A: (..., V, 2, 4, J).
+    rows = uv0[..., :, None, :] * P[..., 2:3, :, None] - P[..., :2, :, None]
     if normalize_rows:
-        norm = np.sqrt(np.einsum("...i,...i->...", rows[..., :3], rows[..., :3]))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.where(norm > 0, scale[..., None] / norm, 0.0)
+        r3 = rows[..., :3, :]
+        scale = scale[..., None, :] / np.sqrt(np.einsum("...ij,...ij->...j", r3, r3))
     else:
-        scale = scale[..., None]
-    rows = rows * scale[..., None]
-    # Normal matrix M = A^T A, summed over views and the two rows: (..., J, 4, 4).
-    M = np.einsum("...vjri,...vjrk->...jik", rows, rows)
+        scale = scale[..., None, :]
+    rows *= scale[..., None, :]
+    # Normal matrix M = A^T A summed over views and both rows: (..., 4, 4, J).
+    M = np.einsum("...vrij,...vrkj->...ikj", rows, rows)
 
-    X, ok = _solve_sym3(M)
+    views_used = used.sum(axis=-2)
+    X, ok = _solve_sym3(M, views_used >= min_views)
     if solver == "svd":
-        _, vecs = np.linalg.eigh(M)
-        h = vecs[..., :, 0]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            X = h[..., :3] / h[..., 3:]
-    views_used = np.count_nonzero(used, axis=-2)
-    ok = ok & (views_used >= min_views) & np.isfinite(X).all(axis=-1)
-    if views_used.shape != ok.shape:
-        views_used = np.broadcast_to(views_used, ok.shape).copy()
-    X = np.where(ok[..., None], X, np.nan)
+        _, vecs = np.linalg.eigh(np.moveaxis(M, -1, -3))  # (..., J, 4, 4), ascending eigenvalues
+        h = np.moveaxis(vecs[..., :, 0], -1, -2)  # (..., 4, J)
+        X = np.where(ok[..., None, :], h[..., :3, :] / h[..., 3:, :], np.nan)
+        ok = ok & np.isfinite(X).all(axis=-2)
 
-    # Residuals in pixels.
-    h = _project_h(P, X)  # (..., V, J, 3)
-    depth = h[..., 2]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        du = h[..., 0] / depth - uv0[..., 0]
-        dv = h[..., 1] / depth - uv0[..., 1]
-    dist = np.sqrt(du * du + dv * dv)
-    dist = np.where(depth > 0, dist, np.inf)
-    used_ok = used & ok[..., None, :]
-    residuals = np.where(used_ok, dist, np.nan)
-    error = np.where(ok, _rms(residuals, used_ok, views_used), np.nan)
-    return Triangulation(points=X, reprojection_error_px=error, views_used=views_used,
-                         residuals_px=residuals)
+    # Reprojection: (..., V, 3, J) homogeneous pixels of every point in every view.
+    h = P[..., :3] @ X[..., None, :, :] + P[..., 3:]
+    depth = h[..., 2, :]
+    residuals, rms = _residuals(h[..., 0, :] / depth - uv0[..., 0, :],
+                                h[..., 1, :] / depth - uv0[..., 1, :],
+                                depth > 0, used, ok, views_used)
+    shape = ok.shape
+    if views_used.shape != shape:
+        views_used = np.broadcast_to(views_used, shape).copy()
+    return Triangulation(points=X.swapaxes(-1, -2), reprojection_error_px=rms,
+                         views_used=views_used, residuals_px=residuals)
 
 
 # --------------------------------------------------------------------------------------------
@@ -369,41 +372,41 @@ def triangulate_midpoint(origins, rays, weights=None, min_views: int = 2) -> Ray
     min_views = _check_min_views(min_views)
     w = _weights(weights)
 
-    with np.errstate(invalid="ignore", divide="ignore"):
-        length = np.sqrt(np.einsum("...i,...i->...", D, D))
-        d = D / length[..., None]
-    used = np.isfinite(d).all(axis=-1) & np.isfinite(O).all(axis=-1)[..., None]
-    if w is not None:
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _midpoint(O, D, w, min_views)
+
+
+def _midpoint(O, D, w, min_views) -> RayTriangulation:
+    d = np.swapaxes(D, -1, -2)  # (..., V, 3, J), joints last as in the DLT
+    d = d / np.sqrt(np.einsum("...ij,...ij->...j", d, d))[..., None, :]
+    o = O[..., :, :, None]  # (..., V, 3, 1)
+    used = np.isfinite(d.sum(axis=-2)) & np.isfinite(O.sum(axis=-1))[..., None]
+    if w is None:
+        w2 = used.astype(np.float64)
+    else:
         used = used & (w > 0)
         w2 = np.where(used, w * w, 0.0)
-    else:
-        w2 = used.astype(np.float64)
-    d = np.where(used[..., None], d, 0.0)
-    O0 = np.where(np.isfinite(O), O, 0.0)[..., None, :]  # (..., V, 1, 3)
-    # Normal matrix as a 4x4 [N, -c] so the symmetric 3x3 solver serves both methods.
-    sum_w2 = w2.sum(axis=-2)  # (..., J)
-    wd = w2[..., None] * d  # (..., V, J, 3)
-    N = sum_w2[..., None, None] * np.eye(3) - np.einsum("...vji,...vjk->...jik", wd, d)
-    proj = np.einsum("...vji,...vji->...vj", d, np.broadcast_to(O0, d.shape))  # d . o
-    c = np.einsum("...vj,...vji->...ji", w2, np.broadcast_to(O0, d.shape)) - np.einsum(
-        "...vj,...vji->...ji", proj, wd)
-    M = np.zeros(N.shape[:-2] + (4, 4))
-    M[..., :3, :3] = N
-    M[..., :3, 3] = -c
-    X, ok = _solve_sym3(M)
-    views_used = np.count_nonzero(used, axis=-2)
-    ok = ok & (views_used >= min_views)
-    X = np.where(ok[..., None], X, np.nan)
+    d = np.where(used[..., None, :], d, 0.0)
+    o = np.where(np.isfinite(o), o, 0.0)
+    # Normal equations as a 4x4 [[N, -c], [., .]] so the DLT's solver serves: (..., 4, 4, J).
+    wd = w2[..., None, :] * d  # (..., V, 3, J)
+    dot_od = np.einsum("...ij,...ij->...j", o, d)  # (..., V, J)
+    M = np.zeros(np.broadcast_shapes(wd.shape[:-3], o.shape[:-3]) + (4, 4, wd.shape[-1]))
+    M[..., :3, :3, :] = np.eye(3)[:, :, None] * w2.sum(axis=-2)[..., None, None, :] - np.einsum(
+        "...vij,...vkj->...ikj", wd, d)
+    M[..., :3, 3, :] = (wd * dot_od[..., None, :]).sum(axis=-3) - (w2[..., None, :] * o).sum(axis=-3)
+    views_used = used.sum(axis=-2)
+    X, ok = _solve_sym3(M, views_used >= min_views)
 
-    q = X[..., None, :, :] - O0  # (..., V, J, 3)
-    t = np.einsum("...i,...i->...", q, d)
-    perp = q - t[..., None] * d
-    dist = np.sqrt(np.einsum("...i,...i->...", perp, perp))
-    dist = np.where(t > 0, dist, np.inf)
-    used_ok = used & ok[..., None, :]
-    residuals = np.where(used_ok, dist, np.nan)
-    rms = np.where(ok, _rms(residuals, used_ok, views_used), np.nan)
-    return RayTriangulation(points=X, rms_distance_m=rms, views_used=views_used,
+    q = X[..., None, :, :] - o  # (..., V, 3, J)
+    t = np.einsum("...ij,...ij->...j", q, d)
+    perp = q - t[..., None, :] * d
+    dist = np.sqrt(np.einsum("...ij,...ij->...j", perp, perp))
+    residuals, rms = _residuals(dist, 0.0, t > 0, used, ok, views_used)
+    shape = ok.shape
+    if views_used.shape != shape:
+        views_used = np.broadcast_to(views_used, shape).copy()
+    return RayTriangulation(points=X.swapaxes(-1, -2), rms_distance_m=rms, views_used=views_used,
                             residuals_m=residuals)
 
 
