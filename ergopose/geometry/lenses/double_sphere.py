@@ -78,7 +78,7 @@ class DoubleSphere(BlockwiseLens):
         d1 = z * z
         d1 += r2
         np.sqrt(d1, out=d1)
-        valid = z >= -self._w2 * d1
+        valid = z >= -self._w2 * (1.0 + 1e-12) * d1  # closed set, with room for rounding
         valid &= d1 > 0
         k = d1 * self.xi
         k += z

@@ -77,7 +77,7 @@ class EUCM(BlockwiseLens):
         rho *= self.beta
         rho += z * z
         np.sqrt(rho, out=rho)
-        valid = z >= -self._w * rho
+        valid = z >= -self._w * (1.0 + 1e-12) * rho  # closed set, with room for rounding
         valid &= rho > 0
         rho *= self.alpha
         rho += (1.0 - self.alpha) * z  # reaches 0 at max_theta when alpha <= 0.5 (unbounded image)

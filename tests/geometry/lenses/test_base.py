@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import angle_between, ray_limit, rays_at
+from lens_examples import angle_between, ray_limit, rays_at
 
 from ergopose.errors import ConfigError
 from ergopose.geometry.lenses import LENS_KINDS, lens_from_dict
