@@ -1,0 +1,249 @@
+"""A calibrated camera in the world: lens model, image size and pose.
+
+Frames (see the package brief): world z up with the floor at z = 0, metres; camera x right,
+y down, z forward (the lens axis). Pixels: x right, y down, (0, 0) the centre of the top-left
+pixel, so the image covers [-0.5, width - 0.5] x [-0.5, height - 0.5].
+
+The pose is ``rotation_world_from_cam`` R (columns: the camera's x, y, z axes in world
+coordinates) and ``position_world`` c (the centre of projection): a point p_cam in the camera
+frame is p_world = R p_cam + c. ``pose_world_from_cam`` is the paper's 4 x 4 W = [[R, c], [0, 1]].
+
+NaN means "no answer": a point the lens cannot represent has NaN pixels, a pixel outside the
+lens's domain has a NaN ray. Being inside the lens's domain and inside the image are separate
+questions: use :meth:`Camera.in_image` for the latter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ergopose.errors import ConfigError
+from ergopose.geometry.lenses.base import LensModel
+
+#: Largest accepted deviation of a rotation from orthonormality, max |R^T R - I| (and
+#: |det R - 1|). Calibration files store 17 significant digits, so real rotations are at
+#: 1e-15; 1e-6 still accepts matrices rounded to 7 decimals and rejects anything that is not
+#: a rotation (a scaled, sheared or mirrored matrix misses by far more).
+ROTATION_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """One physical camera.
+
+    name: unique label (used in files, reports and logs).
+    lens: the intrinsic model (pixels <-> rays in the camera frame).
+    width, height: image size in pixels (positive ints).
+    rotation_world_from_cam: (3, 3) rotation R, det +1 (stored read-only, float64).
+    position_world: (3,) centre of projection in metres (stored read-only, float64).
+    """
+
+    name: str
+    lens: LensModel
+    width: int
+    height: int
+    rotation_world_from_cam: np.ndarray
+    position_world: np.ndarray
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ConfigError(f"expected a non-empty camera name, got {self.name!r}", field="name")
+        if not isinstance(self.lens, LensModel):
+            raise ConfigError(f"expected a lens model, got {type(self.lens).__name__}", field="lens")
+        for field in ("width", "height"):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
+                raise ConfigError(f"expected a positive whole number of pixels, got {value!r}", field=field)
+            object.__setattr__(self, field, int(value))
+        object.__setattr__(self, "rotation_world_from_cam", check_rotation(self.rotation_world_from_cam))
+        position = _finite_array(self.position_world, (3,), "position_world")
+        object.__setattr__(self, "position_world", position)
+
+    # --- identity ------------------------------------------------------------------------------
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Camera):
+            return NotImplemented
+        return (
+            self.name == other.name
+            and self.lens == other.lens
+            and self.width == other.width
+            and self.height == other.height
+            and np.array_equal(self.rotation_world_from_cam, other.rotation_world_from_cam)
+            and np.array_equal(self.position_world, other.position_world)
+        )
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.lens, self.width, self.height,
+                     self.rotation_world_from_cam.tobytes(), self.position_world.tobytes()))
+
+    # --- pose ----------------------------------------------------------------------------------
+
+    @property
+    def pose_world_from_cam(self) -> np.ndarray:
+        """The 4 x 4 rigid transform W = [[R, c], [0, 1]] (camera frame -> world frame)."""
+        pose = np.eye(4)
+        pose[:3, :3] = self.rotation_world_from_cam
+        pose[:3, 3] = self.position_world
+        return pose
+
+    @property
+    def axis_world(self) -> np.ndarray:
+        """The lens axis (camera +z) as a unit world direction."""
+        return self.rotation_world_from_cam[:, 2].copy()
+
+    def points_world_to_cam(self, points_world: np.ndarray) -> np.ndarray:
+        """(..., 3) world points -> (..., 3) points in the camera frame: R^T (p - c)."""
+        p = np.asarray(points_world, dtype=np.float64)
+        return (p - self.position_world) @ self.rotation_world_from_cam
+
+    def points_cam_to_world(self, points_cam: np.ndarray) -> np.ndarray:
+        """(..., 3) camera-frame points -> (..., 3) world points: R p + c."""
+        p = np.asarray(points_cam, dtype=np.float64)
+        return p @ self.rotation_world_from_cam.T + self.position_world
+
+    # --- projection ----------------------------------------------------------------------------
+
+    def project_world(self, points_world: np.ndarray) -> np.ndarray:
+        """(..., 3) world points -> (..., 2) pixels; NaN where the lens cannot represent the
+        point (beyond its largest angle, or the centre of projection). Pixels may lie outside
+        the image: check with :meth:`in_image`."""
+        return self.lens.project(self.points_world_to_cam(points_world))
+
+    def rays_world(self, pixels: np.ndarray) -> np.ndarray:
+        """(..., 2) pixels -> (..., 3) unit world directions from ``position_world``; NaN
+        outside the lens's domain (outside its image circle)."""
+        return self.lens.unproject(pixels) @ self.rotation_world_from_cam.T
+
+    def in_image(self, pixels: np.ndarray) -> np.ndarray:
+        """(..., 2) pixels -> (...) bool: finite and within [-0.5, size - 0.5] on both axes."""
+        q = np.asarray(pixels, dtype=np.float64)
+        u = q[..., 0]
+        v = q[..., 1]
+        with np.errstate(invalid="ignore"):
+            return (u >= -0.5) & (u <= self.width - 0.5) & (v >= -0.5) & (v <= self.height - 0.5)
+
+    def theta_of_pixels(self, pixels: np.ndarray) -> np.ndarray:
+        """(..., 2) pixels -> (...) angle from the lens axis (radians); NaN outside the lens's domain."""
+        rays = self.lens.unproject(pixels)
+        return np.arctan2(np.hypot(rays[..., 0], rays[..., 1]), rays[..., 2])
+
+    def theta_of_points_world(self, points_world: np.ndarray) -> np.ndarray:
+        """(..., 3) world points -> (...) angle from the lens axis (radians), in [0, pi].
+
+        Pure geometry, whatever the lens can image: a point beyond the lens's largest angle
+        still has its angle. NaN only for the centre of projection itself.
+        """
+        p = self.points_world_to_cam(points_world)
+        r = np.hypot(p[..., 0], p[..., 1])
+        theta = np.arctan2(r, p[..., 2])
+        return np.where((r == 0) & (p[..., 2] == 0), np.nan, theta)
+
+    def field_of_view(self) -> tuple[float, float]:
+        """(horizontal, vertical) field of view in radians through the principal point: the
+        angles between the outermost image pixels (or the lens's image circle, where that is
+        smaller) on each side of the lens axis, along the row and column of the principal point.
+
+        Lenses without a principal point (none yet) are sampled through the image centre.
+        """
+        cx = float(getattr(self.lens, "cx", (self.width - 1) / 2))
+        cy = float(getattr(self.lens, "cy", (self.height - 1) / 2))
+        u = np.linspace(-0.5, self.width - 0.5, 4001)
+        v = np.linspace(-0.5, self.height - 0.5, 4001)
+        row = self.theta_of_pixels(np.stack([u, np.full_like(u, cy)], axis=-1))
+        col = self.theta_of_pixels(np.stack([np.full_like(v, cx), v], axis=-1))
+        return (_span(row, u < cx), _span(col, v < cy))
+
+    def max_theta_in_image(self) -> float:
+        """The largest angle from the lens axis seen anywhere in the image (radians), from a
+        dense sample of the image (border and a 256 x 256 grid)."""
+        u = np.linspace(-0.5, self.width - 0.5, 256)
+        v = np.linspace(-0.5, self.height - 0.5, 256)
+        grid = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
+        theta = self.theta_of_pixels(grid)
+        return float(np.nanmax(theta)) if np.isfinite(theta).any() else math.nan
+
+    def __repr__(self) -> str:
+        return (f"Camera(name={self.name!r}, lens={self.lens!r}, width={self.width}, height={self.height}, "
+                f"rotation_world_from_cam={self.rotation_world_from_cam.tolist()!r}, "
+                f"position_world={self.position_world.tolist()!r})")
+
+
+def _span(theta: np.ndarray, left: np.ndarray) -> float:
+    """theta on a line through the axis -> the angle between its two outermost visible points."""
+    a = theta[left]
+    b = theta[~left]
+    if not (np.isfinite(a).any() and np.isfinite(b).any()):
+        return math.nan
+    return float(np.nanmax(a) + np.nanmax(b))
+
+
+def _finite_array(value: Any, shape: tuple[int, ...], field: str) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ConfigError(f"expected numbers of shape {shape}, got {value!r}", field=field) from None
+    if arr.shape != shape:
+        raise ConfigError(f"expected shape {shape}, got {arr.shape}", field=field)
+    if not np.isfinite(arr).all():
+        raise ConfigError(f"expected finite numbers, got {arr.tolist()}", field=field)
+    arr.setflags(write=False)
+    return arr
+
+
+def check_rotation(value: Any, field: str = "rotation_world_from_cam") -> np.ndarray:
+    """A read-only float64 copy of ``value`` if it is a 3 x 3 rotation within
+    :data:`ROTATION_TOLERANCE`; otherwise ConfigError naming ``field`` and the defect."""
+    rot = _finite_array(value, (3, 3), field)
+    deviation = float(np.abs(rot.T @ rot - np.eye(3)).max())
+    if deviation > ROTATION_TOLERANCE:
+        raise ConfigError(
+            f"not a rotation: rows/columns are not orthonormal (max |R^T R - I| = {deviation:.3g}, "
+            f"tolerance {ROTATION_TOLERANCE:g})", field=field)
+    det = float(np.linalg.det(rot))
+    if abs(det - 1.0) > ROTATION_TOLERANCE:
+        raise ConfigError(f"not a rotation: determinant {det:.6g} (a mirror if -1), expected +1", field=field)
+    return rot
+
+
+def look_at_rotation(forward_world: Any, up_world: Any = (0.0, 0.0, 1.0)) -> np.ndarray:
+    """rotation_world_from_cam of a camera looking along ``forward_world`` with ``up_world``
+    towards the top of the image (camera -y as close to ``up_world`` as possible).
+
+    ValueError if forward is zero or parallel to up (use :func:`ceiling_rotation` for a
+    camera looking straight down).
+    """
+    z = np.asarray(forward_world, dtype=np.float64)
+    up = np.asarray(up_world, dtype=np.float64)
+    nz = np.linalg.norm(z)
+    if not nz > 0:
+        raise ValueError("forward_world must be a non-zero direction")
+    z = z / nz
+    x = np.cross(z, up)
+    nx = np.linalg.norm(x)
+    if not nx > 1e-9 * max(np.linalg.norm(up), 1e-300):
+        raise ValueError("forward_world is parallel to up_world: the image rotation is undefined")
+    x = x / nx
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=1)
+
+
+def ceiling_rotation(yaw: float = 0.0) -> np.ndarray:
+    """rotation_world_from_cam of a camera looking straight down (z_cam = -z_world) whose image
+    x axis points along world (cos yaw, sin yaw, 0). yaw = 0: image right is world +x and image
+    down is world -y."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    x = np.array([c, s, 0.0])
+    z = np.array([0.0, 0.0, -1.0])
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
+def ceiling_camera(name: str, lens: LensModel, width: int, height: int, position_world: Any,
+                   yaw: float = 0.0) -> Camera:
+    """A camera at ``position_world`` looking straight down (see :func:`ceiling_rotation`)."""
+    return Camera(name=name, lens=lens, width=width, height=height,
+                  rotation_world_from_cam=ceiling_rotation(yaw), position_world=position_world)
