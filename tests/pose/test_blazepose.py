@@ -211,8 +211,8 @@ def test_detector_finds_the_drawn_person(detector):
     assert len(dets) == 1
     d = dets[0]
     hips = (joints["left_hip"] + joints["right_hip"]) / 2
-    assert d.score > 0.9  # measured 0.977
-    assert np.linalg.norm(d.hip_centre - hips) < 6.0  # measured 0.6
+    assert d.score > 0.9  # measured 0.970
+    assert np.linalg.norm(d.hip_centre - hips) < 6.0  # measured 2.5
     # the circle around the body: hips to head top is 116 px x 0.6 in the drawing
     assert 0.8 * 116 * 0.6 < d.radius < 1.3 * 116 * 0.6
     assert abs(d.rotation) < 0.15
@@ -231,7 +231,7 @@ def test_detector_finds_three_people(detector):
     found = np.array([d.hip_centre for d in dets])
     dist = np.linalg.norm(found[:, None] - np.array(hips)[None], axis=2)
     assert sorted(dist.argmin(axis=1)) == [0, 1, 2]  # one detection per person
-    assert dist.min(axis=1).max() < 12.0  # measured up to 9.3 for 80 px tall people
+    assert dist.min(axis=1).max() < 12.0  # measured 3.6, 9.3 and 10.0 for 80 px tall people
 
 
 @pytest.mark.network

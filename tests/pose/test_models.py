@@ -135,7 +135,7 @@ def test_fetch_without_network_fails_with_one_actionable_line(tmp_path, monkeypa
     msg = str(exc.value)
     assert "\n" not in msg
     assert "pip download mediapipe==0.10.14" in msg and "ergopose models fetch" in msg
-    assert "--wheel" in msg and "cannot reach the package index: Connection refused" in msg
+    assert "--wheel" in msg and "failed (" in msg
     assert events and events[0].message.startswith("downloading")
     assert not (tmp_path / "cache" / "pose_detection.tflite").exists()
 
@@ -189,3 +189,20 @@ def test_cli_fetch_list_verify_on_a_good_cache(fetched_model_dir, tmp_path, caps
     monkeypatch.setattr(subprocess, "run", lambda *a, **k: pytest.fail("nothing to download"))
     assert cli.main(["models", "fetch"]) == 0
     assert capsys.readouterr().out.count("ok  ") == 2
+
+
+def test_pip_errors_are_reduced_to_their_reason():
+    refused = (
+        "Looking in indexes: http://127.0.0.1:9/simple\n"
+        "WARNING: Retrying (Retry(total=0, connect=None, read=None, redirect=None, status=None)) after connection "
+        "broken by 'NewConnectionError(\"HTTPConnection(host='127.0.0.1', port=9): Failed to establish a new "
+        "connection: [Errno 111] Connection refused\")': /simple/mediapipe/\n"
+        "ERROR: Could not find a version that satisfies the requirement mediapipe==0.10.14 (from versions: none)\n"
+        "ERROR: No matching distribution found for mediapipe==0.10.14\n"
+    )
+    assert models._pip_error(refused) == "cannot reach the package index: Connection refused"
+    dns = refused.replace("[Errno 111] Connection refused", "[Errno -3] Temporary failure in name resolution")
+    assert models._pip_error(dns) == "cannot reach the package index: Temporary failure in name resolution"
+    missing = "ERROR: Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)\n"
+    assert models._pip_error(missing) == "Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)"
+    assert models._pip_error("") == "no output"
