@@ -124,9 +124,108 @@ def triangulate_batch() -> None:
          views=2, total_s=t)
 
 
+#: Kannala-Brandt coefficients of a real fisheye: D1 of OpenCV's JY stereo calibration test
+#: (opencv calib3d test_fisheye.cpp; ../shared/data/opencv-fisheye-stereo-jy/SOURCE.md).
+JY_D1 = (-7.44253716539556e-05, -0.00702662033932424, 0.00737569823650885, -0.00342230256441771)
+FISHEYE_W, FISHEYE_H = 2592, 1944  # the paper's Axis M3007-PV
+MAX_THETA_DEG = 85.0  # cv2.fisheye (and so aniposelib) is unreliable beyond
+
+
+def upright_rotations(direction_cam: np.ndarray, up_cam: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) rotation_cam_from_view of views looking along ``direction_cam`` (..., 3),
+    image y pointing down the world (against ``up_cam``); vectorised over the leading shape."""
+    z = direction_cam / np.linalg.norm(direction_cam, axis=-1, keepdims=True)
+    down = -np.asarray(up_cam, dtype=np.float64)
+    y = down - np.sum(down * z, axis=-1, keepdims=True) * z
+    norm = np.linalg.norm(y, axis=-1, keepdims=True)
+    # Looking straight along the vertical: any upright is as good; use the camera's y axis.
+    fallback = np.array([0.0, 1.0, 0.0]) - z[..., 1:2] * z
+    y = np.where(norm > 1e-6, y, fallback)
+    y /= np.linalg.norm(y, axis=-1, keepdims=True)
+    x = np.cross(y, z)
+    return np.stack([x, y, z], axis=-1)
+
+
+def triangulate_vs_aniposelib() -> None:
+    """Fisheye pixels -> 3D joints: ours (fisheye rays -> virtual pinhole views aimed at each
+    person -> DLT) against aniposelib (cv2.fisheye.undistortPoints -> DLT per point in jax).
+
+    Two ceiling cameras 3 m high, 1.5 m apart, looking down, 2592 x 1944 Kannala-Brandt lenses
+    (f = 620 px, JY_D1). 300 people anywhere on the 6 x 6 m floor, 33 joints each at 0.1-1.9 m;
+    joints beyond 85 degrees from either lens axis are left out (NaN for us, not passed to
+    aniposelib). 1 px Gaussian noise on the fisheye pixels (seeded).
+    """
+    from aniposelib.cameras import CameraGroup, FisheyeCamera
+
+    from ergopose.geometry.camera import ceiling_camera
+    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
+
+    lens = KannalaBrandt(fx=620.0, fy=620.0, cx=(FISHEYE_W - 1) / 2, cy=(FISHEYE_H - 1) / 2,
+                         k1=JY_D1[0], k2=JY_D1[1], k3=JY_D1[2], k4=JY_D1[3])
+    cameras = [ceiling_camera(f"cam_{i + 1}", lens, FISHEYE_W, FISHEYE_H, c) for i, c in enumerate(CENTRES)]
+    rng = np.random.default_rng(85)
+    people, joints = 300, 33
+    truth = person(rng, joints, people)  # (F, J, 3)
+    theta = np.stack([cam.theta_of_points_world(truth) for cam in cameras])  # (2, F, J)
+    keep = np.all(theta < np.radians(MAX_THETA_DEG), axis=0)  # (F, J)
+    pixels = np.stack([cam.project_world(truth) for cam in cameras])  # (2, F, J, 2)
+    pixels = pixels + rng.normal(0.0, 1.0, size=pixels.shape)
+    pixels[:, ~keep] = np.nan
+    assert np.all(np.stack([cam.in_image(pixels[i][keep]) for i, cam in enumerate(cameras)]))
+
+    # aniposelib: world -> camera rvec/tvec, K and D as in cv2.fisheye.
+    import cv2
+    K_fish = np.array([[lens.fx, 0.0, lens.cx], [0.0, lens.fy, lens.cy], [0.0, 0.0, 1.0]])
+    group = CameraGroup([
+        FisheyeCamera(matrix=K_fish, dist=np.array(JY_D1), size=(FISHEYE_W, FISHEYE_H),
+                      rvec=cv2.Rodrigues(cam.rotation_world_from_cam.T)[0].ravel(),
+                      tvec=-cam.rotation_world_from_cam.T @ cam.position_world, name=cam.name)
+        for cam in cameras])
+    points_2d = np.ascontiguousarray(pixels[:, keep])  # (2, N, 2)
+
+    def anipose() -> np.ndarray:
+        return group.triangulate(points_2d, undistort=True)
+
+    up_cam = np.stack([cam.rotation_world_from_cam.T @ np.array([0.0, 0.0, 1.0]) for cam in cameras])
+    poses = np.stack([cam.pose_world_from_cam for cam in cameras])  # (2, 4, 4)
+
+    def ours() -> np.ndarray:
+        rays_cam = lens.unproject(pixels)  # (2, F, J, 3)
+        # Each camera's view of a person looks at the mean of the person's rays (the detector's job).
+        aim = np.nanmean(rays_cam, axis=-2)  # (2, F, 3)
+        R = upright_rotations(aim, up_cam[:, None, :])  # (2, F, 3, 3) cam_from_view
+        rays_view = rays_cam @ R  # R^T ray, row vectors
+        pixels_view = rays_view[..., :2] / rays_view[..., 2:]  # K = identity
+        P = projection_matrix(np.eye(3), R, poses[:, None])  # (2, F, 3, 4)
+        tri = triangulate_dlt(np.swapaxes(P, 0, 1), np.swapaxes(pixels_view, 0, 1))
+        return tri.points  # (F, J, 3)
+
+    t_anipose = best_time(anipose, repeat=5)
+    t_ours = best_time(ours, repeat=5)
+    err_anipose = 1000 * np.linalg.norm(anipose() - truth[keep], axis=-1)
+    err_ours = 1000 * np.linalg.norm(ours()[keep] - truth[keep], axis=-1)
+    n = int(keep.sum())
+    emit("triangulate_vs_aniposelib", t_anipose / t_ours, "x", goal_x=5.0,
+         points=n, points_left_out=int(keep.size - n), noise_px=1.0, max_theta_deg=MAX_THETA_DEG,
+         ours_ms=t_ours * 1e3, aniposelib_ms=t_anipose * 1e3,
+         ours_us_per_point=t_ours / n * 1e6, aniposelib_us_per_point=t_anipose / n * 1e6,
+         ours_mean_error_mm=float(np.mean(err_ours)), aniposelib_mean_error_mm=float(np.mean(err_anipose)),
+         ours_median_error_mm=float(np.median(err_ours)),
+         aniposelib_median_error_mm=float(np.median(err_anipose)),
+         ours_nan=int(np.isnan(err_ours).sum()), aniposelib_nan=int(np.isnan(err_anipose).sum()),
+         aniposelib_version=_version("aniposelib"))
+
+
+def _version(package: str) -> str:
+    from importlib.metadata import version
+
+    return version(package)
+
+
 def main() -> None:
     triangulate_18x2()
     triangulate_batch()
+    triangulate_vs_aniposelib()
 
 
 if __name__ == "__main__":

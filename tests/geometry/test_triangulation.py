@@ -168,6 +168,29 @@ def test_dlt_world_far_from_origin_stays_exact(rng):
     np.testing.assert_allclose(tri.points, X, rtol=0, atol=1e-8)
 
 
+def test_fisheye_cameras_through_virtual_views(rng):
+    # The pipeline: ceiling fisheye cameras (Kannala-Brandt), upright virtual views aimed at the
+    # person, pixels mapped fisheye -> view, DLT with the paper's P of each view.
+    from ergopose.geometry.camera import ceiling_camera
+    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
+    from ergopose.geometry.views import VirtualView
+
+    lens = KannalaBrandt(fx=620.0, fy=620.0, cx=1295.5, cy=971.5, k1=-7.4e-05, k2=-0.00703,
+                         k3=0.00738, k4=-0.00342)
+    cams = [ceiling_camera(f"cam_{i}", lens, 2592, 1944, c)
+            for i, c in enumerate([(-0.75, 0.0, 3.0), (0.75, 0.0, 3.0)])]
+    X = body_points(rng, (33,)) + np.array([2.0, -2.5, 0.0])  # near a corner of the floor
+    views = [VirtualView.aimed_at(cam, X.mean(axis=0), hfov=np.radians(60.0), size=(320, 320))
+             for cam in cams]
+    P = np.stack([projection_matrix(v.K, v.rotation_cam_from_view, v.source.pose_world_from_cam)
+                  for v in views])
+    np.testing.assert_allclose(P, np.stack([v.projection_matrix for v in views]), rtol=1e-12, atol=1e-9)
+    pixels_view = np.stack([v.source_to_view_pixels(cam.project_world(X)) for v, cam in zip(views, cams)])
+    np.testing.assert_allclose(pixels_view, reproject(P, X), atol=1e-6)
+    tri = triangulate_dlt(P, pixels_view)
+    np.testing.assert_allclose(tri.points, X, rtol=0, atol=1e-7)
+
+
 # ------------------------------------------------------------------------------------------
 # DLT: missing observations
 
