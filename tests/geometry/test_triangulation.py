@@ -204,10 +204,13 @@ def test_nan_pixels_and_zero_weights_are_excluded(rng):
     pixels[1, 0, 3] = [5000.0, -70.0]  # frame 1 joint 3: garbage in view 0 ...
     weights[1, 0, 3] = 0.0             # ... with weight 0
     pixels[2, 0, 4, 0] = np.nan        # one coordinate NaN is enough
+    pixels[3, 2, 5] = [-900.0, 80.0]   # frame 3 joint 5: garbage in view 2 ...
+    weights[3, 2, 5] = np.nan          # ... with an unknown weight
     tri = triangulate_dlt(P, pixels, weights)
     np.testing.assert_allclose(tri.points, X, rtol=1e-9)
     assert tri.views_used[0, 2] == 2 and tri.views_used[1, 3] == 2 and tri.views_used[2, 4] == 2
-    assert tri.views_used.sum() == 4 * 10 * 3 - 3
+    assert tri.views_used[3, 5] == 2
+    assert tri.views_used.sum() == 4 * 10 * 3 - 4
     assert np.isnan(tri.residuals_px[0, 1, 2]) and np.isnan(tri.residuals_px[1, 0, 3])
     assert np.isfinite(tri.residuals_px[0, 0, 2]) and np.isfinite(tri.reprojection_error_px[0, 2])
 
