@@ -31,6 +31,37 @@ from ergopose.geometry.lenses.base import LensModel
 ROTATION_TOLERANCE = 1e-6
 
 
+@dataclass(frozen=True)
+class CalibrationInfo:
+    """Where a camera's numbers came from (all optional; shown in reports, never used in maths).
+
+    rms_error_px: RMS reprojection error of the intrinsic calibration, pixels.
+    date: when it was calibrated, ISO 8601 text ("2024-05-01" or with a time).
+    method: how, in words (e.g. "cv2.fisheye.calibrate, 34 views of an 8x6 checkerboard").
+    notes: anything else a safety engineer may want to know.
+    """
+
+    rms_error_px: float | None = None
+    date: str | None = None
+    method: str | None = None
+    notes: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.rms_error_px is not None:
+            value = self.rms_error_px
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                    or not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"expected a number >= 0, got {value!r}", field="calibration.rms_error_px")
+            object.__setattr__(self, "rms_error_px", float(value))
+        for field in ("date", "method", "notes"):
+            value = getattr(self, field)
+            if value is not None and not isinstance(value, str):
+                raise ConfigError(f"expected text, got {value!r}", field=f"calibration.{field}")
+
+    def is_empty(self) -> bool:
+        return all(getattr(self, f) is None for f in ("rms_error_px", "date", "method", "notes"))
+
+
 @dataclass(frozen=True, eq=False)
 class Camera:
     """One physical camera.
@@ -40,6 +71,7 @@ class Camera:
     width, height: image size in pixels (positive ints).
     rotation_world_from_cam: (3, 3) rotation R, det +1 (stored read-only, float64).
     position_world: (3,) centre of projection in metres (stored read-only, float64).
+    calibration: provenance of the numbers (optional, see :class:`CalibrationInfo`).
     """
 
     name: str
@@ -48,6 +80,7 @@ class Camera:
     height: int
     rotation_world_from_cam: np.ndarray
     position_world: np.ndarray
+    calibration: CalibrationInfo = CalibrationInfo()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -62,6 +95,8 @@ class Camera:
         object.__setattr__(self, "rotation_world_from_cam", check_rotation(self.rotation_world_from_cam))
         position = _finite_array(self.position_world, (3,), "position_world")
         object.__setattr__(self, "position_world", position)
+        if not isinstance(self.calibration, CalibrationInfo):
+            raise ConfigError(f"expected CalibrationInfo, got {type(self.calibration).__name__}", field="calibration")
 
     # --- identity ------------------------------------------------------------------------------
 
@@ -75,11 +110,12 @@ class Camera:
             and self.height == other.height
             and np.array_equal(self.rotation_world_from_cam, other.rotation_world_from_cam)
             and np.array_equal(self.position_world, other.position_world)
+            and self.calibration == other.calibration
         )
 
     def __hash__(self) -> int:
         return hash((self.name, self.lens, self.width, self.height,
-                     self.rotation_world_from_cam.tobytes(), self.position_world.tobytes()))
+                     self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration))
 
     # --- pose ----------------------------------------------------------------------------------
 
@@ -170,7 +206,7 @@ class Camera:
     def __repr__(self) -> str:
         return (f"Camera(name={self.name!r}, lens={self.lens!r}, width={self.width}, height={self.height}, "
                 f"rotation_world_from_cam={self.rotation_world_from_cam.tolist()!r}, "
-                f"position_world={self.position_world.tolist()!r})")
+                f"position_world={self.position_world.tolist()!r}, calibration={self.calibration!r})")
 
 
 def _span(theta: np.ndarray, left: np.ndarray) -> float:
