@@ -1,0 +1,150 @@
+"""``ergopose camera show | import-opencv``: look at and create calibration files."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ergopose.errors import ConfigError
+from ergopose.geometry.calibration_file import (
+    camera_from_opencv_fisheye,
+    load_calibration,
+    read_opencv_fisheye_file,
+    save_calibration,
+)
+from ergopose.geometry.camera import CalibrationInfo, Camera, ceiling_rotation
+
+HELP = """\
+Camera calibration files (TOML, docs/calibration-file.md) hold, per camera, the lens model,
+the image size and the pose in the work area (metres, floor z = 0, z up)."""
+
+IMPORT_HELP = """\
+Add a camera calibrated with OpenCV's fisheye model (cv2.fisheye: camera matrix K and four
+coefficients D) to a calibration file. The K/D file is an OpenCV FileStorage file (.yml, .yaml,
+.xml or .json) with nodes K and D (or camera_matrix and distortion_coefficients).
+
+Without --position the camera gets the identity pose (camera frame = world frame); give
+--position X,Y,Z (metres) for a camera on the ceiling looking straight down, with --yaw the
+direction of the image's x axis in the floor plane (degrees from world +x towards +y).
+If --out exists, the camera is appended (cameras keep their order); an existing camera of
+the same name is an error unless --replace."""
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    parser = subparsers.add_parser(
+        "camera", help="show calibration files, import OpenCV fisheye calibrations",
+        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    actions = parser.add_subparsers(dest="camera_action", metavar="ACTION", title="actions")
+
+    show = actions.add_parser(
+        "show", help="one line per camera: lens model, size, field of view, position, viewing direction",
+        description="Check a calibration file and print one line per camera, in file order.")
+    show.add_argument("file", metavar="FILE", help="calibration file (.toml)")
+    show.set_defaults(func=run_show)
+
+    imp = actions.add_parser(
+        "import-opencv", help="add an OpenCV fisheye K/D calibration to a calibration file",
+        description=IMPORT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    imp.add_argument("--K-D", dest="kd_file", metavar="FILE", required=True,
+                     help="OpenCV FileStorage file (.yml/.xml/.json) with the fisheye K and D")
+    imp.add_argument("--name", required=True, help="camera name, e.g. cam_1 (unique in the file)")
+    imp.add_argument("--size", metavar="WxH", type=_size,
+                     help="image size in pixels, e.g. 2592x1944 (default: image_width/image_height from the K/D file)")
+    imp.add_argument("--out", metavar="FILE", required=True, help="calibration file to write or extend (.toml)")
+    imp.add_argument("--position", metavar="X,Y,Z", type=_position,
+                     help="camera position in metres for a ceiling camera looking straight down "
+                          "(write --position=-1.5,0,3 when X is negative)")
+    imp.add_argument("--yaw", metavar="DEG", type=float, default=0.0,
+                     help="with --position: image x axis direction in the floor plane, degrees (default 0: world +x)")
+    imp.add_argument("--replace", action="store_true", help="replace a camera of the same name in --out")
+    imp.set_defaults(func=run_import_opencv)
+
+    parser.set_defaults(func=lambda args: _usage(parser))
+    return parser
+
+
+def _usage(parser: argparse.ArgumentParser) -> int:
+    parser.print_help()
+    return 2
+
+
+def _size(text: str) -> tuple[int, int]:
+    parts = text.lower().split("x")
+    try:
+        width, height = (int(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels, e.g. 2592x1944, got {text!r}") from None
+    if width <= 0 or height <= 0:
+        raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
+    return width, height
+
+
+def _position(text: str) -> np.ndarray:
+    try:
+        values = [float(p) for p in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in metres, e.g. 0,0,3, got {text!r}")
+    return np.array(values)
+
+
+def describe(camera: Camera) -> str:
+    """One line: name, lens model, size, field of view, position, viewing direction."""
+    hfov, vfov = camera.field_of_view()
+    axis = camera.axis_world
+    from_down = math.degrees(math.acos(max(-1.0, min(1.0, -axis[2]))))
+    x, y, z = camera.position_world
+    line = (f"{camera.name}: {camera.lens.kind}, {camera.width}x{camera.height} px, "
+            f"field of view {math.degrees(hfov):.1f} x {math.degrees(vfov):.1f} deg "
+            f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis), "
+            f"at ({x:.3f}, {y:.3f}, {z:.3f}) m, looking ({axis[0]:+.3f}, {axis[1]:+.3f}, {axis[2]:+.3f}), "
+            f"{from_down:.1f} deg from straight down")
+    if camera.calibration.rms_error_px is not None:
+        line += f", calibration rms {camera.calibration.rms_error_px:.3f} px"
+    return line
+
+
+def run_show(args: argparse.Namespace) -> int:
+    for camera in load_calibration(args.file):
+        print(describe(camera))
+    return 0
+
+
+def run_import_opencv(args: argparse.Namespace) -> int:
+    K, D, extras = read_opencv_fisheye_file(args.kd_file)
+    if args.size is not None:
+        width, height = args.size
+    elif "image_width" in extras and "image_height" in extras:
+        width, height = extras["image_width"], extras["image_height"]
+    else:
+        raise ConfigError("the file has no image_width/image_height: give --size WxH", path=args.kd_file,
+                          field="--size")
+    info = CalibrationInfo(rms_error_px=extras.get("rms_error_px"),
+                           method=f"cv2.fisheye K and D imported from {Path(args.kd_file).name}")
+    camera = camera_from_opencv_fisheye(args.name, K, D, width, height, calibration=info)
+    if args.position is not None:
+        camera = Camera(name=camera.name, lens=camera.lens, width=width, height=height,
+                        rotation_world_from_cam=ceiling_rotation(math.radians(args.yaw)),
+                        position_world=args.position, calibration=info)
+    out = Path(args.out)
+    cameras = list(load_calibration(out)) if out.exists() else []
+    names = [c.name for c in cameras]
+    if camera.name in names:
+        if not args.replace:
+            raise ConfigError(f"{out} already has a camera {camera.name!r}: choose another --name or add --replace",
+                              field="--name")
+        cameras[names.index(camera.name)] = camera
+    else:
+        cameras.append(camera)
+    save_calibration(out, cameras)
+    print(describe(camera))
+    if args.position is None:
+        print(f"note: {camera.name} has the identity pose (camera frame = world frame); "
+              "set its real pose before using the file in a session")
+    print(f"wrote {out} ({len(cameras)} camera{'s' if len(cameras) != 1 else ''})")
+    return 0
