@@ -1,0 +1,379 @@
+"""2D pose in fisheye video: find people, aim upright views at them, run the network, re-focus.
+
+The paper's steps 1-3 for one camera. Per frame:
+
+1. *Targets.* Every person seen in the previous frame becomes a target for this frame: the view
+   is re-focused on the pose just detected (aimed at the hip centre, field of view fitted to the
+   body with a margin). Every ``search_every`` frames, and whenever a target was lost, coarse
+   cues are added: moving blobs from background subtraction on a downscaled frame, and the
+   BlazePose detector run on a fixed set of upright search views that together cover the floor.
+   Each cue is a bearing (a ray in the camera frame) plus an angular size.
+2. *Views.* Each target gets an upright virtual pinhole view (256 x 256 by default) aimed along
+   its bearing; lookup maps are cached per camera for quantised bearings, so a worker standing
+   still reuses the same map.
+3. *Pose.* The landmark network runs on each view; keypoints come back in view pixels, are mapped
+   to fisheye pixels and to rays in the camera frame. Overlapping detections of one person (two
+   targets that converged) are merged, keeping the more confident one.
+
+The target is a direction and an angular radius, both in the camera frame, so nothing here
+depends on the world or on the other camera.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Protocol, Sequence
+
+import cv2
+import numpy as np
+
+from ergopose.geometry.camera import Camera
+from ergopose.geometry.views import ViewMap, VirtualView
+from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.pose.blazepose import Keypoints2D, PersonDetection
+
+_LEFT_HIP, _RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
+_LEFT_SHOULDER, _RIGHT_SHOULDER = JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]
+_BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
+    "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
+    "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
+    "left_heel", "right_heel", "left_foot_index", "right_foot_index")])
+
+#: Where a person's view came from (FrameDetections.source).
+SOURCE_REFOCUS, SOURCE_MOTION, SOURCE_SEARCH = 0, 1, 2
+SOURCE_NAMES = ("refocus", "motion", "search")
+
+
+class Landmarker(Protocol):
+    """A 2D pose network on a square BGR view (BlazePoseLandmarker or an ONNX top-down model)."""
+
+    input_size: tuple[int, int]
+
+    def __call__(self, image_bgr: np.ndarray) -> Keypoints2D: ...
+
+
+class Detector(Protocol):
+    input_size: tuple[int, int]
+
+    def __call__(self, image_bgr: np.ndarray) -> list[PersonDetection]: ...
+
+
+@dataclass(frozen=True)
+class PoseSettings:
+    """Settings of the fisheye 2D stage (angles in radians).
+
+    search_every: frames between searches for new people (also searched when a target is lost).
+    min_presence: a view whose pose flag is below this holds no person.
+    min_keypoint_confidence: keypoints below this confidence do not steer the next view.
+    body_margin: the view's half field of view is the body's angular radius times this.
+    min_half_fov, max_half_fov: limits of a person view's half field of view.
+    search_half_fov: half field of view of the detector's search views.
+    search_rings: angles from the lens axis of the rings of search views (radians); the first
+        ring at 0 is a single view straight along the axis.
+    search_views_per_ring: number of search views on each ring after the first.
+    min_detector_score: detector score to accept a search cue.
+    motion_scale: downscaling of the frame for background subtraction.
+    motion_min_area: smallest moving blob, as a fraction of the downscaled frame's area.
+    motion_warmup: frames the background model learns before its blobs count.
+    same_person_angle: two detections whose hip-centre rays are closer than this fraction of
+        their angular radius are one person.
+    bearing_step: quantisation of view directions and sizes (radians) for the map cache.
+    max_people: most people tracked per camera.
+    """
+
+    search_every: int = 12
+    min_presence: float = 0.5
+    min_keypoint_confidence: float = 0.3
+    body_margin: float = 1.3
+    min_half_fov: float = np.radians(8.0)
+    max_half_fov: float = np.radians(55.0)
+    search_half_fov: float = np.radians(42.0)
+    search_rings: tuple[float, ...] = (0.0, np.radians(45.0), np.radians(75.0))
+    search_views_per_ring: int = 8
+    min_detector_score: float = 0.5
+    motion_scale: int = 4
+    motion_min_area: float = 0.0004
+    motion_warmup: int = 10
+    same_person_angle: float = 0.5
+    bearing_step: float = np.radians(0.25)
+    max_people: int = 8
+
+
+@dataclass(frozen=True)
+class Target:
+    """Where to look for a person: a unit direction in the camera frame and an angular radius."""
+
+    direction_cam: np.ndarray
+    half_fov: float
+    source: int
+
+
+@dataclass(frozen=True)
+class FrameDetections:
+    """The people found in one frame of one camera (N people; N may be 0).
+
+    camera_index: position of the camera in the session's camera list.
+    frame_index: index of the frame in the video.
+    pixels_view: (N, 33, 2) keypoints in the pixels of the view that produced them; NaN where
+        the network reports no keypoint.
+    pixels_fisheye: (N, 33, 2) the same keypoints in the camera's (fisheye) pixels; NaN where
+        the view pixel is NaN or maps outside the lens model.
+    rays_cam: (N, 33, 3) unit rays in the camera frame through the keypoints (NaN as above).
+    confidence: (N, 33) keypoint confidence in [0, 1] (0 where the pixels are NaN).
+    presence: (N,) the network's probability that the view holds a person.
+    projection: (N, 3, 4) each view's projection matrix P = K [I|0] [R^T 0; 0 1] W^-1 (world
+        points to view pixels), for triangulation in the views (the paper's DLT).
+    view_direction_cam: (N, 3) and view_half_fov: (N,) the views' axes and half fields of view.
+    source: (N,) int, SOURCE_REFOCUS / SOURCE_MOTION / SOURCE_SEARCH (what aimed the view).
+    """
+
+    camera_index: int
+    frame_index: int
+    pixels_view: np.ndarray
+    pixels_fisheye: np.ndarray
+    rays_cam: np.ndarray
+    confidence: np.ndarray
+    presence: np.ndarray
+    projection: np.ndarray
+    view_direction_cam: np.ndarray
+    view_half_fov: np.ndarray
+    source: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(self.presence.shape[0])
+
+    @classmethod
+    def empty(cls, camera_index: int, frame_index: int) -> "FrameDetections":
+        return cls(camera_index, frame_index, np.zeros((0, NUM_JOINTS, 2)), np.zeros((0, NUM_JOINTS, 2)),
+                   np.zeros((0, NUM_JOINTS, 3)), np.zeros((0, NUM_JOINTS)), np.zeros(0), np.zeros((0, 3, 4)),
+                   np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64))
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Angles (radians) between unit vectors a (..., 3) and b (..., 3), accurate near 0."""
+    return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+
+
+class ViewCache:
+    """Lookup maps of one camera's person views, keyed by quantised direction and size (LRU)."""
+
+    def __init__(self, camera: Camera, view_size: tuple[int, int], step: float, capacity: int = 96):
+        self.camera = camera
+        self.view_size = view_size
+        self.step = float(step)
+        self.capacity = int(capacity)
+        self._maps: OrderedDict[tuple[int, int, int], tuple[VirtualView, ViewMap]] = OrderedDict()
+        self.hits = 0
+        self.misses = 0
+
+    def get(self, direction_cam: np.ndarray, half_fov: float) -> tuple[VirtualView, ViewMap]:
+        d = _unit(np.asarray(direction_cam, dtype=np.float64))
+        polar = np.arccos(np.clip(d[2], -1.0, 1.0))
+        azimuth = np.arctan2(d[1], d[0])
+        # Azimuth steps shrink with sin(polar) so the grid is roughly uniform on the sphere.
+        az_step = self.step / max(np.sin(polar), self.step)
+        key = (int(round(polar / self.step)), int(round(azimuth / az_step)), int(round(half_fov / self.step)))
+        hit = self._maps.get(key)
+        if hit is not None:
+            self._maps.move_to_end(key)
+            self.hits += 1
+            return hit
+        self.misses += 1
+        polar_q, az_q, half_q = key[0] * self.step, key[1] * az_step, max(key[2], 1) * self.step
+        direction_q = np.array([np.sin(polar_q) * np.cos(az_q), np.sin(polar_q) * np.sin(az_q), np.cos(polar_q)])
+        view = VirtualView.aimed_along(self.camera, direction_q, hfov=2.0 * half_q, size=self.view_size)
+        entry = (view, view.build_map())
+        self._maps[key] = entry
+        if len(self._maps) > self.capacity:
+            self._maps.popitem(last=False)
+        return entry
+
+
+class FisheyePoseEstimator:
+    """Finds and follows people in one fisheye camera's frames (see the module docstring).
+
+    camera: the calibrated camera (lens, size, pose).
+    landmarker: the 2D pose network run on each person view.
+    detector: the person detector run on the search views (None: search by motion only).
+    """
+
+    def __init__(self, camera: Camera, camera_index: int, landmarker: Landmarker,
+                 detector: Detector | None = None, settings: PoseSettings = PoseSettings()):
+        self.camera = camera
+        self.camera_index = int(camera_index)
+        self.landmarker = landmarker
+        self.detector = detector
+        self.settings = settings
+        size = tuple(int(s) for s in landmarker.input_size)
+        self.views = ViewCache(camera, size, settings.bearing_step)
+        self._search_views = self._make_search_views() if detector is not None else []
+        self._background = cv2.createBackgroundSubtractorMOG2(history=300, varThreshold=25, detectShadows=False)
+        self._frames_seen = 0
+        self._targets: list[Target] = []
+        self._lost = False
+
+    # -- search views ------------------------------------------------------------------------
+    def _make_search_views(self) -> list[tuple[VirtualView, ViewMap]]:
+        s = self.settings
+        size = tuple(int(v) for v in self.detector.input_size)
+        views = []
+        for ring, polar in enumerate(s.search_rings):
+            if polar > self.camera.max_theta_in_image():
+                continue
+            count = 1 if polar == 0 else s.search_views_per_ring
+            for k in range(count):
+                az = 2 * np.pi * k / count + (np.pi / count if ring % 2 == 0 else 0.0)
+                d = np.array([np.sin(polar) * np.cos(az), np.sin(polar) * np.sin(az), np.cos(polar)])
+                view = VirtualView.aimed_along(self.camera, d, hfov=2 * s.search_half_fov, size=size)
+                views.append((view, view.build_map()))
+        return views
+
+    def _search_cues(self, frame_bgr: np.ndarray) -> list[Target]:
+        cues = []
+        for view, view_map in self._search_views:
+            image = view_map.apply(frame_bgr)
+            for det in self.detector(image):
+                if det.score < self.settings.min_detector_score:
+                    continue
+                centre = det.hip_centre[None]
+                edge = det.keypoints[1][None]
+                rays = view.view_pixels_to_rays_cam(np.vstack([centre, edge]))
+                if not np.isfinite(rays).all():
+                    continue
+                radius = float(_angle_between(rays[0], rays[1]))
+                cues.append(Target(rays[0], self._half_fov(radius), SOURCE_SEARCH))
+        return cues
+
+    def _motion_cues(self, frame_bgr: np.ndarray) -> list[Target]:
+        s = self.settings
+        small = cv2.resize(frame_bgr, None, fx=1.0 / s.motion_scale, fy=1.0 / s.motion_scale,
+                           interpolation=cv2.INTER_AREA)
+        mask = self._background.apply(small)
+        if self._frames_seen < s.motion_warmup:
+            return []
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        mask = cv2.dilate(mask, np.ones((5, 5), np.uint8))
+        count, _, stats, centroids = cv2.connectedComponentsWithStats((mask > 127).astype(np.uint8))
+        min_area = s.motion_min_area * mask.shape[0] * mask.shape[1]
+        keep = np.nonzero(stats[1:, cv2.CC_STAT_AREA] >= min_area)[0] + 1
+        if keep.size == 0:
+            return []
+        scale = float(s.motion_scale)
+        centre_px = (centroids[keep] + 0.5) * scale - 0.5
+        x0, y0 = stats[keep, cv2.CC_STAT_LEFT], stats[keep, cv2.CC_STAT_TOP]
+        w, h = stats[keep, cv2.CC_STAT_WIDTH], stats[keep, cv2.CC_STAT_HEIGHT]
+        corners = np.stack([np.stack([x0, y0], -1), np.stack([x0 + w, y0], -1),
+                            np.stack([x0, y0 + h], -1), np.stack([x0 + w, y0 + h], -1)], axis=1) * scale
+        centre_rays = self.camera.lens.unproject(centre_px)
+        corner_rays = self.camera.lens.unproject(corners)
+        radius = np.nanmax(_angle_between(corner_rays, centre_rays[:, None, :]), axis=1)
+        ok = np.isfinite(centre_rays).all(axis=1) & np.isfinite(radius)
+        return [Target(centre_rays[i], self._half_fov(float(radius[i])), SOURCE_MOTION) for i in np.nonzero(ok)[0]]
+
+    # -- per frame ---------------------------------------------------------------------------
+    def _half_fov(self, body_radius: float) -> float:
+        s = self.settings
+        return float(np.clip(body_radius * s.body_margin, s.min_half_fov, s.max_half_fov))
+
+    def process(self, frame_bgr: np.ndarray, frame_index: int) -> FrameDetections:
+        """Find the people in one frame; keeps what it needs to re-focus on the next frame."""
+        s = self.settings
+        targets = list(self._targets)
+        search_now = self._lost or frame_index % s.search_every == 0 or not targets
+        motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
+        self._frames_seen += 1
+        if search_now:
+            cues = motion + (self._search_cues(frame_bgr) if self.detector is not None else [])
+            targets += [c for c in cues if not self._covered(c, targets)]
+        results = [self._run_view(frame_bgr, t) for t in targets[: 4 * s.max_people]]
+        people = [r for r in results if r is not None]
+        people = self._merge(people)[: s.max_people]
+        self._lost = len(people) < len(self._targets)
+        self._targets = [self._refocus(p) for p in people]
+        self._targets = [t for t in self._targets if t is not None]
+        return self._record(people, frame_index)
+
+    def _covered(self, cue: Target, targets: Sequence[Target]) -> bool:
+        for t in targets:
+            if _angle_between(cue.direction_cam, t.direction_cam) < self.settings.same_person_angle * t.half_fov:
+                return True
+        return False
+
+    def _run_view(self, frame_bgr: np.ndarray, target: Target) -> dict | None:
+        view, view_map = self.views.get(target.direction_cam, target.half_fov)
+        image = view_map.apply(frame_bgr)
+        kp = self.landmarker(image)
+        if not kp.presence >= self.settings.min_presence:
+            return None
+        rays_cam = view.view_pixels_to_rays_cam(kp.pixels)
+        return {"kp": kp, "view": view, "rays_cam": rays_cam, "source": target.source,
+                "half_fov": target.half_fov}
+
+    def _body_bearing(self, person: dict) -> tuple[np.ndarray, float] | None:
+        """Hip-centre ray and angular radius of the confident body keypoints."""
+        rays, conf = person["rays_cam"], person["kp"].confidence
+        good = (conf >= self.settings.min_keypoint_confidence) & np.isfinite(rays).all(axis=1)
+        hips = [j for j in (_LEFT_HIP, _RIGHT_HIP) if good[j]]
+        if not hips:
+            hips = [j for j in (_LEFT_SHOULDER, _RIGHT_SHOULDER) if good[j]]
+        body = _BODY_JOINTS[good[_BODY_JOINTS]]
+        if not hips or body.size < 3:
+            return None
+        centre = _unit(rays[hips].mean(axis=0))
+        radius = float(_angle_between(rays[body], centre[None]).max())
+        return centre, radius
+
+    def _merge(self, people: list[dict]) -> list[dict]:
+        """One detection per person: drop a detection whose body centre lies inside a better one."""
+        bearings = [self._body_bearing(p) for p in people]
+        order = sorted(range(len(people)), key=lambda i: -people[i]["kp"].presence)
+        kept: list[int] = []
+        for i in order:
+            if bearings[i] is None:
+                continue
+            ci, ri = bearings[i]
+            duplicate = any(
+                _angle_between(ci, bearings[j][0]) < self.settings.same_person_angle * max(ri, bearings[j][1])
+                for j in kept
+            )
+            if not duplicate:
+                kept.append(i)
+        for i in kept:
+            people[i]["bearing"] = bearings[i]
+        return [people[i] for i in kept]
+
+    def _refocus(self, person: dict) -> Target | None:
+        centre, radius = person["bearing"]
+        return Target(centre, self._half_fov(radius), SOURCE_REFOCUS)
+
+    def _record(self, people: list[dict], frame_index: int) -> FrameDetections:
+        if not people:
+            return FrameDetections.empty(self.camera_index, frame_index)
+        kps = [p["kp"] for p in people]
+        pixels_view = np.stack([k.pixels for k in kps])
+        rays_cam = np.stack([p["rays_cam"] for p in people])
+        confidence = np.stack([np.where(np.isfinite(k.pixels).all(axis=1), k.confidence, 0.0) for k in kps])
+        views = [p["view"] for p in people]
+        return FrameDetections(
+            camera_index=self.camera_index,
+            frame_index=int(frame_index),
+            pixels_view=pixels_view,
+            pixels_fisheye=self.camera.lens.project(rays_cam),
+            rays_cam=rays_cam,
+            confidence=confidence,
+            presence=np.array([k.presence for k in kps], dtype=np.float64),
+            projection=np.stack([v.projection_matrix for v in views]),
+            view_direction_cam=np.stack([v.rotation_cam_from_view[:, 2] for v in views]),
+            view_half_fov=np.array([p["half_fov"] for p in people]),
+            source=np.array([p["source"] for p in people], dtype=np.int64),
+        )
+
+    def __call__(self, frame_bgr: np.ndarray, frame_index: int) -> FrameDetections:
+        """Same as :meth:`process`."""
+        return self.process(frame_bgr, frame_index)
