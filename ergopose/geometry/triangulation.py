@@ -3,7 +3,7 @@
 The paper triangulates in the upright virtual pinhole views, not in the fisheye images, because
 the pinhole projection is linear in homogeneous coordinates. A view's projection matrix is
 
-    P = K [I | 0] [[R^T, 0], [0, 1]] W^-1                                    (paper, eq. 17)
+    P = K [I | 0] [[R^T, 0], [0, 1]] W^-1       (paper, section "3D Human Pose Reconstruction")
 
 with K the view's 3x3 pinhole matrix, R = ``rotation_cam_from_view`` (columns: the view's x, y, z
 axes written in its fisheye camera's frame; a direction d_view in the view is R @ d_view in the
