@@ -26,8 +26,11 @@ test: install
 demo: install
 	$(PY) -m ergopose demo
 
+# aniposelib (the reference in two benchmarks) is installed without its declared dependencies:
+# they include opencv-contrib-python, which resolves to OpenCV 5 and would replace our 4.x.
 bench: install
-	$(PY) -m pip install -q -c constraints.txt ".[bench]"
+	$(PY) -m pip install -q -c constraints.txt -r bench/requirements.txt
+	$(PY) -m pip install -q --no-deps -c constraints.txt aniposelib
 	$(PY) bench/run.py
 
 clean:
