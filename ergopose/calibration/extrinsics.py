@@ -3,7 +3,8 @@
 World frame: the floor, z = 0, z up (metres). A camera's pose is solved from 3D-2D
 correspondences through its FULL lens model (Levenberg-Marquardt, scipy.optimize.least_squares
 method "lm", over the rotation vector and translation), after a start from cv2.solvePnP on the
-rays turned into normalised coordinates of a virtual pinhole (rays within 80 degrees of the axis).
+rays turned into normalised coordinates of a virtual pinhole aimed at the points (rays within 80
+degrees of its axis).
 
 Correspondences come from
 (a) a board lying on the floor (:func:`floor_board_points` gives its corners in the world), or
@@ -88,15 +89,33 @@ def _check_points(points_world: np.ndarray, pixels: np.ndarray) -> tuple[np.ndar
     return points_world, pixels
 
 
+def _virtual_pinhole(rays: np.ndarray) -> np.ndarray:
+    """Rotation (3, 3) taking camera-frame rays into a virtual pinhole aimed at their mean direction."""
+    axis = np.nanmean(rays, axis=0)
+    axis /= np.linalg.norm(axis)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, axis)
+    x /= np.linalg.norm(x)
+    y = np.cross(axis, x)
+    return np.stack([x, y, axis])  # rows: the virtual camera's axes in the camera frame
+
+
 def initial_pose(lens, points_world: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(rvec, tvec) of x_cam = R x_world + t from cv2.solvePnP on rays as virtual-pinhole coordinates."""
+    """(rvec, tvec) of x_cam = R x_world + t: cv2.solvePnP on the rays (unprojected through the lens)
+    as normalised coordinates of a virtual pinhole aimed at their mean direction (rays within
+    80 degrees of that direction)."""
     rays = lens.unproject(pixels)
-    ok = np.all(np.isfinite(rays), axis=-1) & (rays[:, 2] > np.cos(INIT_MAX_THETA))
+    finite = np.all(np.isfinite(rays), axis=-1)
+    if finite.sum() < MIN_POINTS:
+        raise InputError(f"only {int(finite.sum())} pixel position(s) lie inside the lens model's image; at least "
+                         f"{MIN_POINTS} are needed (check the pixel positions and the camera's intrinsics)")
+    R_vc = _virtual_pinhole(rays[finite])
+    rays_v = rays @ R_vc.T
+    ok = finite & (rays_v[:, 2] > np.cos(INIT_MAX_THETA))
     if ok.sum() < MIN_POINTS:
-        raise InputError(f"only {int(ok.sum())} point(s) lie inside the lens model's image and within "
-                         f"{np.degrees(INIT_MAX_THETA):.0f} degrees of the optical axis; at least {MIN_POINTS} "
-                         f"are needed (check the pixel positions and the camera's intrinsics)")
-    normalised = rays[ok, :2] / rays[ok, 2:3]
+        raise InputError(f"the points are spread over more than {2 * np.degrees(INIT_MAX_THETA):.0f} degrees of the "
+                         f"view; cannot find a starting pose")
+    normalised = rays_v[ok, :2] / rays_v[ok, 2:3]
     obj = points_world[ok].reshape(-1, 1, 3)
     img = normalised.reshape(-1, 1, 2)
     best = None
@@ -112,11 +131,13 @@ def initial_pose(lens, points_world: np.ndarray, pixels: np.ndarray) -> tuple[np
         proj = pc[:, :2] / pc[:, 2:3]
         err = float(np.mean(np.linalg.norm(proj - normalised, axis=-1))) if np.all(pc[:, 2] > 0) else np.inf
         if best is None or err < best[0]:
-            best = (err, rvec.ravel(), tvec.ravel())
+            best = (err, R, tvec.ravel())
     if best is None or not np.isfinite(best[0]):
         raise InputError("could not find a starting pose from these points (cv2.solvePnP failed); "
                          "check that the 3D points and pixel positions are listed in matching order")
-    return best[1], best[2]
+    R_c = R_vc.T @ best[1]
+    t_c = R_vc.T @ best[2]
+    return rotation_vectors(R_c), t_c
 
 
 def _project(lens, params: np.ndarray, points_world: np.ndarray) -> np.ndarray:
@@ -146,7 +167,7 @@ def solve_pose(lens, points_world: np.ndarray, pixels: np.ndarray, *, names: Seq
         r = (_project(lens, params, points_world) - pixels).ravel()
         return np.where(np.isfinite(r), r, _BIG)
 
-    res = least_squares(resid, np.concatenate([rvec, tvec]), method="lm", xtol=1e-14, ftol=1e-14, gtol=1e-14,
+    res = least_squares(resid, np.concatenate([rvec, tvec]), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12,
                         max_nfev=2000)
     R_cw = rotation_matrices(res.x[:3])
     t = res.x[3:]
@@ -248,9 +269,9 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
     for i, (a, b) in enumerate(zip(detections_a, detections_b)):
         label = (a.source if a is not None and a.source else None) or (b.source if b is not None else None) or str(i)
         if a is None or b is None:
-            dropped.append(DroppedImage(label, "board not found in both views"))
+            dropped.append(DroppedImage(label, "board not found in both views", "not_in_both"))
         elif len(a.ids) != board.n_corners or len(b.ids) != board.n_corners:
-            dropped.append(DroppedImage(label, "board only partly visible"))
+            dropped.append(DroppedImage(label, "board only partly visible", "partial"))
         else:
             pairs.append((label, a, b))
     obj_all = board.object_points()
@@ -268,7 +289,7 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
             match = _ILL_CONDITIONED.search(text)
             if "CALIB_CHECK_COND" in text and match and int(match.group(1)) < len(pairs):
                 label = pairs.pop(int(match.group(1)))[0]
-                dropped.append(DroppedImage(label, "ill-conditioned"))
+                dropped.append(DroppedImage(label, "ill-conditioned for OpenCV", "ill_conditioned"))
                 continue
             raise InputError(f"cv2.fisheye.stereoCalibrate failed: {text.strip().splitlines()[-1]}") from None
         rms, K1, D1, K2, D2, R, T = out[:7]

@@ -37,6 +37,8 @@ FISHEYE_FLAGS = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_CHECK_
 FISHEYE_CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-10)
 
 DEFAULT_MIN_IMAGES = 8
+#: Views OpenCV must accept for the first fit when dropped views may be recovered afterwards.
+MIN_OPENCV_VIEWS = 4
 #: Share of the 4 x 4 grid of image cells that must hold at least one detected corner.
 DEFAULT_MIN_COVERAGE = 0.5
 COVERAGE_GRID = 4
@@ -48,10 +50,17 @@ _ILL_CONDITIONED = re.compile(r"input array (\d+)")
 
 @dataclass(frozen=True)
 class DroppedImage:
-    """An image left out of the fit: ``source`` (file name) and ``reason`` (for a human)."""
+    """An image left out of the fit.
+
+    source: file name (or label) of the image.
+    reason: for a human.
+    code: for code: "no_board", "degenerate", "ill_conditioned", "opencv_failed", "outlier",
+        "not_in_both" or "partial" (stereo).
+    """
 
     source: str
     reason: str
+    code: str = ""
 
 
 @dataclass(frozen=True)
@@ -73,6 +82,8 @@ class IntrinsicsResult:
     per_view_rms: (M,) RMS reprojection error per used image, pixels.
     coverage: share of image cells (4 x 4 grid) holding at least one used corner.
     max_theta_observed: largest angle from the optical axis among the used corners, radians.
+    recovered: views OpenCV could not use that the full-model refinement took back (also in ``used``).
+    details: diagnostics (opencv_rms, model_rms, kept_detections, ...).
     """
 
     model: str
@@ -89,6 +100,7 @@ class IntrinsicsResult:
     per_view_rms: np.ndarray
     coverage: float
     max_theta_observed: float
+    recovered: tuple[str, ...] = ()
     details: dict = field(default_factory=dict)
 
 
@@ -134,7 +146,7 @@ def detect_in_images(paths: Sequence[str | Path], board: Board,
                              f"all images of one camera must have the same size", path=path)
         det = detect_board(image, board, source=Path(path).name)
         if det is None:
-            dropped.append(DroppedImage(Path(path).name, "no board found"))
+            dropped.append(DroppedImage(Path(path).name, "no board found", "no_board"))
         else:
             detections.append(det)
         report(progress, "detect", i + 1, len(paths), unit="image")
@@ -220,7 +232,7 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
         if reason is None:
             kept.append(det)
         else:
-            dropped.append(DroppedImage(det.source, reason))
+            dropped.append(DroppedImage(det.source, reason, "degenerate"))
     attempt = 0
     while True:
         if len(kept) < min_images:
@@ -234,8 +246,9 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
             match = _ILL_CONDITIONED.search(text)
             if "CALIB_CHECK_COND" in text and match and int(match.group(1)) < len(kept):
                 bad = kept.pop(int(match.group(1)))
-                dropped.append(DroppedImage(bad.source, "ill-conditioned (board too small, too far or "
-                                                        "too oblique in this view)"))
+                dropped.append(DroppedImage(bad.source, "ill-conditioned for OpenCV (board too small, too far, "
+                                                        "too oblique or too far off-axis in this view)",
+                                            "ill_conditioned"))
                 continue
             culprit = _find_failing_view(kept, board, image_size, flags, criteria)
             last_line = text.strip().splitlines()[-1]
@@ -243,7 +256,7 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
                 raise InputError(f"cv2.fisheye.calibrate failed on {len(kept)} boards ({last_line}); take more "
                                  f"images with the whole board sharp and at different distances and angles") from None
             bad = kept.pop(culprit)
-            dropped.append(DroppedImage(bad.source, f"OpenCV failed on this view ({last_line})"))
+            dropped.append(DroppedImage(bad.source, f"OpenCV failed on this view ({last_line})", "opencv_failed"))
             continue
         if not (np.isfinite(rms) and np.all(np.isfinite(K)) and np.all(np.isfinite(D))):
             raise InputError("the fisheye fit did not converge (non-finite result); take more images "
@@ -305,8 +318,12 @@ def _max_theta(detections, board, R, t) -> float:
 def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
                              *, min_images: int = DEFAULT_MIN_IMAGES, min_coverage: float = DEFAULT_MIN_COVERAGE,
                              dropped: Sequence[DroppedImage] = (), criteria=FISHEYE_CRITERIA,
-                             progress: ProgressCallback | None = None) -> IntrinsicsResult:
+                             recover: bool = True, progress: ProgressCallback | None = None) -> IntrinsicsResult:
     """Fit a Kannala-Brandt lens (cv2.fisheye.calibrate) to board detections.
+
+    recover: give views OpenCV dropped (ill-conditioned or failing, typically boards far off-axis)
+    a second chance through our full model, followed by a joint refinement (see _recover_views).
+    When OpenCV used every view the result is OpenCV's.
 
     ``dropped``: images already left out (e.g. no board found), carried into the result.
     Raises InputError for too few boards or poor coverage of the image.
@@ -324,20 +341,241 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
             f"poor coverage: the detected corners fill {coverage:.0%} of the image (4x4 cells), at least "
             f"{min_coverage:.0%} is needed; take more images with the board near the image edges and corners, "
             f"not only in one place")
-    rms, K, D, rv, tv, kept, ill = fisheye_calibrate(detections, board, size, min_images=min_images,
-                                                     criteria=criteria, progress=progress)
+    rms, K, D, rv, tv, kept, ill = fisheye_calibrate(detections, board, size,
+                                                     min_images=min(min_images, MIN_OPENCV_VIEWS) if recover
+                                                     else min_images, criteria=criteria, progress=progress)
     dropped.extend(ill)
     R = rotation_matrices(rv)
     lens = _kb_lens(K, D)
+    opencv_rms = float(rms)
+    recovered: list[str] = []
+    if recover and ill:
+        lens, K, D, kept, R, tv, recovered, ill_left = _recover_views(lens, kept, R, tv, ill, detections, board,
+                                                                      progress)
+        dropped = [d for d in dropped if d not in ill] + ill_left
+    if len(kept) < min_images:
+        raise InputError(_too_few_message(len(kept), min_images, dropped))
     errors = reprojection_errors(lens, kept, board, R, tv)
+    model_rms = _rms(errors)
     return IntrinsicsResult(
-        model="kannala_brandt", lens=lens, image_size=tuple(size), rms=float(rms), camera_matrix=K, distortion=D,
-        kb_rms=float(rms), used=tuple(d.source for d in kept), dropped=tuple(dropped),
+        model="kannala_brandt", lens=lens, image_size=tuple(size), rms=model_rms if recovered else opencv_rms,
+        camera_matrix=K, distortion=D, kb_rms=model_rms if recovered else opencv_rms,
+        used=tuple(d.source for d in kept), dropped=tuple(dropped),
         rotations_cam_from_board=R, translations_cam=tv,
         per_view_rms=np.array([np.sqrt(np.mean(e ** 2)) for e in errors]),
         coverage=image_coverage(kept, size), max_theta_observed=_max_theta(kept, board, R, tv),
-        details={"opencv_rms": float(rms), "model_rms": _rms(errors), "kept_detections": tuple(kept)},
+        recovered=tuple(recovered),
+        details={"opencv_rms": opencv_rms, "model_rms": model_rms, "kept_detections": tuple(kept)},
     )
+
+
+# ------------------------------------------------------------- bundle refinement
+_BIG = 1e3  # residual (pixels) for a corner the trial model cannot project
+#: A view OpenCV could not use is taken back if its pose fits the first lens this well (pixels).
+RECOVER_MAX_RMS = 5.0
+#: After the joint fit, a view whose RMS exceeds max(1 px, this times the overall RMS) is dropped.
+OUTLIER_FACTOR = 4.0
+
+
+def kb_project(params: np.ndarray, points_cam: np.ndarray) -> np.ndarray:
+    """Kannala-Brandt projection for the optimiser: params (fx, fy, cx, cy, k1..k4).
+
+    The formula of ergopose.geometry.lenses.kannala_brandt (theta = atan2(r, z)), without building
+    a lens object per call; rays past the first turning point of theta_d are not masked here (the
+    final model check with the real lens class is).
+    """
+    fx, fy, cx, cy, k1, k2, k3, k4 = params
+    x, y, z = points_cam[:, 0], points_cam[:, 1], points_cam[:, 2]
+    r = np.hypot(x, y)
+    theta = np.arctan2(r, z)
+    t2 = theta * theta
+    theta_d = theta * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(r > 0, theta_d / r, 0.0)
+    return np.stack([cx + fx * scale * x, cy + fy * scale * y], axis=-1)
+
+
+def ds_project(params: np.ndarray, points_cam: np.ndarray) -> np.ndarray:
+    """Double Sphere projection for the optimiser: params (fx, fy, cx, cy, xi, alpha); NaN outside
+    the model's valid set (as ergopose.geometry.lenses.double_sphere)."""
+    fx, fy, cx, cy, xi, alpha = params
+    x, y, z = points_cam[:, 0], points_cam[:, 1], points_cam[:, 2]
+    d1 = np.sqrt(x * x + y * y + z * z)
+    k = xi * d1 + z
+    d2 = np.sqrt(x * x + y * y + k * k)
+    den = alpha * d2 + (1.0 - alpha) * k
+    w1 = alpha / (1.0 - alpha) if alpha <= 0.5 else (1.0 - alpha) / alpha
+    w2 = (w1 + xi) / np.sqrt(2.0 * w1 * xi + xi * xi + 1.0)
+    valid = (z > -w2 * d1) & (den > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.where(valid, cx + fx * x / den, np.nan)
+        v = np.where(valid, cy + fy * y / den, np.nan)
+    return np.stack([u, v], axis=-1)
+
+
+def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                  detections: Sequence[Detection], board: Board, rotations: np.ndarray, translations: np.ndarray,
+                  max_iterations: int = 100):
+    """Joint least squares over lens parameters and per-view board poses (bundle adjustment).
+
+    project(params, points_cam (N, 3)) -> (N, 2) pixels (NaN where invalid). Returns
+    (params, rotations (M, 3, 3), translations (M, 3)).
+
+    Levenberg-Marquardt on the sparse structure: the Jacobian comes from central differences (the
+    six pose components are perturbed in all views at once, since a pose only moves its own
+    corners), the normal equations are reduced to the lens parameters by the Schur complement of
+    the 6x6 pose blocks. A step leaving [lower, upper] or the model's valid set is refused (larger
+    damping). Stops when the cost improves by less than 1e-12 relative or the step is below 1e-12.
+    """
+    n_intr = len(intr0)
+    obj_all = board.object_points()
+    views = np.concatenate([np.full(len(d.ids), i) for i, d in enumerate(detections)])
+    obj = np.concatenate([obj_all[d.ids] for d in detections])
+    pix = np.concatenate([d.pixels for d in detections])
+    M = len(detections)
+    row_view = np.repeat(views, 2)  # residual row -> view
+    lower = np.asarray(lower, np.float64)
+    upper = np.asarray(upper, np.float64)
+
+    def resid(intr, poses):
+        if np.any(intr < lower) or np.any(intr > upper):
+            return None
+        R = rotation_matrices(poses[:, :3])
+        pts = np.einsum("nij,nj->ni", R[views], obj) + poses[views, 3:]
+        with np.errstate(all="ignore"):
+            r = (project(intr, pts) - pix).ravel()
+        return r if np.all(np.isfinite(r)) else None
+
+    def jacobian(intr, poses):
+        J_i = np.empty((pix.size, n_intr))
+        for j in range(n_intr):
+            h = 1e-6 * max(1.0, abs(intr[j]))
+            ip, im = intr.copy(), intr.copy()
+            ip[j] += h
+            im[j] -= h
+            rp, rm = resid(ip, poses), resid(im, poses)
+            if rp is None or rm is None:  # at a bound: one-sided
+                r0 = resid(intr, poses)
+                rp, rm, h = (rp, r0, h / 2) if rp is not None else (r0, rm, h / 2)
+            J_i[:, j] = (rp - rm) / (2 * h)
+        J_p = np.empty((pix.size, 6))  # row r: derivative w.r.t. its own view's pose component
+        for k in range(6):
+            h = 1e-7 * np.maximum(1.0, np.abs(poses[:, k]))
+            pp, pm = poses.copy(), poses.copy()
+            pp[:, k] += h
+            pm[:, k] -= h
+            J_p[:, k] = (resid(intr, pp) - resid(intr, pm)) / (2 * h[row_view])
+        return J_i, J_p
+
+    intr = np.asarray(intr0, np.float64).copy()
+    poses = np.concatenate([rotation_vectors(rotations), translations], axis=1)
+    r = resid(intr, poses)
+    if r is None:
+        raise InputError("the starting lens does not project every board corner; cannot refine")
+    cost = float(r @ r)
+    lam = 1e-3
+    for _ in range(max_iterations):
+        J_i, J_p = jacobian(intr, poses)
+        U = J_i.T @ J_i
+        g_i = J_i.T @ r
+        # per-view blocks
+        V = np.zeros((M, 6, 6))
+        W = np.zeros((M, n_intr, 6))
+        g_p = np.zeros((M, 6))
+        np.add.at(V, row_view, J_p[:, :, None] * J_p[:, None, :])
+        np.add.at(W, row_view, J_i[:, :, None] * J_p[:, None, :])
+        np.add.at(g_p, row_view, J_p * r[:, None])
+        improved = False
+        while lam < 1e12:
+            Ud = U + lam * np.diag(np.diag(U) + 1e-12)
+            Vd = V + lam * (np.eye(6) * (np.diagonal(V, axis1=1, axis2=2)[:, None, :] + 1e-12))
+            Vinv = np.linalg.inv(Vd)
+            WVi = W @ Vinv  # (M, n_intr, 6)
+            S = Ud - np.einsum("mij,mkj->ik", WVi, W)
+            rhs = g_i - np.einsum("mij,mj->i", WVi, g_p)
+            d_i = -np.linalg.solve(S, rhs)
+            d_p = -np.einsum("mij,mj->mi", Vinv, g_p + np.einsum("mji,j->mi", W, d_i))
+            new_r = resid(intr + d_i, poses + d_p)
+            if new_r is not None and float(new_r @ new_r) < cost:
+                step = np.sqrt(d_i @ d_i + np.sum(d_p * d_p))
+                new_cost = float(new_r @ new_r)
+                done = (cost - new_cost) <= 1e-12 * cost or step < 1e-12
+                intr, poses, r, cost = intr + d_i, poses + d_p, new_r, new_cost
+                lam = max(lam / 10.0, 1e-12)
+                improved = True
+                break
+            lam *= 10.0
+        if not improved or done:
+            break
+    return intr, rotation_matrices(poses[:, :3]), poses[:, 3:].copy()
+
+
+def _kb_from_params(p: np.ndarray):
+    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
+
+    return KannalaBrandt(*(float(v) for v in p))
+
+
+def _recover_views(lens, kept, R, t, ill, detections, board, progress):
+    """Take back views OpenCV dropped (ill-conditioned, failed) when our full KB model explains them.
+
+    cv2.fisheye works with x/z, so boards near or beyond 90 degrees off-axis break its per-view
+    initialisation; our model (theta = atan2(r, z)) has no such limit. Each dropped view gets a pose
+    by Levenberg-Marquardt through the first lens; views fitting within RECOVER_MAX_RMS px join a
+    joint refinement of KB parameters and all poses; views that then fit worse than
+    max(1 px, OUTLIER_FACTOR x overall RMS) are dropped again and the joint fit repeated once.
+    """
+    from ergopose.calibration.extrinsics import solve_pose
+
+    by_source = {d.source: d for d in detections}
+    obj_all = board.object_points()
+    candidates, poses_R, poses_t, still = [], [], [], []
+    for item in ill:
+        det = by_source.get(item.source)
+        if det is None or item.code not in ("ill_conditioned", "opencv_failed"):
+            still.append(item)
+            continue
+        try:
+            pose = solve_pose(lens, obj_all[det.ids], det.pixels)
+        except InputError:
+            still.append(item)
+            continue
+        if pose.rms_px <= RECOVER_MAX_RMS:
+            candidates.append(det)
+            poses_R.append(pose.rotation_cam_from_world)
+            poses_t.append(pose.translation_cam)
+        else:
+            still.append(item)
+    if not candidates:
+        K, D = lens.to_opencv()
+        return lens, K, np.ravel(D), kept, R, t, [], list(ill)
+    report(progress, "calibrate", 1, 2, unit="step", message=f"refining with {len(candidates)} recovered boards")
+    dets = list(kept) + candidates
+    Rs = np.concatenate([R, np.array(poses_R)])
+    ts = np.concatenate([t, np.array(poses_t)])
+    lower = np.array([1.0, 1.0, -np.inf, -np.inf, -np.inf, -np.inf, -np.inf, -np.inf])
+    upper = np.full(8, np.inf)
+    intr0 = np.array([lens.fx, lens.fy, lens.cx, lens.cy, *lens.coefficients])
+    for _ in range(2):
+        intr, Rs, ts = refine_bundle(kb_project, intr0, lower, upper, dets, board, Rs, ts)
+        lens = _kb_from_params(intr)
+        errors = reprojection_errors(lens, dets, board, Rs, ts)
+        per_view = np.array([np.sqrt(np.mean(e ** 2)) for e in errors])
+        limit = max(1.0, OUTLIER_FACTOR * _rms(errors))
+        bad = per_view > limit
+        if not bad.any():
+            break
+        for i in np.flatnonzero(bad):
+            still.append(DroppedImage(dets[i].source, f"does not fit the lens model (RMS {per_view[i]:.2f} px)",
+                                      "outlier"))
+        keep = ~bad
+        dets = [d for d, k in zip(dets, keep) if k]
+        Rs, ts, intr0 = Rs[keep], ts[keep], intr
+    report(progress, "calibrate", 2, 2, unit="step")
+    in_fit = {id(d) for d in dets}
+    recovered = [d.source for d in candidates if id(d) in in_fit]
+    K, D = lens.to_opencv()
+    return lens, K, np.ravel(D), dets, Rs, ts, recovered, still
 
 
 # --------------------------------------------------------------------- Double Sphere
@@ -348,9 +586,6 @@ def _ds_lens(params: np.ndarray):
     return DoubleSphere(fx, fy, cx, cy, xi, alpha)
 
 
-_BIG = 1e3  # residual (pixels) for a corner the trial model cannot project
-
-
 def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressCallback | None = None) -> IntrinsicsResult:
     """Refine a Double Sphere lens and the board poses over the corners of a Kannala-Brandt fit.
 
@@ -359,7 +594,6 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
     (scipy.optimize.least_squares, trf, sparse finite-difference Jacobian).
     """
     from scipy.optimize import least_squares
-    from scipy.sparse import lil_matrix
 
     kept: tuple[Detection, ...] = kb.details["kept_detections"]
     K = kb.camera_matrix
@@ -371,8 +605,8 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
     ok = np.all(np.isfinite(target), axis=-1)
     rays, target = rays[ok], target[ok]
 
-    lower = np.array([1.0, 1.0, -np.inf, -np.inf, -1.0, 0.0])
-    upper = np.array([np.inf, np.inf, np.inf, np.inf, 1.0, 1.0])
+    lower = np.array([1.0, 1.0, -np.inf, -np.inf, -0.999, 0.0])
+    upper = np.array([np.inf, np.inf, np.inf, np.inf, 0.999, 1.0])
 
     def resid_fit(p):
         try:
@@ -393,42 +627,10 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
     report(progress, "double_sphere", 1, 2, unit="step")
 
     # step 2: joint refinement over corners and poses
-    obj_all = board.object_points()
-    views = np.concatenate([np.full(len(d.ids), i) for i, d in enumerate(kept)])
-    obj = np.concatenate([obj_all[d.ids] for d in kept])
-    pix = np.concatenate([d.pixels for d in kept])
-    M = len(kept)
-    rv0 = rotation_vectors(kb.rotations_cam_from_board)
-    x0 = np.concatenate([intr0, np.concatenate([rv0, kb.translations_cam], axis=1).ravel()])
-
-    def resid(x):
-        intr = x[:6]
-        pose = x[6:].reshape(M, 6)
-        R = rotation_matrices(pose[:, :3])
-        pts = np.einsum("nij,nj->ni", R[views], obj) + pose[views, 3:]
-        try:
-            proj = _ds_lens(intr).project(pts)
-        except ConfigError:
-            return np.full(pix.size, _BIG)
-        r = (proj - pix).ravel()
-        return np.where(np.isfinite(r), r, _BIG)
-
-    n_res = pix.size
-    sparsity = lil_matrix((n_res, 6 + 6 * M), dtype=int)
-    sparsity[:, :6] = 1
-    rows = np.arange(n_res)
-    for j in range(6):
-        sparsity[rows, 6 + 6 * np.repeat(views, 2) + j] = 1
-    lo = np.concatenate([lower, np.full(6 * M, -np.inf)])
-    hi = np.concatenate([upper, np.full(6 * M, np.inf)])
-    x0 = np.clip(x0, lo + 1e-9, hi - 1e-9)
-    res = least_squares(resid, x0, bounds=(lo, hi), jac_sparsity=sparsity, x_scale="jac",
-                        xtol=1e-12, ftol=1e-12, max_nfev=200)
+    intr, R, t = refine_bundle(ds_project, intr0, lower, upper, kept, board, kb.rotations_cam_from_board,
+                               kb.translations_cam)
     report(progress, "double_sphere", 2, 2, unit="step")
-    lens = _ds_lens(res.x[:6])
-    pose = res.x[6:].reshape(M, 6)
-    R = rotation_matrices(pose[:, :3])
-    t = pose[:, 3:].copy()
+    lens = _ds_lens(intr)
     errors = reprojection_errors(lens, kept, board, R, t)
     return replace(
         kb, model="double_sphere", lens=lens, rms=_rms(errors), rotations_cam_from_board=R, translations_cam=t,
@@ -440,12 +642,15 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
 def calibrate_intrinsics(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
                          *, model: str = "kannala_brandt", min_images: int = DEFAULT_MIN_IMAGES,
                          min_coverage: float = DEFAULT_MIN_COVERAGE, dropped: Sequence[DroppedImage] = (),
-                         progress: ProgressCallback | None = None) -> IntrinsicsResult:
-    """Kannala-Brandt fit, then (model="double_sphere") a Double Sphere refinement."""
+                         recover: bool = True, progress: ProgressCallback | None = None) -> IntrinsicsResult:
+    """Kannala-Brandt fit, then (model="double_sphere") a Double Sphere refinement.
+
+    This is what ``ergopose calibrate intrinsics`` runs after detecting the board.
+    """
     if model not in MODELS:
         raise InputError(f"unknown lens model {model!r}; expected one of {', '.join(MODELS)}")
     kb = calibrate_kannala_brandt(detections, board, image_size, min_images=min_images, min_coverage=min_coverage,
-                                  dropped=dropped, progress=progress)
+                                  dropped=dropped, recover=recover, progress=progress)
     if model == "kannala_brandt":
         return kb
     return fit_double_sphere(kb, board, progress=progress)

@@ -111,14 +111,34 @@ def test_ill_conditioned_view_is_dropped_and_fit_retried(jy, monkeypatch):
         return real(obj, img, *args, **kwargs)
 
     monkeypatch.setattr(cv2.fisheye, "calibrate", flaky)
-    res = intr.calibrate_intrinsics(jy.left, jy.board, jy.size)
+    res = intr.calibrate_intrinsics(jy.left, jy.board, jy.size, recover=False)
     assert calls == [34, 33]
-    assert [d.source for d in res.dropped] == ["left image_7"]
+    assert [(d.source, d.code) for d in res.dropped] == [("left image_7", "ill_conditioned")]
     assert "ill-conditioned" in res.dropped[0].reason
     assert "left image_7" not in res.used and len(res.used) == 33
     monkeypatch.setattr(cv2.fisheye, "calibrate", real)
     without = intr.calibrate_intrinsics(jy.left[:7] + jy.left[8:], jy.board, jy.size)
     np.testing.assert_allclose(res.camera_matrix, without.camera_matrix, atol=1e-9)
+
+
+def test_view_opencv_refused_is_recovered_through_our_model(jy, monkeypatch):
+    """By default a view OpenCV refused gets a pose through our full KB model and joins a joint
+    refinement: with a good view refused, the result is OpenCV's fit of all 34 views."""
+    real = cv2.fisheye.calibrate
+    calls = []
+
+    def flaky(obj, img, *args, **kwargs):
+        calls.append(len(obj))
+        if len(calls) == 1:
+            raise cv2.error("CALIB_CHECK_COND - Ill-conditioned matrix for input array 7")
+        return real(obj, img, *args, **kwargs)
+
+    monkeypatch.setattr(cv2.fisheye, "calibrate", flaky)
+    res = intr.calibrate_intrinsics(jy.left, jy.board, jy.size)
+    assert res.recovered == ("left image_7",) and res.dropped == () and len(res.used) == 34
+    np.testing.assert_allclose(res.camera_matrix, REF_K, atol=1e-4)
+    np.testing.assert_allclose(res.distortion, REF_D, atol=1e-5)
+    assert res.rms == pytest.approx(REF_RMS, abs=1e-6)
 
 
 def test_degenerate_view_is_dropped_before_opencv_sees_it(jy):
@@ -128,7 +148,8 @@ def test_degenerate_view_is_dropped_before_opencv_sees_it(jy):
     p = dets[5].pixels
     dets[5] = replace(dets[5], pixels=p[:1] + np.random.default_rng(0).normal(0, 1e-3, p.shape))
     res = intr.calibrate_intrinsics(dets, jy.board, jy.size)
-    assert [(d.source, d.reason) for d in res.dropped] == [("left image_5", "corners on top of each other")]
+    assert [(d.source, d.reason, d.code) for d in res.dropped] == [
+        ("left image_5", "corners on top of each other", "degenerate")]
     clean = intr.calibrate_intrinsics(jy.left[:5] + jy.left[6:], jy.board, jy.size)
     np.testing.assert_allclose(res.camera_matrix, clean.camera_matrix, atol=1e-9)
 
@@ -145,9 +166,11 @@ def test_unnamed_opencv_failure_finds_the_view(jy, monkeypatch):
         return real(obj, img, *args, **kwargs)
 
     monkeypatch.setattr(cv2.fisheye, "calibrate", picky)
-    res = intr.calibrate_intrinsics(jy.left, jy.board, jy.size)
-    assert [d.source for d in res.dropped] == ["left image_11"]
+    res = intr.calibrate_intrinsics(jy.left, jy.board, jy.size, recover=False)
+    assert [(d.source, d.code) for d in res.dropped] == [("left image_11", "opencv_failed")]
     assert "norm_u1" in res.dropped[0].reason
+    res = intr.calibrate_intrinsics(jy.left, jy.board, jy.size)
+    assert res.recovered == ("left image_11",) and res.dropped == ()
 
 
 def test_opencv_version_is_pinned_below_5_and_works(jy):
