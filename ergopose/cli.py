@@ -20,6 +20,7 @@ from ergopose.errors import ErgoposeError
 COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.models",
     "ergopose.commands.camera",
+    "ergopose.commands.calibrate",
 )
 
 DESCRIPTION = """\
