@@ -96,7 +96,7 @@ def _position(text: str) -> np.ndarray:
 def describe(camera: Camera) -> str:
     """One line: name, lens model, size, field of view, position, viewing direction."""
     hfov, vfov = camera.field_of_view()
-    axis = camera.axis_world
+    axis = np.round(camera.axis_world, 3) + 0.0  # no "-0.000"
     from_down = math.degrees(math.acos(max(-1.0, min(1.0, -axis[2]))))
     x, y, z = camera.position_world
     line = (f"{camera.name}: {camera.lens.kind}, {camera.width}x{camera.height} px, "

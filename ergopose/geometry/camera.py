@@ -181,8 +181,9 @@ class Camera:
 
     def field_of_view(self) -> tuple[float, float]:
         """(horizontal, vertical) field of view in radians through the principal point: the
-        angles between the outermost image pixels (or the lens's image circle, where that is
-        smaller) on each side of the lens axis, along the row and column of the principal point.
+        angles from the lens axis to the outermost image pixels (or to the lens's image circle,
+        where that comes first) on both sides, added, along the row and column of the principal
+        point.
 
         Lenses without a principal point (none yet) are sampled through the image centre.
         """
@@ -192,16 +193,23 @@ class Camera:
         v = np.linspace(-0.5, self.height - 0.5, 4001)
         row = self.theta_of_pixels(np.stack([u, np.full_like(u, cy)], axis=-1))
         col = self.theta_of_pixels(np.stack([np.full_like(v, cx), v], axis=-1))
-        return (_span(row, u < cx), _span(col, v < cy))
+        edge = self.lens.max_theta
+        return (_span(row, u < cx, edge), _span(col, v < cy, edge))
 
     def max_theta_in_image(self) -> float:
-        """The largest angle from the lens axis seen anywhere in the image (radians), from a
-        dense sample of the image (border and a 256 x 256 grid)."""
+        """The largest angle from the lens axis seen anywhere in the image (radians).
+
+        If part of the image lies outside the lens's image circle, the circle's edge is in the
+        image and the answer is the lens's ``max_theta``; otherwise the largest angle on a
+        256 x 256 grid over the image (border included).
+        """
         u = np.linspace(-0.5, self.width - 0.5, 256)
         v = np.linspace(-0.5, self.height - 0.5, 256)
         grid = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
         theta = self.theta_of_pixels(grid)
-        return float(np.nanmax(theta)) if np.isfinite(theta).any() else math.nan
+        if not np.isfinite(theta).any():
+            return math.nan
+        return float(self.lens.max_theta) if np.isnan(theta).any() else float(np.nanmax(theta))
 
     def __repr__(self) -> str:
         return (f"Camera(name={self.name!r}, lens={self.lens!r}, width={self.width}, height={self.height}, "
@@ -209,13 +217,15 @@ class Camera:
                 f"position_world={self.position_world.tolist()!r}, calibration={self.calibration!r})")
 
 
-def _span(theta: np.ndarray, left: np.ndarray) -> float:
-    """theta on a line through the axis -> the angle between its two outermost visible points."""
-    a = theta[left]
-    b = theta[~left]
-    if not (np.isfinite(a).any() and np.isfinite(b).any()):
-        return math.nan
-    return float(np.nanmax(a) + np.nanmax(b))
+def _span(theta: np.ndarray, left: np.ndarray, edge: float) -> float:
+    """theta on a line through the axis -> the angle between its two outermost visible points.
+    A side that leaves the lens's image circle (NaN) reaches the circle's edge, ``edge``."""
+    total = 0.0
+    for side in (theta[left], theta[~left]):
+        if not np.isfinite(side).any():
+            return math.nan
+        total += edge if np.isnan(side).any() else float(np.nanmax(side))
+    return total
 
 
 def _finite_array(value: Any, shape: tuple[int, ...], field: str) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -22,6 +23,8 @@ from ergopose.geometry.calibration_file import (
 )
 from ergopose.geometry.camera import CalibrationInfo, Camera, ceiling_camera, look_at_rotation
 from ergopose.geometry.lenses import DoubleSphere, Equidistant, KannalaBrandt, Rectilinear
+
+_REPO = Path(__file__).resolve().parents[2]
 
 #: The JY left calibration (../shared/data/opencv-fisheye-stereo-jy/SOURCE.md), 1280 x 800.
 JY_K = np.array([[558.478087865323, 0, 620.458515360843], [0, 560.506767351568, 381.939424848348], [0, 0, 1]])
@@ -242,3 +245,20 @@ def test_opencv_file_errors(tmp_path):
     garbage.write_text("this is: [not, { valid")
     with pytest.raises(ConfigError, match="OpenCV"):
         read_opencv_fisheye_file(garbage)
+
+
+def test_the_documented_example_loads_and_shows_as_documented(tmp_path):
+    import re
+
+    from ergopose.commands.camera import describe
+
+    doc = (_REPO / "docs" / "calibration-file.md").read_text()
+    example = re.search(r"```toml\n(.*?)```", doc, re.S).group(1)
+    path = tmp_path / "calibration.toml"
+    path.write_text(example)
+    cameras = load_calibration(path)
+    assert [c.name for c in cameras] == ["cam_1", "cam_2"]
+    for camera in cameras:
+        assert f"    {describe(camera)}\n" in doc
+    # The Rodrigues vector of the example is the matrix it describes.
+    np.testing.assert_allclose(cameras[1].rotation_world_from_cam, [[0, 1, 0], [1, 0, 0], [0, 0, -1]], atol=1e-15)

@@ -71,21 +71,23 @@ class RadialLens(BlockwiseLens):
         y = points[:, 1]
         z = points[:, 2]
         r = x * x
-        r += y * y
+        scale = y * y
+        r += scale
         np.sqrt(r, out=r)
         scale = self._rd_of_theta(np.arctan2(r, z))
+        scale /= r  # g(theta) / r; on the axis (r = 0) fixed below
         on_axis = r == 0
-        np.divide(scale, r, out=scale, where=~on_axis)
         if on_axis.any():
             # In front (z > 0): g(0) = 0, the principal point. Behind or at the origin: undefined.
-            scale[on_axis & ~(z > 0)] = np.nan
+            scale[on_axis] = np.where(z[on_axis] > 0, 0.0, np.nan)
+        scale *= self.fx
         u = out[:, 0]
         v = out[:, 1]
         np.multiply(x, scale, out=u)
-        u *= self.fx
         u += self.cx
+        if self.fy != self.fx:
+            scale *= self.fy / self.fx
         np.multiply(y, scale, out=v)
-        v *= self.fy
         v += self.cy
 
     def _unproject_block(self, pixels: np.ndarray, out: np.ndarray) -> None:
