@@ -223,8 +223,9 @@ def _gray(image: np.ndarray) -> np.ndarray:
 def detect_board(image: np.ndarray, board: Board, source: str = "") -> Detection | None:
     """Find the board's corners in one image; None when the board is not found.
 
-    Checkerboard: cv2.findChessboardCornersSB (exhaustive, accurate); if it fails,
-    cv2.findChessboardCorners + cornerSubPix. On boards whose square count makes a 180-degree
+    Checkerboard: cv2.findChessboardCorners, or if that fails cv2.findChessboardCornersSB
+    (exhaustive; slower, more tolerant of blur and strong distortion); then cornerSubPix with a
+    window scaled to the square size. On boards whose square count makes a 180-degree
     turn look different (odd number of squares in one direction and even in the other), the
     corner order is fixed so that the square diagonally outside corner 0 is black.
     ChArUco: cv2.aruco.CharucoDetector; at least 6 corners are required.
@@ -241,14 +242,18 @@ def detect_board(image: np.ndarray, board: Board, source: str = "") -> Detection
         return Detection(np.asarray(corners, np.float64).reshape(-1, 2), np.asarray(ids, int).ravel(),
                          (width, height), source)
     pattern = board.pattern_size
-    ok, corners = cv2.findChessboardCornersSB(gray, pattern, flags=cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)
+    flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
+    ok, corners = cv2.findChessboardCorners(gray, pattern, flags=flags)
     if not ok:
-        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
-        ok, corners = cv2.findChessboardCorners(gray, pattern, flags=flags)
+        ok, corners = cv2.findChessboardCornersSB(gray, pattern, flags=cv2.CALIB_CB_EXHAUSTIVE)
         if not ok:
             return None
-        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
-        corners = cv2.cornerSubPix(gray, corners, (5, 5), (-1, -1), criteria)
+    grid = corners.reshape(pattern[1], pattern[0], 2)
+    spacing = min(np.linalg.norm(np.diff(grid, axis=0), axis=-1).min(),
+                  np.linalg.norm(np.diff(grid, axis=1), axis=-1).min())
+    half = int(np.clip(0.4 * spacing, 2, 11))  # search window stays inside the neighbouring squares
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
+    corners = cv2.cornerSubPix(gray, np.ascontiguousarray(corners, np.float32), (half, half), (-1, -1), criteria)
     pixels = np.asarray(corners, np.float64).reshape(-1, 2)
     pixels = _orient_checkerboard(gray, pixels, board)
     return Detection(pixels, np.arange(board.n_corners), (width, height), source)

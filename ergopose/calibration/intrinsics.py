@@ -205,6 +205,22 @@ def degenerate_reason(detection: Detection) -> str | None:
     return None
 
 
+#: Views whose corners all lie within this share of the half image size from the centre count as
+#: central (for a 180-degree lens filling the image, about 60 degrees off-axis).
+CENTRAL_RADIUS = 0.65
+
+
+def central_views(detections: Sequence[Detection], image_size: tuple[int, int]) -> tuple[list[Detection], list[Detection]]:
+    """Split views into (central, outer) by their corner farthest from the image centre."""
+    w, h = image_size
+    centre = np.array([(w - 1) / 2.0, (h - 1) / 2.0])
+    limit = CENTRAL_RADIUS * min(w, h) / 2.0
+    central, outer = [], []
+    for d in detections:
+        (central if np.linalg.norm(d.pixels - centre, axis=-1).max() <= limit else outer).append(d)
+    return central, outer
+
+
 def _calibrate_once(kept, board, image_size, flags, criteria):
     objs, imgs = _opencv_points(kept, board)
     return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None, flags=flags,
@@ -341,9 +357,21 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
             f"poor coverage: the detected corners fill {coverage:.0%} of the image (4x4 cells), at least "
             f"{min_coverage:.0%} is needed; take more images with the board near the image edges and corners, "
             f"not only in one place")
-    rms, K, D, rv, tv, kept, ill = fisheye_calibrate(detections, board, size,
-                                                     min_images=min(min_images, MIN_OPENCV_VIEWS) if recover
-                                                     else min_images, criteria=criteria, progress=progress)
+    first_min = min(min_images, MIN_OPENCV_VIEWS) if recover else min_images
+    try:
+        rms, K, D, rv, tv, kept, ill = fisheye_calibrate(detections, board, size, min_images=first_min,
+                                                         criteria=criteria, progress=progress)
+    except InputError:
+        # OpenCV's per-view start (x / z) breaks on boards far off-axis, and with a poor start it
+        # refuses good views too. Second try: OpenCV on the central views only; the others are
+        # then taken back through the full model.
+        central, outer = central_views(detections, size)
+        if not recover or len(central) < first_min or not outer:
+            raise
+        rms, K, D, rv, tv, kept, ill = fisheye_calibrate(central, board, size, min_images=first_min,
+                                                         criteria=criteria, progress=progress)
+        ill = ill + [DroppedImage(d.source, "far off-axis: left out of OpenCV's first fit", "ill_conditioned")
+                     for d in outer]
     dropped.extend(ill)
     R = rotation_matrices(rv)
     lens = _kb_lens(K, D)
