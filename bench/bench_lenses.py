@@ -2,7 +2,8 @@
 
 The map builder unprojects a view's pixels with the pinhole and projects the rays with the
 fisheye model; the goal is the whole map under 10 ms, so each call should take a few ms.
-Points: rays up to the lens's max_theta (project) and pixels inside its image circle (unproject).
+Points: rays up to the lens's max_theta (project) and pixels over its whole image circle,
+edge included (unproject).
 """
 
 from __future__ import annotations
@@ -49,6 +50,11 @@ def main() -> None:
         phi = rng.uniform(-math.pi, math.pi, N)
         rays = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=-1)
         pixels = lens.project(rays)
+        rd_max = getattr(lens, "rd_max", math.inf)
+        if math.isfinite(rd_max):
+            # Unproject: pixels uniform over the whole image circle, its very edge included.
+            radius = rd_max * np.sqrt(rng.uniform(0.0, 1.0, N))
+            pixels = np.stack([lens.cx + lens.fx * radius * np.cos(phi), lens.cy + lens.fy * radius * np.sin(phi)], -1)
         out2 = np.empty((N, 2))
         out3 = np.empty((N, 3))
         for verb, fn in [
