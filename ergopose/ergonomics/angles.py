@@ -50,12 +50,6 @@ class AngleSettings:
     trunk_length_m: mid-hip to mid-shoulder distance with relaxed shoulders, the reference of
         shoulder elevation; None = the median over the sequence of both shoulders' heights along the
         trunk axis (assumes the shoulders are relaxed most of the time).
-    shoulder_raised_threshold: shoulder elevation above which ``*_shoulder_raised`` is 1.
-    wrist_deviated_threshold: |wrist deviation| above which ``*_wrist_deviated`` is 1.
-    midline_margin_m: the wrist is "across the midline" when it is more than this beyond the body's
-        mid-sagittal plane, on the other arm's side.
-    out_to_side_margin_m: the wrist is "out to the side" when it is more than this outside its
-        shoulder (measured along the trunk's left-right axis).
     rotation_min_elbow_flexion: upper-arm rotation is NaN when the elbow is straighter than this.
     foot_contact_height_m: a foot whose lowest point (heel or foot_index) is higher above the floor
         than this is off the floor.
@@ -75,10 +69,6 @@ class AngleSettings:
 
     head_pitch_offset: float = 0.0
     trunk_length_m: float | None = None
-    shoulder_raised_threshold: float = math.radians(10.0)
-    wrist_deviated_threshold: float = math.radians(15.0)
-    midline_margin_m: float = 0.0
-    out_to_side_margin_m: float = 0.15
     rotation_min_elbow_flexion: float = math.radians(20.0)
     foot_contact_height_m: float = 0.12
     foot_lift_height_m: float = 0.07
@@ -90,7 +80,7 @@ class AngleSettings:
     seated_min_hip_height_m: float = 0.30
 
     def __post_init__(self) -> None:
-        positive = ("shoulder_raised_threshold", "wrist_deviated_threshold", "foot_contact_height_m",
+        positive = ("foot_contact_height_m",
                     "foot_lift_height_m", "walking_window_s", "walking_min_speed_mps", "balance_max_offset_m",
                     "seated_max_thigh_incline", "seated_min_hip_height_m")
         for f in dataclasses.fields(self):
@@ -101,33 +91,38 @@ class AngleSettings:
                 raise ConfigError(f"must be a finite number, got {v!r}", field=f.name)
             if (f.name in positive or f.name == "trunk_length_m") and v <= 0:
                 raise ConfigError(f"must be positive, got {v!r}", field=f.name)
-            if f.name in ("rotation_min_elbow_flexion", "ankle_height_m", "out_to_side_margin_m") and v < 0:
+            if f.name in ("rotation_min_elbow_flexion", "ankle_height_m") and v < 0:
                 raise ConfigError(f"must not be negative, got {v!r}", field=f.name)
 
 
-#: The posture-table columns of the shared contract (docs/posture-table.md), in order.
+#: The posture-table columns of the shared contract (docs/posture-table.md) that joint_angles
+#: fills. The contract's angle-derived yes/no flags (shoulder_raised, wrist_deviated,
+#: arm_across_midline_or_out) are NOT filled here: scoring derives them from the measured columns
+#: below with its own thresholds (ScoringSettings), so each threshold lives in one place. (A flag
+#: column in the table would override those settings.)
 POSTURE_TABLE_COLUMNS: tuple[str, ...] = (
     "trunk_flexion", "trunk_side_bend", "trunk_twist",
     "neck_flexion", "neck_side_bend", "neck_twist",
     "left_upper_arm_flexion", "right_upper_arm_flexion",
     "left_upper_arm_abduction", "right_upper_arm_abduction",
-    "left_shoulder_raised", "right_shoulder_raised",
     "left_elbow_flexion", "right_elbow_flexion",
-    "left_arm_across_midline_or_out", "right_arm_across_midline_or_out",
     "left_wrist_flexion", "right_wrist_flexion",
-    "left_wrist_deviated", "right_wrist_deviated",
     "left_knee_flexion", "right_knee_flexion",
     "legs_supported", "one_leg_stance", "seated", "walking",
     "time_s",
 )
 
-#: Extra measured columns (after the contract's), from which the flags are derived.
-EXTRA_COLUMNS: tuple[str, ...] = (
+#: Measured columns the posture table accepts and scoring derives flags from.
+MEASURED_COLUMNS: tuple[str, ...] = (
     "left_shoulder_elevation", "right_shoulder_elevation",
     "left_upper_arm_elevation", "right_upper_arm_elevation",
-    "left_upper_arm_rotation", "right_upper_arm_rotation",
     "left_wrist_deviation", "right_wrist_deviation",
     "left_wrist_lateral_m", "right_wrist_lateral_m",
+)
+
+#: Further measurements, outside the posture-table contract (``to_frame(diagnostics=True)``).
+DIAGNOSTIC_COLUMNS: tuple[str, ...] = (
+    "left_upper_arm_rotation", "right_upper_arm_rotation",
     "left_hip_flexion", "right_hip_flexion",
     "left_hip_abduction", "right_hip_abduction",
     "left_foot_height_m", "right_foot_height_m",
@@ -136,12 +131,9 @@ EXTRA_COLUMNS: tuple[str, ...] = (
 )
 
 #: Columns that are 0/1 flags (NaN = unknown).
-FLAG_COLUMNS: tuple[str, ...] = (
-    "left_shoulder_raised", "right_shoulder_raised",
-    "left_arm_across_midline_or_out", "right_arm_across_midline_or_out",
-    "left_wrist_deviated", "right_wrist_deviated",
-    "legs_supported", "one_leg_stance", "seated", "walking",
-)
+FLAG_COLUMNS: tuple[str, ...] = ("legs_supported", "one_leg_stance", "seated", "walking")
+
+ALL_COLUMNS = POSTURE_TABLE_COLUMNS + MEASURED_COLUMNS + DIAGNOSTIC_COLUMNS
 
 
 @dataclass(frozen=True)
@@ -163,16 +155,10 @@ class JointAngles:
     right_upper_arm_flexion: np.ndarray
     left_upper_arm_abduction: np.ndarray
     right_upper_arm_abduction: np.ndarray
-    left_shoulder_raised: np.ndarray
-    right_shoulder_raised: np.ndarray
     left_elbow_flexion: np.ndarray
     right_elbow_flexion: np.ndarray
-    left_arm_across_midline_or_out: np.ndarray
-    right_arm_across_midline_or_out: np.ndarray
     left_wrist_flexion: np.ndarray
     right_wrist_flexion: np.ndarray
-    left_wrist_deviated: np.ndarray
-    right_wrist_deviated: np.ndarray
     left_knee_flexion: np.ndarray
     right_knee_flexion: np.ndarray
     legs_supported: np.ndarray
@@ -184,12 +170,12 @@ class JointAngles:
     right_shoulder_elevation: np.ndarray
     left_upper_arm_elevation: np.ndarray
     right_upper_arm_elevation: np.ndarray
-    left_upper_arm_rotation: np.ndarray
-    right_upper_arm_rotation: np.ndarray
     left_wrist_deviation: np.ndarray
     right_wrist_deviation: np.ndarray
     left_wrist_lateral_m: np.ndarray
     right_wrist_lateral_m: np.ndarray
+    left_upper_arm_rotation: np.ndarray
+    right_upper_arm_rotation: np.ndarray
     left_hip_flexion: np.ndarray
     right_hip_flexion: np.ndarray
     left_hip_abduction: np.ndarray
@@ -203,12 +189,16 @@ class JointAngles:
     def n_frames(self) -> int:
         return int(self.trunk_flexion.shape[0])
 
-    def to_frame(self) -> pd.DataFrame:
-        """The posture table: contract columns first, then the extra measured columns; one row per frame."""
-        return pd.DataFrame({name: getattr(self, name) for name in POSTURE_TABLE_COLUMNS + EXTRA_COLUMNS})
+    def to_frame(self, diagnostics: bool = False) -> pd.DataFrame:
+        """The posture table, one row per frame: POSTURE_TABLE_COLUMNS then MEASURED_COLUMNS (and
+        DIAGNOSTIC_COLUMNS if asked). ``time_s`` is left out when no frame times were given."""
+        names = POSTURE_TABLE_COLUMNS + MEASURED_COLUMNS + (DIAGNOSTIC_COLUMNS if diagnostics else ())
+        if self.n_frames and np.isnan(self.time_s).all():
+            names = tuple(n for n in names if n != "time_s")
+        return pd.DataFrame({name: getattr(self, name) for name in names})
 
 
-assert [f.name for f in dataclasses.fields(JointAngles)] == list(POSTURE_TABLE_COLUMNS + EXTRA_COLUMNS)
+assert [f.name for f in dataclasses.fields(JointAngles)] == list(ALL_COLUMNS)
 
 # ----------------------------------------------------------------------------------------------
 # Vector helpers on (F, 3) arrays; NaN in -> NaN out, degenerate -> NaN, no warnings.
@@ -334,7 +324,6 @@ def joint_angles(points_world: np.ndarray, time_s: np.ndarray | None = None,
         for side in SIDES:
             elevation = np.arctan2(heights[side] - reference, half_width)
             out[f"{side}_shoulder_elevation"] = elevation
-            out[f"{side}_shoulder_raised"] = _flag(elevation > s.shoulder_raised_threshold, np.isfinite(elevation))
 
     out["time_s"] = t
     out.update(_stance(pts, t, time_s is not None, out, s))
@@ -394,9 +383,9 @@ def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
 
             # Upper arm in the trunk frame.
             arm = _unit(_in_frame(trunk, elbow - shoulder))
-            flexion = _wrap_from(np.arctan2(arm[:, 0], -arm[:, 2]), -0.5 * np.pi)
+            flexion = _wrap_from(np.arctan2(arm[:, 0], -arm[:, 2]), -0.5 * np.pi)  # overhead stays flexion
             abduction = _asin(sg * arm[:, 1])
-            out[f"{side}_upper_arm_flexion"] = flexion
+            out[f"{side}_upper_arm_flexion"] = np.minimum(flexion, np.pi)  # past overhead saturates at 180 deg
             out[f"{side}_upper_arm_abduction"] = abduction
             out[f"{side}_upper_arm_elevation"] = np.arccos(np.clip(-arm[:, 2], -1.0, 1.0))
 
@@ -419,9 +408,6 @@ def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
             # Wrist lateral position in the trunk frame, + toward the arm's own side.
             lateral = sg * _dot(wrist - mid_sh, trunk_y)
             out[f"{side}_wrist_lateral_m"] = lateral
-            out[f"{side}_arm_across_midline_or_out"] = _flag(
-                (lateral < -s.midline_margin_m) | (lateral > half_width + s.out_to_side_margin_m),
-                np.isfinite(lateral) & np.isfinite(half_width))
 
             # Wrist: the forearm axis seen in the hand frame.
             index, pinky = _p(pts, f"{side}_index"), _p(pts, f"{side}_pinky")
@@ -430,10 +416,7 @@ def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
             hand_dorsal = sg * np.cross(hand_radial, hand_long)
             u = _unit(forearm_world)
             out[f"{side}_wrist_flexion"] = np.arctan2(_dot(u, hand_dorsal), _dot(u, hand_long))
-            deviation = _asin(-_dot(u, hand_radial))
-            out[f"{side}_wrist_deviation"] = deviation
-            out[f"{side}_wrist_deviated"] = _flag(np.abs(deviation) > s.wrist_deviated_threshold,
-                                                  np.isfinite(deviation))
+            out[f"{side}_wrist_deviation"] = _asin(-_dot(u, hand_radial))
 
             # Hip (thigh in the pelvis frame) and knee.
             hip, knee, ankle = (_p(pts, f"{side}_{j}") for j in ("hip", "knee", "ankle"))

@@ -17,12 +17,14 @@ import pytest
 from ergopose.errors import ConfigError, InputError
 from ergopose.ergonomics import angles as angles_mod
 from ergopose.ergonomics.angles import (
-    EXTRA_COLUMNS,
+    DIAGNOSTIC_COLUMNS,
     FLAG_COLUMNS,
+    MEASURED_COLUMNS,
     POSTURE_TABLE_COLUMNS,
     AngleSettings,
     joint_angles,
 )
+from ergopose.ergonomics.posture import check_columns, validate_values
 from ergopose.ergonomics.body import BodyMeasurements, Posture, flat_foot_ankle, place_on_floor, pose_skeleton
 from ergopose.keypoints import JOINT_INDEX
 
@@ -90,7 +92,7 @@ def test_recovers_every_posed_angle(rng, stature):
             assert err.max() < 0.5, f"{full}: max error {err.max():.3g} deg"
             checked += 1
     assert checked == 3 + 3 + 2 * 10
-    # The reported upper-arm flexion range is [-90, 270): overhead stays flexion, never "-170".
+    # Upper-arm flexion is reported in [-90, 180] deg: overhead stays flexion, never "-179".
     for s in SIDES:
         np.testing.assert_allclose(getattr(result, f"{s}_upper_arm_flexion"), getattr(posture, f"{s}_upper_arm_flexion"),
                                    atol=D(0.5))
@@ -106,8 +108,6 @@ def test_shoulder_reference_defaults_to_the_sequence_median(rng):
     result = joint_angles(pose_skeleton(m, place_on_floor(m, posture)))
     assert angle_error_deg(result.left_shoulder_elevation, elev).max() < 0.5
     assert angle_error_deg(result.right_shoulder_elevation, elev_r).max() < 0.5
-    np.testing.assert_array_equal(result.left_shoulder_raised, (elev > D(10)).astype(float))
-    np.testing.assert_array_equal(result.right_shoulder_raised, np.zeros(n))
 
 
 def test_head_pitch_offset_shifts_neck_flexion():
@@ -150,7 +150,7 @@ def stick_figure() -> np.ndarray:
 def measure(pts: np.ndarray, **settings) -> dict[str, float]:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        frame = joint_angles(pts[None], settings=AngleSettings(**settings)).to_frame()
+        frame = joint_angles(pts[None], settings=AngleSettings(**settings)).to_frame(diagnostics=True)
     return frame.iloc[0].to_dict()
 
 
@@ -173,8 +173,7 @@ def test_upright_stick_figure_reads_neutral():
                  "left_wrist_deviation", "left_knee_flexion", "right_hip_flexion"):
         assert deg(row, name) == pytest.approx(0.0, abs=1e-9), name
     assert row["legs_supported"] == 1.0 and row["one_leg_stance"] == 0.0 and row["seated"] == 0.0
-    assert row["left_arm_across_midline_or_out"] == 0.0 and row["right_wrist_deviated"] == 0.0
-    assert np.isnan(row["walking"]) and np.isnan(row["time_s"])
+    assert np.isnan(row["walking"]) and "time_s" not in row
 
 
 def _move_upper_body(pts, mid_shoulder, lateral):
@@ -290,9 +289,11 @@ def test_upper_arm_signs():
     set_point(pts, "left_elbow", ls + 0.3 * np.array([0, -math.sin(c), -math.cos(c)]))  # across the body
     assert deg(measure(pts), "left_upper_arm_abduction") == pytest.approx(-20.0, abs=1e-9)
 
-    pts = stick_figure()  # overhead and a little behind the head: flexion 190, not -170
+    pts = stick_figure()  # overhead and a little behind the head: saturates at 180, never "-170"
     set_point(pts, "right_elbow", rs + 0.3 * np.array([-math.sin(D(10)), 0, math.cos(D(10))]))
-    assert deg(measure(pts), "right_upper_arm_flexion") == pytest.approx(190.0, abs=1e-9)
+    assert deg(measure(pts), "right_upper_arm_flexion") == pytest.approx(180.0, abs=1e-9)
+    set_point(pts, "right_elbow", rs + 0.3 * np.array([math.sin(D(10)), 0, math.cos(D(10))]))
+    assert deg(measure(pts), "right_upper_arm_flexion") == pytest.approx(170.0, abs=1e-9)
 
 
 def test_elbow_knee_and_hip_signs():
@@ -332,7 +333,6 @@ def test_wrist_signs(side, y):
     row = measure(pts)
     assert deg(row, f"{side}_wrist_deviation") == pytest.approx(20.0, abs=1e-9)
     assert deg(row, f"{side}_wrist_flexion") == pytest.approx(0.0, abs=1e-9)
-    assert row[f"{side}_wrist_deviated"] == 1.0
 
     pts = stick_figure()  # extension: fingers toward the back of the hand
     long_axis = np.array([0, y * math.sin(a), -math.cos(a)])
@@ -341,29 +341,30 @@ def test_wrist_signs(side, y):
     assert deg(measure(pts), f"{side}_wrist_flexion") == pytest.approx(-30.0, abs=1e-9)
 
 
-def test_shoulder_elevation_and_raised_flag():
+def test_shoulder_elevation():
     pts = stick_figure()
     set_point(pts, "left_shoulder", get_point(pts, "left_shoulder") + (0, 0, 0.04))
-    set_point(pts, "right_shoulder", get_point(pts, "right_shoulder") - (0, 0, 0.0))
     row = measure(pts, trunk_length_m=0.50)
-    # mid-shoulder stays on the vertical through the mid-hip; left 0.04 m above the 0.50 m reference
-    assert deg(row, "left_shoulder_elevation") == pytest.approx(math.degrees(math.atan2(0.04 - 0.02 + 0.02, 0.2)),
-                                                                abs=1e-9)
+    # The mid-shoulder point stays on the vertical through the mid-hip; the left shoulder is 0.04 m
+    # above the 0.50 m reference, 0.2 m from the trunk axis.
+    assert deg(row, "left_shoulder_elevation") == pytest.approx(math.degrees(math.atan2(0.04, 0.2)), abs=1e-9)
     assert deg(row, "right_shoulder_elevation") == pytest.approx(0.0, abs=1e-9)
-    assert row["left_shoulder_raised"] == 1.0 and row["right_shoulder_raised"] == 0.0
+    assert deg(row, "trunk_side_bend") == pytest.approx(0.0, abs=1e-9)
 
 
-def test_arm_across_midline_or_out():
+def test_wrist_lateral_position():
     pts = stick_figure()
-    set_point(pts, "left_wrist", (0.3, -0.05, 1.1))  # left hand past the midline
-    set_point(pts, "right_wrist", (0.1, -0.40, 1.0))  # right hand 0.2 m outside its shoulder
+    set_point(pts, "left_wrist", (0.3, -0.05, 1.1))  # left hand 5 cm past the midline
+    set_point(pts, "right_wrist", (0.1, -0.40, 1.0))  # right hand 0.4 m out on its own side
     row = measure(pts)
     assert row["left_wrist_lateral_m"] == pytest.approx(-0.05)
     assert row["right_wrist_lateral_m"] == pytest.approx(0.40)
-    assert row["left_arm_across_midline_or_out"] == 1.0 and row["right_arm_across_midline_or_out"] == 1.0
+    # Measured in the trunk frame: a twisted trunk carries the midline with it.
+    t = D(30)
     pts = stick_figure()
-    set_point(pts, "left_wrist", (0.3, 0.05, 1.1))  # in front of the belly, own side: neither
-    assert measure(pts)["left_arm_across_midline_or_out"] == 0.0
+    _move_upper_body(pts, (0, 0, 1.40), (-math.sin(t), math.cos(t), 0))
+    set_point(pts, "left_wrist", (0.3 * math.cos(t), 0.3 * math.sin(t), 1.1))  # straight ahead of the chest
+    assert measure(pts)["left_wrist_lateral_m"] == pytest.approx(0.0, abs=1e-12)
 
 
 # ---------------------------------------------------------------- ambiguities (documented)
@@ -406,23 +407,21 @@ def test_upper_arm_rotation_needs_a_bent_elbow():
 # ---------------------------------------------------------------- missing joints, degenerate geometry
 
 ARM_TRUNK_FRAME = ["upper_arm_flexion", "upper_arm_abduction", "upper_arm_elevation", "upper_arm_rotation",
-                   "wrist_lateral_m", "arm_across_midline_or_out"]
+                   "wrist_lateral_m"]
 STANCE = ["legs_supported", "one_leg_stance", "seated"]
 TRUNK_NECK = ["trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "neck_side_bend", "neck_twist"]
 BOTH = lambda names: [f"{s}_{n}" for s in SIDES for n in names]  # noqa: E731
 
 NAN_CASES = {
     "left_elbow": ["left_upper_arm_flexion", "left_upper_arm_abduction", "left_upper_arm_elevation",
-                   "left_upper_arm_rotation", "left_elbow_flexion", "left_wrist_flexion", "left_wrist_deviation",
-                   "left_wrist_deviated"],
+                   "left_upper_arm_rotation", "left_elbow_flexion", "left_wrist_flexion", "left_wrist_deviation"],
     "right_wrist": ["right_elbow_flexion", "right_upper_arm_rotation", "right_wrist_flexion", "right_wrist_deviation",
-                    "right_wrist_deviated", "right_wrist_lateral_m", "right_arm_across_midline_or_out"],
-    "left_index": ["left_wrist_flexion", "left_wrist_deviation", "left_wrist_deviated"],
+                    "right_wrist_lateral_m"],
+    "left_index": ["left_wrist_flexion", "left_wrist_deviation"],
     "nose": ["neck_flexion", "neck_side_bend", "neck_twist"],
     "right_ear": ["neck_flexion", "neck_side_bend", "neck_twist"],
-    "left_shoulder": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation", "shoulder_raised"])
-    + ["left_elbow_flexion"],
-    "right_hip": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation", "shoulder_raised"])
+    "left_shoulder": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation"]) + ["left_elbow_flexion"],
+    "right_hip": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation"])
     + BOTH(["hip_flexion", "hip_abduction"]) + ["right_knee_flexion"] + STANCE,
     "left_knee": ["left_hip_flexion", "left_hip_abduction", "left_knee_flexion"],
 }
@@ -434,11 +433,11 @@ def test_a_missing_joint_makes_exactly_its_dependants_nan(rng, joint):
     m = BodyMeasurements.from_stature(1.75)
     pts = pose_skeleton(m, place_on_floor(m, random_postures(rng, n)))
     settings = AngleSettings(trunk_length_m=m.trunk_length)
-    full = joint_angles(pts, settings=settings).to_frame()
+    full = joint_angles(pts, settings=settings).to_frame(diagnostics=True)
     pts[10, JOINT_INDEX[joint]] = np.nan
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        holed = joint_angles(pts, settings=settings).to_frame()
+        holed = joint_angles(pts, settings=settings).to_frame(diagnostics=True)
     became_nan = {c for c in holed.columns if np.isnan(holed[c][10]) and not np.isnan(full[c][10])}
     assert became_nan == set(NAN_CASES[joint])
     others = holed.drop(index=10)
@@ -472,7 +471,7 @@ def test_degenerate_geometry_gives_nan_without_warnings():
     assert np.isfinite(r.trunk_flexion[0]) and np.isfinite(r.trunk_side_bend[0]) and np.isnan(r.trunk_twist[0])
     assert np.isnan(r.left_upper_arm_flexion[0])
     assert np.isnan(r.trunk_flexion[1]) and np.isnan(r.left_hip_flexion[1]) and np.isfinite(r.left_knee_flexion[1])
-    frame = r.to_frame()
+    frame = r.to_frame(diagnostics=True)
     # Feet 1 m above the floor are still feet off the floor: no foot down, so no one-leg stance.
     feet = ["left_foot_height_m", "right_foot_height_m", "feet_on_floor", "one_leg_stance"]
     assert frame.drop(columns=["time_s"] + feet).iloc[2].isna().all()
@@ -658,25 +657,37 @@ def test_real_recording_feet_and_leg_swing(shared_data):
 # ---------------------------------------------------------------- table, inputs, settings
 
 
-def test_posture_table_columns():
+def test_posture_table_columns_pass_the_scoring_contract(rng):
+    n = 200
     m = BodyMeasurements.from_stature(1.75)
-    pts = pose_skeleton(m, place_on_floor(m, Posture(root_position=np.zeros((5, 3)))))
-    t = np.arange(5) / FPS
-    frame = joint_angles(pts, t).to_frame()
-    assert list(frame.columns) == list(POSTURE_TABLE_COLUMNS + EXTRA_COLUMNS)
-    assert len(frame) == 5 and all(frame.dtypes == np.float64)
+    posture = random_postures(rng, n).replace(left_upper_arm_flexion=np.radians(rng.uniform(-80, 200, n)))
+    pts = pose_skeleton(m, place_on_floor(m, posture))
+    pts[5, JOINT_INDEX["nose"]] = np.nan
+    t = np.arange(n) / FPS
+    result = joint_angles(pts, t)
+    frame = result.to_frame()
+    assert list(frame.columns) == list(POSTURE_TABLE_COLUMNS + MEASURED_COLUMNS)
+    assert len(frame) == n and all(frame.dtypes == np.float64)
     np.testing.assert_array_equal(frame["time_s"], t)
     for c in FLAG_COLUMNS:
         assert set(np.unique(frame[c].dropna())) <= {0.0, 1.0}, c
+    # docs/posture-table.md (ergopose.ergonomics.posture): every column known, every value valid.
+    check_columns(frame.columns, ["rula", "reba"])
+    validate_values(frame)
+    assert np.nanmax(np.abs(frame.drop(columns="time_s").to_numpy())) <= np.pi
+    with_diagnostics = result.to_frame(diagnostics=True)
+    assert list(with_diagnostics.columns) == list(POSTURE_TABLE_COLUMNS + MEASURED_COLUMNS + DIAGNOSTIC_COLUMNS)
+    # Without frame times there is no time_s column (scoring then asks for one or for activity flags).
+    assert "time_s" not in joint_angles(pts).to_frame().columns
 
 
 def test_blocks_give_the_same_result_as_one_pass(rng, monkeypatch):
     m = BodyMeasurements.from_stature(1.75)
     n = 100
     pts = pose_skeleton(m, place_on_floor(m, random_postures(rng, n)))
-    one = joint_angles(pts, np.arange(n) / FPS).to_frame()
+    one = joint_angles(pts, np.arange(n) / FPS).to_frame(diagnostics=True)
     monkeypatch.setattr(angles_mod, "CHUNK_FRAMES", 7)
-    blocks = joint_angles(pts, np.arange(n) / FPS).to_frame()
+    blocks = joint_angles(pts, np.arange(n) / FPS).to_frame(diagnostics=True)
     np.testing.assert_array_equal(one.to_numpy(), blocks.to_numpy())
     assert joint_angles(np.zeros((0, 33, 3))).n_frames == 0
 
