@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.models",
     "ergopose.commands.camera",
     "ergopose.commands.calibrate",
+    "ergopose.commands.score",
 )
 
 DESCRIPTION = """\
