@@ -134,6 +134,16 @@ def _first_bad(mask: np.ndarray) -> int:
     return int(np.flatnonzero(mask)[0])
 
 
+def _show(value: object) -> str:
+    """A cell value as a user typed it: text in quotes, numbers plain."""
+    if isinstance(value, str):
+        return repr(value)
+    try:
+        return f"{float(value):g}"
+    except (TypeError, ValueError):
+        return repr(str(value))
+
+
 def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: bool = False) -> None:
     """One InputError naming each column with an invalid value and its first bad row (1-based)."""
     problems: list[str] = []
@@ -148,7 +158,7 @@ def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: 
         bad = conv.isna().to_numpy() & s.notna().to_numpy() & (s.astype(str).str.strip() != "").to_numpy()
         if bad.any():
             i = _first_bad(bad)
-            problems.append(f"{col}: row {i + 1}: {s.iloc[i]!r} is not a number")
+            problems.append(f"{col}: row {i + 1}: {_show(s.iloc[i])} is not a number")
             return None
         return conv.to_numpy(dtype=np.float64, na_value=np.nan)
 
@@ -171,7 +181,7 @@ def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: 
                 bad = ~np.isnan(x) & (x != 0) & (x != 1)
                 if bad.any():
                     i = _first_bad(bad)
-                    problems.append(f"{col}: row {i + 1}: {frame[col].iloc[i]!r} is not 0, 1 or empty")
+                    problems.append(f"{col}: row {i + 1}: {_show(frame[col].iloc[i])} is not 0, 1 or empty")
         elif col == "load_kg":
             x = number(col)
             if x is not None and (bad := np.isinf(x) | (np.nan_to_num(x) < 0)).any():
@@ -189,7 +199,7 @@ def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: 
             bad = ~ok.to_numpy(dtype=bool, na_value=True)
             if bad.any():
                 i = _first_bad(bad)
-                problems.append(f"{col}: row {i + 1}: {s.iloc[i]!r} is not one of {', '.join(CATEGORIES[col])}")
+                problems.append(f"{col}: row {i + 1}: {_show(s.iloc[i])} is not one of {', '.join(CATEGORIES[col])}")
     if problems:
         raise InputError("invalid value(s): " + "; ".join(problems), path=source)
 

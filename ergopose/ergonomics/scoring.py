@@ -345,17 +345,28 @@ class _Shared:
         self.groups()
         return self._timelines
 
-    def rate(self, angle_col: str) -> np.ndarray:
-        """Actions per repetition window around each frame, for one angle column."""
-        if angle_col not in self._rates:
-            n = len(self.table)
-            out = np.zeros(n, dtype=np.int64)
+    def events(self, angle_col: str) -> np.ndarray:
+        """True at each action (repetition) of one angle column."""
+        key = "events:" + angle_col
+        if key not in self._rates:
+            out = np.zeros(len(self.table), dtype=bool)
             x = self.col(angle_col)
             if x is not None:
                 amp = np.deg2rad(self.s.repetition_amplitude_deg)
                 for g, tl in zip(self.groups(), self.timelines()):
-                    ev = act.repetition_events(tl.time_s, x[g], amp, self.s.repetition_window_s, period_s=tl.period_s)
-                    out[g] = tl.count_centred(ev, self.s.repetition_window_s)
+                    out[g] = act.repetition_events(tl.time_s, x[g], amp, self.s.repetition_window_s,
+                                                   period_s=tl.period_s)
+            self._rates[key] = out
+        return self._rates[key]
+
+    def rate(self, angle_col: str) -> np.ndarray:
+        """Actions in the repetition window around each frame, for one angle column."""
+        if angle_col not in self._rates:
+            out = np.zeros(len(self.table), dtype=np.int64)
+            if self.col(angle_col) is not None:
+                ev = self.events(angle_col)
+                for g, tl in zip(self.groups(), self.timelines()):
+                    out[g] = tl.count_centred(ev[g], self.s.repetition_window_s)
             self._rates[angle_col] = out
         return self._rates[angle_col]
 
@@ -649,8 +660,12 @@ _SCORERS = {"rula": score_rula, "reba": score_reba}
 
 def score_posture(posture: pd.DataFrame, methods: Sequence[str] = ("rula", "reba"),
                   settings: ScoringSettings | None = None, *, progress: ProgressCallback | None = None,
-                  method_data: Mapping[str, Method] | None = None) -> pd.DataFrame:
-    """Score a posture table with several methods (time-series work shared); columns concatenated."""
+                  method_data: Mapping[str, Method] | None = None, with_events: bool = False) -> pd.DataFrame:
+    """Score a posture table with several methods (time-series work shared); columns concatenated.
+
+    with_events: also return ``rep_<angle>`` columns (Int16 0/1: an action of that angle ends its
+    rise at this frame; see ergopose.ergonomics.activity) for the shift aggregation.
+    """
     s = settings or ScoringSettings()
     unknown = [m for m in methods if m not in _SCORERS]
     if unknown:
@@ -663,6 +678,13 @@ def score_posture(posture: pd.DataFrame, methods: Sequence[str] = ("rula", "reba
     for name in methods:
         m = (method_data or {}).get(name) or load_method(name)
         parts.append(_SCORERS[name](table, s, method=m, progress=progress, _shared=shared))
+    if with_events:
+        events = {}
+        if shared.has_time:
+            for a in REPETITION_ANGLES:
+                if shared.col(a) is not None:
+                    events[f"rep_{a}"] = _int_array(shared.events(a).astype(np.float64))
+        parts.append(pd.DataFrame(events, index=table.index, copy=False))
     return pd.concat(parts, axis=1)
 
 
