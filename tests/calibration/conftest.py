@@ -108,6 +108,9 @@ class SimRoom:
     intrinsic_dirs: dict
     floor_images: dict
     root: object
+    intrinsic_board: str = INTRINSIC_BOARD
+    floor_board: str = FLOOR_BOARD
+    floor_origin: tuple = FLOOR_ORIGIN
 
 
 @pytest.fixture(scope="session")
