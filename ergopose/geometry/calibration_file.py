@@ -44,7 +44,7 @@ import tomli_w
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, ErgoposeError
 from ergopose.geometry.camera import CalibrationInfo, Camera, check_rotation
-from ergopose.geometry.lenses import LENS_KINDS, lens_from_dict
+from ergopose.geometry.lenses import lens_from_dict
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 
 #: The version this code writes; it reads exactly the versions in SUPPORTED_VERSIONS.
@@ -413,7 +413,6 @@ def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.nd
 __all__ = [
     "FORMAT_VERSION",
     "SUPPORTED_VERSIONS",
-    "LENS_KINDS",
     "load_calibration",
     "save_calibration",
     "cameras_from_dict",

@@ -117,6 +117,11 @@ class Camera:
         return hash((self.name, self.lens, self.width, self.height,
                      self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration))
 
+    def __reduce__(self):
+        # Rebuild through __init__ (checks, read-only arrays) when unpickled in a worker process.
+        return (Camera, (self.name, self.lens, self.width, self.height,
+                         self.rotation_world_from_cam, self.position_world, self.calibration))
+
     # --- pose ----------------------------------------------------------------------------------
 
     @property

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import pickle
 
 import cv2
 import numpy as np
@@ -150,3 +151,6 @@ def test_frozen_equal_and_read_only():
         camera.width = 3
     with pytest.raises(ValueError):
         camera.position_world[0] = 5.0
+    # Worker processes get an equal, still read-only copy.
+    copy = pickle.loads(pickle.dumps(camera))
+    assert copy == camera and not copy.rotation_world_from_cam.flags.writeable

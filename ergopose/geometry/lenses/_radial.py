@@ -17,7 +17,6 @@ every pixel inside the image of max_theta has exactly one ray.
 
 from __future__ import annotations
 
-import math
 from abc import abstractmethod
 
 import numpy as np
@@ -114,9 +113,3 @@ class RadialLens(BlockwiseLens):
         np.multiply(mx, t, out=out[:, 0])
         np.multiply(my, t, out=out[:, 1])
 
-
-def nan_beyond(values: np.ndarray, theta: np.ndarray, max_theta: float) -> np.ndarray:
-    """Set ``values`` to NaN where ``theta > max_theta`` (in place) and return it."""
-    if max_theta < math.pi:
-        values[theta > max_theta] = np.nan
-    return values
