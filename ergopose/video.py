@@ -1,0 +1,98 @@
+"""Reading the cameras' videos: what a file holds, and frames by index.
+
+A video is read in chunks of frames (``read_frames(path, start, stop)``), each chunk opening
+its own reader and seeking to its first frame, so chunks can be processed in any order, in
+any process, and give the same frames as one pass from the start (tests check it). A file
+that ends early or cannot be decoded gives one InputError naming the file and the frame.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import cv2
+import numpy as np
+
+from ergopose.errors import InputError
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What a video file holds: frames (count), fps (frames per second), width and height (pixels)."""
+
+    path: str
+    frames: int
+    fps: float
+    width: int
+    height: int
+
+    @property
+    def duration_s(self) -> float:
+        return self.frames / self.fps if self.fps > 0 else float("nan")
+
+
+def _open(path: Path) -> cv2.VideoCapture:
+    if not path.exists():
+        raise InputError("video file not found", path=path)
+    if not path.is_file():
+        raise InputError("expected a video file, found a folder", path=path)
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        cap.release()
+        raise InputError("cannot open the video (not a video file, or an unsupported codec)", path=path)
+    return cap
+
+
+def probe_video(path: str | os.PathLike) -> VideoInfo:
+    """Frame count, frame rate and size of a video; InputError if it cannot be read.
+
+    The frame count in a container's header can be wrong for a truncated file, so the last frame
+    is decoded to prove the count: a file whose last frames are missing or corrupt is refused.
+    """
+    path = Path(path)
+    cap = _open(path)
+    try:
+        frames = int(round(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        fps = float(cap.get(cv2.CAP_PROP_FPS))
+        width = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
+        height = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        ok, first = cap.read()
+        if not ok or first is None:
+            raise InputError("the video holds no readable frame (corrupt or empty file)", path=path)
+        if frames <= 0:
+            raise InputError("the video does not state its number of frames", path=path)
+        if frames > 1:
+            cap.set(cv2.CAP_PROP_POS_FRAMES, frames - 1)
+            ok, last = cap.read()
+            if not ok or last is None:
+                raise InputError(f"the video says it has {frames} frames but frame {frames - 1} cannot be "
+                                 "read (truncated or corrupt file)", path=path)
+        if not (np.isfinite(fps) and fps > 0):
+            raise InputError(f"the video states no valid frame rate ({fps!r})", path=path)
+        return VideoInfo(str(path), frames, fps, width, height)
+    finally:
+        cap.release()
+
+
+def read_frames(path: str | os.PathLike, start: int, stop: int) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield (frame index, BGR frame) for frames start .. stop-1 of a video.
+
+    InputError names the file and the first frame that could not be decoded.
+    """
+    path = Path(path)
+    if start < 0 or stop < start:
+        raise ValueError(f"invalid frame range {start}..{stop}")
+    cap = _open(path)
+    try:
+        if start > 0:
+            cap.set(cv2.CAP_PROP_POS_FRAMES, start)
+        for index in range(start, stop):
+            ok, frame = cap.read()
+            if not ok or frame is None:
+                raise InputError(f"frame {index} cannot be read (truncated or corrupt file)", path=path)
+            yield index, frame
+    finally:
+        cap.release()
