@@ -18,6 +18,10 @@ Every definition (which joints, which plane, which sign) is in docs/joint-angles
   because the forearm's roll is not observable.
 - Angles are radians; degrees only at the CSV/report edges. NaN wherever a needed joint is NaN or
   the geometry is degenerate (coincident points); no warnings.
+- Yes/no flags that are thresholds on a measured angle or distance (shoulder raised, wrist
+  deviated, arm across the midline or out to the side, trunk/neck twisted or side-bent) are left to
+  scoring, which derives them from the measured columns with its own settings; the stance flags
+  (legs supported, one-leg stance, seated, walking) are decided here.
 
 The body model in :mod:`ergopose.ergonomics.body` is posed with these same definitions, which is how
 the tests check that every angle is recovered.
