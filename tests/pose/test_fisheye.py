@@ -14,6 +14,7 @@ import pytest
 from ergopose.geometry.camera import ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.geometry.views import VirtualView, build_map
+from ergopose.recon.records import Detections2D
 from ergopose.pose.fisheye import SOURCE_REFOCUS, SOURCE_SEARCH, FisheyePoseEstimator, ViewCache
 
 from mannequin import MANNEQUIN_JOINTS, draw_mannequin
@@ -57,6 +58,13 @@ def test_stage_finds_and_refocuses_on_a_person(camera, landmarker, detector, tar
         # Rays, fisheye pixels and view pixels describe the same points.
         assert np.allclose(camera.lens.project(found.rays_cam[0]), found.pixels_fisheye[0], atol=1e-6, equal_nan=True)
         assert found.projection.shape == (1, 3, 4)
+        # The record handed to reconstruction: its rays follow from the view's projection matrix.
+        det = found.to_recon(camera, time_s=frame_index / 12.0)
+        assert det.count == 1 and det.camera == "cam_1"
+        ok = np.isfinite(det.rays_world).all(axis=-1)
+        from_p = Detections2D(det.camera, det.frame, det.time_s, det.pixels_view, det.confidence,
+                              det.projection).world_rays()
+        assert np.allclose(det.rays_world[ok], from_p[ok], atol=1e-9)
 
 
 def stage_index(name):
