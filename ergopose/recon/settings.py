@@ -1,0 +1,235 @@
+"""Reconstruction settings: every threshold of association, triangulation, tracking, smoothing
+and the diagnostics, with documented defaults (docs/reconstruction.md explains each one).
+
+Values a user types are in metres, seconds, pixels and degrees (the names say which); the code
+converts degrees to radians where it compares them with measured angles. A settings file is
+TOML: top-level keys, or a ``[reconstruction]`` table inside a larger session settings file.
+Unknown names are an error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+from ergopose.errors import ConfigError
+
+MOTION_MODELS = ("constant_velocity", "constant_acceleration")
+
+
+@dataclass(frozen=True)
+class ReconSettings:
+    """Settings of the 3D reconstruction over a shift.
+
+    2D input and triangulation
+        min_confidence: 0.3 -- 2D keypoints with a lower confidence are not used at all.
+        reprojection_threshold_px: 15 -- a joint whose RMS reprojection error (view pixels)
+            exceeds this loses its worst view (3+ cameras) or, with two cameras, is rejected:
+            its point becomes NaN and both observations are marked rejected.
+    Association of the people seen by the two cameras (per frame)
+        association_max_distance_m: 0.25 -- largest mean ray-to-ray distance (torso joints) of
+            a pair of detections that may be the same person.
+        association_min_joints: 2 -- torso joints (shoulders, hips) both cameras must see with
+            min_confidence; with fewer, all joints seen by both count (at least 3).
+        torso_min_z_m, torso_max_z_m: -0.2, 2.3 -- the torso joints of a pair, triangulated
+            from the two rays, must lie between these heights (a ghost pair made of two
+            different people usually does not).
+        trunk_min_length_m, trunk_max_length_m: 0.25, 0.8 -- mid-hip to mid-shoulder distance
+            of a pair must lie within these bounds (where both are seen).
+    Tracking of identities
+        track_gate_m: 0.5 -- largest distance between a track's predicted body centre and a
+            person's triangulated centre for a match, at one frame of coasting.
+        track_gate_growth_m_per_s: 1.5 -- the gate grows by this much per second without a
+            match (the person may have changed pace while unseen).
+        single_view_gate_m: 0.35 -- largest distance of a track's predicted centre from the
+            torso ray of a person seen by one camera only, for that person to keep the track.
+        max_coast_s: 2.0 -- a track without any observation for longer than this ends; its
+            identity waits in the pool of lost identities for re-linking.
+        min_track_s: 1.0 -- a new track that ends before it has this many seconds of 3D
+            observations is dropped as noise (its frames do not enter the tracks table).
+        relink_window_s: 3.0 -- a new track is compared with the lost identities once it has
+            this much 3D data (or when it ends, if earlier); the decision is then final.
+        relink_max_speed_m_s: 2.5 -- a lost identity can only be re-linked to a new track whose
+            first position it could have reached at this speed (plus track_gate_m).
+        relink_max_signature_m: 0.03 -- largest RMS difference of the limb-length medians
+            (body-measurement signature) for a re-link.
+        relink_margin_m: 0.005 -- the best candidate must beat the second best by this much;
+            otherwise the new track gets a new identity (no guess).
+    Smoothing (Kalman filter + Rauch-Tung-Striebel smoother per joint and coordinate)
+        smoothing: true -- false writes the raw triangulations.
+        motion_model: "constant_velocity" or "constant_acceleration".
+        process_noise_m_s2: 6.0 -- standard deviation of the white-noise acceleration
+            (constant velocity) in m/s^2; for constant_acceleration the jerk in m/s^3 is this
+            times process_noise_jerk_factor.
+        process_noise_jerk_factor: 10.0 -- see above (1/s).
+        measurement_sigma_m: 0.03 -- standard deviation of a triangulated joint with 2D
+            confidence 1 and no reprojection error.
+        reprojection_scale_px: 5.0 -- the standard deviation grows as
+            sqrt(1 + (reprojection_error / reprojection_scale_px)^2) and as 1 / confidence.
+        outlier_gate_chi2: 16.27 -- a joint's measurement whose Mahalanobis distance squared
+            (3 coordinates) from the prediction exceeds this is ignored (chi-square, 3 degrees
+            of freedom, p = 0.999); 0 disables the gate.
+        max_gated_run: 3 -- after this many ignored measurements in a row the filter restarts
+            from the next measurement (the motion was real, not an outlier).
+        max_fill_gap_s: 0.5 -- gaps of a joint up to this long are filled by the smoother
+            (flagged gap_filled); longer gaps stay NaN and split the joint's track.
+        bone_length_constraint: false -- after smoothing, move the joints so that each limb
+            of keypoints.LIMBS has the worker's median length (weighted by the joints' variance).
+        smoother_lag_s: 8.0 -- the backward pass of the smoother for a block of frames starts
+            this far after the block's end (or at the end of the joint's track): a fixed-lag
+            RTS smoother, so that a shift processed in chunks gives exactly the same result.
+    Diagnostics
+        lens_region_limits_deg: (30, 55) -- a point is "central" below the first angle from a
+            camera's axis, "outer" up to the second, "edge" beyond; the larger angle of the
+            two cameras counts.
+    """
+
+    min_confidence: float = 0.3
+    reprojection_threshold_px: float = 15.0
+
+    association_max_distance_m: float = 0.25
+    association_min_joints: int = 2
+    torso_min_z_m: float = -0.2
+    torso_max_z_m: float = 2.3
+    trunk_min_length_m: float = 0.25
+    trunk_max_length_m: float = 0.8
+
+    track_gate_m: float = 0.5
+    track_gate_growth_m_per_s: float = 1.5
+    single_view_gate_m: float = 0.35
+    max_coast_s: float = 2.0
+    min_track_s: float = 1.0
+    relink_window_s: float = 3.0
+    relink_max_speed_m_s: float = 2.5
+    relink_max_signature_m: float = 0.03
+    relink_margin_m: float = 0.005
+
+    smoothing: bool = True
+    motion_model: str = "constant_velocity"
+    process_noise_m_s2: float = 6.0
+    process_noise_jerk_factor: float = 10.0
+    measurement_sigma_m: float = 0.03
+    reprojection_scale_px: float = 5.0
+    outlier_gate_chi2: float = 16.27
+    max_gated_run: int = 3
+    max_fill_gap_s: float = 0.5
+    bone_length_constraint: bool = False
+    smoother_lag_s: float = 8.0
+
+    lens_region_limits_deg: tuple[float, float] = (30.0, 55.0)
+
+    def __post_init__(self) -> None:
+        _validate(self, None)
+
+    def replace(self, **changes: Any) -> "ReconSettings":
+        """A copy with some settings changed (unknown names raise ConfigError)."""
+        return from_mapping({**self.as_dict(), **changes})
+
+    def as_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["lens_region_limits_deg"] = list(self.lens_region_limits_deg)
+        return d
+
+
+_BOOLS = {"smoothing", "bone_length_constraint"}
+_INTS = {"association_min_joints", "max_gated_run"}
+#: Numbers that may be zero or negative (everything else must be > 0).
+_ANY_SIGN = {"torso_min_z_m", "torso_max_z_m"}
+_MAY_BE_ZERO = {"outlier_gate_chi2", "relink_margin_m", "min_confidence", "min_track_s"}
+
+
+def _validate(s: ReconSettings, source: str | None) -> None:
+    for f in fields(ReconSettings):
+        name = f.name
+        value = getattr(s, name)
+        if name in _BOOLS:
+            if not isinstance(value, bool):
+                raise ConfigError(f"expected true or false, got {value!r}", path=source, field=name)
+            continue
+        if name == "motion_model":
+            if value not in MOTION_MODELS:
+                raise ConfigError(f"expected one of {', '.join(MOTION_MODELS)}, got {value!r}",
+                                  path=source, field=name)
+            continue
+        if name == "lens_region_limits_deg":
+            ok = (isinstance(value, tuple) and len(value) == 2
+                  and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+                  and 0 < value[0] < value[1] < 180)
+            if not ok:
+                raise ConfigError(f"expected two increasing angles between 0 and 180 degrees, got {value!r}",
+                                  path=source, field=name)
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"expected a number, got {value!r}", path=source, field=name)
+        if name in _INTS and int(value) != value:
+            raise ConfigError(f"expected a whole number, got {value!r}", path=source, field=name)
+        if name in _ANY_SIGN:
+            continue
+        if name in _MAY_BE_ZERO:
+            if value < 0:
+                raise ConfigError(f"must not be negative, got {value}", path=source, field=name)
+        elif value <= 0:
+            raise ConfigError(f"must be greater than 0, got {value}", path=source, field=name)
+    if s.min_confidence >= 1:
+        raise ConfigError(f"must be below 1, got {s.min_confidence}", path=source, field="min_confidence")
+    if s.torso_min_z_m >= s.torso_max_z_m:
+        raise ConfigError("torso_min_z_m must be below torso_max_z_m", path=source, field="torso_min_z_m")
+    if s.trunk_min_length_m >= s.trunk_max_length_m:
+        raise ConfigError("trunk_min_length_m must be below trunk_max_length_m", path=source,
+                          field="trunk_min_length_m")
+
+
+def setting_names() -> tuple[str, ...]:
+    return tuple(f.name for f in fields(ReconSettings))
+
+
+def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None) -> ReconSettings:
+    """Settings from a mapping of names to values; unknown names raise one ConfigError naming them."""
+    src = None if source is None else str(source)
+    known = set(setting_names())
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise ConfigError(f"unknown reconstruction setting(s): {', '.join(unknown)} "
+                          f"(known: {', '.join(sorted(known))})", path=src)
+    kinds = {f.name: f.type for f in fields(ReconSettings)}
+    clean: dict[str, Any] = {}
+    for name, value in values.items():
+        if kinds[name] in ("float", float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if name == "lens_region_limits_deg" and isinstance(value, list):
+            value = tuple(value)
+        clean[name] = value
+    defaults = ReconSettings()
+    merged = {f.name: getattr(defaults, f.name) for f in fields(ReconSettings)}
+    merged.update(clean)
+    obj = object.__new__(ReconSettings)
+    for k, v in merged.items():
+        object.__setattr__(obj, k, v)
+    _validate(obj, src)
+    return obj
+
+
+def load_settings(path: str | os.PathLike | None) -> ReconSettings:
+    """Read a TOML settings file (top-level keys or a [reconstruction] table); None gives the defaults."""
+    if path is None:
+        return ReconSettings()
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError("the settings file does not exist", path=p) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the settings file ({exc})", path=p) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML ({exc})", path=p) from None
+    if "reconstruction" in data:
+        section = data["reconstruction"]
+        if not isinstance(section, dict):
+            raise ConfigError("expected a table", path=p, field="reconstruction")
+        return from_mapping(section, source=p)
+    return from_mapping(data, source=p)

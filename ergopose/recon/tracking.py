@@ -1,0 +1,440 @@
+"""Identities over a shift: follow every worker in 3D with one stable identity.
+
+Per frame (in frame order; the state carries over from one chunk of frames to the next):
+
+1. Prediction. Each live track predicts its body centre (mean of the torso joints) with
+   constant velocity from its last update.
+2. Matching people seen by both cameras. Cost = distance between predicted and triangulated
+   centre; a pair is possible within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per
+   second the track has gone unseen; globally optimal assignment
+   (scipy.optimize.linear_sum_assignment). A matched track updates its centre and velocity with
+   an alpha-beta filter (gains ALPHA, BETA).
+3. Matching people seen by one camera only. Tracks still unmatched are compared with the torso
+   rays of single-view people: cost = distance of the predicted centre from the ray (in front
+   of the camera), gated by ``single_view_gate_m``. A match keeps the track alive (its identity
+   goes on through an occlusion from one camera) and moves the centre across the ray only
+   (the depth along the ray is unknown).
+4. Births. A person seen by both cameras and matched to no track starts a new, *tentative*
+   track.
+5. Ends. A track unseen for more than ``max_coast_s`` ends.
+6. Identities. A tentative track is resolved once it has ``relink_window_s`` of 3D data, or
+   when it ends (dropped as noise if it has less than ``min_track_s``). It is then compared
+   with the identities that are not being followed right now (lost, or coasting since before
+   the track began): a candidate must have been able to walk from where it was last seen to
+   where the new track began (``relink_max_speed_m_s``), and its body-measurement signature --
+   the medians of its limb lengths (keypoints.LIMBS) over everything seen so far -- must
+   differ from the new track's by at most ``relink_max_signature_m`` (RMS over limbs), and by
+   ``relink_margin_m`` less than the second best candidate. The best such candidate gives the
+   track its identity (a coasting track of that identity ends); otherwise the track gets a new
+   identity. Identities are numbered in order of appearance: worker_1, worker_2, ...
+
+Single-view people never start tracks and are never triangulated. Frame times are frame / fps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ergopose.errors import InputError
+from ergopose.keypoints import LIMB_INDEX, LIMBS
+from ergopose.recon.records import People3D
+from ergopose.recon.settings import ReconSettings
+
+#: Alpha-beta gains of the centre filter (position, velocity). The centre of a triangulated
+#: torso is accurate to about a centimetre, so the filter follows the measurement closely.
+ALPHA = 0.8
+BETA = 0.3
+#: Largest speed (m/s) the centre filter keeps (a walking or hurrying person).
+MAX_SPEED_M_S = 3.0
+#: Limb-length histogram: bin width and number of bins (0 .. 1.5 m in millimetres).
+HIST_BIN_M = 0.001
+HIST_BINS = 1500
+#: A limb's median enters a signature only with at least this many samples; a comparison needs
+#: at least MIN_COMMON_LIMBS such limbs in both.
+MIN_LIMB_SAMPLES = 5
+MIN_COMMON_LIMBS = 6
+#: Winter (2009, Fig. 4.1) fractions of stature of the shank (0.246), thigh (0.245) and trunk
+#: (hip to shoulder, 0.818 - 0.530): the stature estimate is the sum of the median lengths of
+#: these segments divided by the sum of the fractions.
+_STATURE_LIMBS = {"left_shank": 0.246, "right_shank": 0.246, "left_thigh": 0.245, "right_thigh": 0.245,
+                  "left_trunk_side": 0.288, "right_trunk_side": 0.288}
+
+
+def identity_name(number: int) -> str:
+    """The pseudonymous name of identity ``number`` (1-based): worker_1, worker_2, ..."""
+    return f"worker_{number}"
+
+
+def limb_lengths(points_world: np.ndarray) -> np.ndarray:
+    """(..., 33, 3) -> (..., L) length of every limb of keypoints.LIMBS, NaN where a joint is NaN."""
+    X = np.asarray(points_world, dtype=np.float64)
+    return np.linalg.norm(X[..., LIMB_INDEX[:, 0], :] - X[..., LIMB_INDEX[:, 1], :], axis=-1)
+
+
+class LimbHistogram:
+    """Counts of limb lengths in 1 mm bins (bounded memory, exact robust medians to 1 mm)."""
+
+    def __init__(self) -> None:
+        self.counts = np.zeros((len(LIMBS), HIST_BINS), dtype=np.int64)
+
+    def add(self, lengths: np.ndarray) -> None:
+        """lengths: (n, L) metres; NaN and lengths beyond the histogram are ignored."""
+        lengths = np.asarray(lengths, dtype=np.float64).reshape(-1, len(LIMBS))
+        if lengths.size == 0:
+            return
+        with np.errstate(invalid="ignore"):
+            b = np.floor(lengths / HIST_BIN_M)
+            ok = np.isfinite(b) & (b >= 0) & (b < HIST_BINS)
+        limb = np.broadcast_to(np.arange(len(LIMBS)), lengths.shape)[ok]
+        flat = limb * HIST_BINS + b[ok].astype(np.int64)
+        self.counts += np.bincount(flat, minlength=self.counts.size).reshape(self.counts.shape)
+
+    def merge(self, other: "LimbHistogram") -> None:
+        self.counts += other.counts
+
+    @property
+    def samples(self) -> np.ndarray:
+        """(L,) number of samples per limb."""
+        return self.counts.sum(axis=1)
+
+    def medians(self, min_samples: int = MIN_LIMB_SAMPLES) -> np.ndarray:
+        """(L,) median length per limb (metres, linear within the 1 mm bin); NaN with too few samples."""
+        n = self.samples
+        cum = np.cumsum(self.counts, axis=1)
+        half = n / 2.0
+        k = np.argmax(cum >= half[:, None], axis=1)
+        below = np.where(k > 0, cum[np.arange(len(n)), k - 1], 0)
+        inbin = self.counts[np.arange(len(n)), k]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where(inbin > 0, (half - below) / inbin, 0.5)
+        med = (k + frac) * HIST_BIN_M
+        return np.where(n >= max(min_samples, 1), med, np.nan)
+
+    def stature_estimate(self) -> float:
+        """Estimated stature (metres) from the median shank, thigh and trunk-side lengths
+        (Winter's fractions of stature, see _STATURE_LIMBS); NaN if any is unknown."""
+        med = self.medians()
+        names = [n for n, _, _ in LIMBS]
+        total = 0.0
+        frac = 0.0
+        for name, f in _STATURE_LIMBS.items():
+            v = med[names.index(name)]
+            if not np.isfinite(v):
+                return float("nan")
+            total += v
+            frac += f
+        return float(total / frac)
+
+
+def signature_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """RMS difference (metres) of two limb-median vectors over the limbs known in both; NaN when
+    fewer than MIN_COMMON_LIMBS are."""
+    ok = np.isfinite(a) & np.isfinite(b)
+    if ok.sum() < MIN_COMMON_LIMBS:
+        return float("nan")
+    return float(np.sqrt(np.mean((a[ok] - b[ok]) ** 2)))
+
+
+@dataclass
+class _Track:
+    id: int
+    first_frame: int
+    first_pos: np.ndarray
+    pos: np.ndarray
+    vel: np.ndarray
+    last_frame: int            # frame of the last observation (3D or single view)
+    last_update_frame: int     # frame of the last state update
+    frames_3d: int = 0
+    identity: int | None = None
+    hist: LimbHistogram = field(default_factory=LimbHistogram)
+    pending_rows: list = field(default_factory=list)   # chunk rows not yet in hist
+
+
+@dataclass
+class _Identity:
+    number: int
+    hist: LimbHistogram
+    last_frame: int
+    last_pos: np.ndarray
+    track: int | None  # id of the live track following it, if any
+
+
+@dataclass(frozen=True)
+class TrackEnd:
+    """A track that ended: its id, first and last observed frame, and identity (None = dropped)."""
+
+    track: int
+    first_frame: int
+    last_frame: int
+    identity: int | None
+
+
+@dataclass(frozen=True)
+class TrackingResult:
+    """What one call of :meth:`Tracker.update` found.
+
+    track: (M,) int64 track id of every row of the People3D chunk, -1 = no track (a single-view
+        person matched to no track, or a 3D person whose tentative track was dropped later --
+        see ``dropped``).
+    centres: (K, 5) float64 rows (frame, track, x, y, z): the track's body centre after each
+        frame it is alive (observed or coasting), metres.
+    resolved: {track id: identity number or None (dropped)} decided during this call.
+    ended: tracks that ended during this call.
+    """
+
+    track: np.ndarray
+    centres: np.ndarray
+    resolved: dict
+    ended: tuple
+
+
+class Tracker:
+    """Online tracker; feed it chunks of People3D in frame order with :meth:`update`.
+
+    The object is the state carried from one chunk to the next (it can be pickled).
+    """
+
+    def __init__(self, settings: ReconSettings | None = None, fps: float = 12.0) -> None:
+        if not (np.isfinite(fps) and fps > 0):
+            raise InputError(f"frames per second must be positive, got {fps!r}", field="fps")
+        self.settings = settings or ReconSettings()
+        self.fps = float(fps)
+        self.tracks: list[_Track] = []
+        self.identities: dict[int, _Identity] = {}
+        self.next_track = 0
+        self.next_identity = 1
+        self.next_frame: int | None = None
+        s = self.settings
+        self._coast_frames = s.max_coast_s * self.fps
+        self._window_frames = max(1, int(round(s.relink_window_s * self.fps)))
+        self._min_frames = int(round(s.min_track_s * self.fps))
+
+    # --- queries ----------------------------------------------------------------------------------
+
+    def resolved_frontier(self) -> int | None:
+        """Every row before this frame has its final identity and its track's alive span is known:
+        the smallest first frame of an unresolved track and last observed frame + 1 of a live
+        track, and the next frame to process."""
+        cands = [t.first_frame for t in self.tracks if t.identity is None]
+        cands += [t.last_frame + 1 for t in self.tracks]
+        if self.next_frame is not None:
+            cands.append(self.next_frame)
+        return min(cands) if cands else None
+
+    def identity_signatures(self) -> dict[str, np.ndarray]:
+        """{worker name: (L,) limb-length medians} of every identity so far."""
+        return {identity_name(k): v.hist.medians() for k, v in self.identities.items()}
+
+    def stature_estimates(self) -> dict[str, float]:
+        return {identity_name(k): v.hist.stature_estimate() for k, v in self.identities.items()}
+
+    # --- the loop ---------------------------------------------------------------------------------
+
+    def update(self, people: People3D, first_frame: int, stop_frame: int) -> TrackingResult:
+        """Track frames first_frame <= f < stop_frame (rows of ``people`` must lie in that range,
+        sorted by frame; frames without rows are frames where nobody was seen)."""
+        if self.next_frame is not None and first_frame != self.next_frame:
+            raise InputError(f"chunk starts at frame {first_frame}, expected {self.next_frame}", field="frames")
+        frames = people.frame
+        if len(frames) and (frames[0] < first_frame or frames[-1] >= stop_frame or np.any(np.diff(frames) < 0)):
+            raise InputError("rows must be sorted by frame and lie within the chunk", field="frames")
+        s = self.settings
+        m = len(people)
+        track_of = np.full(m, -1, dtype=np.int64)
+        self._lengths = limb_lengths(people.points_world)
+        resolved: dict[int, int | None] = {}
+        ended: list[TrackEnd] = []
+        cent_f, cent_t, cent_p = [], [], []
+        bounds = np.searchsorted(frames, np.arange(first_frame, stop_frame + 1))
+        is3d = (people.n_cameras == 2) & np.isfinite(people.centre_world).all(axis=1)
+        is1 = (people.n_cameras == 1) & np.isfinite(people.ray_world).all(axis=1)
+        centre = people.centre_world
+        origin, ray = people.ray_origin_world, people.ray_world
+        dt1 = 1.0 / self.fps
+        gate0, growth = s.track_gate_m, s.track_gate_growth_m_per_s
+        for k, f in enumerate(range(first_frame, stop_frame)):
+            r0, r1 = bounds[k], bounds[k + 1]
+            tracks = self.tracks
+            if r0 == r1 and not tracks:
+                continue
+            rows = np.arange(r0, r1)
+            rows3 = rows[is3d[r0:r1]]
+            rows1 = rows[is1[r0:r1]]
+            matched_tracks: set[int] = set()
+            if tracks:
+                pos = np.array([t.pos for t in tracks])
+                vel = np.array([t.vel for t in tracks])
+                gap = np.array([f - t.last_update_frame for t in tracks], dtype=np.float64) * dt1
+                unseen = np.array([f - t.last_frame for t in tracks], dtype=np.float64) * dt1
+                pred = pos + vel * gap[:, None]
+                gate = gate0 + growth * np.maximum(unseen - dt1, 0.0)
+            unmatched3 = rows3
+            if tracks and len(rows3):
+                cost = np.linalg.norm(pred[:, None, :] - centre[rows3][None, :, :], axis=-1)
+                cost = np.where(cost <= gate[:, None], cost, np.inf)
+                if np.isfinite(cost).any():
+                    ti, ri = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
+                    ok = np.isfinite(cost[ti, ri])
+                    used = np.zeros(len(rows3), bool)
+                    for a, b in zip(ti[ok], ri[ok]):
+                        t = tracks[a]
+                        row = rows3[b]
+                        self._update_track(t, pred[a], centre[row], gap[a], f)
+                        t.frames_3d += 1
+                        t.pending_rows.append(row)
+                        track_of[row] = t.id
+                        matched_tracks.add(a)
+                        used[b] = True
+                    unmatched3 = rows3[~used]
+            if tracks and len(rows1) and len(matched_tracks) < len(tracks):
+                free = np.array([a for a in range(len(tracks)) if a not in matched_tracks])
+                o, d = origin[rows1], ray[rows1]
+                q = pred[free][:, None, :] - o[None, :, :]
+                along = np.einsum("tri,ri->tr", q, d)
+                perp = q - along[..., None] * d[None]
+                cost = np.linalg.norm(perp, axis=-1)
+                cost = np.where((along > 0) & (cost <= s.single_view_gate_m + (gate[free] - gate0)[:, None]),
+                                cost, np.inf)
+                if np.isfinite(cost).any():
+                    ti, ri = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
+                    for a, b in zip(ti, ri):
+                        if not np.isfinite(cost[a, b]):
+                            continue
+                        t = tracks[free[a]]
+                        row = rows1[b]
+                        self._update_track(t, pred[free[a]], pred[free[a]] - perp[a, b], gap[free[a]], f)
+                        track_of[row] = t.id
+                        matched_tracks.add(int(free[a]))
+            for row in unmatched3:
+                t = _Track(id=self.next_track, first_frame=f, first_pos=centre[row].copy(), pos=centre[row].copy(),
+                           vel=np.zeros(3), last_frame=f, last_update_frame=f, frames_3d=1)
+                t.pending_rows.append(row)
+                self.next_track += 1
+                track_of[row] = t.id
+                self.tracks.append(t)
+            # Ends, then resolutions (in order of birth).
+            stale = [t for t in self.tracks if f - t.last_frame > self._coast_frames]
+            for t in stale:
+                if not any(e.track == t.id for e in ended):
+                    self._end(t, resolved, ended)
+            if stale:
+                gone = {e.track for e in ended}
+                self.tracks = [t for t in self.tracks if t.id not in gone]
+            for t in list(self.tracks):
+                if t.identity is None and t.frames_3d >= self._window_frames:
+                    self._resolve(t, resolved, ended)
+            for t in self.tracks:
+                cent_f.append(f)
+                cent_t.append(t.id)
+                cent_p.append(t.pos if t.last_update_frame == f else t.pos + t.vel * (f - t.last_update_frame) * dt1)
+        self.next_frame = stop_frame
+        # Rows of tracks dropped during this call lose their track id.
+        dropped = {tid for tid, ident in resolved.items() if ident is None}
+        if dropped:
+            track_of[np.isin(track_of, list(dropped))] = -1
+        self._flush_all()
+        centres = np.zeros((len(cent_f), 5))
+        if cent_f:
+            centres[:, 0] = cent_f
+            centres[:, 1] = cent_t
+            centres[:, 2:] = np.array(cent_p)
+        return TrackingResult(track=track_of, centres=centres, resolved=resolved, ended=tuple(ended))
+
+    def finish(self) -> TrackingResult:
+        """End every live track (end of the session) and resolve the tentative ones."""
+        resolved: dict[int, int | None] = {}
+        ended: list[TrackEnd] = []
+        for t in self.tracks:
+            self._end(t, resolved, ended)
+        self.tracks = []
+        return TrackingResult(track=np.zeros(0, np.int64), centres=np.zeros((0, 5)), resolved=resolved,
+                              ended=tuple(ended))
+
+    # --- pieces -----------------------------------------------------------------------------------
+
+    @staticmethod
+    def _update_track(t: _Track, pred: np.ndarray, meas: np.ndarray, gap_s: float, f: int) -> None:
+        r = meas - pred
+        t.pos = pred + ALPHA * r
+        if gap_s > 0:
+            v = t.vel + BETA * r / gap_s
+            speed = float(np.linalg.norm(v))
+            t.vel = v if speed <= MAX_SPEED_M_S else v * (MAX_SPEED_M_S / speed)
+        t.last_update_frame = f
+        t.last_frame = f
+
+    def _flush(self, t: _Track) -> None:
+        if t.pending_rows:
+            t.hist.add(self._lengths[np.array(t.pending_rows)])
+            t.pending_rows = []
+
+    def _flush_all(self) -> None:
+        for t in self.tracks:
+            self._flush(t)
+
+    def _end(self, t: _Track, resolved: dict, ended: list) -> None:
+        if t.identity is None:
+            if t.frames_3d >= max(self._min_frames, 1):
+                self._resolve(t, resolved, ended)
+            else:
+                resolved[t.id] = None
+        self._flush(t)
+        if t.identity is not None:
+            ident = self.identities[t.identity]
+            if ident.track == t.id:
+                ident.track = None
+                ident.last_frame = t.last_frame
+                ident.last_pos = t.pos.copy()
+        ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
+
+    def _resolve(self, t: _Track, resolved: dict, ended: list) -> None:
+        s = self.settings
+        self._flush(t)
+        mine = t.hist.medians()
+        live = {x.id: x for x in self.tracks}
+        cands = []
+        for ident in self.identities.values():
+            if ident.track is not None:
+                other = live.get(ident.track)
+                if other is None or other.last_frame >= t.first_frame:
+                    continue  # being followed right now (seen together with the new track)
+                self._flush(other)
+                last_frame, last_pos = other.last_frame, other.pos
+            else:
+                last_frame, last_pos = ident.last_frame, ident.last_pos
+            if last_frame >= t.first_frame:
+                continue
+            gap_s = (t.first_frame - last_frame) / self.fps
+            reach = s.relink_max_speed_m_s * gap_s + s.track_gate_m
+            if np.linalg.norm((t.first_pos - last_pos)[:2]) > reach:
+                continue
+            cands.append((signature_distance(mine, ident.hist.medians()), ident))
+        choice = None
+        if len(cands) == 1 and not np.isfinite(cands[0][0]):
+            choice = cands[0][1]  # the only identity that could be here; too little data to compare
+        else:
+            valid = sorted([c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
+                           key=lambda c: (c[0], c[1].number))
+            if valid:
+                others = [c[0] for c in cands if c[1] is not valid[0][1] and np.isfinite(c[0])]
+                if not others or min(others) - valid[0][0] >= s.relink_margin_m:
+                    choice = valid[0][1]
+        if choice is None:
+            choice = _Identity(self.next_identity, LimbHistogram(), t.last_frame, t.pos.copy(), None)
+            self.identities[choice.number] = choice
+            self.next_identity += 1
+        elif choice.track is not None:
+            # The identity's coasting track ends here: the new track is the same person.
+            old = live[choice.track]
+            self.tracks = [x for x in self.tracks if x.id != old.id]
+            self._flush(old)
+            ended.append(TrackEnd(old.id, old.first_frame, old.last_frame, old.identity))
+        choice.hist.merge(t.hist)
+        t.hist = choice.hist
+        choice.track = t.id
+        t.identity = choice.number
+        resolved[t.id] = choice.number
+

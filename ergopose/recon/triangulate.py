@@ -1,0 +1,144 @@
+"""Association and triangulation of a run of frames: Detections2D per camera -> People3D.
+
+Per frame, the people of the two cameras are paired (:mod:`ergopose.recon.associate`). Every
+pair is triangulated with the weighted DLT in the two virtual views
+(:func:`ergopose.geometry.triangulation.reject_outliers`, weights = 2D confidence, keypoints
+below ``min_confidence`` excluded), all pairs of all frames in one vectorised call. Outliers:
+with three or more views the worst view of a joint above ``reprojection_threshold_px`` is
+dropped (reject_outliers); with two views nothing tells which of the two is wrong, so a joint
+still above the threshold is rejected as a whole -- its point becomes NaN and both observations
+are marked in ``rejected``. A joint seen by fewer than two cameras stays NaN: nothing is
+invented. People without a partner become single-view rows (n_cameras = 1).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from ergopose.errors import InputError
+from ergopose.geometry.triangulation import reject_outliers
+from ergopose.keypoints import NUM_JOINTS
+from ergopose.progress import ProgressCallback, report
+from ergopose.recon.associate import associate
+from ergopose.recon.records import TORSO_JOINTS, Detections2D, People3D, body_centres
+from ergopose.recon.settings import ReconSettings
+
+
+def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: ReconSettings | None = None,
+                       progress: ProgressCallback | None = None) -> People3D:
+    """Associate and triangulate every frame of a run.
+
+    frames: for each frame, one Detections2D per camera, in the same camera order every frame
+        (exactly two cameras); frame indices must increase.
+    Returns the :class:`People3D` rows of all frames (pairs first within a frame, then the
+    single-view people of camera A, then of camera B).
+    """
+    settings = settings or ReconSettings()
+    if not frames:
+        raise InputError("no frames to reconstruct", field="frames")
+    cameras = tuple(d.camera for d in frames[0])
+    if len(cameras) != 2:
+        raise InputError(f"association needs exactly two cameras, got {len(cameras)}", field="frames")
+    rows_frame, rows_time, rows_det, rows_ncam = [], [], [], []
+    pair_P, pair_px, pair_w = [], [], []
+    single_rows = []  # (row index, camera position, Detections2D, person index)
+    last = None
+    for k, dets in enumerate(frames):
+        if tuple(d.camera for d in dets) != cameras:
+            raise InputError(f"frame {dets[0].frame if dets else k}: cameras {[d.camera for d in dets]} "
+                             f"differ from {list(cameras)}", field="frames")
+        a, b = dets
+        if a.frame != b.frame:
+            raise InputError(f"the two cameras disagree on the frame index ({a.frame} vs {b.frame})",
+                             field="frames")
+        if last is not None and a.frame <= last:
+            raise InputError(f"frame indices must increase (frame {a.frame} after {last})", field="frames")
+        last = a.frame
+        assoc = associate(a, b, settings)
+        for i, j in assoc.pairs:
+            rows_frame.append(a.frame)
+            rows_time.append(a.time_s)
+            rows_det.append((i, j))
+            rows_ncam.append(2)
+            pair_P.append(np.stack([a.projection[i], b.projection[j]]))
+            pair_px.append(np.stack([a.pixels_view[i], b.pixels_view[j]]))
+            pair_w.append(np.stack([a.confidence[i], b.confidence[j]]))
+        for cam, det, singles in ((0, a, assoc.single_a), (1, b, assoc.single_b)):
+            for i in singles:
+                single_rows.append((len(rows_frame), cam, det, int(i)))
+                rows_frame.append(a.frame)
+                rows_time.append(a.time_s)
+                rows_det.append((i, -1) if cam == 0 else (-1, i))
+                rows_ncam.append(1)
+        report(progress, "association", k + 1, len(frames), unit="frame")
+
+    m = len(rows_frame)
+    n_cameras = np.array(rows_ncam, dtype=np.int8)
+    points = np.full((m, NUM_JOINTS, 3), np.nan)
+    err = np.full((m, NUM_JOINTS), np.nan)
+    views = np.zeros((m, NUM_JOINTS), np.int8)
+    conf = np.zeros((m, NUM_JOINTS))
+    rejected = np.zeros((m, 2, NUM_JOINTS), bool)
+    origin = np.full((m, 3), np.nan)
+    ray = np.full((m, 3), np.nan)
+    is_pair = n_cameras == 2
+    if pair_P:
+        tri = triangulate_pairs(np.stack(pair_P), np.stack(pair_px), np.stack(pair_w), settings)
+        points[is_pair], err[is_pair], views[is_pair], conf[is_pair], rejected[is_pair] = tri
+    for row, cam, det, i in single_rows:
+        c = det.confidence[i]
+        used = c >= max(settings.min_confidence, 1e-12)
+        views[row] = used
+        conf[row] = np.where(used, c, 0.0)
+        rays = det.world_rays()[i]
+        origin[row] = det.centres_world()[i]
+        ray[row] = _mean_ray(rays, used)
+    return People3D(
+        cameras=cameras, frame=np.array(rows_frame, np.int64), time_s=np.array(rows_time, np.float64),
+        n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, 2), points_world=points,
+        reprojection_error_px=err, views=views, confidence=conf, rejected=rejected,
+        centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray)
+
+
+def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """Unit mean of the torso joints' rays (else of all used rays); NaN if none."""
+    torso = np.zeros_like(used)
+    torso[TORSO_JOINTS] = True
+    pick = used & torso if (used & torso).any() else used
+    if not pick.any():
+        return np.full(3, np.nan)
+    r = rays[pick].sum(axis=0)
+    return r / np.linalg.norm(r)
+
+
+def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
+                      settings: ReconSettings | None = None):
+    """Triangulate associated people, all at once.
+
+    projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33).
+    Returns (points (M, 33, 3), reprojection_error_px (M, 33), views (M, 33) int8,
+    confidence (M, 33) mean over the used views, rejected (M, V, 33) bool).
+    """
+    settings = settings or ReconSettings()
+    w = np.where(confidence >= max(settings.min_confidence, 1e-12), confidence, 0.0)
+    w = np.where(np.isfinite(pixels_view).all(axis=-1), w, 0.0)
+    tri, rejected = reject_outliers(projections, pixels_view, w, 2,
+                                    threshold_px=settings.reprojection_threshold_px)
+    points = tri.points.copy()
+    err = tri.reprojection_error_px.copy()
+    used = (w > 0) & ~rejected
+    # Two views left and still above the threshold (or behind a view): no way to tell which
+    # observation is wrong -- reject the joint.
+    bad = np.isfinite(points).all(axis=-1) & ~(err <= settings.reprojection_threshold_px)
+    rejected = rejected | (used & bad[:, None, :])
+    used &= ~bad[:, None, :]
+    points[bad] = np.nan
+    err[bad] = np.nan
+    n_used = used.sum(axis=1)
+    ok = np.isfinite(points).all(axis=-1)
+    views = np.where(ok, n_used, np.minimum(n_used, 1)).astype(np.int8)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        conf = np.where(n_used > 0, np.where(used, w, 0.0).sum(axis=1) / n_used, 0.0)
+    return points, err, views, conf, rejected
