@@ -114,10 +114,58 @@ def test_bar_is_measured_within_half_a_percent_in_every_region(sim_room, calibra
 
     report = measure_bar(load_calibration(out), pixels, 1.5)
     by_region = {r.region: r for r in report.regions}
-    # measured (M = 600 bars): central 1.500 +- 0.006 (n 63), outer 1.498 +- 0.021, edge 1.503 +- 0.022
+    # measured (599 bars): central 1.500 +- 0.007 m (n 188, +0.03 %), outer 1.502 +- 0.018 (n 294, +0.12 %),
+    # edge 1.499 +- 0.022 (n 117, -0.07 %); the paper: 1.49 +- 0.01, 1.52 +- 0.018, 1.56 +- 0.035
     for name in ("central", "outer", "edge"):
         r = by_region[name]
         assert r.n >= 30, (name, r.n)
         assert abs(r.error_percent) < 0.5, (name, r.mean)
     # the edge is noisier than the centre, as in the paper's Table 1
     assert by_region["central"].std < by_region["edge"].std
+
+
+def test_extrinsics_from_measured_floor_points(sim_room, calibrated, tmp_path, capsys):
+    """Way (b): measured points (a 0.75 m floor grid over the room and a few at 1 m) and their pixels
+    (true cameras + 0.3 px noise), solved through the calibrated lenses."""
+    out, intrinsics_only, _ = calibrated
+    rng = np.random.default_rng(11)
+    g = np.arange(-2.625, 2.7, 0.75)
+    xx, yy = np.meshgrid(g, g)
+    pts = np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], -1)
+    pts = np.concatenate([pts, [[-2.0, 2.0, 1.0], [2.0, -2.0, 1.0], [0.0, 2.5, 1.2]]])
+    world = tmp_path / "world.csv"
+    world.write_text("point,x,y,z\n" + "".join(f"p{i},{x:.4f},{y:.4f},{z:.4f}\n" for i, (x, y, z) in enumerate(pts)))
+    lines = ["camera,point,u,v"]
+    for cam in sim_room.cameras:
+        px = cam.project_world(pts) + rng.normal(0, 0.3, (len(pts), 2))
+        lines += [f"{cam.name},p{i},{u:.3f},{v:.3f}" for i, (u, v) in enumerate(px)]
+    pixels = tmp_path / "pixels.csv"
+    pixels.write_text("\n".join(lines) + "\n")
+    intrinsics_file = tmp_path / "intrinsics.toml"
+    from ergopose.geometry.calibration_file import save_calibration
+
+    save_calibration(intrinsics_file, intrinsics_only)
+    result = tmp_path / "posed.toml"
+    assert cli.main(["calibrate", "extrinsics", "--calibration", str(intrinsics_file), "--points-world", str(world),
+                     "--points-pixels", str(pixels), "--out", str(result)]) == 0
+    text = capsys.readouterr().out
+    assert "residual px" in text and "residual mm" in text and "p63" in text
+    for true, cam in zip(sim_room.cameras, load_calibration(result)):
+        # measured: 5.2 mm / 0.077 deg (cam_a), 2.4 mm / 0.058 deg (cam_b): the points reach the lens edge,
+        # where the calibrated lenses differ most from the true ones
+        assert np.linalg.norm(cam.position_world - true.position_world) < 0.01
+        assert np.degrees(angle_between(cam.rotation_world_from_cam, true.rotation_world_from_cam)) < 0.15
+
+
+def test_double_sphere_model(sim_room, tmp_path, capsys):
+    cam = sim_room.cameras[1]
+    out = tmp_path / "ds.toml"
+    assert cli.main(["calibrate", "intrinsics", "--images", str(sim_room.intrinsic_dirs[cam.name]), "--board",
+                     sim_room.intrinsic_board, "--camera", cam.name, "--model", "double_sphere",
+                     "--out", str(out)]) == 0
+    assert "Double Sphere RMS" in capsys.readouterr().out
+    ds = load_calibration(out)[0]
+    assert ds.lens.kind == "double_sphere"
+    assert ds.calibration.rms_error_px < 0.1
+    # measured: 0.4 px largest difference to the true (Kannala-Brandt) lens up to 95 degrees
+    assert _lens_error_px(cam.lens, ds.lens, 95.0) < 0.8
