@@ -1,0 +1,617 @@
+"""A recording session: one folder with the camera videos, the calibration and the settings.
+
+    session/
+      settings.toml       what was recorded, and what the cameras cannot see (format below)
+      calibration.toml    the cameras (docs/calibration-file.md)
+      cam_1.mp4           one video per camera, file names listed in settings.toml
+      cam_2.mp4
+      ground_truth/       only in simulated sessions (ergopose.sim.ground_truth)
+
+docs/session-format.md is the user's description of the format; this module is its reference
+implementation. :func:`load_session` reads and checks everything and returns a frozen
+:class:`Session`; any problem raises ONE ConfigError (settings, calibration) or InputError
+(videos) naming the file and the field and saying what is wrong.
+
+settings.toml (format_version 1)::
+
+    format_version = 1
+    recorded_at = 2024-03-04T08:00:00+01:00    # when the first frame was taken (ISO 8601)
+    fps = 12.0                                  # optional; default: the videos' frame rate
+    description = "Assembly line 3, early shift" # optional
+    calibration = "calibration.toml"            # optional; this is the default
+
+    [[cameras]]                                 # camera order is this order (never sorted)
+    name = "cam_1"                              # a camera of the calibration file
+    video = "cam_1.mp4"                         # relative to the session folder
+
+    [[cameras]]
+    name = "cam_2"
+    video = "cam_2.mp4"
+
+    [defaults]                                  # task factors for everyone, whole session
+    load_kg = 0.0
+    coupling = "good"
+
+    [[periods]]                                 # time windows for everyone
+    start = 600.0                               # seconds from the start, a clock time
+    end = 10:30:00                              #   (10:30:00) or a date-time
+    load_kg = 12.0
+
+    [workers.w1]                                # one table per worker id
+    name = "Worker A"                           # optional name or pseudonym for reports
+    load_kg = 2.0                               # factors for this worker, whole session
+    [[workers.w1.periods]]
+    start = 120.0
+    end = 180.0
+    load_kg = 15.0
+    load_mode = "static"
+
+    [scoring]                                   # optional scoring settings (docs/scoring.md)
+
+Task factors (all optional; absent = not given, and scoring treats it as unknown):
+load_kg (kg >= 0), load_mode (intermittent | static | repeated), coupling (good | fair | poor |
+unacceptable), shock, arm_supported, seated, legs_supported, wrist_twist_end_range (true/false).
+For a worker at a time the most specific value wins: the worker's period, then a period for
+everyone, then the worker's own value, then [defaults].
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import difflib
+import math
+import os
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from ergopose.errors import ConfigError, ErgoposeError, InputError
+from ergopose.geometry.camera import Camera
+
+#: The settings format this code writes; it reads exactly the versions in SUPPORTED_VERSIONS.
+FORMAT_VERSION = 1
+SUPPORTED_VERSIONS = (1,)
+SETTINGS_FILE = "settings.toml"
+CALIBRATION_FILE = "calibration.toml"
+GROUND_TRUTH_DIR = "ground_truth"
+
+LOAD_MODES = ("intermittent", "static", "repeated")
+COUPLINGS = ("good", "fair", "poor", "unacceptable")
+FLAG_FACTORS = ("shock", "arm_supported", "seated", "legs_supported", "wrist_twist_end_range")
+FACTOR_NAMES = ("load_kg", "load_mode", "coupling") + FLAG_FACTORS
+
+_TOP_KEYS = {"format_version", "recorded_at", "fps", "description", "calibration", "cameras", "defaults",
+             "periods", "workers", "scoring"}
+_CAMERA_KEYS = {"name", "video"}
+_WORKER_KEYS = {"name", "periods", *FACTOR_NAMES}
+_PERIOD_KEYS = {"start", "end", *FACTOR_NAMES}
+#: Largest accepted relative difference between the settings' fps and a video's frame rate.
+FPS_TOLERANCE = 0.01
+
+
+@dataclass(frozen=True)
+class TaskFactors:
+    """What the cameras cannot see. None = not given."""
+
+    load_kg: float | None = None
+    load_mode: str | None = None
+    coupling: str | None = None
+    shock: bool | None = None
+    arm_supported: bool | None = None
+    seated: bool | None = None
+    legs_supported: bool | None = None
+    wrist_twist_end_range: bool | None = None
+
+    def over(self, base: "TaskFactors") -> "TaskFactors":
+        """These factors where given, ``base``'s elsewhere."""
+        return TaskFactors(**{f: (getattr(self, f) if getattr(self, f) is not None else getattr(base, f))
+                              for f in FACTOR_NAMES})
+
+    def given(self) -> dict[str, Any]:
+        """The factors that are given, by name."""
+        return {f: getattr(self, f) for f in FACTOR_NAMES if getattr(self, f) is not None}
+
+
+@dataclass(frozen=True)
+class FactorPeriod:
+    """Task factors over [start_s, end_s) seconds from the first frame."""
+
+    start_s: float
+    end_s: float
+    factors: TaskFactors
+
+
+@dataclass(frozen=True)
+class WorkerInfo:
+    """A worker named in the settings: id (as in the results), optional name, own factors and periods."""
+
+    worker_id: str
+    name: str | None
+    factors: TaskFactors
+    periods: tuple[FactorPeriod, ...]
+
+
+@dataclass(frozen=True)
+class SessionCamera:
+    """One camera of the session: its calibration and its video (checked readable)."""
+
+    camera: Camera
+    video_path: Path
+    frame_count: int
+    video_fps: float
+
+    @property
+    def name(self) -> str:
+        return self.camera.name
+
+
+@dataclass(frozen=True)
+class Session:
+    """A checked session folder.
+
+    cameras: in the order of settings.toml. frame_count: frames per camera (equal for all).
+    fps: frames per second (settings, else the videos). recorded_at: the first frame's time.
+    defaults / periods / workers: the task factors (see the module docstring).
+    scoring: the [scoring] table as given (a plain dict; ergopose.ergonomics.settings reads it).
+    ground_truth_dir: the ground_truth/ folder of a simulated session, else None.
+    """
+
+    path: Path
+    format_version: int
+    recorded_at: dt.datetime
+    fps: float
+    frame_count: int
+    cameras: tuple[SessionCamera, ...]
+    defaults: TaskFactors
+    periods: tuple[FactorPeriod, ...]
+    workers: tuple[WorkerInfo, ...]
+    scoring: Mapping[str, Any]
+    description: str | None
+    ground_truth_dir: Path | None
+    settings_path: Path
+    calibration_path: Path
+
+    @property
+    def duration_s(self) -> float:
+        return self.frame_count / self.fps
+
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.cameras)
+
+    @property
+    def calibrated_cameras(self) -> tuple[Camera, ...]:
+        return tuple(c.camera for c in self.cameras)
+
+    @property
+    def times_s(self) -> np.ndarray:
+        """(frame_count,) time of every frame from the first, seconds."""
+        return np.arange(self.frame_count) / self.fps
+
+    def worker(self, worker_id: str) -> WorkerInfo | None:
+        for w in self.workers:
+            if w.worker_id == worker_id:
+                return w
+        return None
+
+    def display_name(self, worker_id: str) -> str:
+        """The worker's name from the settings, else the id."""
+        w = self.worker(worker_id)
+        return w.name if w is not None and w.name else worker_id
+
+    def clock_time(self, time_s: float) -> dt.datetime:
+        return self.recorded_at + dt.timedelta(seconds=float(time_s))
+
+    def factors_at(self, worker_id: str, time_s: float) -> TaskFactors:
+        """The task factors of a worker at a time (most specific first; see the module docstring)."""
+        w = self.worker(worker_id)
+        out = self.defaults
+        if w is not None:
+            out = w.factors.over(out)
+        for p in self.periods:
+            if p.start_s <= time_s < p.end_s:
+                out = p.factors.over(out)
+        if w is not None:
+            for p in w.periods:
+                if p.start_s <= time_s < p.end_s:
+                    out = p.factors.over(out)
+        return out
+
+    def factor_table(self, worker_id: str, times_s: Sequence[float] | np.ndarray):
+        """A pandas DataFrame of the task factors at each time, in the posture-table conventions
+        (docs/posture-table.md): load_kg float (NaN unknown), load_mode / coupling strings (<NA>
+        unknown), flags 0.0 / 1.0 (NaN unknown). One row per time, index 0..n-1."""
+        import pandas as pd
+
+        t = np.asarray(times_s, dtype=np.float64)
+        n = t.size
+        w = self.worker(worker_id)
+        layers: list[tuple[np.ndarray, TaskFactors]] = [(np.ones(n, bool), self.defaults)]
+        if w is not None:
+            layers.append((np.ones(n, bool), w.factors))
+        layers += [((t >= p.start_s) & (t < p.end_s), p.factors) for p in self.periods]
+        if w is not None:
+            layers += [((t >= p.start_s) & (t < p.end_s), p.factors) for p in w.periods]
+        load = np.full(n, np.nan)
+        flags = {f: np.full(n, np.nan) for f in FLAG_FACTORS}
+        cats = {"load_mode": np.full(n, None, dtype=object), "coupling": np.full(n, None, dtype=object)}
+        for mask, f in layers:
+            if f.load_kg is not None:
+                load[mask] = f.load_kg
+            for name in FLAG_FACTORS:
+                v = getattr(f, name)
+                if v is not None:
+                    flags[name][mask] = float(v)
+            for name in cats:
+                v = getattr(f, name)
+                if v is not None:
+                    cats[name][mask] = v
+        frame = pd.DataFrame({"load_kg": load,
+                              "load_mode": pd.array(cats["load_mode"], dtype="string"),
+                              "coupling": pd.array(cats["coupling"], dtype="string"),
+                              **flags})
+        return frame
+
+
+# --- loading ------------------------------------------------------------------------------------------
+
+
+def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Session:
+    """Read and check a session folder (see the module docstring); raise one clear error otherwise.
+
+    check_videos: open every video with OpenCV, read its first and last frame and compare frame
+    counts and sizes (the default); False only reads the container headers' frame counts.
+    """
+    root = Path(path)
+    if not root.exists():
+        raise InputError("the session folder does not exist", path=root)
+    if not root.is_dir():
+        raise InputError("expected a session folder (with settings.toml, calibration.toml and the videos)", path=root)
+    settings_path = root / SETTINGS_FILE
+    data = _read_toml(settings_path, "settings file")
+    r = _Reader(settings_path)
+    r.no_unknown(data, _TOP_KEYS, "")
+    version = r.require(data, "format_version", "")
+    if isinstance(version, bool) or not isinstance(version, int) or version not in SUPPORTED_VERSIONS:
+        raise ConfigError(f"unsupported format version {version!r} (this ergopose reads {SUPPORTED_VERSIONS})",
+                          path=settings_path, field="format_version")
+    recorded_at = r.datetime(r.require(data, "recorded_at", ""), "recorded_at")
+    description = r.optional_str(data, "description", "description")
+    fps_setting = None
+    if "fps" in data:
+        fps_setting = r.positive(data["fps"], "fps")
+    calibration_name = r.optional_str(data, "calibration", "calibration") or CALIBRATION_FILE
+    calibration_path = root / calibration_name
+
+    cams = r.require(data, "cameras", "")
+    if not isinstance(cams, list) or not all(isinstance(c, dict) for c in cams):
+        raise r.fail("cameras", "expected [[cameras]] tables, each with a name and a video")
+    if len(cams) < 2:
+        raise r.fail("cameras", f"expected at least 2 cameras (3D needs two views), got {len(cams)}")
+    entries: list[tuple[str, Path]] = []
+    for i, c in enumerate(cams):
+        where = f"cameras[{i}]"
+        r.no_unknown(c, _CAMERA_KEYS, where)
+        name = r.string(r.require(c, "name", where), f"{where}.name")
+        video = r.string(r.require(c, "video", where), f"{where}.video")
+        if any(name == e[0] for e in entries):
+            raise r.fail(f"{where}.name", f"camera {name!r} is listed twice")
+        vpath = root / video
+        if any(vpath == e[1] for e in entries):
+            raise r.fail(f"{where}.video", f"video {video!r} is listed for two cameras")
+        entries.append((name, vpath))
+
+    defaults = r.factors(data.get("defaults", {}), "defaults", set(FACTOR_NAMES))
+    scoring = data.get("scoring", {})
+    if not isinstance(scoring, dict):
+        raise r.fail("scoring", "expected a table of scoring settings")
+    if scoring:
+        _check_scoring(scoring, settings_path)
+
+    # calibration and videos (the duration is needed to check the periods)
+    from ergopose.geometry.calibration_file import load_calibration
+
+    if not calibration_path.is_file():
+        raise ConfigError("the calibration file does not exist", path=calibration_path)
+    calibrated = {cam.name: cam for cam in load_calibration(calibration_path)}
+    session_cams: list[SessionCamera] = []
+    for i, (name, vpath) in enumerate(entries):
+        if name not in calibrated:
+            raise r.fail(f"cameras[{i}].name", f"camera {name!r} is not in {calibration_path.name} "
+                                               f"(it has {', '.join(map(repr, calibrated))})")
+        cam = calibrated[name]
+        count, fps_video, size = probe_video(vpath, full=check_videos)
+        if size != (cam.width, cam.height):
+            raise ConfigError(f"camera {name!r} is calibrated for {cam.width} x {cam.height} pixels but its video "
+                              f"{vpath.name} is {size[0]} x {size[1]}", path=calibration_path,
+                              field=f"cameras[{list(calibrated).index(name)}].width")
+        session_cams.append(SessionCamera(camera=cam, video_path=vpath, frame_count=count, video_fps=fps_video))
+    counts = [c.frame_count for c in session_cams]
+    if len(set(counts)) > 1:
+        listing = ", ".join(f"{c.video_path.name}: {c.frame_count}" for c in session_cams)
+        raise InputError(f"the videos have different numbers of frames ({listing}); the cameras must be "
+                         "recorded in sync, frame for frame", path=root)
+    fps = fps_setting
+    for c in session_cams:
+        if not (c.video_fps > 0 and math.isfinite(c.video_fps)):
+            if fps is None:
+                raise InputError("the video does not state its frame rate; give fps in settings.toml",
+                                 path=c.video_path)
+            continue
+        if fps is None:
+            fps = c.video_fps
+        elif abs(c.video_fps - fps) > FPS_TOLERANCE * fps:
+            raise ConfigError(f"fps = {fps:g} but {c.video_path.name} plays at {c.video_fps:g} frames per second",
+                              path=settings_path, field="fps")
+    assert fps is not None
+    duration = counts[0] / fps
+    periods = r.periods(data.get("periods", []), "periods", recorded_at, duration)
+    workers_table = data.get("workers", {})
+    if not isinstance(workers_table, dict):
+        raise r.fail("workers", "expected [workers.<id>] tables")
+    workers: list[WorkerInfo] = []
+    for wid, table in workers_table.items():
+        where = f"workers.{wid}"
+        if not isinstance(table, dict):
+            raise r.fail(where, "expected a table (name, task factors, periods)")
+        r.no_unknown(table, _WORKER_KEYS, where)
+        name = r.optional_str(table, "name", f"{where}.name")
+        factors = r.factors({k: v for k, v in table.items() if k in FACTOR_NAMES}, where, set(FACTOR_NAMES))
+        wperiods = r.periods(table.get("periods", []), f"{where}.periods", recorded_at, duration)
+        workers.append(WorkerInfo(worker_id=str(wid), name=name, factors=factors, periods=wperiods))
+    gt = root / GROUND_TRUTH_DIR
+    return Session(path=root, format_version=version, recorded_at=recorded_at, fps=float(fps),
+                   frame_count=counts[0], cameras=tuple(session_cams), defaults=defaults, periods=periods,
+                   workers=tuple(workers), scoring=dict(scoring), description=description,
+                   ground_truth_dir=gt if gt.is_dir() else None, settings_path=settings_path,
+                   calibration_path=calibration_path)
+
+
+def _check_scoring(table: dict[str, Any], path: Path) -> None:
+    """The [scoring] table must be valid scoring settings (checked by the scoring module)."""
+    try:
+        from ergopose.ergonomics.settings import from_mapping
+    except ImportError:  # pragma: no cover - the scoring module is part of the package
+        return
+    try:
+        from_mapping(table, source=path)
+    except ConfigError as exc:
+        raise ConfigError(f"in [scoring]: {_bare(exc)}", path=path, field=exc.field and f"scoring.{exc.field}") from None
+
+
+def _bare(exc: ErgoposeError) -> str:
+    text = str(exc)
+    for prefix in (f"{exc.path}: {exc.field}: ", f"{exc.path}: ", f"{exc.field}: "):
+        if text.startswith(prefix):
+            return text[len(prefix):]
+    return text
+
+
+def _read_toml(path: Path, what: str) -> dict[str, Any]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"the {what} does not exist", path=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the {what} ({exc})", path=path) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML ({exc})", path=path) from None
+
+
+class _Reader:
+    """Typed access to a settings table with errors naming the file and the field."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def fail(self, field: str, message: str) -> ConfigError:
+        return ConfigError(message, path=self.path, field=field or None)
+
+    def require(self, table: dict[str, Any], key: str, where: str) -> Any:
+        if key not in table:
+            raise self.fail(f"{where}.{key}" if where else key, "missing")
+        return table[key]
+
+    def no_unknown(self, table: dict[str, Any], allowed: set[str], where: str) -> None:
+        for key in table:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, sorted(allowed), n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else f" (allowed: {', '.join(sorted(allowed))})"
+                raise self.fail(f"{where}.{key}" if where else key, f"unknown key{hint}")
+
+    def string(self, value: Any, field: str) -> str:
+        if not isinstance(value, str) or not value.strip():
+            raise self.fail(field, f"expected a non-empty text, got {value!r}")
+        return value
+
+    def optional_str(self, table: dict[str, Any], key: str, field: str) -> str | None:
+        return self.string(table[key], field) if key in table else None
+
+    def number(self, value: Any, field: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.fail(field, f"expected a number, got {value!r}")
+        return float(value)
+
+    def positive(self, value: Any, field: str) -> float:
+        v = self.number(value, field)
+        if v <= 0:
+            raise self.fail(field, f"expected a number greater than 0, got {value!r}")
+        return v
+
+    def datetime(self, value: Any, field: str) -> dt.datetime:
+        if isinstance(value, dt.datetime):
+            return value
+        if isinstance(value, str):
+            try:
+                return dt.datetime.fromisoformat(value)
+            except ValueError:
+                pass
+        raise self.fail(field, f"expected an ISO 8601 date and time (e.g. 2024-03-04T08:00:00+01:00), got {value!r}")
+
+    def factors(self, table: Any, where: str, allowed: set[str]) -> TaskFactors:
+        if not isinstance(table, dict):
+            raise self.fail(where, "expected a table of task factors")
+        self.no_unknown(table, allowed, where)
+        out: dict[str, Any] = {}
+        for key, value in table.items():
+            field = f"{where}.{key}"
+            if key == "load_kg":
+                v = self.number(value, field)
+                if v < 0:
+                    raise self.fail(field, f"expected a load in kilograms >= 0, got {value!r}")
+                out[key] = v
+            elif key == "load_mode":
+                if value not in LOAD_MODES:
+                    raise self.fail(field, f"expected one of {', '.join(LOAD_MODES)}, got {value!r}")
+                out[key] = value
+            elif key == "coupling":
+                if value not in COUPLINGS:
+                    raise self.fail(field, f"expected one of {', '.join(COUPLINGS)}, got {value!r}")
+                out[key] = value
+            else:
+                if not isinstance(value, bool):
+                    raise self.fail(field, f"expected true or false, got {value!r}")
+                out[key] = value
+        return TaskFactors(**out)
+
+    def time(self, value: Any, field: str, recorded_at: dt.datetime) -> float:
+        """Seconds from the first frame: a number, a clock time (time of day) or a date-time."""
+        if isinstance(value, bool):
+            raise self.fail(field, f"expected seconds, a clock time or a date-time, got {value!r}")
+        if isinstance(value, (int, float)):
+            return self.number(value, field)
+        if isinstance(value, dt.datetime):
+            if (value.tzinfo is None) != (recorded_at.tzinfo is None):
+                raise self.fail(field, "give a time zone offset on both this time and recorded_at, or on neither")
+            return (value - recorded_at).total_seconds()
+        if isinstance(value, dt.time):
+            if value.tzinfo is not None:
+                raise self.fail(field, "a clock time cannot carry a time zone; use a full date-time")
+            moment = dt.datetime.combine(recorded_at.date(), value, tzinfo=recorded_at.tzinfo)
+            return (moment - recorded_at).total_seconds()
+        raise self.fail(field, f"expected seconds from the start (a number), a clock time (10:15:00) or a "
+                               f"date-time (2024-03-04T10:15:00+01:00), got {value!r}")
+
+    def periods(self, items: Any, where: str, recorded_at: dt.datetime, duration: float) -> tuple[FactorPeriod, ...]:
+        if not isinstance(items, list) or not all(isinstance(p, dict) for p in items):
+            raise self.fail(where, "expected [[...periods]] tables, each with start, end and task factors")
+        out: list[FactorPeriod] = []
+        for i, item in enumerate(items):
+            at = f"{where}[{i}]"
+            self.no_unknown(item, _PERIOD_KEYS, at)
+            start = self.time(self.require(item, "start", at), f"{at}.start", recorded_at)
+            end = self.time(self.require(item, "end", at), f"{at}.end", recorded_at)
+            if not end > start:
+                raise self.fail(at, f"ends ({end:g} s) before it starts ({start:g} s)")
+            if end <= 0 or start >= duration:
+                raise self.fail(at, f"lies outside the recording ({start:g} s to {end:g} s; the videos last "
+                                    f"{duration:g} s)")
+            factors = self.factors({k: v for k, v in item.items() if k not in ("start", "end")}, at, set(FACTOR_NAMES))
+            if not factors.given():
+                raise self.fail(at, "gives no task factor (load_kg, load_mode, coupling, shock, ...)")
+            for j, other in enumerate(out):
+                if start < other.end_s and other.start_s < end:
+                    raise self.fail(at, f"overlaps {where}[{j}] ({other.start_s:g} s to {other.end_s:g} s)")
+            out.append(FactorPeriod(start_s=start, end_s=end, factors=factors))
+        return tuple(out)
+
+
+# --- videos ---------------------------------------------------------------------------------------------
+
+
+def probe_video(path: Path, *, full: bool = True) -> tuple[int, float, tuple[int, int]]:
+    """(frame count, frames per second, (width, height)) of a video; InputError if it cannot be read.
+
+    full: also decode the first and the last frame (catches truncated and corrupt files).
+    """
+    import cv2
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("the video file does not exist", path=path)
+    cap = _open_quietly(path)
+    try:
+        if not cap.isOpened():
+            raise InputError("OpenCV cannot open this video (not a video file, or damaged)", path=path)
+        count = int(round(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        fps = float(cap.get(cv2.CAP_PROP_FPS))
+        width = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
+        height = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        if count <= 0:
+            raise InputError("the video has no frames (or its length cannot be read)", path=path)
+        if full:
+            ok, frame = cap.read()
+            if not ok or frame is None:
+                raise InputError("the first frame cannot be decoded (damaged video)", path=path)
+            if frame.shape[1] != width or frame.shape[0] != height:
+                raise InputError(f"frames are {frame.shape[1]} x {frame.shape[0]} but the header says "
+                                 f"{width} x {height}", path=path)
+            if count > 1:
+                cap.set(cv2.CAP_PROP_POS_FRAMES, count - 1)
+                ok, frame = cap.read()
+                if not ok or frame is None:
+                    raise InputError(f"the header says {count} frames but the last one cannot be decoded "
+                                     "(truncated or damaged video)", path=path)
+        return count, fps, (width, height)
+    finally:
+        cap.release()
+
+
+def _open_quietly(path: Path):
+    """cv2.VideoCapture with OpenCV's own error logging silenced (the caller reports problems)."""
+    import cv2
+
+    logging = getattr(getattr(cv2, "utils", None), "logging", None)
+    if logging is None:
+        return cv2.VideoCapture(str(path))
+    level = logging.getLogLevel()
+    logging.setLogLevel(logging.LOG_LEVEL_SILENT)
+    try:
+        return cv2.VideoCapture(str(path))
+    finally:
+        logging.setLogLevel(level)
+
+
+# --- writing ----------------------------------------------------------------------------------------------
+
+
+def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, str]], fps: float | None = None,
+                     description: str | None = None, defaults: TaskFactors | None = None,
+                     periods: Sequence[FactorPeriod] = (), workers: Sequence[WorkerInfo] = (),
+                     scoring: Mapping[str, Any] | None = None, header: str = "") -> str:
+    """The text of a settings.toml (format_version 1) for these values; load_session reads it back."""
+    import tomli_w
+
+    data: dict[str, Any] = {"format_version": FORMAT_VERSION, "recorded_at": recorded_at}
+    if fps is not None:
+        data["fps"] = float(fps)
+    if description:
+        data["description"] = description
+    data["cameras"] = [{"name": n, "video": v} for n, v in cameras]
+    if defaults is not None and defaults.given():
+        data["defaults"] = defaults.given()
+    if periods:
+        data["periods"] = [_period_dict(p) for p in periods]
+    if workers:
+        table: dict[str, Any] = {}
+        for w in workers:
+            entry: dict[str, Any] = {}
+            if w.name:
+                entry["name"] = w.name
+            entry.update(w.factors.given())
+            if w.periods:
+                entry["periods"] = [_period_dict(p) for p in w.periods]
+            table[w.worker_id] = entry
+        data["workers"] = table
+    if scoring:
+        data["scoring"] = dict(scoring)
+    return header + tomli_w.dumps(data)
+
+
+def _period_dict(p: FactorPeriod) -> dict[str, Any]:
+    return {"start": float(p.start_s), "end": float(p.end_s), **p.factors.given()}
