@@ -22,6 +22,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.camera",
     "ergopose.commands.calibrate",
     "ergopose.commands.score",
+    "ergopose.commands.simulate",
 )
 
 DESCRIPTION = """\
