@@ -1,0 +1,11 @@
+"""HTML ergonomic reports of a session: one self-contained page per worker and a session index.
+
+- :mod:`ergopose.report.context`: report input records (frozen dataclasses, stored as JSON).
+- :mod:`ergopose.report.results`: the stored-results folder (save_results / load_results).
+- :mod:`ergopose.report.adapters`: other stages' records -> report input records.
+- :mod:`ergopose.report.pages`: one typed context per template, built from the records.
+- :mod:`ergopose.report.svg`: inline SVG figures; :mod:`ergopose.report.quality`: trust verdict.
+- :mod:`ergopose.report.render`: render_report(report_dir) writes the pages atomically.
+
+docs/reports.md describes the pages, the stored results and every rule the report applies.
+"""

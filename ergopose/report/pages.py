@@ -1,0 +1,985 @@
+"""Template contexts: one frozen dataclass per page template, built from the stored results.
+
+``IndexPage`` feeds templates/index.html.j2 and ``WorkerPage`` feeds templates/worker.html.j2; the
+nested records below are theirs. Every field is documented in its class docstring, and
+tests/report/test_templates.py holds each template to it: rendered from a fully populated example
+with jinja2.StrictUndefined, every field is used and no other name is.
+
+Text fields are plain text (the templates escape them); fields typed ``Markup`` hold inline SVG
+built by ergopose.report.svg, where every piece of text was escaped when the SVG was made. All
+numbers are already formatted for reading (units included), so templates do no arithmetic.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+from urllib.parse import quote
+
+import numpy as np
+import pandas as pd
+from markupsafe import Markup
+
+from ergopose.keypoints import LIMBS
+from ergopose.report import svg
+from ergopose.report.context import (Assumption, MethodInfo, ModelInfo, SessionInfo, WorkerResults, WorkerSummary)
+from ergopose.report.quality import Finding, Verdict, quality_verdict
+
+# ------------------------------------------------------------------------- shared records
+
+
+@dataclass(frozen=True)
+class Link:
+    """A link to another file of the report folder.
+
+    href: relative URL (percent-encoded). text: what the reader sees. note: empty, or why there is
+    no link (e.g. the file is missing); with a note the template shows the text without a link.
+    """
+
+    href: str
+    text: str
+    note: str
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure: id (unique on the page, used as anchor), svg (inline SVG, text escaped),
+    caption (plain text under the figure, says what it shows and how to read it)."""
+
+    id: str
+    svg: Markup
+    caption: str
+
+
+@dataclass(frozen=True)
+class SessionHeader:
+    """Who/when/where of the session, formatted.
+
+    title: session title (or its id). session_id: folder name. site: where (may be empty).
+    when: date and clock times, or a sentence that they are unknown. duration: length in words.
+    generated: which ergopose version wrote the results, and when.
+    """
+
+    title: str
+    session_id: str
+    site: str
+    when: str
+    duration: str
+    generated: str
+
+
+@dataclass(frozen=True)
+class SettingRow:
+    """A scoring setting: name (as in the settings file), value (formatted), meaning (in words)."""
+
+    name: str
+    value: str
+    meaning: str
+
+
+@dataclass(frozen=True)
+class MethodsSection:
+    """What was measured and how it was scored.
+
+    measured: sentences on what the cameras measured. methods: the scoring methods (tables,
+    action levels, file hashes). settings: every open choice of the scoring and its value.
+    models: the pose networks with their SHA-256. version: ergopose version. calibration: the
+    calibration file in a sentence.
+    """
+
+    measured: tuple[str, ...]
+    methods: tuple[MethodInfo, ...]
+    settings: tuple[SettingRow, ...]
+    models: tuple[ModelInfo, ...]
+    version: str
+    calibration: str
+
+
+@dataclass(frozen=True)
+class CalibrationRow:
+    """Reference-bar check in one lens region: region, target, measured (mean +- spread), error."""
+
+    region: str
+    target: str
+    measured: str
+    error: str
+
+
+# ----------------------------------------------------------------------------- worker page
+
+
+@dataclass(frozen=True)
+class LevelRow:
+    """One action level in the headline table.
+
+    key: stable id "<method>-<level>" (data attribute for tests and tools). level: number.
+    label: short name. wording: what the level asks for. scores: covered final scores ("5-6").
+    time: time at the level. percent: share of the tracked time. colour: the level's colour.
+    """
+
+    key: str
+    level: int
+    label: str
+    wording: str
+    scores: str
+    time: str
+    percent: str
+    colour: str
+
+
+@dataclass(frozen=True)
+class MethodHeadline:
+    """Headline of one method: method ("RULA"), title (full name), levels (ascending),
+    unscored_time / unscored_percent (tracked but not scored), key_fact (one sentence with the
+    share at the two highest levels)."""
+
+    method: str
+    title: str
+    levels: tuple[LevelRow, ...]
+    unscored_time: str
+    unscored_percent: str
+    key_fact: str
+
+
+@dataclass(frozen=True)
+class BandRow:
+    """Time of a body part in one band: method, body_part, score (band score), criterion (band in
+    words), time, percent (of the tracked time)."""
+
+    method: str
+    body_part: str
+    score: int
+    criterion: str
+    time: str
+    percent: str
+
+
+@dataclass(frozen=True)
+class HoldRow:
+    """A longest hold: body_part, method, score (band score), criterion, start (clock time),
+    duration."""
+
+    body_part: str
+    method: str
+    score: int
+    criterion: str
+    start: str
+    duration: str
+
+
+@dataclass(frozen=True)
+class RepetitionRow:
+    """Repetitive movement: body_part, median and max (actions per minute), limit (per minute),
+    over_limit (time at or over the limit)."""
+
+    body_part: str
+    median: str
+    max: str
+    limit: str
+    over_limit: str
+
+
+@dataclass(frozen=True)
+class MomentCard:
+    """A worst moment: rank (1 = worst), when (clock time of the drawn frame), span (episode
+    start-end and length), rula / reba (score and level in words), reason (what drove it),
+    figure (front and side view of the skeleton)."""
+
+    rank: int
+    when: str
+    span: str
+    rula: str
+    reba: str
+    reason: str
+    figure: Figure
+
+
+@dataclass(frozen=True)
+class HourRow:
+    """One hour of an hourly table: hour (clock range), tracked (time tracked), cells (minutes
+    per level, in the order of HourTable.columns, then not scored)."""
+
+    hour: str
+    tracked: str
+    cells: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class HourTable:
+    """Hourly breakdown of one method: method ("RULA"), columns (level headers then "not
+    scored"), rows (one per hour)."""
+
+    method: str
+    columns: tuple[str, ...]
+    rows: tuple[HourRow, ...]
+
+
+@dataclass(frozen=True)
+class FlagRow:
+    """An ISO 11226 / EN 1005-4 judgement: standard, body_part, condition, verdict (words),
+    severity (0 acceptable to 3 not acceptable; used for styling, the verdict words carry the
+    meaning), time, longest (hold), note."""
+
+    standard: str
+    body_part: str
+    condition: str
+    verdict: str
+    severity: int
+    time: str
+    longest: str
+    note: str
+
+
+@dataclass(frozen=True)
+class LimbRow:
+    """Limb-length statistics in centimetres: limb, n (frames), median, iqr (q1-q3),
+    whiskers (p5-p95), mean_sd (mean +- standard deviation)."""
+
+    limb: str
+    n: str
+    median: str
+    iqr: str
+    whiskers: str
+    mean_sd: str
+
+
+@dataclass(frozen=True)
+class RegionRow:
+    """Time in one lens region: region, time (tracked there), percent (of the tracked time),
+    reconstruction (median reconstruction frequency of the scored limbs there)."""
+
+    region: str
+    time: str
+    percent: str
+    reconstruction: str
+
+
+@dataclass(frozen=True)
+class QualitySection:
+    """The quality section (as in the paper's evaluation).
+
+    verdict: overall rating, plain-language headline and findings. verdict_label: the rating in
+    words ("High confidence"). reliable: sentence on the share of the shift with a reliable
+    skeleton. limb_figure / limb_rows: limb-length box plots and their table.
+    frequency_figure: reconstruction frequency per limb overall and per lens region.
+    regions: time per lens region. calibration_rows / calibration_note: the calibration's accuracy.
+    error_3d: median 3D error against ground truth in a sentence (empty when there is none).
+    """
+
+    verdict: Verdict
+    verdict_label: str
+    reliable: str
+    limb_figure: Figure
+    limb_rows: tuple[LimbRow, ...]
+    frequency_figure: Figure
+    regions: tuple[RegionRow, ...]
+    calibration_rows: tuple[CalibrationRow, ...]
+    calibration_note: str
+    error_3d: str
+
+
+@dataclass(frozen=True)
+class WorkerPage:
+    """Context of templates/worker.html.j2: one worker's shift.
+
+    page_title: the HTML title. session: session header. worker_id: pseudonymous id.
+    display_name: the name (with the id) or the id alone. nav: links to the index and the other
+    workers. tracked: sentence on how much of the session the worker was tracked.
+    headline: per method, share of the shift at each action level; headline_figure: the same
+    as stacked bars. timeline_figures: worst and median score per time bin, per method;
+    timeline_note: how the timeline was downsampled. body_part_figures / body_part_rows: time per
+    body part and band. holds: longest holds. repetitions: repetitive movements. worst: worst
+    moments with skeleton drawings. hourly_figures / hourly_tables: hourly breakdown.
+    flags: ISO 11226 / EN 1005-4 judgements. floor_figures / floor_note: where on the floor the
+    risky postures happened. quality: the quality section. assumptions: what was assumed for this
+    worker. methods: the methods section. downloads: the worker's CSV and the session summary.
+    """
+
+    page_title: str
+    session: SessionHeader
+    worker_id: str
+    display_name: str
+    nav: tuple[Link, ...]
+    tracked: str
+    headline: tuple[MethodHeadline, ...]
+    headline_figure: Figure
+    timeline_figures: tuple[Figure, ...]
+    timeline_note: str
+    body_part_figures: tuple[Figure, ...]
+    body_part_rows: tuple[BandRow, ...]
+    holds: tuple[HoldRow, ...]
+    repetitions: tuple[RepetitionRow, ...]
+    worst: tuple[MomentCard, ...]
+    hourly_figures: tuple[Figure, ...]
+    hourly_tables: tuple[HourTable, ...]
+    flags: tuple[FlagRow, ...]
+    floor_figures: tuple[Figure, ...]
+    floor_note: str
+    quality: QualitySection
+    assumptions: tuple[Assumption, ...]
+    methods: MethodsSection
+    downloads: tuple[Link, ...]
+
+
+# ------------------------------------------------------------------------------ index page
+
+
+@dataclass(frozen=True)
+class WorkerRow:
+    """A worker on the index page: display_name, page (link to the worker page), tracked (time),
+    rula_high (share at RULA action level 3-4), reba_high (share at REBA high or very high),
+    reliable (share with a reliable skeleton), verdict_label (confidence in words), verdict_rating
+    ("good"/"fair"/"poor", for styling), csv (link to the worker's CSV)."""
+
+    display_name: str
+    page: Link
+    tracked: str
+    rula_high: str
+    reba_high: str
+    reliable: str
+    verdict_label: str
+    verdict_rating: str
+    csv: Link
+
+
+@dataclass(frozen=True)
+class IndexPage:
+    """Context of templates/index.html.j2: the session overview.
+
+    page_title: the HTML title. session: session header. workers: one row per worker.
+    overview_figures: per method, share of the shift at each level for every worker.
+    calibration_rows / calibration_note: the calibration's accuracy. methods: the methods
+    section. downloads: the session summary CSV.
+    """
+
+    page_title: str
+    session: SessionHeader
+    workers: tuple[WorkerRow, ...]
+    overview_figures: tuple[Figure, ...]
+    calibration_rows: tuple[CalibrationRow, ...]
+    calibration_note: str
+    methods: MethodsSection
+    downloads: tuple[Link, ...]
+
+
+# ------------------------------------------------------------------------------- formatting
+
+#: Colours of action levels (lowest to highest) by number of levels; each is labelled in the figures.
+LEVEL_COLOURS = {
+    4: ("#a6d96a", "#fee08b", "#fdae61", "#d73027"),
+    5: ("#d9f0d3", "#a6d96a", "#fee08b", "#fdae61", "#d73027"),
+}
+#: Colours of posture band scores 1, 2, 3, 4, 5+ (band score, lower is better).
+BAND_COLOURS = ("#a6d96a", "#fee08b", "#fdae61", "#f46d43", "#d73027")
+METHOD_TITLES = {"rula": "RULA", "reba": "REBA"}
+#: The levels counted as "high" on the index page and in the floor maps, per method.
+HIGH_LEVELS = {"rula": (3, 4), "reba": (3, 4)}
+#: Timeline bin widths (seconds) the report chooses from: the smallest giving at most MAX_BINS bins.
+BIN_CHOICES_S = (1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600)
+MAX_BINS = 480
+RATING_LABELS = {"good": "High confidence", "fair": "Moderate confidence", "poor": "Low confidence"}
+REGION_NAMES = {"all": "whole field of view", "central": "central", "outer": "outer", "edge": "lens edge"}
+
+#: Plain-language meaning of each scoring setting (ergopose.ergonomics.settings.ScoringSettings).
+SETTING_MEANINGS = {
+    "rula_open_boundary": "RULA: which band gets an angle exactly on an edge the worksheet leaves open",
+    "reba_open_boundary": "REBA: which band gets an angle exactly on an edge the worksheet leaves open",
+    "wrist_neutral_deg": "wrist counts as neutral within this many degrees",
+    "trunk_upright_deg": "trunk counts as upright within this many degrees",
+    "neck_extension_deg": "neck counts as extended beyond this many degrees of extension",
+    "shoulder_raised_deg": "shoulder counts as raised above this elevation (degrees)",
+    "upper_arm_abducted_deg": "upper arm counts as abducted above this angle (degrees)",
+    "trunk_twisted_deg": "trunk counts as twisted above this angle (degrees)",
+    "trunk_side_bent_deg": "trunk counts as side-bent above this angle (degrees)",
+    "neck_twisted_deg": "neck counts as twisted above this angle (degrees)",
+    "neck_side_bent_deg": "neck counts as side-bent above this angle (degrees)",
+    "wrist_deviated_deg": "wrist counts as bent sideways above this angle (degrees)",
+    "across_midline_m": "hand counts as across the body's midline beyond this distance (metres)",
+    "out_to_side_m": "hand counts as out to the side beyond this distance (metres)",
+    "rula_static_hold_s": "RULA: a posture held this long (seconds) is static",
+    "reba_static_hold_s": "REBA: a posture held this long (seconds) is static",
+    "static_includes_neutral": "whether holding a neutral posture also counts as static",
+    "repetition_amplitude_deg": "a movement counts as an action when the angle rises and falls this much (degrees)",
+    "repetition_window_s": "actions are counted in a window this long (seconds)",
+    "rula_repetitions_per_min": "RULA: repeated when at least this many actions per minute",
+    "reba_repetitions_per_min": "REBA: repeated when more than this many actions per minute",
+    "rapid_change_deg": "REBA: a rapid large change spans more than this many degrees ...",
+    "rapid_change_window_s": "... within this many seconds",
+    "max_gap_s": "a tracking gap longer than this (seconds) breaks a hold",
+    "rula_lower_arm_adjust": "RULA lower-arm adjustment: one +1 (single) or one per condition (separate)",
+    "reba_twist_side_adjust": "REBA neck/trunk twist and side-bend: one +1 (single) or one each (separate)",
+    "unknown_flags": "an unmeasured yes/no input adds nothing (absent) or leaves the score missing (missing)",
+}
+
+
+def fmt_duration(seconds: float) -> str:
+    """Seconds as "2 h 05 min", "4 min 10 s" or "12 s" (rounded to whole seconds)."""
+    if not math.isfinite(seconds):
+        return "unknown"
+    s = int(round(max(seconds, 0.0)))
+    h, rem = divmod(s, 3600)
+    m, sec = divmod(rem, 60)
+    if h:
+        return f"{h} h {m:02d} min"
+    if m:
+        return f"{m} min {sec:02d} s"
+    return f"{sec} s"
+
+
+def fmt_percent(part: float, whole: float) -> str:
+    """A share as "12.3 %" (one decimal; "0.0 %" for nothing, "n/a" when whole is 0)."""
+    if not (whole > 0) or not math.isfinite(part):
+        return "n/a"
+    return f"{100.0 * part / whole:.1f} %"
+
+
+def _parse_start(start: str | None) -> _dt.datetime | None:
+    if not start:
+        return None
+    try:
+        return _dt.datetime.fromisoformat(start)
+    except ValueError:
+        return None
+
+
+class Clock:
+    """Turns shift time (seconds) into clock time when the session's start is known."""
+
+    def __init__(self, start: str | None):
+        self.start = _parse_start(start)
+
+    def __call__(self, shift_s: float, seconds: bool = True) -> str:
+        if self.start is not None:
+            t = self.start + _dt.timedelta(seconds=float(shift_s))
+            return t.strftime("%H:%M:%S" if seconds else "%H:%M")
+        s = int(round(shift_s))
+        h, rem = divmod(s, 3600)
+        m, sec = divmod(rem, 60)
+        return f"{h}:{m:02d}:{sec:02d}" if seconds else f"{h}:{m:02d}"
+
+    @property
+    def known(self) -> bool:
+        return self.start is not None
+
+
+def safe_href(path: str | None) -> str | None:
+    """A relative path as a safe URL (no scheme, not absolute, no '..'), or None if it is not one."""
+    if not path:
+        return None
+    p = path.replace("\\", "/")
+    if ":" in p or p.startswith("/") or any(part == ".." for part in p.split("/")):
+        return None
+    return quote(p, safe="/")
+
+
+def _level_colours(method: MethodInfo) -> dict[int, str]:
+    pal = LEVEL_COLOURS[len(method.action_levels)] if len(method.action_levels) in LEVEL_COLOURS else None
+    if pal is None:
+        pal = tuple(svg.HEAT_COLOURS[min(i, 5)] for i in range(len(method.action_levels)))
+    return {lv.level: pal[i] for i, lv in enumerate(method.action_levels)}
+
+
+def _band_colour(score: int) -> str:
+    return BAND_COLOURS[min(max(score, 1), len(BAND_COLOURS)) - 1]
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_-]+", "-", text).strip("-").lower() or "x"
+
+
+def worker_page_name(worker_id: str) -> str:
+    """File name of a worker's page in the report folder."""
+    return f"worker-{worker_id}.html"
+
+
+def display_name(worker_id: str, name: str | None) -> str:
+    return f"{name} ({worker_id})" if name else worker_id
+
+
+# ------------------------------------------------------------------------- shared builders
+
+
+def session_header(s: SessionInfo) -> SessionHeader:
+    clock = Clock(s.start)
+    if clock.known:
+        assert clock.start is not None
+        end = clock.start + _dt.timedelta(seconds=s.duration_s)
+        when = f"{clock.start.strftime('%A %d %B %Y')}, {clock.start.strftime('%H:%M')} to {end.strftime('%H:%M')}"
+    else:
+        when = "Clock time not recorded: times are given from the start of the recording (h:mm:ss)."
+    return SessionHeader(
+        title=s.title or s.session_id, session_id=s.session_id, site=s.site, when=when,
+        duration=f"{fmt_duration(s.duration_s)} ({s.frames:,} frames at {s.fps:g} frames per second)",
+        generated=f"Results written {s.created} by ergopose {s.ergopose_version}.")
+
+
+def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
+    cal = s.calibration
+    if cal is None:
+        return (), "No calibration information was stored with these results."
+    rows = []
+    for r in cal.regions:
+        spread = f" ± {100 * r.spread_m:.1f} cm" if math.isfinite(r.spread_m) else ""
+        err = (f"{100 * (r.measured_m - r.target_m) / r.target_m:+.1f} %"
+               if math.isfinite(r.measured_m) and r.target_m > 0 else "n/a")
+        rows.append(CalibrationRow(region=REGION_NAMES.get(r.region, r.region), target=f"{r.target_m:.3f} m",
+                                   measured=f"{r.measured_m:.3f} m{spread} (n = {r.n})", error=err))
+    rms = (f" The calibration's reprojection error is {cal.reprojection_rms_px:.2f} pixels (RMS)."
+           if math.isfinite(cal.reprojection_rms_px) else "")
+    if rows:
+        note = ("A reference bar of known length was measured in 3D in each lens region (the paper's check); "
+                "the error is measured minus true length." + rms)
+    else:
+        note = "The calibration was not checked with a reference bar of known length." + rms
+    return tuple(rows), note
+
+
+def methods_section(s: SessionInfo) -> MethodsSection:
+    measured = (
+        "Two ceiling-mounted fisheye cameras filmed the work area; each worker's 33 body landmarks were found "
+        "in upright virtual views of both cameras and triangulated to 3D (metres), then tracked and smoothed.",
+        "Joint angles (trunk, neck, upper and lower arms, wrists, knees) were computed from the 3D skeleton in "
+        f"every frame ({s.fps:g} per second) and scored with RULA and REBA frame by frame.",
+        "Shares of the shift are shares of the time the worker was tracked; scores are ordinal, so the report "
+        "shows time per level, never averages of scores.",
+        "Loads, hand coupling and supports cannot be seen by the cameras: they are the assumptions listed for "
+        "each worker.",
+    )
+    settings = tuple(SettingRow(name=st.name, value=_fmt_setting(st.value),
+                                meaning=SETTING_MEANINGS.get(st.name, "see docs/scoring.md"))
+                     for st in s.settings)
+    cal = s.calibration
+    if cal is None:
+        cal_text = "No calibration information was stored."
+    else:
+        cal_text = (f"Calibration file {cal.file} (SHA-256 {cal.sha256}) with cameras "
+                    f"{', '.join(cal.cameras)}.")
+    return MethodsSection(measured=measured, methods=s.methods, settings=settings, models=s.models,
+                          version=s.ergopose_version, calibration=cal_text)
+
+
+def _fmt_setting(v: bool | float | str) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:g}"
+    return str(v)
+
+
+def _csv_link(report_dir: Path | None, path: str | None, text: str) -> Link:
+    href = safe_href(path)
+    if href is None:
+        return Link(href="", text=text, note="not written for this session" if not path else "unsafe path ignored")
+    if report_dir is not None and not (report_dir / path).is_file():  # type: ignore[operator]
+        return Link(href=href, text=text, note=f"missing: expected {path} next to this report")
+    return Link(href=href, text=text, note="")
+
+
+# -------------------------------------------------------------------------- worker builder
+
+
+def level_seconds(summary: WorkerSummary, method: str) -> dict[int, float]:
+    return {lt.level: lt.seconds for lt in summary.levels if lt.method == method}
+
+
+def headline(summary: WorkerSummary, method: MethodInfo) -> MethodHeadline:
+    secs = level_seconds(summary, method.name)
+    colours = _level_colours(method)
+    total = summary.observed_s
+    rows = []
+    for lv in method.action_levels:
+        t = secs.get(lv.level, 0.0)
+        rows.append(LevelRow(key=f"{method.name}-{lv.level}", level=lv.level, label=lv.label, wording=lv.wording,
+                             scores=f"{lv.low}" if lv.low == lv.high else f"{lv.low}-{lv.high}",
+                             time=fmt_duration(t), percent=fmt_percent(t, total), colour=colours[lv.level]))
+    unscored = summary.unscored_s.get(method.name, 0.0)
+    high = [lv for lv in method.action_levels if lv.level in HIGH_LEVELS[method.name]]
+    high_s = sum(secs.get(lv.level, 0.0) for lv in high)
+    names = " or ".join(lv.label for lv in high)
+    key = (f"{fmt_percent(high_s, total)} of the tracked time ({fmt_duration(high_s)}) at {METHOD_TITLES[method.name]} "
+           f"level {names}: {high[0].wording}." if high else "")
+    return MethodHeadline(method=METHOD_TITLES[method.name], title=method.title, levels=tuple(rows),
+                          unscored_time=fmt_duration(unscored), unscored_percent=fmt_percent(unscored, total),
+                          key_fact=key)
+
+
+def _level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time") -> tuple:
+    colours = _level_colours(method)
+    segs = []
+    for lv in method.action_levels:
+        t = secs.get(lv.level, 0.0)
+        short = lv.label if method.name == "rula" else str(lv.level)
+        segs.append(svg.Segment(t, colours[lv.level], short,
+                                f"{METHOD_TITLES[method.name]} level {lv.level} ({lv.label}): {fmt_duration(t)}"))
+    segs.append(svg.Segment(unscored, None, "n/s", f"not scored: {fmt_duration(unscored)}"))
+    return tuple(segs)
+
+
+def headline_figure(summary: WorkerSummary, session: SessionInfo, who: str) -> Figure:
+    rows = []
+    for m in session.methods:
+        rows.append(svg.StackRow(METHOD_TITLES[m.name], _level_segments(level_seconds(summary, m.name),
+                                                                        summary.unscored_s.get(m.name, 0.0), m)))
+    fig = svg.stacked_bars(rows, title=f"Share of the tracked time at each action level, {who}",
+                           desc="Stacked bars, one per method; each segment is an action level, labelled with its "
+                                "name or number; hatched grey is time not scored. The table beside gives the numbers.",
+                           id_prefix="fig-headline", total=summary.observed_s, label_width=70,
+                           axis_label="share of the tracked time (%)")
+    return Figure(id="fig-headline", svg=fig,
+                  caption="Share of the tracked time at each action level (RULA AL1-AL4, REBA 0-4; n/s = not "
+                          "scored). Exact numbers are in the tables.")
+
+
+def choose_bin(duration_s: float) -> float:
+    for b in BIN_CHOICES_S:
+        if duration_s / b <= MAX_BINS:
+            return float(b)
+    return float(BIN_CHOICES_S[-1])
+
+
+def binned_scores(time_s: np.ndarray, scores: pd.Series, duration_s: float, bin_s: float,
+                  max_score: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per time bin: starts (s), worst score and (lower) median score (NaN where no score).
+
+    Vectorised with one bincount over (bin, score): memory is bins x scores, not frames.
+    """
+    n_bins = max(1, int(math.ceil(duration_s / bin_s)))
+    vals = scores.to_numpy(dtype=np.float64, na_value=np.nan)
+    ok = np.isfinite(vals)
+    idx = np.clip((time_s[ok] // bin_s).astype(np.int64), 0, n_bins - 1)
+    sc = np.clip(vals[ok].astype(np.int64), 0, max_score)
+    counts = np.bincount(idx * (max_score + 1) + sc, minlength=n_bins * (max_score + 1)).reshape(n_bins, max_score + 1)
+    n = counts.sum(axis=1)
+    has = n > 0
+    worst = np.where(has, max_score - np.argmax(counts[:, ::-1] > 0, axis=1), np.nan).astype(np.float64)
+    cum = counts.cumsum(axis=1)
+    median = np.where(has, np.argmax(cum >= ((n + 1) // 2)[:, None], axis=1), np.nan).astype(np.float64)
+    return np.arange(n_bins) * bin_s, worst, median
+
+
+def _time_ticks(duration_s: float, clock: Clock) -> list[tuple[float, str]]:
+    for step in (60, 300, 600, 900, 1800, 3600, 7200):
+        if duration_s / step <= 10:
+            break
+    if clock.known:
+        assert clock.start is not None
+        first = clock.start.replace(minute=0, second=0, microsecond=0)
+        offset = (first - clock.start).total_seconds()
+        k0 = math.ceil(-offset / step)
+        ticks = [offset + k * step for k in range(k0, int((duration_s - offset) // step) + 1)]
+    else:
+        ticks = [k * step for k in range(int(duration_s // step) + 1)]
+    return [(t, clock(t, seconds=False)) for t in ticks if 0 <= t <= duration_s]
+
+
+def timeline_figures(frames: pd.DataFrame, session: SessionInfo, who: str, clock: Clock) -> tuple[tuple[Figure, ...], str]:
+    bin_s = choose_bin(session.duration_s)
+    t = frames["time_s"].to_numpy(dtype=np.float64)
+    figs = []
+    for m, col in (("rula", "rula_grand"), ("reba", "reba_score")):
+        meth = session.method(m)
+        starts, worst, med = binned_scores(t, frames[col], session.duration_s, bin_s, meth.score_high)
+        colours = _level_colours(meth)
+        bands = [svg.Band(lv.low - 0.5, lv.high + 0.5, colours[lv.level],
+                          f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}") for lv in meth.action_levels]
+        fig = svg.score_timeline(
+            starts, bin_s, worst, med, bands, y_min=meth.score_low - 0.5, y_max=meth.score_high + 0.5,
+            x_ticks=_time_ticks(session.duration_s, clock),
+            title=f"{METHOD_TITLES[m]} score over the shift, {who}",
+            desc=f"For each {fmt_duration(bin_s)} of the shift, a bar up to the worst {METHOD_TITLES[m]} score in it, "
+                 "coloured by its action level, and a black step line at the median score; the action levels are "
+                 "named at the right. Hatched marks under the axis: not tracked or not scored.",
+            id_prefix=f"fig-timeline-{m}", y_label=f"{METHOD_TITLES[m]} score")
+        figs.append(Figure(id=f"fig-timeline-{m}", svg=fig,
+                           caption=f"{METHOD_TITLES[m]} over the shift: bars = worst score in each {fmt_duration(bin_s)} "
+                                   "(colour and height = action level), black line = median score."))
+    note = (f"Each point of the timelines summarises {fmt_duration(bin_s)} of the shift ({len(starts)} periods); "
+            "all other numbers on this page come from every frame.")
+    return tuple(figs), note
+
+
+def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, ...], tuple[BandRow, ...]]:
+    total = summary.observed_s
+    rows = tuple(BandRow(method=METHOD_TITLES.get(b.method, b.method), body_part=b.body_part, score=b.score,
+                         criterion=b.criterion, time=fmt_duration(b.seconds), percent=fmt_percent(b.seconds, total))
+                 for b in summary.body_parts)
+    figs = []
+    for m in ("rula", "reba"):
+        parts: dict[str, list] = {}
+        for b in summary.body_parts:
+            if b.method == m:
+                parts.setdefault(b.body_part, []).append(b)
+        if not parts:
+            continue
+        stack = []
+        for part, bands in parts.items():
+            bands = sorted(bands, key=lambda b: b.score)
+            segs = [svg.Segment(b.seconds, _band_colour(b.score), str(b.score),
+                                f"{part}, score {b.score} ({b.criterion}): {fmt_duration(b.seconds)}") for b in bands]
+            rest = max(total - sum(b.seconds for b in bands), 0.0)
+            segs.append(svg.Segment(rest, None, "", f"{part} not measured: {fmt_duration(rest)}"))
+            stack.append(svg.StackRow(part, tuple(segs)))
+        fig = svg.stacked_bars(stack, title=f"Time per posture band of each body part ({METHOD_TITLES[m]}), {who}",
+                               desc="One bar per body part; each segment is a posture band, labelled with its band "
+                                    "score (1 = best). Hatched grey: the angle was not measured. Numbers in the table.",
+                               id_prefix=f"fig-parts-{m}", total=total if total > 0 else None,
+                               axis_label="share of the tracked time (%)")
+        figs.append(Figure(id=f"fig-parts-{m}", svg=fig,
+                           caption=f"{METHOD_TITLES[m]} posture bands per body part (number = band score, higher is "
+                                   "worse), as a share of the tracked time."))
+    return tuple(figs), rows
+
+
+def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock, limit: int = 6) -> tuple[MomentCard, ...]:
+    cards = []
+    rula, reba = session.method("rula"), session.method("reba")
+
+    def words(score: int | None, level: int | None, meth: MethodInfo) -> str:
+        if score is None:
+            return "not scored"
+        lv = next((x for x in meth.action_levels if x.level == level), None)
+        return f"{score} (level {level}, {lv.label}: {lv.wording})" if lv else f"{score}"
+
+    for k, w in enumerate(summary.worst[:limit], start=1):
+        if w.joints_world_m is None:
+            joints = np.full((33, 3), np.nan)
+        else:
+            joints = np.asarray(w.joints_world_m, dtype=np.float64)
+        fig = svg.skeleton_views(joints, title=f"Posture of {who} at {clock(w.peak_s)}",
+                                 desc=f"Front and side view of the 3D skeleton at {clock(w.peak_s)}: {w.reason}. "
+                                      "Left limbs solid blue, right limbs dashed red; L and R mark the wrists.",
+                                 id_prefix=f"fig-moment-{k}")
+        cards.append(MomentCard(
+            rank=k, when=clock(w.peak_s),
+            span=f"{clock(w.start_s)} to {clock(w.end_s)} ({fmt_duration(w.end_s - w.start_s)})",
+            rula=words(w.rula_grand, w.rula_level, rula), reba=words(w.reba_score, w.reba_level, reba),
+            reason=w.reason,
+            figure=Figure(id=f"fig-moment-{k}", svg=fig,
+                          caption=f"Skeleton at {clock(w.peak_s)}: front view (worker's right on the left) and side "
+                                  "view (seen from the worker's right). No video images are kept.")))
+    return tuple(cards)
+
+
+def hourly_section(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock) -> tuple[tuple[Figure, ...], tuple[HourTable, ...]]:
+    figs, tables = [], []
+    for m in ("rula", "reba"):
+        meth = session.method(m)
+        hours = sorted((h for h in summary.hourly if h.method == m), key=lambda h: h.start_s)
+        if not hours:
+            continue
+        cols, rows = [], []
+        for h in hours:
+            secs = {lt.level: lt.seconds for lt in h.levels}
+            label = f"{clock(max(h.start_s, 0.0), seconds=False)}"
+            segs = tuple(svg.Segment(s.value / 60.0, s.colour, s.short, s.long)
+                         for s in _level_segments(secs, h.unscored_s, meth))
+            cols.append(svg.StackColumn(label, segs))
+            end = min(h.start_s + 3600.0, session.duration_s)
+            rows.append(HourRow(hour=f"{clock(max(h.start_s, 0.0), seconds=False)}-{clock(end, seconds=False)}",
+                                tracked=fmt_duration(h.observed_s),
+                                cells=tuple(f"{secs.get(lv.level, 0.0) / 60:.1f}" for lv in meth.action_levels)
+                                + (f"{h.unscored_s / 60:.1f}",)))
+        fig = svg.stacked_columns(cols, title=f"{METHOD_TITLES[m]} action levels per hour, {who}",
+                                  desc="One column per hour; segments are minutes at each action level (labelled), "
+                                       "hatched grey is time not scored. The table below gives the minutes.",
+                                  id_prefix=f"fig-hourly-{m}", y_max=60, y_label="minutes", y_ticks=(0, 15, 30, 45, 60))
+        figs.append(Figure(id=f"fig-hourly-{m}", svg=fig,
+                           caption=f"Minutes per hour at each {METHOD_TITLES[m]} action level."))
+        columns = tuple(f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}" for lv in meth.action_levels)
+        tables.append(HourTable(method=METHOD_TITLES[m], columns=columns + ("not scored",), rows=tuple(rows)))
+    return tuple(figs), tuple(tables)
+
+
+def floor_section(frames: pd.DataFrame, session: SessionInfo, who: str) -> tuple[tuple[Figure, ...], str]:
+    fp = session.floor
+    nx = max(1, int(round((fp.x_max - fp.x_min) / fp.cell_m)))
+    ny = max(1, int(round((fp.y_max - fp.y_min) / fp.cell_m)))
+    x = frames["floor_x_m"].to_numpy(dtype=np.float64)
+    y = frames["floor_y_m"].to_numpy(dtype=np.float64)
+    ok = np.isfinite(x) & np.isfinite(y)
+    dt = 1.0 / session.fps
+    edges = (np.linspace(fp.y_min, fp.y_max, ny + 1), np.linspace(fp.x_min, fp.x_max, nx + 1))
+    presence, _, _ = np.histogram2d(y[ok], x[ok], bins=edges)
+    outlines = [svg.Outline(f.name, f.x0, f.y0, f.x1, f.y1, f.kind) for f in fp.furniture]
+    markers = [svg.Marker(c.name, c.x, c.y) for c in fp.cameras]
+    figs = []
+    for m, col in (("rula", "rula_action_level"), ("reba", "reba_risk_level")):
+        meth = session.method(m)
+        lv = frames[col].to_numpy(dtype=np.float64, na_value=np.nan)
+        risky = ok & np.isin(lv, HIGH_LEVELS[m])
+        grid, _, _ = np.histogram2d(y[risky], x[risky], bins=edges)
+        names = " or ".join(x.label for x in meth.action_levels if x.level in HIGH_LEVELS[m])
+        fig = svg.heat_map(grid * dt / 60.0, (fp.x_min, fp.x_max, fp.y_min, fp.y_max),
+                           title=f"Where {who} worked at {METHOD_TITLES[m]} level {names}",
+                           desc=f"Floor plan of the {fp.x_max - fp.x_min:g} x {fp.y_max - fp.y_min:g} m area seen from "
+                                f"above, in {fp.cell_m:g} m squares; darker squares = more minutes at {METHOD_TITLES[m]} "
+                                f"level {names} (legend at the right); light grey = present but not at that level; "
+                                "blue outlines = furniture, diamonds = cameras.",
+                           id_prefix=f"fig-floor-{m}", unit="minutes", outlines=outlines, markers=markers,
+                           presence=presence)
+        figs.append(Figure(id=f"fig-floor-{m}", svg=fig,
+                           caption=f"Minutes at {METHOD_TITLES[m]} level {names} per {fp.cell_m:g} m square of floor "
+                                   "(seen from above; position = middle of the hips)."))
+    located = float(ok.sum()) * dt
+    note = (f"The worker's floor position was known for {fmt_duration(located)} of the tracked time. "
+            + ("Furniture outlines come from the session's floor plan." if fp.furniture else
+               "No furniture layout was given for this session."))
+    return tuple(figs), note
+
+
+def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> QualitySection:
+    d = res.diagnostics
+    verdict = quality_verdict(d, session.calibration)
+    reliable = (f"The skeleton was reliable for {fmt_percent(d.frames_reliable, d.frames_observed)} of the tracked "
+                f"time ({fmt_duration(d.frames_reliable / session.fps)} of {fmt_duration(d.frames_observed / session.fps)}"
+                f"), that is {fmt_percent(d.frames_reliable, session.frames)} of the whole session. Rule: "
+                f"{d.reliable_rule}.")
+    order = [name for name, _, _ in LIMBS]
+    stats = sorted(d.limb_lengths, key=lambda s: order.index(s.limb) if s.limb in order else len(order))
+    boxes = [svg.BoxRow(s.limb.replace("_", " "), 100 * s.p5_m, 100 * s.q1_m, 100 * s.median_m, 100 * s.q3_m,
+                        100 * s.p95_m, s.n) for s in stats]
+    limb_fig = svg.box_plots(boxes, title=f"3D limb lengths over the shift, {who}",
+                             desc="Box plots per limb: box = middle half of the measured lengths, thick line = median, "
+                                  "whiskers = 5th to 95th percentile, in centimetres. A real limb does not change "
+                                  "length, so a wide box means noisy measurement. Numbers in the table below.",
+                             id_prefix="fig-limbs", unit="length (cm)")
+    rows = tuple(LimbRow(limb=s.limb.replace("_", " "), n=f"{s.n:,}", median=_cm(s.median_m),
+                         iqr=f"{_cm(s.q1_m)} to {_cm(s.q3_m)}", whiskers=f"{_cm(s.p5_m)} to {_cm(s.p95_m)}",
+                         mean_sd=f"{_cm(s.mean_m)} ± {_cm(s.std_m)}") for s in stats)
+    # reconstruction frequency: one panel per region
+    freq = {(r.limb, r.region): r for r in d.reconstruction}
+    limbs = [n for n in order if any((n, reg) in freq for reg in ("all", "central", "outer", "edge"))]
+    panels = []
+    for reg in ("all", "central", "outer", "edge"):
+        vals = []
+        for limb in limbs:
+            r = freq.get((limb, reg))
+            vals.append(100.0 * r.reconstructed / r.frames if r is not None and r.frames > 0 else float("nan"))
+        panels.append((REGION_NAMES[reg], vals))
+    freq_fig = svg.bar_panels([n.replace("_", " ") for n in limbs], panels,
+                              title=f"Reconstruction frequency per limb and lens region, {who}",
+                              desc="Per limb, the percentage of tracked frames in which the limb was reconstructed in "
+                                   "3D: whole field of view, then the central, outer and edge regions of the lenses. "
+                                   "Each bar is labelled with its percentage; 'no data' = never in that region.",
+                              id_prefix="fig-frequency")
+    total_frames = sum(d.region_frames.values())
+    regions = []
+    from ergopose.report.quality import SCORED_LIMBS
+    for reg in ("central", "outer", "edge"):
+        nfr = d.region_frames.get(reg, 0)
+        fr = [freq[(limb, reg)] for limb in SCORED_LIMBS if (limb, reg) in freq and freq[(limb, reg)].frames > 0]
+        rec = (f"{100 * float(np.median([r.reconstructed / r.frames for r in fr])):.1f} %" if fr else "n/a")
+        regions.append(RegionRow(region=REGION_NAMES[reg], time=fmt_duration(nfr / session.fps),
+                                 percent=fmt_percent(nfr, total_frames), reconstruction=rec))
+    cal_rows, cal_note = calibration_rows(session)
+    err = (f"Against ground truth, the median 3D joint error was {100 * d.error_3d_m:.1f} cm."
+           if math.isfinite(d.error_3d_m) else "")
+    return QualitySection(
+        verdict=verdict, verdict_label=RATING_LABELS[verdict.rating], reliable=reliable,
+        limb_figure=Figure(id="fig-limbs", svg=limb_fig,
+                           caption="Limb lengths (cm): box = middle half, line = median, whiskers = 5th-95th percentile."),
+        limb_rows=rows,
+        frequency_figure=Figure(id="fig-frequency", svg=freq_fig,
+                                caption="Share of tracked frames (%) in which each limb was reconstructed, overall and "
+                                        "per lens region (central, outer, edge)."),
+        regions=tuple(regions), calibration_rows=cal_rows, calibration_note=cal_note, error_3d=err)
+
+
+def _cm(m: float) -> str:
+    return f"{100 * m:.1f} cm" if math.isfinite(m) else "n/a"
+
+
+FLAG_SEVERITY = {"acceptable": 0, "conditionally acceptable": 1, "not recommended": 2, "not acceptable": 3}
+
+
+def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path | None = None) -> WorkerPage:
+    """The context of one worker's page."""
+    info, summ = res.info, res.summary
+    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    who = display_name(info.worker_id, info.name)
+    clock = Clock(session.start)
+    header = session_header(session)
+    nav = [Link(href="index.html", text="Session overview", note="")]
+    nav += [Link(href=quote(worker_page_name(w.worker_id)), text=display_name(w.worker_id, w.name), note="")
+            for w in session.workers if w.worker_id != info.worker_id]
+    tracked = (f"{who} was tracked for {fmt_duration(summ.observed_s)} of the {fmt_duration(session.duration_s)} "
+               f"recorded ({fmt_percent(summ.observed_s, session.duration_s)}). Shares below are shares of the "
+               "tracked time.")
+    timeline, tl_note = timeline_figures(frames, session, who, clock)
+    part_figs, part_rows = body_part_section(summ, who)
+    holds = tuple(HoldRow(body_part=h.body_part, method=METHOD_TITLES.get(h.method, h.method), score=h.score,
+                          criterion=h.criterion, start=clock(h.start_s), duration=fmt_duration(h.duration_s))
+                  for h in summ.holds)
+    reps = tuple(RepetitionRow(body_part=r.body_part, median=f"{r.median_per_min:.1f}", max=f"{r.max_per_min:.1f}",
+                               limit=f"{r.limit_per_min:g}", over_limit=fmt_duration(r.seconds_over_limit))
+                 for r in summ.repetitions)
+    hourly_figs, hourly_tables = hourly_section(summ, session, who, clock)
+    flags = tuple(FlagRow(standard=f.standard, body_part=f.body_part, condition=f.condition, verdict=f.verdict,
+                          severity=FLAG_SEVERITY[f.verdict], time=fmt_duration(f.seconds),
+                          longest=fmt_duration(f.longest_s), note=f.note)
+                  for f in sorted(summ.flags, key=lambda f: -FLAG_SEVERITY[f.verdict]))
+    floor_figs, floor_note = floor_section(frames, session, who)
+    downloads = (_csv_link(report_dir, info.csv, f"Per-frame scores of {who} (CSV)"),
+                 _csv_link(report_dir, session.summary_csv, "Session summary (CSV)"))
+    return WorkerPage(
+        page_title=f"{who}: ergonomic report, {header.title}", session=header, worker_id=info.worker_id,
+        display_name=who, nav=tuple(nav), tracked=tracked,
+        headline=tuple(headline(summ, m) for m in session.methods),
+        headline_figure=headline_figure(summ, session, who), timeline_figures=timeline, timeline_note=tl_note,
+        body_part_figures=part_figs, body_part_rows=part_rows, holds=holds, repetitions=reps,
+        worst=worst_moments(summ, session, who, clock), hourly_figures=hourly_figs, hourly_tables=hourly_tables,
+        flags=flags, floor_figures=floor_figs, floor_note=floor_note, quality=quality_section(res, session, who),
+        assumptions=info.assumptions, methods=methods_section(session), downloads=downloads)
+
+
+# --------------------------------------------------------------------------- index builder
+
+
+def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, report_dir: Path | None = None) -> IndexPage:
+    """The context of the session overview page."""
+    header = session_header(session)
+    rows = []
+    figs = []
+    for m in session.methods:
+        stack = []
+        for res in workers:
+            who = display_name(res.info.worker_id, res.info.name)
+            stack.append(svg.StackRow(who if len(who) <= 24 else who[:23] + "…",
+                                      _level_segments(level_seconds(res.summary, m.name),
+                                                      res.summary.unscored_s.get(m.name, 0.0), m)))
+        fig = svg.stacked_bars(stack, title=f"{METHOD_TITLES[m.name]}: share of the tracked time at each level, per worker",
+                               desc="One bar per worker; segments are action levels, labelled; hatched grey is time "
+                                    "not scored. Numbers are in the table and on each worker's page.",
+                               id_prefix=f"fig-overview-{m.name}", axis_label="share of the tracked time (%)")
+        figs.append(Figure(id=f"fig-overview-{m.name}", svg=fig,
+                           caption=f"{METHOD_TITLES[m.name]} action levels per worker (share of tracked time)."))
+    for res in workers:
+        info, summ, d = res.info, res.summary, res.diagnostics
+        who = display_name(info.worker_id, info.name)
+        verdict = quality_verdict(d, session.calibration)
+        highs = {}
+        for m in ("rula", "reba"):
+            secs = level_seconds(summ, m)
+            highs[m] = fmt_percent(sum(secs.get(lv, 0.0) for lv in HIGH_LEVELS[m]), summ.observed_s)
+        rows.append(WorkerRow(
+            display_name=who, page=Link(href=quote(worker_page_name(info.worker_id)), text=who, note=""),
+            tracked=fmt_duration(summ.observed_s), rula_high=highs["rula"], reba_high=highs["reba"],
+            reliable=fmt_percent(d.frames_reliable, d.frames_observed), verdict_label=RATING_LABELS[verdict.rating],
+            verdict_rating=verdict.rating, csv=_csv_link(report_dir, info.csv, "CSV")))
+    cal_rows, cal_note = calibration_rows(session)
+    return IndexPage(page_title=f"Ergonomic report: {header.title}", session=header, workers=tuple(rows),
+                     overview_figures=tuple(figs), calibration_rows=cal_rows, calibration_note=cal_note,
+                     methods=methods_section(session),
+                     downloads=(_csv_link(report_dir, session.summary_csv, "Session summary (CSV)"),))
+
+
+__all__ = [
+    "Link", "Figure", "SessionHeader", "SettingRow", "MethodsSection", "CalibrationRow", "LevelRow", "MethodHeadline",
+    "BandRow", "HoldRow", "RepetitionRow", "MomentCard", "HourRow", "HourTable", "FlagRow", "LimbRow", "RegionRow",
+    "QualitySection", "WorkerPage", "WorkerRow", "IndexPage", "build_worker_page", "build_index_page",
+    "worker_page_name", "Finding", "Verdict",
+]
