@@ -23,6 +23,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.calibrate",
     "ergopose.commands.score",
     "ergopose.commands.simulate",
+    "ergopose.commands.report",
 )
 
 DESCRIPTION = """\
