@@ -28,7 +28,7 @@ from ergopose.errors import InputError
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.smoothing import KalmanRTS, measurement_variance
+from ergopose.recon.smoothing import KalmanRTS
 from ergopose.recon.tracking import LimbHistogram, Tracker, identity_name, limb_lengths
 
 #: Frames per smoothing block (the grid is frame // BLOCK_FRAMES).
@@ -226,7 +226,8 @@ class ShiftReconstruction:
             self.pending_obs.add({
                 "frame": people.frame[sel], "track": res.track[sel],
                 "points": people.points_world[sel], "conf": people.confidence[sel],
-                "err": people.reprojection_error_px[sel], "views": people.views[sel]})
+                "err": people.reprojection_error_px[sel], "views": people.views[sel],
+                "var": people.variance_world[sel]})
         if len(res.centres):
             c = res.centres
             self.pending_cent.add({"frame": c[:, 0].astype(np.int64), "track": c[:, 1].astype(np.int64),
@@ -300,15 +301,14 @@ class ShiftReconstruction:
         if self.kalman is not None:
             S = self.kalman.S
             z = np.full((f1 - f0, S // _SER, NUM_JOINTS, 3), np.nan)
-            var = np.full((f1 - f0, S // _SER, NUM_JOINTS), np.nan)
+            var = np.full((f1 - f0, S // _SER, NUM_JOINTS, 3), np.nan)
             if rows is not None and len(rows["frame"]):
                 slot = np.array([self.slots[int(i)] for i in rows["identity"]], dtype=np.int64)
                 t = rows["frame"] - f0
                 z[t, slot] = rows["points"]
-                var[t, slot] = measurement_variance(rows["conf"], rows["err"], self.settings)
-            var3 = np.repeat(var[..., None], 3, axis=-1)
+                var[t, slot] = rows["var"]
             with np.errstate(invalid="ignore"):
-                self.kalman.forward(z.reshape(f1 - f0, S), var3.reshape(f1 - f0, S))
+                self.kalman.forward(z.reshape(f1 - f0, S), var.reshape(f1 - f0, S))
         self.filtered_until = f1
 
     def _emit(self, b0: int, b1: int) -> TrackFrames:

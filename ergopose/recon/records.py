@@ -229,6 +229,9 @@ class People3D:
         the joint was rejected.
     confidence: (M, J) float64 mean 2D confidence of the used observations; 0 where views = 0.
     rejected: (M, C, J) bool, True where a camera's observation was dropped as an outlier.
+    variance_world: (M, J, 3) variance (m^2) of each world coordinate of the point, from the
+        geometry of the rays and the 2D noise model (triangulate.point_variance); NaN where
+        points is NaN.
     centre_world: (M, 3) body centre used by the tracker: mean of the reconstructed torso joints
         (shoulders, hips), else of all reconstructed joints; NaN for single-view rows or when no
         joint was reconstructed.
@@ -247,6 +250,7 @@ class People3D:
     views: np.ndarray
     confidence: np.ndarray
     rejected: np.ndarray
+    variance_world: np.ndarray
     centre_world: np.ndarray
     ray_origin_world: np.ndarray
     ray_world: np.ndarray
@@ -268,27 +272,34 @@ class People3D:
         return cls(cams, *(np.concatenate([getattr(p, f) for p in parts]) for f in _ROW_FIELDS))
 
     @classmethod
-    def from_points(cls, frame, time_s, points_world, *, confidence=None, reprojection_error_px=None,
+    def from_points(cls, frame, time_s, points_world, *, variance_world=None, confidence=None,
+                    reprojection_error_px=None, sigma_m: float = 0.03,
                     cameras: tuple[str, ...] = ("cam_1", "cam_2")) -> "People3D":
-        """Rows of already triangulated people (e.g. stored triangulations): points (M, 33, 3)."""
+        """Rows of already triangulated people (e.g. stored triangulations).
+
+        points_world: (M, 33, 3); variance_world: (M, 33, 3) or None for sigma_m^2 everywhere;
+        confidence: (M, 33) or None for 1; reprojection_error_px: (M, 33) or None for 0.
+        """
         frame = np.asarray(frame, dtype=np.int64).reshape(-1)
         X = np.asarray(points_world, dtype=np.float64).reshape(-1, NUM_JOINTS, 3)
         m = X.shape[0]
         ok = np.isfinite(X).all(axis=-1)
         conf = np.where(ok, 1.0, 0.0) if confidence is None else np.where(ok, confidence, 0.0)
         err = np.where(ok, 0.0, np.nan) if reprojection_error_px is None else np.where(ok, reprojection_error_px, np.nan)
+        var = np.full(X.shape, sigma_m * sigma_m) if variance_world is None else np.asarray(variance_world, np.float64)
         c = len(cameras)
         return cls(
             cameras=tuple(cameras), frame=frame, time_s=np.asarray(time_s, dtype=np.float64).reshape(-1),
             n_cameras=np.full(m, 2, np.int8), detection=np.full((m, c), -1, np.int32),
             points_world=np.where(ok[..., None], X, np.nan), reprojection_error_px=err,
             views=np.where(ok, 2, 0).astype(np.int8), confidence=conf,
-            rejected=np.zeros((m, c, NUM_JOINTS), bool), centre_world=body_centres(X),
+            rejected=np.zeros((m, c, NUM_JOINTS), bool), variance_world=np.where(ok[..., None], var, np.nan),
+            centre_world=body_centres(X),
             ray_origin_world=np.full((m, 3), np.nan), ray_world=np.full((m, 3), np.nan))
 
 
 _ROW_FIELDS = ("frame", "time_s", "n_cameras", "detection", "points_world", "reprojection_error_px", "views",
-               "confidence", "rejected", "centre_world", "ray_origin_world", "ray_world")
+               "confidence", "rejected", "variance_world", "centre_world", "ray_origin_world", "ray_world")
 
 
 def body_centres(points_world: np.ndarray) -> np.ndarray:

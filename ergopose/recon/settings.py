@@ -28,6 +28,9 @@ class ReconSettings:
 
     2D input and triangulation
         min_confidence: 0.3 -- 2D keypoints with a lower confidence are not used at all.
+        keypoint_sigma_px: 1.5 -- standard deviation (view pixels) of a 2D keypoint with
+            confidence 1; it sets the variance of each triangulated point from the geometry of
+            its rays (triangulate.point_variance), which weighs the measurements in smoothing.
         reprojection_threshold_px: 15 -- a joint whose RMS reprojection error (view pixels)
             exceeds this loses its worst view (3+ cameras) or, with two cameras, is rejected:
             its point becomes NaN and both observations are marked rejected.
@@ -63,14 +66,12 @@ class ReconSettings:
     Smoothing (Kalman filter + Rauch-Tung-Striebel smoother per joint and coordinate)
         smoothing: true -- false writes the raw triangulations.
         motion_model: "constant_velocity" or "constant_acceleration".
-        process_noise_m_s2: 6.0 -- standard deviation of the white-noise acceleration
+        process_noise_m_s2: 2.0 -- standard deviation of the white-noise acceleration
             (constant velocity) in m/s^2; for constant_acceleration the jerk in m/s^3 is this
             times process_noise_jerk_factor.
         process_noise_jerk_factor: 10.0 -- see above (1/s).
-        measurement_sigma_m: 0.03 -- standard deviation of a triangulated joint with 2D
-            confidence 1 and no reprojection error.
-        reprojection_scale_px: 5.0 -- the standard deviation grows as
-            sqrt(1 + (reprojection_error / reprojection_scale_px)^2) and as 1 / confidence.
+        reprojection_scale_px: 5.0 -- the variance of a triangulated point grows by the factor
+            1 + (reprojection_error / reprojection_scale_px)^2.
         outlier_gate_chi2: 16.27 -- a joint's measurement whose Mahalanobis distance squared
             (3 coordinates) from the prediction exceeds this is ignored (chi-square, 3 degrees
             of freedom, p = 0.999); 0 disables the gate.
@@ -84,12 +85,15 @@ class ReconSettings:
             this far after the block's end (or at the end of the joint's track): a fixed-lag
             RTS smoother, so that a shift processed in chunks gives exactly the same result.
     Diagnostics
-        lens_region_limits_deg: (30, 55) -- a point is "central" below the first angle from a
+        lens_region_limits_deg: (30, 60) -- a point is "central" below the first angle from a
             camera's axis, "outer" up to the second, "edge" beyond; the larger angle of the
-            two cameras counts.
+            two cameras counts. The default splits the 90 degree half field of view of a
+            180 degree fisheye into three equal rings (the paper names three concentric rings
+            but gives no limits).
     """
 
     min_confidence: float = 0.3
+    keypoint_sigma_px: float = 1.5
     reprojection_threshold_px: float = 15.0
 
     association_max_distance_m: float = 0.25
@@ -111,9 +115,8 @@ class ReconSettings:
 
     smoothing: bool = True
     motion_model: str = "constant_velocity"
-    process_noise_m_s2: float = 6.0
+    process_noise_m_s2: float = 2.0
     process_noise_jerk_factor: float = 10.0
-    measurement_sigma_m: float = 0.03
     reprojection_scale_px: float = 5.0
     outlier_gate_chi2: float = 16.27
     max_gated_run: int = 3
@@ -121,7 +124,7 @@ class ReconSettings:
     bone_length_constraint: bool = False
     smoother_lag_s: float = 8.0
 
-    lens_region_limits_deg: tuple[float, float] = (30.0, 55.0)
+    lens_region_limits_deg: tuple[float, float] = (30.0, 60.0)
 
     def __post_init__(self) -> None:
         _validate(self, None)

@@ -11,10 +11,9 @@ with F the constant-velocity (-acceleration) transition and Q filterpy's
 white acceleration held over each frame); for constant acceleration var = (process_noise_m_s2
 * process_noise_jerk_factor * dt)^2 (the change of acceleration per frame).
 
-Measurement variance (the same for x, y and z of a joint) from the 2D confidence c (mean over
-the cameras used) and the RMS reprojection error e of the triangulation:
-
-    r = (measurement_sigma_m * sqrt(1 + (e / reprojection_scale_px)^2) / max(c, 0.05))^2
+Measurement variance: per joint and coordinate, the diagonal of the triangulated point's
+covariance from the geometry of its rays, the 2D noise model and the reprojection error
+(:func:`ergopose.recon.triangulate.point_variance`; People3D.variance_world).
 
 Filter, per coordinate series: the first measurement initialises x = (z, 0[, 0]) with P =
 diag(r, INITIAL_VELOCITY_SIGMA^2[, INITIAL_ACCELERATION_SIGMA^2]); afterwards every frame is a
@@ -55,21 +54,9 @@ from ergopose.recon.settings import ReconSettings
 #: measurement (a joint may be moving when first seen).
 INITIAL_VELOCITY_SIGMA = 2.0
 INITIAL_ACCELERATION_SIGMA = 10.0
-#: Confidence floor of the measurement variance (a keypoint used at all has c >= min_confidence).
-MIN_CONFIDENCE_FOR_VARIANCE = 0.05
 #: "No accepted measurement yet" marker for frame indices.
 _NEVER = np.iinfo(np.int64).min // 4
 _FUTURE = np.iinfo(np.int64).max // 4
-
-
-def measurement_variance(confidence, reprojection_error_px, settings: ReconSettings | None = None) -> np.ndarray:
-    """Variance (m^2) of a triangulated joint from its 2D confidence and reprojection error
-    (formula in the module docstring); NaN where the error is NaN (no point)."""
-    s = settings or ReconSettings()
-    c = np.maximum(np.nan_to_num(np.asarray(confidence, dtype=np.float64)), MIN_CONFIDENCE_FOR_VARIANCE)
-    e = np.asarray(reprojection_error_px, dtype=np.float64)
-    sigma = s.measurement_sigma_m * np.sqrt(1.0 + (e / s.reprojection_scale_px) ** 2) / c
-    return sigma * sigma
 
 
 def motion_matrices(settings: ReconSettings, fps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

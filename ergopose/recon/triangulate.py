@@ -81,12 +81,13 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     views = np.zeros((m, NUM_JOINTS), np.int8)
     conf = np.zeros((m, NUM_JOINTS))
     rejected = np.zeros((m, 2, NUM_JOINTS), bool)
+    variance = np.full((m, NUM_JOINTS, 3), np.nan)
     origin = np.full((m, 3), np.nan)
     ray = np.full((m, 3), np.nan)
     is_pair = n_cameras == 2
     if pair_P:
         tri = triangulate_pairs(np.stack(pair_P), np.stack(pair_px), np.stack(pair_w), settings)
-        points[is_pair], err[is_pair], views[is_pair], conf[is_pair], rejected[is_pair] = tri
+        points[is_pair], err[is_pair], views[is_pair], conf[is_pair], rejected[is_pair], variance[is_pair] = tri
     for row, cam, det, i in single_rows:
         c = det.confidence[i]
         used = c >= max(settings.min_confidence, 1e-12)
@@ -98,7 +99,7 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     return People3D(
         cameras=cameras, frame=np.array(rows_frame, np.int64), time_s=np.array(rows_time, np.float64),
         n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, 2), points_world=points,
-        reprojection_error_px=err, views=views, confidence=conf, rejected=rejected,
+        reprojection_error_px=err, views=views, confidence=conf, rejected=rejected, variance_world=variance,
         centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray)
 
 
@@ -119,7 +120,8 @@ def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confiden
 
     projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33).
     Returns (points (M, 33, 3), reprojection_error_px (M, 33), views (M, 33) int8,
-    confidence (M, 33) mean over the used views, rejected (M, V, 33) bool).
+    confidence (M, 33) mean over the used views, rejected (M, V, 33) bool,
+    variance (M, 33, 3) per-coordinate variance from :func:`point_variance`).
     """
     settings = settings or ReconSettings()
     w = np.where(confidence >= max(settings.min_confidence, 1e-12), confidence, 0.0)
@@ -141,4 +143,50 @@ def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confiden
     views = np.where(ok, n_used, np.minimum(n_used, 1)).astype(np.int8)
     with np.errstate(invalid="ignore", divide="ignore"):
         conf = np.where(n_used > 0, np.where(used, w, 0.0).sum(axis=1) / n_used, 0.0)
-    return points, err, views, conf, rejected
+    variance = point_variance(projections, points, np.where(used, w, 0.0), err, settings)
+    return points, err, views, conf, rejected, variance
+
+
+def view_focal_px(projections: np.ndarray) -> np.ndarray:
+    """(..., 3, 4) projection matrices -> (...) focal length in pixels, sqrt(fx fy) = sqrt(|det M|)
+    of M = P[:, :3] scaled so that its last row has unit length (P = K R [I | -c], K[2] = (0, 0, 1))."""
+    M = projections[..., :3]
+    scale = np.linalg.norm(M[..., 2, :], axis=-1)
+    return np.sqrt(np.abs(np.linalg.det(M))) / scale ** 1.5
+
+
+def point_variance(projections: np.ndarray, points: np.ndarray, weights: np.ndarray,
+                   reprojection_error_px: np.ndarray, settings: ReconSettings) -> np.ndarray:
+    """Variance (m^2) of each coordinate of triangulated points, from the geometry of the rays.
+
+    A keypoint seen in view v with confidence w has an angular error of about
+    keypoint_sigma_px / (f_v w) radians (f_v: the view's focal length), i.e. a lateral error
+    sigma_v = keypoint_sigma_px d_v / (f_v w) at the point's distance d_v from the camera. The
+    information matrix of the point is sum_v (I - u_v u_v^T) / sigma_v^2 (u_v: unit direction
+    from the camera to the point); its inverse is the point's covariance, whose diagonal is
+    returned, multiplied by 1 + (reprojection_error / reprojection_scale_px)^2 (a poor fit means
+    the 2D points were worse than assumed).
+
+    projections: (M, V, 3, 4); points: (M, J, 3); weights: (M, V, J) (0 = view not used);
+    reprojection_error_px: (M, J). Returns (M, J, 3); NaN where the point is NaN.
+    """
+    P = np.asarray(projections, dtype=np.float64)
+    M3 = P[..., :3]
+    centres = -np.linalg.solve(M3, P[..., 3:])[..., 0]  # (M, V, 3)
+    f = view_focal_px(P)  # (M, V)
+    v = points[:, None, :, :] - centres[:, :, None, :]  # (M, V, J, 3)
+    d = np.linalg.norm(v, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = v / d[..., None]
+        sigma = settings.keypoint_sigma_px * d / (f[..., None] * weights)
+        inv_s2 = np.where((weights > 0) & np.isfinite(sigma), 1.0 / (sigma * sigma), 0.0)
+    u = np.where(np.isfinite(u), u, 0.0)
+    info = np.einsum("mvj,mvjab->mjab", inv_s2, np.eye(3) - u[..., :, None] * u[..., None, :])
+    ok = np.isfinite(points).all(axis=-1) & (np.linalg.det(info) > 0)
+    info[~ok] = np.eye(3)
+    cov = np.linalg.inv(info)
+    var = np.diagonal(cov, axis1=-2, axis2=-1).copy()
+    with np.errstate(invalid="ignore"):
+        var *= (1.0 + (reprojection_error_px / settings.reprojection_scale_px) ** 2)[..., None]
+    var[~ok] = np.nan
+    return var

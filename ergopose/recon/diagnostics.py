@@ -1,0 +1,247 @@
+"""Quality of the reconstruction: limb lengths per worker, by lens region, and 3D errors.
+
+A person's limbs do not change length, so the spread of their measured lengths over a shift
+shows how well the reconstruction works (the paper's evaluation, Fig. "limb length statistics"
+and "reconstruction frequencies"). For every worker and limb of keypoints.LIMBS:
+
+- the distribution of measured lengths: count, mean, standard deviation, coefficient of
+  variation (std / mean), percentiles 5, 25, 50, 75, 95;
+- the reconstruction frequency: the share of the worker's frames (rows of the tracks table) in
+  which both joints of the limb have a position;
+
+each for all frames and split by lens region. The region of a limb in a frame comes from the
+larger of its two joints' ``lens_angle_deg`` (the larger angle off the two cameras' axes; for a
+joint without a position, the worker's body centre): central below the first limit of
+``lens_region_limits_deg``, outer up to the second, edge beyond (settings; defaults 30 and 60
+degrees).
+
+With ground truth (simulation), :func:`region_errors` gives the 3D error of the joints per
+lens region, :func:`match_workers` pairs workers with ground-truth people and
+:func:`identity_switches` counts how often a ground-truth person's worker id changes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ergopose.keypoints import LIMB_INDEX, LIMBS, NUM_JOINTS
+from ergopose.recon.pipeline import TrackFrames
+from ergopose.recon.records import body_centres
+from ergopose.recon.settings import ReconSettings
+from ergopose.recon.tracking import identity_name, limb_lengths
+
+REGIONS = ("central", "outer", "edge")
+PERCENTILES = (5, 25, 50, 75, 95)
+
+
+def lens_region(angle_deg, limits_deg=(30.0, 60.0)) -> np.ndarray:
+    """Angle off-axis (degrees) -> region index 0 central, 1 outer, 2 edge; -1 for NaN."""
+    a = np.asarray(angle_deg, dtype=np.float64)
+    out = np.full(a.shape, -1, dtype=np.int8)
+    with np.errstate(invalid="ignore"):
+        out[a < limits_deg[0]] = 0
+        out[(a >= limits_deg[0]) & (a < limits_deg[1])] = 1
+        out[a >= limits_deg[1]] = 2
+    return out
+
+
+@dataclass(frozen=True)
+class LengthStats:
+    """Distribution of one limb's measured length (metres) over a set of frames.
+
+    region: "all", "central", "outer" or "edge".
+    frames: frames in the set (the worker's rows in that region); reconstructed: of those, the
+    frames where the limb has a length; frequency = reconstructed / frames (NaN if no frames).
+    mean_m, std_m (population), cv = std / mean, percentiles_m: values at PERCENTILES; NaN
+    when nothing was reconstructed (std and cv need two lengths).
+    """
+
+    limb: str
+    region: str
+    frames: int
+    reconstructed: int
+    frequency: float
+    mean_m: float
+    std_m: float
+    cv: float
+    percentiles_m: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class WorkerLimbDiagnostics:
+    """All limbs of one worker: stats[(limb, region)] for every limb of LIMBS and every region
+    in ("all",) + REGIONS; ``source`` is "final" (the table's x, y, z) or "raw"."""
+
+    worker: str
+    source: str
+    frames: int
+    stats: dict
+
+    def get(self, limb: str, region: str = "all") -> LengthStats:
+        return self.stats[(limb, region)]
+
+
+def _length_stats(limb: str, region: str, lengths: np.ndarray) -> LengthStats:
+    n = len(lengths)
+    v = lengths[np.isfinite(lengths)]
+    k = len(v)
+    if k:
+        mean = float(v.mean())
+        std = float(v.std()) if k > 1 else float("nan")
+        pct = tuple(float(x) for x in np.percentile(v, PERCENTILES))
+    else:
+        mean = std = float("nan")
+        pct = tuple(float("nan") for _ in PERCENTILES)
+    return LengthStats(limb=limb, region=region, frames=n, reconstructed=k,
+                       frequency=k / n if n else float("nan"), mean_m=mean, std_m=std,
+                       cv=std / mean if k > 1 and mean > 0 else float("nan"), percentiles_m=pct)
+
+
+def limb_diagnostics(tracks: TrackFrames, settings: ReconSettings | None = None,
+                     source: str = "final") -> list[WorkerLimbDiagnostics]:
+    """Limb-length statistics per worker (see module docstring); source "final" or "raw"."""
+    settings = settings or ReconSettings()
+    if source not in ("final", "raw"):
+        raise ValueError(f"source must be 'final' or 'raw', got {source!r}")
+    out = []
+    for w in tracks.workers:
+        r = tracks.worker_rows(w)
+        X = r.points_world if source == "final" else r.raw_points_world
+        L = limb_lengths(X)  # (n, limbs)
+        ang = np.fmax(r.lens_angle_deg[:, LIMB_INDEX[:, 0]], r.lens_angle_deg[:, LIMB_INDEX[:, 1]])
+        reg = lens_region(ang, settings.lens_region_limits_deg)
+        stats = {}
+        for li, (name, _, _) in enumerate(LIMBS):
+            stats[(name, "all")] = _length_stats(name, "all", L[:, li])
+            for k, region in enumerate(REGIONS):
+                stats[(name, region)] = _length_stats(name, region, L[reg[:, li] == k, li])
+        out.append(WorkerLimbDiagnostics(worker=identity_name(w), source=source, frames=len(r), stats=stats))
+    return out
+
+
+@dataclass(frozen=True)
+class RegionError:
+    """3D error (metres) of the joints in one lens region ("all" for every region).
+
+    points: joints compared (position and ground truth both known); mean_m (MPJPE), median_m,
+    p95_m, rmse_m: statistics of the Euclidean error; NaN when points is 0.
+    """
+
+    region: str
+    points: int
+    mean_m: float
+    median_m: float
+    p95_m: float
+    rmse_m: float
+
+
+def region_errors(tracks: TrackFrames, truth: dict[int, np.ndarray], settings: ReconSettings | None = None,
+                  source: str = "final") -> dict[str, RegionError]:
+    """3D error per lens region against ground truth.
+
+    truth: {worker number: (n_w, 33, 3) true joints for that worker's rows, in the order of
+    ``tracks.worker_rows(worker)``} (see :func:`truth_for_workers`). The region of a joint is
+    that of its ``lens_angle_deg``.
+    """
+    settings = settings or ReconSettings()
+    errs, regs = [], []
+    for w, gt in truth.items():
+        r = tracks.worker_rows(w)
+        X = r.points_world if source == "final" else r.raw_points_world
+        e = np.linalg.norm(X - gt, axis=-1)
+        errs.append(e.reshape(-1))
+        regs.append(lens_region(r.lens_angle_deg, settings.lens_region_limits_deg).reshape(-1))
+    e = np.concatenate(errs) if errs else np.zeros(0)
+    g = np.concatenate(regs) if regs else np.zeros(0, np.int8)
+    out = {"all": _error_stats("all", e)}
+    for k, region in enumerate(REGIONS):
+        out[region] = _error_stats(region, e[g == k])
+    return out
+
+
+def _error_stats(region: str, e: np.ndarray) -> RegionError:
+    v = e[np.isfinite(e)]
+    if not len(v):
+        nan = float("nan")
+        return RegionError(region, 0, nan, nan, nan, nan)
+    return RegionError(region, len(v), float(v.mean()), float(np.median(v)), float(np.percentile(v, 95)),
+                       float(np.sqrt(np.mean(v * v))))
+
+
+def _frame_matches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray,
+                   max_distance_m: float):
+    """Per frame: LSA of workers to ground-truth people by body-centre distance.
+
+    Yields (frame, list of (worker, person)). truth_points: (F, P, 33, 3) at truth_frames (F,).
+    """
+    centres_w = body_centres(np.where(np.isfinite(tracks.points_world), tracks.points_world, tracks.raw_points_world))
+    gt_c = body_centres(truth_points)  # (F, P, 3)
+    index = {int(f): i for i, f in enumerate(truth_frames)}
+    order = np.argsort(tracks.frame, kind="stable")
+    frames = tracks.frame[order]
+    bounds = np.flatnonzero(np.diff(frames)) + 1
+    for rows in np.split(order, bounds):
+        if not len(rows):
+            continue
+        f = int(tracks.frame[rows[0]])
+        if f not in index:
+            continue
+        c = centres_w[rows]
+        g = gt_c[index[f]]
+        d = np.linalg.norm(c[:, None, :] - g[None, :, :], axis=-1)
+        d = np.where(np.isfinite(d) & (d <= max_distance_m), d, np.inf)
+        if not np.isfinite(d).any():
+            yield f, []
+            continue
+        ri, ci = linear_sum_assignment(np.where(np.isfinite(d), d, 1e9))
+        yield f, [(int(tracks.worker[rows[a]]), int(b)) for a, b in zip(ri, ci) if np.isfinite(d[a, b])]
+
+
+def match_workers(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray | None = None,
+                  max_distance_m: float = 0.5) -> dict[int, int]:
+    """{worker number: ground-truth person index} by majority of per-frame matches."""
+    truth_frames = np.arange(len(truth_points)) if truth_frames is None else np.asarray(truth_frames)
+    votes: dict[tuple[int, int], int] = {}
+    for _, pairs in _frame_matches(tracks, truth_points, truth_frames, max_distance_m):
+        for w, p in pairs:
+            votes[(w, p)] = votes.get((w, p), 0) + 1
+    out: dict[int, int] = {}
+    for (w, p), n in sorted(votes.items(), key=lambda kv: -kv[1]):
+        if w not in out:
+            out[w] = p
+    return out
+
+
+def identity_switches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray | None = None,
+                      max_distance_m: float = 0.5) -> int:
+    """How many times a ground-truth person's matched worker id changes to a different id
+    (frames where the person is not matched do not count; the CLEAR-MOT notion of an ID switch)."""
+    truth_frames = np.arange(len(truth_points)) if truth_frames is None else np.asarray(truth_frames)
+    last: dict[int, int] = {}
+    switches = 0
+    for _, pairs in _frame_matches(tracks, truth_points, truth_frames, max_distance_m):
+        for w, p in pairs:
+            if p in last and last[p] != w:
+                switches += 1
+            last[p] = w
+    return switches
+
+
+def truth_for_workers(tracks: TrackFrames, truth_points: np.ndarray, mapping: dict[int, int],
+                      truth_frames: np.ndarray | None = None) -> dict[int, np.ndarray]:
+    """{worker: (n_w, 33, 3) ground truth of its rows} for the workers in ``mapping``."""
+    truth_frames = np.arange(len(truth_points)) if truth_frames is None else np.asarray(truth_frames)
+    index = np.full(int(truth_frames.max()) + 1 if len(truth_frames) else 0, -1, np.int64)
+    index[truth_frames] = np.arange(len(truth_frames))
+    out = {}
+    for w, p in mapping.items():
+        r = tracks.worker_rows(w)
+        k = index[r.frame]
+        gt = np.full((len(r), NUM_JOINTS, 3), np.nan)
+        ok = k >= 0
+        gt[ok] = truth_points[k[ok], p]
+        out[w] = gt
+    return out
