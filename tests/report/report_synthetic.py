@@ -1,0 +1,299 @@
+"""A realistic, seeded synthetic result set for report tests and the report benchmark.
+
+Not a pipeline: scores follow a piecewise-constant task process (a worker moves between the
+stations of the simulated scene, each with its own score distribution), with tracking gaps, a
+break, unscored stretches and less reliable skeletons near the lens edge. The summary records are
+derived from the generated frames where the report could check them (time per level, per hour,
+unscored time, worst moments), so tests can compute the expected headline numbers independently
+from ``frames``. Skeletons of the worst moments come from the body model (ergopose.ergonomics.body).
+
+Used by tests/report/*.py and bench/bench_report.py (which loads it by path).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ergopose import __version__
+from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, pose_skeleton
+from ergopose.ergonomics.methods import load_method
+from ergopose.ergonomics.settings import ScoringSettings
+from ergopose.keypoints import LIMB_INDEX, LIMBS
+from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records
+from ergopose.report.context import (Assumption, BandTime, CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
+                                     LimbStats, ModelInfo, RegionAccuracy, Repetition, SessionInfo, StandardFlag,
+                                     WorkerDiagnostics, WorkerInfo, WorkerSummary, WorstMoment)
+from ergopose.report.results import frames_table
+from ergopose.sim.scene import RIG_POSITIONS, default_scene, lens_region
+
+START = "2024-05-06T06:00:00"
+
+#: Body parts and bands per method: (body part, [(score, criterion), ...]).
+RULA_PARTS = [
+    ("left upper arm", [(1, "20 deg extension to 20 deg flexion"), (2, "20-45 deg flexion or extension > 20 deg"),
+                        (3, "45-90 deg flexion"), (4, "90 deg flexion or more")]),
+    ("right upper arm", [(1, "20 deg extension to 20 deg flexion"), (2, "20-45 deg flexion or extension > 20 deg"),
+                         (3, "45-90 deg flexion"), (4, "90 deg flexion or more")]),
+    ("left lower arm", [(1, "60-100 deg flexion"), (2, "below 60 or above 100 deg flexion")]),
+    ("right lower arm", [(1, "60-100 deg flexion"), (2, "below 60 or above 100 deg flexion")]),
+    ("neck", [(1, "0-10 deg flexion"), (2, "10-20 deg flexion"), (3, "20 deg flexion or more"), (4, "in extension")]),
+    ("trunk", [(1, "upright"), (2, "0-20 deg flexion"), (3, "20-60 deg flexion"), (4, "60 deg flexion or more")]),
+]
+REBA_PARTS = [
+    ("neck", [(1, "0-20 deg flexion"), (2, "over 20 deg flexion or in extension")]),
+    ("trunk", [(1, "upright"), (2, "0-20 deg flexion or extension"), (3, "20-60 deg flexion"),
+               (4, "over 60 deg flexion")]),
+    ("legs", [(1, "bilateral weight bearing"), (2, "unilateral or unstable")]),
+]
+
+#: Score distribution of each station kind (RULA grand 1..7 probabilities).
+TASK_RULA = {
+    "shelf": [0.02, 0.10, 0.25, 0.23, 0.20, 0.12, 0.08],
+    "assembly": [0.05, 0.20, 0.38, 0.22, 0.10, 0.04, 0.01],
+    "lift": [0.01, 0.04, 0.10, 0.15, 0.25, 0.25, 0.20],
+    "rest": [0.35, 0.40, 0.20, 0.05, 0.0, 0.0, 0.0],
+}
+
+
+def _kind(station_name: str) -> str:
+    for k in ("shelf", "table", "pallet", "rest"):
+        if station_name.startswith(k):
+            return {"table": "assembly", "pallet": "lift"}.get(k, k)
+    return "assembly"
+
+
+def _stations(scene):
+    return [(s.name, _kind(s.name), np.array(s.position, dtype=np.float64)) for s in scene.stations]
+
+
+def _worker_frames(rng: np.random.Generator, duration_s: float, fps: float, stations) -> pd.DataFrame:
+    n_all = int(round(duration_s * fps))
+    t = np.arange(n_all) / fps
+    # task segments: mean 25 s, a station per run of segments (a few minutes at each)
+    n_seg = int(duration_s / 8) + 10
+    seg_len = rng.exponential(25.0, n_seg) + 2.0
+    seg_end = np.cumsum(seg_len)
+    seg_of = np.searchsorted(seg_end, t, side="right")
+    visit_len = rng.integers(3, 12, n_seg)
+    visit_of_seg = np.repeat(np.arange(n_seg), visit_len)[:n_seg]
+    st_of_visit = rng.integers(0, len(stations), n_seg)
+    st = st_of_visit[visit_of_seg][seg_of]
+    kinds = np.array([k for _, k, _ in stations])
+    kind_of_frame = kinds[st]
+    rula = np.empty(n_all)
+    seg_u = rng.random(n_seg)
+    for kind, probs in TASK_RULA.items():
+        cdf = np.cumsum(probs)
+        cdf /= cdf[-1]
+        seg_score = np.searchsorted(cdf, seg_u) + 1
+        sel = kind_of_frame == kind
+        rula[sel] = seg_score[seg_of[sel]]
+    # short excursions (one or two points up) inside segments
+    bump = rng.random(n_all // 6 + 1) < 0.15
+    rula = np.clip(rula + np.repeat(bump, 6)[:n_all], 1, 7)
+    reba_noise = rng.normal(0.0, 1.0, n_seg)[seg_of]
+    reba = np.clip(np.round(1.7 * rula - 1.0 + reba_noise), 1, 15)
+    pos = np.stack([s[2] for s in stations])[st] + rng.normal(0.0, 0.12, (n_all, 2))
+    # not tracked: a 30-minute break mid-shift (if long enough) and short occlusions
+    tracked = np.ones(n_all, dtype=bool)
+    if duration_s > 3 * 3600:
+        b0 = duration_s * 0.5
+        tracked &= ~((t >= b0) & (t < b0 + 1800))
+    occl = rng.random(n_seg) < 0.04
+    tracked &= ~occl[seg_of]
+    # unscored stretches (joints missing) and reliability worse near the edge
+    unscored = (rng.random(n_seg) < 0.03)[seg_of]
+    radius = np.hypot(pos[:, 0], pos[:, 1])
+    p_bad = 0.02 + 0.12 * (radius / 4.0) ** 2
+    reliable = rng.random(n_seg)[seg_of] > p_bad
+    rula[unscored] = np.nan
+    reba[unscored] = np.nan
+    rm, bm = load_method("rula"), load_method("reba")
+    frame = frames_table(t[tracked], rula_grand=rula[tracked], rula_action_level=rm.level_of(rula)[tracked],
+                         reba_score=reba[tracked], reba_risk_level=bm.level_of(reba)[tracked],
+                         floor_x_m=pos[tracked, 0], floor_y_m=pos[tracked, 1], reliable=reliable[tracked])
+    return frame
+
+
+def _posture_for(rula: int, rng: np.random.Generator, x: float, y: float) -> Posture:
+    sev = (rula - 1) / 6.0
+    return Posture(
+        root_position=np.array([x, y, 0.0]), heading=float(rng.uniform(-math.pi, math.pi)),
+        trunk_flexion=math.radians(70 * sev + rng.uniform(0, 10)), trunk_twist=math.radians(rng.uniform(-15, 15)),
+        neck_flexion=math.radians(10 + 20 * sev), left_upper_arm_flexion=math.radians(30 + 90 * sev),
+        right_upper_arm_flexion=math.radians(20 + 60 * sev * rng.uniform(0.5, 1)),
+        left_elbow_flexion=math.radians(40), right_elbow_flexion=math.radians(80),
+        left_knee_flexion=math.radians(10 + 30 * sev), right_knee_flexion=math.radians(10 + 20 * sev),
+        left_hip_flexion=math.radians(10 + 20 * sev), right_hip_flexion=math.radians(10 + 15 * sev))
+
+
+def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float, rng: np.random.Generator,
+             body: BodyMeasurements) -> WorkerSummary:
+    dt = 1.0 / fps
+    t = frames["time_s"].to_numpy()
+    levels = []
+    unscored = {}
+    hourly = []
+    methods = {"rula": ("rula_grand", "rula_action_level", range(1, 5)), "reba": ("reba_score", "reba_risk_level", range(0, 5))}
+    for m, (_, lcol, lv_range) in methods.items():
+        lv = frames[lcol].to_numpy(dtype=np.float64, na_value=np.nan)
+        for k in lv_range:
+            levels.append(LevelTime(m, k, float(np.sum(lv == k)) * dt))
+        unscored[m] = float(np.sum(np.isnan(lv))) * dt
+        hour = (t // 3600).astype(int)
+        for h in range(int(math.ceil(duration_s / 3600))):
+            sel = hour == h
+            hl = lv[sel]
+            hourly.append(HourLevels(start_s=3600.0 * h, method=m,
+                                     levels=tuple(LevelTime(m, k, float(np.sum(hl == k)) * dt) for k in lv_range),
+                                     unscored_s=float(np.sum(np.isnan(hl))) * dt, observed_s=float(sel.sum()) * dt))
+    observed = len(frames) * dt
+    scored = observed - unscored["rula"]
+    body_parts = []
+    for m, parts in (("rula", RULA_PARTS), ("reba", REBA_PARTS)):
+        for part, bands in parts:
+            share = rng.dirichlet(np.linspace(3.0, 0.6, len(bands)))
+            for (score, crit), s in zip(bands, share):
+                body_parts.append(BandTime(m, part, score, crit, float(s * scored * rng.uniform(0.93, 0.99))))
+    holds = tuple(Hold(part, "rula", bands[-1][0], bands[-1][1], float(rng.uniform(0, duration_s - 300)),
+                       float(rng.uniform(20, 240))) for part, bands in RULA_PARTS[:4])
+    reps = tuple(Repetition(part, angle, float(rng.uniform(1, 4)), float(rng.uniform(5, 14)), 4.0,
+                            float(rng.uniform(60, 1800)))
+                 for part, angle in (("left upper arm", "left_upper_arm_flexion"),
+                                     ("right upper arm", "right_upper_arm_flexion"),
+                                     ("trunk", "trunk_flexion"), ("right wrist", "right_wrist_flexion")))
+    # worst moments: highest RULA, then REBA, at least 5 minutes apart
+    rula = frames["rula_grand"].to_numpy(dtype=np.float64, na_value=-1)
+    reba = frames["reba_score"].to_numpy(dtype=np.float64, na_value=-1)
+    key = rula * 100 + reba
+    order = np.argsort(-key, kind="stable")
+    chosen: list[int] = []
+    for i in order[:20000]:
+        if all(abs(t[i] - t[j]) > 300 for j in chosen):
+            chosen.append(int(i))
+        if len(chosen) == 5:
+            break
+    worst = []
+    rm, bm = load_method("rula"), load_method("reba")
+    for k, i in enumerate(chosen):
+        r, b = int(rula[i]), int(reba[i])
+        x, y = float(frames["floor_x_m"].iat[i]), float(frames["floor_y_m"].iat[i])
+        posture = place_on_floor(body, _posture_for(r, rng, x, y))
+        joints = pose_skeleton(body, posture)
+        if k == 4:  # one moment with a missing forearm, as happens behind shelves
+            joints[[15, 17, 19, 21]] = np.nan
+        worst.append(WorstMoment(start_s=float(t[i] - 4), end_s=float(t[i] + 6), peak_s=float(t[i]), rula_grand=r,
+                                 rula_level=int(rm.level_of(np.array([r]))[0]), reba_score=b,
+                                 reba_level=int(bm.level_of(np.array([b]))[0]),
+                                 reason="trunk flexed forward, left arm raised above the shoulder, knees bent",
+                                 joints_world_m=tuple(tuple(float(v) for v in p) for p in joints)))
+    flags = (
+        StandardFlag("ISO 11226", "trunk", "trunk inclination over 60 deg", "not recommended",
+                     float(rng.uniform(300, 900)), float(rng.uniform(5, 40)), "held longer than 4 s"),
+        StandardFlag("ISO 11226", "upper arm", "upper arm elevation 20-60 deg without support", "conditionally acceptable",
+                     float(rng.uniform(1000, 3000)), float(rng.uniform(30, 120)), "holding time within the limit"),
+        StandardFlag("EN 1005-4", "upper arm", "upper arm elevation over 60 deg", "not acceptable",
+                     float(rng.uniform(200, 600)), float(rng.uniform(5, 30)), "at 2 or more per minute"),
+        StandardFlag("EN 1005-4", "trunk", "trunk twist or side bend under 10 deg", "acceptable",
+                     float(rng.uniform(5000, 9000)), float(rng.uniform(100, 600)), "within the first limit"),
+    )
+    return WorkerSummary(worker_id=worker_id, observed_s=observed, levels=tuple(levels), unscored_s=unscored,
+                         body_parts=tuple(body_parts), holds=holds, repetitions=reps, hourly=tuple(hourly),
+                         worst=tuple(worst), flags=flags)
+
+
+def _diagnostics(worker_id: str, frames: pd.DataFrame, rng: np.random.Generator, body: BodyMeasurements) -> WorkerDiagnostics:
+    x = frames["floor_x_m"].to_numpy()
+    y = frames["floor_y_m"].to_numpy()
+    # angle from the nearer camera's axis to the worker's chest (1.3 m above the floor)
+    thetas = [np.arctan2(np.hypot(x - cx, y - cy), cz - 1.3) for cx, cy, cz in RIG_POSITIONS]
+    region = lens_region(np.minimum(*thetas))
+    names = ("central", "outer", "edge")
+    region_frames = {n: int(np.sum(region == k)) for k, n in enumerate(names)}
+    skeleton = pose_skeleton(body, place_on_floor(body, Posture()))
+    true_len = np.linalg.norm(skeleton[LIMB_INDEX[:, 0]] - skeleton[LIMB_INDEX[:, 1]], axis=-1)
+    noise = {"central": 0.01, "outer": 0.018, "edge": 0.035}  # the paper's Table 1 spreads (metres)
+    stats = []
+    recon = []
+    p_face = {"central": 0.97, "outer": 0.93, "edge": 0.82}
+    for li, (limb, _, _) in enumerate(LIMBS):
+        samples = []
+        base = 0.9 if limb.endswith("hand") or limb.endswith("foot") else 0.97
+        total_n = total_r = 0
+        for k, reg in enumerate(names):
+            nf = region_frames[reg]
+            p = base * p_face[reg] / 0.97
+            nr = int(rng.binomial(nf, min(p, 1.0))) if nf else 0
+            recon.append(LimbFrequency(limb, reg, nf, nr))
+            total_n += nf
+            total_r += nr
+            m = min(nr, 4000)
+            samples.append(true_len[li] + rng.normal(0, noise[reg] * (0.5 + true_len[li]), m))
+        recon.append(LimbFrequency(limb, "all", total_n, total_r))
+        s = np.concatenate(samples)
+        q = np.percentile(s, [5, 25, 50, 75, 95]) if s.size else [np.nan] * 5
+        stats.append(LimbStats(limb, total_r, float(s.mean()), float(s.std()), *map(float, q)))
+    reliable = int(frames["reliable"].sum())
+    return WorkerDiagnostics(worker_id=worker_id, frames_observed=len(frames), frames_reliable=reliable,
+                             reliable_rule="all scored joints triangulated from both cameras with a reprojection "
+                                           "error under 8 px and limb lengths within 15 % of the worker's median",
+                             region_frames=region_frames, limb_lengths=tuple(stats), reconstruction=tuple(recon),
+                             error_3d_m=0.027)
+
+
+def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: float = 12.0, seed: int = 20240506,
+                      names: dict[str, str] | None = None, start: str | None = START,
+                      csv: bool = True) -> tuple[SessionInfo, list[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]]:
+    """A session record and per-worker (summary, diagnostics, frames), seeded."""
+    rng = np.random.default_rng(seed)
+    scene = default_scene()
+    stations = _stations(scene)
+    names = names or {}
+    infos, results = [], []
+    for k in range(n_workers):
+        wid = f"W{k + 1}"
+        body = BodyMeasurements.from_stature(1.62 + 0.08 * k)
+        frames = _worker_frames(rng, duration_s, fps, stations)
+        summary = _summary(wid, frames, fps, duration_s, rng, body)
+        diag = _diagnostics(wid, frames, rng, body)
+        infos.append(WorkerInfo(
+            worker_id=wid, name=names.get(wid),
+            assumptions=(Assumption("load", "2-10 kg, intermittent" if k % 2 == 0 else "under 2 kg", "RULA steps 7 and 14, REBA step 5",
+                                    f"session.toml [workers.{wid}]"),
+                         Assumption("coupling", "fair", "REBA step 11", "default"),
+                         Assumption("arm support", "none", "RULA step 1a, REBA step 7a", "default")),
+            csv=f"csv/{wid}.csv" if csv else None))
+        results.append((summary, diag, frames))
+    cams = [(f"cam_{i + 1}", p[0], p[1]) for i, p in enumerate(RIG_POSITIONS)]
+    session = SessionInfo(
+        session_id="synthetic-shift", title="Assembly hall, synthetic shift", site="Hall 3, station block B",
+        start=start, fps=fps, frames=int(round(duration_s * fps)), duration_s=duration_s,
+        ergopose_version=__version__, created="2024-05-06T15:02:11Z",
+        models=(ModelInfo("blazepose_detector", "pose_detection.tflite", "9ba9dd3d42efaaba86b4ff0122b06f29c4122e756b329d89dca1e297fd8f866c",
+                          "mediapipe==0.10.14"),
+                ModelInfo("blazepose_landmark_full", "pose_landmark_full.tflite",
+                          "e9a5c5cb17f736fafd4c2ec1da3b3d331d6edbe8a0d32395855aeb2cdfd64b9f", "mediapipe==0.10.14")),
+        methods=methods_info(), settings=settings_records(ScoringSettings()),
+        calibration=CalibrationInfo(file="calibration.toml", sha256="0" * 64, cameras=("cam_1", "cam_2"),
+                                    reprojection_rms_px=0.41,
+                                    regions=(RegionAccuracy("central", 1.5, 1.49, 0.01, 12),
+                                             RegionAccuracy("outer", 1.5, 1.52, 0.018, 12),
+                                             RegionAccuracy("edge", 1.5, 1.56, 0.035, 12))),
+        floor=floor_plan_from_scene(scene, cams), workers=tuple(infos),
+        summary_csv="csv/summary.csv" if csv else None)
+    return session, results
+
+
+def write_csv_targets(report_dir: Path, session: SessionInfo, only_workers: bool = False) -> None:
+    """Tiny CSV files where the session says they are, so the report links resolve (ergopose.ergonomics.export writes the real ones)."""
+    paths = [w.csv for w in session.workers if w.csv]
+    if session.summary_csv and not only_workers:
+        paths.append(session.summary_csv)
+    for p in paths:
+        f = report_dir / p
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text("time_s,rula_grand\n0.0,3\n", encoding="utf-8")

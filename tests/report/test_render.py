@@ -1,0 +1,164 @@
+"""Rendered pages: self-contained, the right numbers, hostile names escaped everywhere."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from html.parser import HTMLParser
+
+import markupsafe
+import numpy as np
+import pytest
+
+from ergopose.report.pages import worker_page_name
+from ergopose.report.render import render_report
+from ergopose.report.results import save_results
+
+from conftest import HOSTILE_NAMES
+from report_synthetic import synthetic_session
+
+
+class Page(HTMLParser):
+    """Collects tags with attributes, text, and the share cells of the headline tables."""
+
+    def __init__(self, text: str):
+        super().__init__(convert_charrefs=True)
+        self.tags: list[tuple[str, dict]] = []
+        self.text: list[str] = []
+        self.shares: dict[str, str] = {}
+        self._share: str | None = None
+        self.title = ""
+        self._in_title = False
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        self.tags.append((tag, a))
+        self._share = a.get("data-share")
+        self._in_title = tag == "title" and len([t for t, _ in self.tags if t == "title"]) == 1
+        if self._share:
+            self.shares[self._share] = ""
+
+    def handle_endtag(self, tag):
+        if tag == "td":
+            self._share = None
+        if tag == "title":
+            self._in_title = False
+
+    def handle_data(self, data):
+        self.text.append(data)
+        if self._share:
+            self.shares[self._share] += data
+        if self._in_title and not self.title:
+            self.title = data
+
+
+def expected_shares(frames, method_col, levels):
+    """Share of tracked frames at each level, computed here from the per-frame table."""
+    lv = frames[method_col].to_numpy(dtype=np.float64, na_value=np.nan)
+    return {k: f"{100.0 * np.sum(lv == k) / len(lv):.1f} %" for k in levels}
+
+
+def test_headline_numbers_come_from_the_frames(rendered_report):
+    folder, session, workers, files = rendered_report
+    for info, (_, _, frames) in zip(session.workers, workers):
+        page = Page((folder / worker_page_name(info.worker_id)).read_text(encoding="utf-8"))
+        for method, col, levels in (("rula", "rula_action_level", range(1, 5)), ("reba", "reba_risk_level", range(0, 5))):
+            for k, share in expected_shares(frames, col, levels).items():
+                assert page.shares[f"{method}-{k}"] == share, (info.worker_id, method, k)
+
+
+def test_pages_are_self_contained_and_small(rendered_report):
+    folder, session, workers, files = rendered_report
+    assert set(files.sizes) == {"index.html"} | {worker_page_name(w.worker_id) for w in session.workers}
+    for name, size in files.sizes.items():
+        text = (folder / name).read_text(encoding="utf-8")
+        assert len(text.encode()) == size < 3_000_000
+        page = Page(text)
+        tags = {t for t, _ in page.tags}
+        assert not tags & {"script", "img", "iframe", "object", "embed", "link", "video", "audio", "source"}, name
+        for tag, attrs in page.tags:
+            assert not any(k.startswith("on") for k in attrs), (name, tag, attrs)
+            assert "src" not in attrs, (name, tag)
+            href = attrs.get("href")
+            if href is not None:
+                assert href.startswith("#") or not re.match(r"^[a-z][a-z0-9+.-]*:", href), (name, href)
+        # the only absolute URL is the SVG namespace; url() only to in-page patterns/clips
+        assert set(re.findall(r"https?://[^\s\"'<>]+", text)) <= {"http://www.w3.org/2000/svg"}, name
+        assert all(u.startswith("#") for u in re.findall(r"url\(([^)]*)\)", text)), name
+        assert "@import" not in text and "@font-face" not in text
+        assert "default-src 'none'" in text  # the CSP meta: nothing may load even if something slipped in
+    assert not list(folder.glob(".*.tmp*")), "temporary files left behind"
+
+
+def test_every_figure_is_accessible(rendered_report):
+    folder, session, workers, files = rendered_report
+    for name in files.sizes:
+        text = (folder / name).read_text(encoding="utf-8")
+        figures = re.findall(r"<figure id=\"[^\"]+\">(.*?)</figure>", text, flags=re.S)
+        assert figures, name
+        for fig in figures:
+            assert "<figcaption>" in fig
+            svg_text = fig[fig.index("<svg"):fig.rindex("</svg>") + 6]
+            root = ET.fromstring(svg_text)
+            assert root.get("role") == "img" and root.get("aria-labelledby")
+            ns = "{http://www.w3.org/2000/svg}"
+            assert root.find(f"{ns}title").text and root.find(f"{ns}desc").text
+
+
+def test_links_point_at_the_csv_files(rendered_report):
+    folder, session, workers, files = rendered_report
+    page = Page((folder / "worker-W1.html").read_text(encoding="utf-8"))
+    hrefs = [a.get("href") for t, a in page.tags if t == "a"]
+    assert "csv/W1.csv" in hrefs and (folder / "csv" / "W1.csv").is_file()
+    assert "worker-W2.html" in hrefs and "index.html" in hrefs
+    # the session summary CSV was not written in this folder: named as missing, not linked
+    assert "csv/summary.csv" not in hrefs
+    assert "missing: expected csv/summary.csv next to this report" in "".join(page.text)
+    index = Page((folder / "index.html").read_text(encoding="utf-8"))
+    assert {"worker-W1.html", "worker-W2.html", "worker-W3.html", "csv/W3.csv"} <= {a.get("href") for t, a in index.tags if t == "a"}
+
+
+def test_pseudonymous_ids_unless_named(rendered_report):
+    folder, session, workers, files = rendered_report
+    w1 = Page((folder / "worker-W1.html").read_text(encoding="utf-8"))
+    w2 = Page((folder / "worker-W2.html").read_text(encoding="utf-8"))
+    assert w1.title.startswith("W1:")
+    assert w2.title.startswith("Anna Šimková (W2):")
+    assert "Anna" not in "".join(w1.text).replace("Anna Šimková (W2)", "")  # only in W1's link to W2
+
+
+@pytest.fixture(scope="module")
+def hostile_report(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("hostile") / "report"
+    session, workers = synthetic_session(n_workers=3, duration_s=1200.0, names=HOSTILE_NAMES, seed=11)
+    save_results(folder, session, workers)
+    render_report(folder)
+    return folder
+
+
+@pytest.mark.parametrize("page_name", ["index.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
+def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
+    text = (hostile_report / page_name).read_text(encoding="utf-8")
+    page = Page(text)
+    assert not any(t in ("script", "img") for t, _ in page.tags)
+    assert not any(k.startswith("on") for _, a in page.tags for k in a)
+    for name in HOSTILE_NAMES.values():
+        assert name not in text  # never verbatim
+        assert str(markupsafe.escape(name)) in text
+    # the names arrive intact as text (in headings, links, captions, SVG titles)
+    joined = "".join(page.text)
+    for wid, name in HOSTILE_NAMES.items():  # every page names every worker (heading, links or table)
+        assert f"{name} ({wid})" in joined
+    assert "{{ 7*7 }}" in joined  # data, never evaluated as a template
+    # every inline SVG still parses as one element: no name closed it early
+    for svg_text in re.findall(r"<svg .*?</svg>", text, flags=re.S):
+        ET.fromstring(svg_text)
+    n_open = len(re.findall(r"<svg\b", text))
+    n_close = text.count("</svg>")
+    assert n_open == n_close == len(re.findall(r"<figure id=", text))
+
+
+def test_own_page_title_holds_the_hostile_name(hostile_report):
+    page = Page((hostile_report / "worker-W3.html").read_text(encoding="utf-8"))
+    assert page.title.startswith(HOSTILE_NAMES["W3"] + " (W3):")

@@ -1,0 +1,162 @@
+"""Inline SVG helpers: well-formed XML, text escaped, accessible, geometry against known answers."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, pose_skeleton
+from ergopose.keypoints import JOINT_INDEX
+from ergopose.report import svg
+from ergopose.report.pages import BAND_COLOURS, LEVEL_COLOURS, binned_scores
+
+NS = "{http://www.w3.org/2000/svg}"
+EVIL = '</svg><script>alert("x")</script> & <b>'
+
+
+def parse(markup) -> ET.Element:
+    """The SVG as XML: a text that escaped badly would break the parse or add elements."""
+    root = ET.fromstring(str(markup))
+    assert root.tag == f"{NS}svg"
+    assert root.get("role") == "img"
+    ids = root.get("aria-labelledby").split()
+    assert {e.get("id") for e in root.iter() if e.get("id")} >= set(ids)
+    assert float(root.get("width")) > 0 and float(root.get("height")) > 0
+    assert not any(e.tag.endswith("script") or e.tag.endswith("foreignObject") for e in root.iter())
+    return root
+
+
+def texts(root: ET.Element) -> list[str]:
+    return ["".join(e.itertext()) for e in root.iter() if e.tag in (f"{NS}text", f"{NS}title", f"{NS}desc")]
+
+
+def all_figures():
+    seg = (svg.Segment(2.0, "#a6d96a", EVIL, EVIL), svg.Segment(1.0, None, "n/s", EVIL))
+    starts = np.arange(10) * 60.0
+    worst = np.array([1, 2, 3, np.nan, 7, 7, 5, 4, 3, 2], dtype=float)
+    med = np.array([1, 1, 2, np.nan, 5, 6, 4, 3, 2, 1], dtype=float)
+    joints = pose_skeleton(BodyMeasurements.from_stature(1.75), place_on_floor(BodyMeasurements.from_stature(1.75), Posture()))
+    return {
+        "stacked_bars": svg.stacked_bars([svg.StackRow(EVIL, seg)], title=EVIL, desc=EVIL, id_prefix="a"),
+        "stacked_columns": svg.stacked_columns([svg.StackColumn(EVIL, seg)], title=EVIL, desc=EVIL, id_prefix="b",
+                                               y_max=60, y_label=EVIL, y_ticks=(0, 30, 60)),
+        "score_timeline": svg.score_timeline(starts, 60.0, worst, med, [svg.Band(0.5, 4.5, "#a6d96a", EVIL),
+                                                                        svg.Band(4.5, 7.5, "#d73027", EVIL)],
+                                             y_min=0.5, y_max=7.5, x_ticks=[(0, EVIL)], title=EVIL, desc=EVIL,
+                                             id_prefix="c", y_label=EVIL),
+        "box_plots": svg.box_plots([svg.BoxRow(EVIL, 1, 2, 3, 4, 5, 10), svg.BoxRow("none", *[math.nan] * 5, 0)],
+                                   title=EVIL, desc=EVIL, id_prefix="d", unit=EVIL),
+        "bar_panels": svg.bar_panels([EVIL, "b"], [(EVIL, [50.0, math.nan])], title=EVIL, desc=EVIL, id_prefix="e"),
+        "heat_map": svg.heat_map(np.array([[0.0, 2.0], [1.0, 0.0]]), (-3, 3, -3, 3), title=EVIL, desc=EVIL,
+                                 id_prefix="f", unit=EVIL, outlines=[svg.Outline(EVIL, -1, -1, 1, 1, EVIL)],
+                                 markers=[svg.Marker(EVIL, 0, 0)], presence=np.ones((2, 2))),
+        "skeleton_views": svg.skeleton_views(joints, title=EVIL, desc=EVIL, id_prefix="g"),
+    }
+
+
+@pytest.mark.parametrize("name", list(all_figures()))
+def test_text_is_escaped_and_svg_is_well_formed(name):
+    markup = all_figures()[name]
+    assert "<script" not in str(markup)
+    root = parse(markup)
+    found = texts(root)
+    assert EVIL in found, f"{name}: the hostile text should survive as text"
+
+
+def test_contrast_of_labels_on_level_colours():
+    """Labels inside coloured segments meet WCAG AA (4.5:1) with the text colour chosen for them."""
+    colours = {c for pal in LEVEL_COLOURS.values() for c in pal} | set(BAND_COLOURS) | set(svg.HEAT_COLOURS)
+    for c in colours:
+        assert svg.contrast_ratio(c, svg.text_colour_on(c)) >= 4.5, c
+    assert svg.contrast_ratio(svg.TEXT, "#ffffff") >= 4.5 and svg.contrast_ratio(svg.MUTED, "#ffffff") >= 4.5
+    assert svg.contrast_ratio(svg.TEXT, svg.UNSCORED_FILL) >= 4.5
+
+
+def test_contrast_ratio_known_values():
+    assert svg.contrast_ratio("#000000", "#ffffff") == pytest.approx(21.0)
+    assert svg.contrast_ratio("#777777", "#ffffff") == pytest.approx(4.48, abs=0.01)  # the classic AA near-miss
+
+
+def test_stacked_bar_widths_are_proportional():
+    root = parse(svg.stacked_bars([svg.StackRow("r", (svg.Segment(3.0, "#a6d96a", "", "a"),
+                                                      svg.Segment(1.0, "#d73027", "", "b")))],
+                                  title="t", desc="d", id_prefix="p", width=720, label_width=170))
+    rects = [r for r in root.iter(f"{NS}rect") if r.find(f"{NS}title") is not None]
+    w = [float(r.get("width")) for r in rects]
+    assert w[0] / w[1] == pytest.approx(3.0, rel=1e-3)
+    assert sum(w) == pytest.approx(720 - 170 - 16, abs=0.02)
+
+
+def test_runs():
+    assert svg._runs(np.array([0, 1, 1, 0, 1], bool)) == [(1, 3), (4, 5)]
+    assert svg._runs(np.zeros(3, bool)) == []
+
+
+def test_binned_scores_match_a_groupby():
+    rng = np.random.default_rng(7)
+    t = np.sort(rng.uniform(0, 3600, 20000))
+    s = pd.Series(rng.integers(1, 8, t.size), dtype="Int16")
+    s[rng.random(t.size) < 0.1] = pd.NA
+    starts, worst, med = binned_scores(t, s, 3600.0, 60.0, 7)
+    df = pd.DataFrame({"b": (t // 60).astype(int), "s": s.astype("float64")}).dropna()
+    g = df.groupby("b")["s"]
+    np.testing.assert_array_equal(worst, g.max().reindex(range(60)).to_numpy())
+    # lower median of integers: the value at rank ceil(n/2)
+    low_median = g.apply(lambda x: np.sort(x.to_numpy())[(len(x) + 1) // 2 - 1])
+    np.testing.assert_array_equal(med, low_median.reindex(range(60)).to_numpy())
+    np.testing.assert_array_equal(starts, np.arange(60) * 60.0)
+
+
+def test_body_axes_of_a_worker_facing_plus_y():
+    """Facing +y, the worker's right is +x: lateral (left to right) = +x, forward = +y."""
+    m = BodyMeasurements.from_stature(1.8)
+    joints = pose_skeleton(m, place_on_floor(m, Posture(heading=math.pi / 2, root_position=np.array([1.0, 2.0, 0]))))
+    origin, lat, fwd = svg.body_axes(joints)
+    np.testing.assert_allclose(lat, [1, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(fwd, [0, 1, 0], atol=1e-9)
+    np.testing.assert_allclose(origin, [1, 2, 0], atol=1e-9)
+
+
+def test_skeleton_front_view_puts_the_right_side_on_the_left_and_side_view_faces_right():
+    m = BodyMeasurements.from_stature(1.75)
+    joints = pose_skeleton(m, place_on_floor(m, Posture(heading=0.7, right_upper_arm_flexion=math.pi / 2)))
+    root = parse(svg.skeleton_views(joints, title="t", desc="d", id_prefix="s"))
+    labels = {e.text: float(e.get("x")) for e in root.iter(f"{NS}text") if e.text in ("L", "R")}
+    # two views: the first L/R pair is the front view; find it by text position order
+    xs = sorted((float(e.get("x")), e.text) for e in root.iter(f"{NS}text") if e.text in ("L", "R"))
+    front = [t for x, t in xs if x < 180]
+    assert front == ["R", "L"], xs
+    side = [(x, t) for x, t in xs if x >= 180]
+    # the right arm is raised forward: in the side view its wrist lies right of the left wrist
+    assert dict((t, x) for x, t in side)["R"] > dict((t, x) for x, t in side)["L"]
+    assert labels
+
+
+def test_skeleton_with_missing_joints_and_without_any():
+    m = BodyMeasurements.from_stature(1.75)
+    joints = pose_skeleton(m, place_on_floor(m, Posture()))
+    joints[JOINT_INDEX["left_wrist"]] = np.nan
+    root = parse(svg.skeleton_views(joints, title="t", desc="d", id_prefix="s"))
+    assert "L" not in [e.text for e in root.iter(f"{NS}text")]
+    empty = parse(svg.skeleton_views(np.full((33, 3), np.nan), title="t", desc="d", id_prefix="s"))
+    assert "skeleton not available" in texts(empty)
+
+
+def test_heat_map_cells_and_legend():
+    grid = np.zeros((24, 24))
+    grid[3, 5] = 6.0
+    grid[10, 10] = 1.0
+    root = parse(svg.heat_map(grid, (-3, 3, -3, 3), title="t", desc="d", id_prefix="h", unit="minutes"))
+    cells = [r for r in root.iter(f"{NS}rect") if r.find(f"{NS}title") is not None]
+    assert len(cells) == 2
+    by_value = {r.find(f"{NS}title").text: r for r in cells}
+    hot = by_value["6.0 minutes"]
+    assert hot.get("fill") == svg.HEAT_COLOURS[-1]
+    # cell (iy=3, ix=5): x from -3 + 5 * 0.25 = -1.75 m; y top edge at -3 + 4 * 0.25 = -2.0 m
+    size = 340
+    assert float(hot.get("x")) == pytest.approx(30 + (5 * 0.25) * size / 6, abs=0.01)
+    assert float(hot.get("y")) == pytest.approx(8 + (3 - (-2.0)) * size / 6, abs=0.01)
