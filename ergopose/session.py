@@ -527,54 +527,30 @@ class _Reader:
 def probe_video(path: Path, *, full: bool = True) -> tuple[int, float, tuple[int, int]]:
     """(frame count, frames per second, (width, height)) of a video; InputError if it cannot be read.
 
-    full: also decode the first and the last frame (catches truncated and corrupt files).
+    full: prove the file readable with :func:`ergopose.video.probe_video` (it decodes the first and
+    the last frame, so truncated and corrupt files are refused); False reads the header only.
     """
     import cv2
 
+    from ergopose import video
+
     path = Path(path)
+    if full:
+        info = video.probe_video(path)
+        return info.frames, info.fps, (info.width, info.height)
     if not path.is_file():
-        raise InputError("the video file does not exist", path=path)
-    cap = _open_quietly(path)
+        raise InputError("video file not found", path=path)
+    cap = cv2.VideoCapture(str(path))
     try:
         if not cap.isOpened():
-            raise InputError("OpenCV cannot open this video (not a video file, or damaged)", path=path)
+            raise InputError("cannot open the video (not a video file, or an unsupported codec)", path=path)
         count = int(round(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
-        fps = float(cap.get(cv2.CAP_PROP_FPS))
-        width = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
-        height = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
         if count <= 0:
-            raise InputError("the video has no frames (or its length cannot be read)", path=path)
-        if full:
-            ok, frame = cap.read()
-            if not ok or frame is None:
-                raise InputError("the first frame cannot be decoded (damaged video)", path=path)
-            if frame.shape[1] != width or frame.shape[0] != height:
-                raise InputError(f"frames are {frame.shape[1]} x {frame.shape[0]} but the header says "
-                                 f"{width} x {height}", path=path)
-            if count > 1:
-                cap.set(cv2.CAP_PROP_POS_FRAMES, count - 1)
-                ok, frame = cap.read()
-                if not ok or frame is None:
-                    raise InputError(f"the header says {count} frames but the last one cannot be decoded "
-                                     "(truncated or damaged video)", path=path)
-        return count, fps, (width, height)
+            raise InputError("the video does not state its number of frames", path=path)
+        return (count, float(cap.get(cv2.CAP_PROP_FPS)),
+                (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))))
     finally:
         cap.release()
-
-
-def _open_quietly(path: Path):
-    """cv2.VideoCapture with OpenCV's own error logging silenced (the caller reports problems)."""
-    import cv2
-
-    logging = getattr(getattr(cv2, "utils", None), "logging", None)
-    if logging is None:
-        return cv2.VideoCapture(str(path))
-    level = logging.getLogLevel()
-    logging.setLogLevel(logging.LOG_LEVEL_SILENT)
-    try:
-        return cv2.VideoCapture(str(path))
-    finally:
-        logging.setLogLevel(level)
 
 
 # --- writing ----------------------------------------------------------------------------------------------

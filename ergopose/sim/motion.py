@@ -78,10 +78,18 @@ CARRY_DEG = {"trunk_flexion": -2.0, "neck_flexion": 10.0, "upper_arm_flexion": 2
 #: Fraction of the leg length (hip to ankle) the pelvis may stretch a leg to.
 MAX_LEG_STRETCH = 0.998
 #: Lateral offset of each ankle from the pelvis centre when standing, beyond half the hip width.
-STANCE_EXTRA_WIDTH = 0.02
+STANCE_EXTRA_WIDTH = 0.0
 #: Clearance kept around furniture by walking paths (metres, from the mid-hip point).
 PATH_CLEARANCE = 0.3
 GRID_STEP = 0.1
+#: Step length as a fraction of stature, and the fraction of each step both feet are down at its
+#: start and at its end (double support).
+STEP_LENGTH = 0.32
+#: Path corners sharper than this (degrees) are walked as stop, turn on the spot, go on.
+SHARP_CORNER_DEG = 35.0
+DOUBLE_SUPPORT = 0.14
+#: How much lower the pelvis is while walking than while standing (metres, for 1.75 m stature).
+WALK_PELVIS_DROP = 0.045
 
 
 @dataclass(frozen=True)
@@ -203,7 +211,7 @@ def make_workers(n_workers: int, rng: np.random.Generator) -> tuple[WorkerSpec, 
         look = Appearance(skin=_SKINS[rng.integers(len(_SKINS))], hair=_HAIRS[rng.integers(len(_HAIRS))],
                           shirt=_SHIRTS[shirts[k]], trousers=_TROUSERS[rng.integers(len(_TROUSERS))],
                           shoes=_SHOES[rng.integers(len(_SHOES))])
-        speed = round(float(rng.uniform(1.05, 1.3)) * m.stature / 1.75, 4)
+        speed = round(float(rng.uniform(0.95, 1.2)) * m.stature / 1.75, 4)
         out.append(WorkerSpec(worker_id=f"w{k + 1}", measurements=m, appearance=look, walk_speed=speed))
     return tuple(out)
 
@@ -365,6 +373,33 @@ def plan_path(grid: _Grid, start: np.ndarray, goal: np.ndarray,
     return np.array(out)
 
 
+def _rounded_curve(points: np.ndarray, radius: float = 0.6, spacing: float = 0.02) -> np.ndarray:
+    """A polyline with its corners rounded (quadratic Bezier from ``radius`` before to ``radius``
+    after each corner, at most half of each segment), sampled every ``spacing`` metres."""
+    if len(points) == 2:
+        n = max(2, int(math.ceil(np.linalg.norm(points[1] - points[0]) / spacing)) + 1)
+        return points[0] + (points[1] - points[0]) * np.linspace(0.0, 1.0, n)[:, None]
+    pieces = [points[0][None, :]]
+    start = points[0]
+    for i in range(1, len(points) - 1):
+        a, c, b = points[i - 1], points[i], points[i + 1]
+        ra = min(radius, 0.5 * np.linalg.norm(c - a))
+        rb = min(radius, 0.5 * np.linalg.norm(b - c))
+        p_in = c + (a - c) * ra / np.linalg.norm(c - a)
+        p_out = c + (b - c) * rb / np.linalg.norm(b - c)
+        n = max(2, int(math.ceil(np.linalg.norm(p_in - start) / spacing)) + 1)
+        pieces.append(start + (p_in - start) * np.linspace(0.0, 1.0, n)[1:, None])
+        t = np.linspace(0.0, 1.0, 25)[1:, None]
+        pieces.append((1 - t) ** 2 * p_in + 2 * (1 - t) * t * c + t ** 2 * p_out)
+        start = p_out
+    end = points[-1]
+    n = max(2, int(math.ceil(np.linalg.norm(end - start) / spacing)) + 1)
+    pieces.append(start + (end - start) * np.linspace(0.0, 1.0, n)[1:, None])
+    curve = np.concatenate(pieces)
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(curve, axis=0), axis=1) > 1e-9])
+    return curve[keep]
+
+
 # --- leg inverse kinematics -------------------------------------------------------------------------
 
 
@@ -415,6 +450,7 @@ class _Chunk:
     planted: np.ndarray      # (n, 2)
     task: np.ndarray         # (n,)
     carrying: np.ndarray     # (n,)
+    pitch: np.ndarray | None = None   # (n, 2) foot pitch in swing (toes up positive); None = level
 
 
 class _Track:
@@ -497,14 +533,21 @@ class _Track:
     # --- locomotion ---
 
     def walk(self, path: np.ndarray, final_heading: float, carrying: bool) -> None:
-        """Walk along the waypoints (the first is the current position) and turn to final_heading."""
+        """Walk along the waypoints (the first is the current position) and turn to final_heading.
+
+        The path is split at sharp corners (more than SHARP_CORNER_DEG), where the worker stops
+        and turns on the spot; along each run the steps follow the path continuously (at gentle
+        corners the heading turns during one step).
+        """
         steps: list[dict[str, Any]] = []
         feet = self.ankles[:, :2].copy()
         heading = self.heading
         root = self.root_xy.copy()
         last_side = 1  # index of the foot moved last (0 left, 1 right)
-        step_len = 0.36 * self.m.stature
+        step_len = STEP_LENGTH * self.m.stature
         t_step = step_len / self.spec.walk_speed
+        task = "carry" if carrying else "walk"
+        turn_task = "carry" if carrying else "turn"
 
         def turn_to(target: float) -> None:
             nonlocal heading, last_side
@@ -513,60 +556,66 @@ class _Track:
                 return
             k = int(math.ceil(abs(delta) / math.radians(65.0)))
             side = 0 if delta > 0 else 1
-            for j in range(1, k + 1):
-                h_new = heading + delta * j / k
+            for j in range(1, k + 2):
+                h0 = heading + delta * min(j - 1, k) / k
+                h1 = heading + delta * min(j, k) / k
                 sigma = 1.0 if side == 0 else -1.0
-                to = root + _rot2(h_new) @ np.array([0.0, sigma * self.half_stance])
-                steps.append({"side": side, "to": to, "h0": heading + delta * (j - 1) / k, "h1": h_new,
-                              "root0": root.copy(), "root1": root.copy(), "dur": 0.45 * t_step + 0.12,
-                              "lift": 0.04, "task": "turn"})
+                to = root + _rot2(h1) @ np.array([0.0, sigma * self.half_stance])
+                steps.append({"side": side, "to": to, "h0": h0, "h1": h1, "root1": root.copy(),
+                              "dur": 0.45 * t_step + 0.12, "lift": 0.04, "pitch": math.radians(8.0),
+                              "task": turn_task})
                 feet[side] = to
                 last_side = side
                 side = 1 - side
-            # the other foot: placed for the final heading
-            sigma = 1.0 if side == 0 else -1.0
-            to = root + _rot2(heading + delta) @ np.array([0.0, sigma * self.half_stance])
-            steps.append({"side": side, "to": to, "h0": heading + delta, "h1": heading + delta,
-                          "root0": root.copy(), "root1": root.copy(), "dur": 0.45 * t_step + 0.12,
-                          "lift": 0.04, "task": "turn"})
-            feet[side] = to
-            last_side = side
             heading = heading + delta
 
-        task = "carry" if carrying else "walk"
-        for leg_index, target in enumerate(path[1:]):
-            d_vec = target - root
-            dist = float(np.linalg.norm(d_vec))
-            if dist < 0.05:
+        # split into runs at sharp corners
+        pts = [p for i, p in enumerate(path) if i == 0 or np.linalg.norm(p - path[i - 1]) > 0.02]
+        runs: list[list[np.ndarray]] = [[pts[0]]]
+        for i in range(1, len(pts)):
+            runs[-1].append(pts[i])
+            if i < len(pts) - 1:
+                a, b = pts[i] - pts[i - 1], pts[i + 1] - pts[i]
+                bend = abs(_wrap(math.atan2(b[1], b[0]) - math.atan2(a[1], a[0])))
+                if bend > math.radians(SHARP_CORNER_DEG):
+                    runs.append([pts[i]])
+        for run in runs:
+            if len(run) < 2:
                 continue
-            direction = math.atan2(d_vec[1], d_vec[0])
-            # Stop and turn on the spot at the start and at sharp corners; bend gently otherwise
-            # (the heading then turns during the first step of the new leg).
-            h_before = heading
-            if leg_index == 0 or abs(_wrap(direction - heading)) > math.radians(40.0):
-                turn_to(direction)
-                h_before = heading
-            heading = h_before + _wrap(direction - h_before)
-            u = d_vec / dist
-            normal = np.array([-u[1], u[0]])
+            curve = _rounded_curve(np.array(run))
+            seg = np.diff(curve, axis=0)
+            seg_len = np.linalg.norm(seg, axis=1)
+            cum = np.concatenate([[0.0], np.cumsum(seg_len)])
+            dist = float(cum[-1])
+
+            def at(a: float, curve=curve, seg=seg, seg_len=seg_len, cum=cum) -> tuple[np.ndarray, np.ndarray]:
+                i = int(np.clip(np.searchsorted(cum, a, side="right") - 1, 0, len(seg) - 1))
+                u = seg[i] / seg_len[i]
+                return curve[i] + u * (a - cum[i]), u
+
+            first_u = seg[0] / seg_len[0]
+            turn_to(math.atan2(first_u[1], first_u[0]))
             n_steps = max(1, int(math.ceil(dist / step_len)))
             sl = dist / n_steps
             side = 1 - last_side
             along = {0: 0.0, 1: 0.0}
+            run_id = len(steps)
             for k in range(1, n_steps + 2):
                 a = min(k * sl, dist)
+                point, u = at(a)
                 sigma = 1.0 if side == 0 else -1.0
-                to = root + u * a + normal * sigma * self.half_stance
+                to = point + np.array([-u[1], u[0]]) * sigma * self.half_stance
                 along[side] = a
-                root_after = root + u * min(0.5 * (along[0] + along[1]), dist)
-                if k == n_steps + 1:
-                    root_after = target.copy()
-                steps.append({"side": side, "to": to, "h0": h_before if k == 1 else heading, "h1": heading,
-                              "root0": None, "root1": root_after, "dur": t_step, "lift": 0.07, "task": task})
+                h1 = heading + _wrap(math.atan2(u[1], u[0]) - heading)
+                arc = min(0.5 * (along[0] + along[1]), dist) if k <= n_steps else dist
+                steps.append({"side": side, "to": to, "h0": heading, "h1": h1, "root1": at(arc)[0],
+                              "run": (run_id, curve, cum), "arc1": arc,
+                              "dur": t_step, "lift": 0.07, "pitch": math.radians(25.0), "task": task})
+                heading = h1
                 feet[side] = to
                 last_side = side
                 side = 1 - side
-            root = target.copy()
+            root = curve[-1].copy()
         turn_to(final_heading)
         if not steps:
             return
@@ -580,16 +629,30 @@ class _Track:
         total = float(starts[-1])
         f0, f1, local = self._frames(total)
         n = f1 - f0
-        # Root path: keypoints at step boundaries (turn steps hold the root), monotone interpolation.
-        key_t = [0.0]
-        key_xy = [self.root_xy.copy()]
-        for s, t_end in zip(steps, starts[1:]):
-            key_t.append(float(t_end))
-            key_xy.append(np.asarray(s["root1"], float))
-        key_t = np.array(key_t)
-        key_xy = np.array(key_xy)
-        root_xy = np.stack([PchipInterpolator(key_t, key_xy[:, k])(local) for k in range(2)], axis=1)
+        # Root: turn steps hold it; along a run it follows the run's curve, its arclength
+        # interpolated (monotone) through the keypoints at the step boundaries.
+        root_xy = np.empty((n, 2))
+        which_step = np.clip(np.searchsorted(starts, local, side="right") - 1, 0, len(steps) - 1)
+        k = 0
+        while k < len(steps):
+            run = steps[k].get("run")
+            if run is None:
+                root_xy[which_step == k] = steps[k]["root1"]
+                k += 1
+                continue
+            m = k
+            while m < len(steps) and steps[m].get("run") is not None and steps[m]["run"][0] == run[0]:
+                m += 1
+            key_t = np.concatenate([[starts[k]], starts[k + 1:m + 1]])
+            key_a = np.array([0.0] + [steps[i]["arc1"] for i in range(k, m)])
+            sel = (which_step >= k) & (which_step < m)
+            arc = PchipInterpolator(key_t, key_a)(local[sel])
+            _, curve, cum = run
+            root_xy[sel, 0] = np.interp(arc, cum, curve[:, 0])
+            root_xy[sel, 1] = np.interp(arc, cum, curve[:, 1])
+            k = m
         heading = np.empty(n)
+        pitch = np.zeros((n, 2))
         ankles = np.empty((n, 2, 3))
         planted = np.ones((n, 2), bool)
         task = np.empty(n, np.int8)
@@ -600,12 +663,20 @@ class _Track:
             tl = (local[sel] - starts[k]) / s["dur"]
             heading[sel] = s["h0"] + (s["h1"] - s["h0"]) * min_jerk(tl)
             side = s["side"]
-            swing = np.clip((tl - 0.12) / 0.76, 0.0, 1.0)
-            in_air = (tl > 0.12) & (tl < 0.88)
+            swing = np.clip((tl - DOUBLE_SUPPORT) / (1.0 - 2.0 * DOUBLE_SUPPORT), 0.0, 1.0)
+            in_air = (tl > DOUBLE_SUPPORT) & (tl < 1.0 - DOUBLE_SUPPORT)
             start_xy = pos[side].copy()
             w = min_jerk(swing)[:, None]
             ankles[sel, side, :2] = start_xy + (np.asarray(s["to"]) - start_xy) * w
-            ankles[sel, side, 2] = self.m.ankle_height + s["lift"] * np.sin(np.pi * swing)
+            # in swing the toes point down a little (the ankle does not stay flexed as far as a
+            # level foot would need); the ankle rises enough for the toes to clear the floor
+            p = -s["pitch"] * np.sin(np.pi * swing)
+            pitch[sel, side] = p
+            pitch[sel, 1 - side] = 0.0
+            ah = self.m.ankle_height
+            toe_reach = self.m.foot_length - self.m.heel_offset
+            clear = 0.01 * np.sin(np.pi * swing) + ah * np.cos(p) - toe_reach * np.sin(p)
+            ankles[sel, side, 2] = np.maximum(ah + s["lift"] * np.sin(np.pi * swing), clear)
             ankles[sel, 1 - side, :2] = pos[1 - side]
             ankles[sel, 1 - side, 2] = self.m.ankle_height
             planted[sel, side] = ~in_air
@@ -622,8 +693,12 @@ class _Track:
                 swing = -amp * np.clip(rel / (0.18 * self.m.stature), -1.0, 1.0)
                 upper[f"{side}_upper_arm_flexion"] = upper[f"{side}_upper_arm_flexion"] + swing
                 upper[f"{side}_elbow_flexion"] = upper[f"{side}_elbow_flexion"] + 0.5 * np.maximum(swing, 0.0)
-        self.chunks.append(_Chunk(f0, f1, root_xy=root_xy, root_dz=np.zeros(n), heading=heading, upper=upper,
-                                  ankles=ankles, planted=planted, task=task, carrying=np.full(n, carrying)))
+        # walking lowers the pelvis a little (the knees stay bent); eased in and out of standing
+        drop = WALK_PELVIS_DROP * self.m.stature / 1.75
+        ease = min_jerk(local / 0.6) * min_jerk((total - local) / 0.6)
+        self.chunks.append(_Chunk(f0, f1, root_xy=root_xy, root_dz=-drop * ease, heading=heading, upper=upper,
+                                  ankles=ankles, planted=planted, task=task, carrying=np.full(n, carrying),
+                                  pitch=pitch))
         self.t += total
 
 
@@ -660,7 +735,7 @@ def _do_task(track: _Track, task: str, station: Station, rng: np.random.Generato
         trunk = _vary(rng, 38.0, 6.0)
         down = {**_expand({"trunk_flexion": trunk, "neck_flexion": -15.0, "upper_arm_flexion": trunk + 22.0,
                            "upper_arm_abduction": 16.0, "elbow_flexion": 12.0, "upper_arm_rotation": 10.0}),
-                "dx": -0.08 * h, "dz": 0.33 * h - track.neutral_z}
+                "dx": -0.09 * h, "dz": 0.35 * h - track.neutral_z}
         grasp = _expand({"elbow_flexion": 20.0, "wrist_flexion": 10.0})
         t1, t2, t3 = 1.6 * k, 2.3 * k, 4.0 * k
         track.pose_task("lift_squat", [(t1, down), (t2, grasp), (t3, dict(CARRY))],
@@ -898,6 +973,7 @@ def _finish(tr: _Track, n_frames: int) -> WorkerMotion:
     planted = cat("planted")
     task = cat("task")
     carrying = cat("carrying")
+    pitch = np.concatenate([c.pitch if c.pitch is not None else np.zeros((c.f1 - c.f0, 2)) for c in chunks])[:n_frames]
     upper = {k: np.concatenate([c.upper[k] for c in chunks])[:n_frames] for k in UPPER_FIELDS}
     m = tr.m
     leg = m.thigh_length + m.shank_length
@@ -915,11 +991,12 @@ def _finish(tr: _Track, n_frames: int) -> WorkerMotion:
 
     limit = z_limit()
     z = np.minimum(z_plan, limit)
-    z = np.minimum(gaussian_filter1d(z, 0.8, mode="nearest"), limit)
+    for _ in range(4):  # smooth the dips where a leg limits the pelvis, staying below the limit
+        z = np.minimum(gaussian_filter1d(z, 1.0, mode="nearest"), limit)
     root = np.concatenate([root_xy, z[:, None]], axis=1)
     legs: dict[str, np.ndarray] = {}
     for k, side in enumerate(("left", "right")):
-        legs.update(leg_ik(m, root, heading, ankles[:, k], side))
+        legs.update(leg_ik(m, root, heading, ankles[:, k], side, foot_pitch=pitch[:, k]))
     posture = Posture(root_position=root, heading=heading, **upper, **legs)
     joints = pose_skeleton(m, posture)
     # The legs must have reached their targets (the pelvis was kept low enough).

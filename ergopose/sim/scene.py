@@ -52,7 +52,7 @@ LENS_REGIONS_DEG = (("central", 0.0, 30.0), ("outer", 30.0, 55.0), ("edge", 55.0
 
 def lens_region(theta: np.ndarray) -> np.ndarray:
     """Angle from the lens axis (radians, any shape) -> region index into LENS_REGIONS_DEG (-1 for NaN)."""
-    deg = np.degrees(np.asarray(theta, dtype=np.float64))
+    deg = np.round(np.degrees(np.asarray(theta, dtype=np.float64)), 9)  # 30 deg in radians and back is 29.999...
     out = np.full(deg.shape, -1, dtype=np.int8)
     for k, (_, lo, hi) in enumerate(LENS_REGIONS_DEG):
         with np.errstate(invalid="ignore"):
