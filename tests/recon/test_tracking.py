@@ -1,0 +1,128 @@
+"""Identities over a shift: occlusions, leaving and re-entering, signatures, chunking."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+
+from ergopose.keypoints import LIMBS
+from ergopose.recon import diagnostics as D
+from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
+from ergopose.recon.records import People3D
+from ergopose.recon.session import reconstruct_session
+from ergopose.recon.settings import ReconSettings
+from ergopose.recon.synthetic import WorkerScript, walk_workers
+from ergopose.recon.tracking import HIST_BIN_M, LimbHistogram, Tracker, limb_lengths, signature_distance
+from tests.recon.conftest import FPS
+
+
+def test_limb_histogram_median_and_stature(rng):
+    h = LimbHistogram()
+    x = rng.normal(0.4, 0.01, (1001, len(LIMBS)))
+    h.add(x[:500])
+    h.add(x[500:])
+    h.add(np.full((3, len(LIMBS)), np.nan))  # ignored
+    assert np.allclose(h.medians(), np.median(x, axis=0), atol=HIST_BIN_M)
+    assert np.all(h.samples == 1001)
+    empty = LimbHistogram()
+    assert np.all(np.isnan(empty.medians())) and np.isnan(empty.stature_estimate())
+    # Stature from a body built with Winter's proportions comes back.
+    from ergopose.ergonomics.body import BodyMeasurements, Posture, pose_skeleton
+
+    X = pose_skeleton(BodyMeasurements.from_stature(1.78), Posture())
+    h2 = LimbHistogram()
+    h2.add(np.repeat(limb_lengths(X)[None], 10, axis=0))
+    assert abs(h2.stature_estimate() - 1.78) < 0.005
+    assert np.isnan(signature_distance(np.full(16, np.nan), h2.medians()))
+    assert signature_distance(h2.medians(), h2.medians()) == 0.0
+
+
+def _run(scenario, **kw):
+    summary, tf = reconstruct_session(scenario.frames, None, fps=FPS, cameras=scenario.cameras, **kw)
+    return summary, tf
+
+
+def test_shift_identities_survive_occlusion_and_leaving(shift):
+    summary, tf = _run(shift, chunk_frames=240)
+    assert summary.workers == ("worker_1", "worker_2", "worker_3", "worker_4")
+    mapping = D.match_workers(tf, shift.truth)
+    assert sorted(mapping.values()) == [0, 1, 2, 3]
+    assert D.identity_switches(tf, shift.truth) == 0
+    by_person = {p: w for w, p in mapping.items()}
+    # Person 2 left for 25 s (frames 360-660): one identity before and after, no rows in between.
+    rows = tf.worker_rows(by_person[2])
+    assert rows.frame.min() == 0 and rows.frame.max() == len(shift.frames) - 1
+    assert not np.any((rows.frame > 365) & (rows.frame < 655))
+    # Person 0 hidden from camera 1 for 5 s: followed throughout, seen by one camera only.
+    rows = tf.worker_rows(by_person[0])
+    assert len(rows) == len(shift.frames)
+    hidden = (rows.frame >= 125) & (rows.frame < 175)
+    assert np.all(rows.views[hidden] <= 1) and np.all(np.isnan(rows.raw_points_world[hidden]))
+    # Stature estimates within 2 cm of the truth.
+    for w, p in mapping.items():
+        assert abs(summary.stature_m[f"worker_{w}"] - shift.statures[p]) < 0.02
+
+
+def _stored(truth: np.ndarray, visible: np.ndarray, rng, sigma=0.01) -> People3D:
+    """Stored triangulations: true joints + Gaussian noise, rows only where visible (F, P)."""
+    f, p = np.nonzero(visible)
+    X = truth[f, p] + rng.normal(0, sigma, truth[f, p].shape)
+    return People3D.from_points(f, f / FPS, X, sigma_m=sigma)
+
+
+def test_relink_uses_body_measurements_and_refuses_to_guess(rng):
+    """Two workers leave for 20 s; only one returns, far from where either left. With different
+    statures it gets its old identity back; with identical bodies the tracker cannot tell and
+    gives it a new one."""
+    n = int(40 * FPS)
+    for statures, expect_same in (((1.60, 1.90), True), ((1.75, 1.75), False)):
+        scripts = [WorkerScript(statures[0], np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+                   WorkerScript(statures[1], np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0)]
+        truth = walk_workers(scripts, n, FPS)
+        vis = np.ones((n, 2), bool)
+        vis[int(10 * FPS):int(30 * FPS), :] = False
+        vis[int(30 * FPS):, 0] = False  # worker 0 never comes back
+        people = _stored(truth, vis, rng)
+        tr = Tracker(ReconSettings(), FPS)
+        res = tr.update(people, 0, n)
+        fin = tr.finish()
+        resolved = {**res.resolved, **fin.resolved}
+        f, p = np.nonzero(vis)
+        before = {resolved[t] for t, q, fr in zip(res.track, p, f) if q == 1 and fr < 120}
+        after = {resolved[t] for t, q, fr in zip(res.track, p, f) if q == 1 and fr > 400}
+        assert len(before) == 1 and len(after) == 1
+        assert (before == after) is expect_same
+        assert len(tr.identities) == (2 if expect_same else 3)
+
+
+def test_short_spurious_tracks_are_dropped(rng):
+    n = int(10 * FPS)
+    truth = walk_workers([WorkerScript(1.7, np.array([[0.0, 0.0], [1.0, 1.0]]), pause_s=2.0)], n, FPS)
+    ghost = walk_workers([WorkerScript(1.8, np.array([[-2.0, 2.0]]), pause_s=9.0)], n, FPS)
+    vis_ghost = np.zeros(n, bool)
+    vis_ghost[30:36] = True  # half a second
+    people = People3D.concat([_stored(truth, np.ones((n, 1), bool), rng),
+                              _stored(ghost, vis_ghost[:, None], rng)])
+    people = people.take(np.argsort(people.frame, kind="stable"))
+    sr = ShiftReconstruction(ReconSettings(), FPS)
+    tf = TrackFrames.concat([sr.push(people, 0, n), sr.finish()])
+    assert tf.workers == [1]
+    assert len(tf) == n
+
+
+def test_tracker_state_carries_over_chunks_and_pickles(shift):
+    from ergopose.recon.triangulate import reconstruct_frames
+
+    people = reconstruct_frames(shift.frames)
+    n = len(shift.frames)
+    one = Tracker(ReconSettings(), FPS)
+    whole = one.update(people, 0, n).track
+    cuts = [0, 1, 100, 101, 480, 700, n]
+    tr = Tracker(ReconSettings(), FPS)
+    parts = []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        rows = (people.frame >= a) & (people.frame < b)
+        parts.append(tr.update(people.take(rows), a, b).track)
+        tr = pickle.loads(pickle.dumps(tr))
+    assert np.array_equal(np.concatenate(parts), whole)
