@@ -88,3 +88,344 @@ def floor_plan_from_mapping(data: Mapping[str, Any], cell_m: float = 0.25) -> Fl
             self.name, self.kind, self.lo, self.hi = d["name"], d["kind"], d["lo"], d["hi"]
     return floor_plan_from_boxes([_B(b) for b in data.get("boxes", ())], data.get("area_m", (-3, 3, -3, 3)),
                                  cell_m=cell_m)
+
+
+# ------------------------------------------------------------------- shift aggregation
+
+
+def _criteria(text: str) -> dict[int, str]:
+    """"1: a; 2: b" (a method file's criterion) -> {1: "a", 2: "b"}."""
+    out: dict[int, str] = {}
+    for part in text.split(";"):
+        head, sep, rest = part.partition(":")
+        head = head.strip().lstrip("+")
+        if sep and head.isdigit():
+            out[int(head)] = rest.strip()
+    return out
+
+
+def body_part_of(column: str) -> tuple[str, str, str]:
+    """A body-part column of ergopose.ergonomics.scoring -> (method, body part in words, method part).
+
+    "left_rula_upper_arm_band" -> ("rula", "left upper arm", "upper_arm"); "reba_legs" -> ("reba", "legs", "legs").
+    """
+    side = ""
+    rest = column
+    for s in ("left_", "right_"):
+        if rest.startswith(s):
+            side, rest = s[:-1], rest[len(s):]
+    method, _, part = rest.partition("_")
+    if part.endswith("_band"):
+        part = part[: -len("_band")]
+    words = part.replace("_", " ")
+    return method, f"{side} {words}".strip(), part
+
+
+def band_criteria(method: Method, part: str) -> dict[int, str]:
+    """Band score -> the method's wording of that band, for a body part ("upper_arm", "legs")."""
+    if part in method.bands:
+        return _criteria(method.bands[part].criterion)
+    if part in method.flag_scores:
+        return _criteria(method.flag_scores[part].criterion)
+    return {}
+
+
+_ANGLE_WORDS = {"trunk": "trunk flexion", "head": "head inclination", "upper arm": "upper arm elevation",
+                "trunk side bend or twist": "trunk side bend or twist"}
+
+
+def _flag_from_finding(f: Any) -> Any:
+    from ergopose.report.context import StandardFlag
+
+    if not f.measured:
+        return StandardFlag(standard=f.standard, body_part=f.body_part, condition="the angles needed were not measured",
+                            verdict="not measured", seconds=0.0, longest_s=float("nan"), note="")
+    zones = list(f.zone_time_s)
+    # the worst zone the worker reached (zones are in increasing order of concern)
+    reached = [z for z in zones[1:] if f.zone_time_s.get(z, 0.0) > 0] or zones[:1]
+    zone = reached[-1]
+    kind = next((w for k, w in _ANGLE_WORDS.items() if f.body_part.endswith(k)), "")
+    condition = f"{kind} {zone} deg".strip() if kind and zone[:1] in "<>0123456789" else zone
+    if f.standard.startswith("ISO"):
+        seconds = float(f.static_time_s.get(zone, 0.0))
+        longest = float(f.longest_static_hold_s.get(zone, float("nan")))
+        note = (f"held longer than 4 s {f.static_holds.get(zone, 0)} times "
+                f"({seconds:.0f} s in such holds, {f.zone_time_s.get(zone, 0.0):.0f} s in the zone in all)")
+    else:
+        seconds = float(f.zone_time_s.get(zone, 0.0))
+        longest = float("nan")
+        note = f"{f.entries} movements into the zone, {f.per_minute:.1f} per minute"
+    verdict = f.verdict if f.verdict != "time-limited" else "time-limited"
+    return StandardFlag(standard=f.standard, body_part=f.body_part, condition=condition, verdict=verdict,
+                        seconds=seconds, longest_s=longest, note=note)
+
+
+def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *, frames: Any = None,
+                   joints_at: Any = None, worst_limit: int = 6, holds_limit: int = 12) -> Any:
+    """A WorkerSummary from ergopose.ergonomics.aggregate.ShiftSummary.
+
+    frames: the worker's scored frames (time_s and the score columns) to find the peak frame of
+    each worst episode and what drove it; joints_at: callable(time_s) -> (33, 3) joints in the world
+    frame (or None) for the skeleton drawing. Without them the worst moments are drawn at the
+    middle of the episode, without a skeleton.
+    """
+    import numpy as np
+
+    from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
+    from ergopose.report.context import (BandTime, Hold, HourLevels, LevelTime, Repetition, WorkerSummary,
+                                         WorstMoment)
+
+    methods = dict(methods or {n: load_method(n) for n in ("rula", "reba")})
+    levels, unscored = [], {}
+    for m, (_, level_col) in LEVEL_COLUMNS.items():
+        d = summary.distributions.get(level_col)
+        for lv in methods[m].action_levels:
+            levels.append(LevelTime(m, int(lv.level), float(d.at(lv.level).time_s) if d else 0.0))
+        unscored[m] = float(d.missing_time_s) if d else float(summary.observed_s)
+    body_parts, holds = [], []
+    for m, cols in BODY_PART_COLUMNS.items():
+        for col in cols:
+            d = summary.distributions.get(col)
+            if d is None:
+                continue
+            _, words, part = body_part_of(col)
+            crit = band_criteria(methods[m], part)
+            lowest = min((v.value for v in d.values), default=1)
+            for v in d.values:
+                text = crit.get(v.value, f"score {v.value}")
+                body_parts.append(BandTime(m, words, int(v.value), text, float(v.time_s)))
+                if v.value > lowest and np.isfinite(v.longest_hold_s) and v.longest_hold_s > 0:
+                    holds.append(Hold(words, m, int(v.value), text, float(v.longest_hold_start_s), float(v.longest_hold_s)))
+    holds.sort(key=lambda h: -h.duration_s)
+    hourly = []
+    for h in summary.hourly:
+        m = next((k for k, (_, lc) in LEVEL_COLUMNS.items() if lc == h.column), None)
+        if m is None:
+            continue
+        hourly.append(HourLevels(start_s=3600.0 * h.hour, method=m,
+                                 levels=tuple(LevelTime(m, int(lv.level), float(h.time_by_value.get(lv.level, 0.0)))
+                                              for lv in methods[m].action_levels),
+                                 unscored_s=float(h.missing_s), observed_s=float(h.observed_s)))
+    s_limit = 4.0
+    reps = tuple(Repetition(body_part=_angle_body_part(r.angle), angle=r.angle, actions=int(r.actions),
+                            per_minute=float(r.per_minute), max_in_one_minute=int(r.max_in_one_minute),
+                            limit_per_min=s_limit, minutes_over_limit=int(r.minutes_at_or_above_4))
+                 for r in summary.repetitions)
+    worst = _worst_moments(summary, methods, frames, joints_at, worst_limit)
+    flags = tuple(_flag_from_finding(f) for f in summary.exposure)
+    return WorkerSummary(worker_id=str(summary.worker), observed_s=float(summary.observed_s), levels=tuple(levels),
+                         unscored_s=unscored, body_parts=tuple(body_parts), holds=tuple(holds[:holds_limit]),
+                         repetitions=reps, hourly=tuple(hourly), worst=worst, flags=flags)
+
+
+def _angle_body_part(angle: str) -> str:
+    words = angle.replace("_", " ")
+    for suffix in (" flexion", " abduction", " elevation"):
+        if words.endswith(suffix):
+            words = words[: -len(suffix)]
+    return words.replace("elbow", "lower arm (elbow)")
+
+
+def _worst_moments(summary: Any, methods: Mapping[str, Method], frames: Any, joints_at: Any, limit: int) -> tuple:
+    import numpy as np
+
+    from ergopose.report.context import WorstMoment
+
+    episodes = list(summary.episodes.get("rula_action_level", ())) + list(summary.episodes.get("reba_risk_level", ()))
+    chosen: list[Any] = []
+    for e in episodes:
+        if all(e.end_s <= c.start_s or e.start_s >= c.end_s for c in chosen):
+            chosen.append(e)
+        if len(chosen) == limit:
+            break
+    out = []
+    for e in chosen:
+        peak, row = (e.start_s + e.end_s) / 2, None
+        if frames is not None and len(frames):
+            t = frames["time_s"].to_numpy(dtype=np.float64)
+            sel = np.flatnonzero((t >= e.start_s) & (t <= e.end_s))
+            if sel.size:
+                score_col = "rula_grand" if e.column.startswith("rula") else "reba_score"
+                sc = frames[score_col].to_numpy(dtype=np.float64, na_value=np.nan)[sel]
+                i = int(sel[np.nanargmax(sc)]) if np.isfinite(sc).any() else int(sel[0])
+                peak, row = float(t[i]), frames.iloc[i]
+        joints = joints_at(peak) if joints_at is not None else None
+        def val(col: str) -> int | None:
+            if row is None or col not in row.index:
+                return None
+            v = row[col]
+            return None if v is None or (isinstance(v, float) and np.isnan(v)) or str(v) == "<NA>" else int(v)
+        rula = val("rula_grand")
+        reba = val("reba_score")
+        if row is None:  # the episode's own level and peak score
+            if e.column.startswith("rula"):
+                rula = e.peak_score
+            else:
+                reba = e.peak_score
+        rl = val("rula_action_level") if row is not None else (e.level if e.column.startswith("rula") else None)
+        bl = val("reba_risk_level") if row is not None else (e.level if e.column.startswith("reba") else None)
+        out.append(WorstMoment(start_s=float(e.start_s), end_s=float(e.end_s), peak_s=float(peak), rula_grand=rula,
+                               rula_level=rl, reba_score=reba, reba_level=bl, reason=_reason(row, methods),
+                               joints_world_m=None if joints is None else tuple(tuple(float(x) for x in p)
+                                                                               for p in np.asarray(joints))))
+    return tuple(out)
+
+
+def _reason(row: Any, methods: Mapping[str, Method]) -> str:
+    """The body parts in a high band at a frame, in words (what drove the score)."""
+    if row is None:
+        return "the episode's level (no frame details stored)"
+    from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
+
+    parts = []
+    for col in BODY_PART_COLUMNS["rula"]:
+        if col not in row.index:
+            continue
+        v = row[col]
+        if v is None or str(v) == "<NA>":
+            continue
+        _, words, part = body_part_of(col)
+        b = methods["rula"].bands.get(part)
+        top = max(b.scores) if b is not None else 2
+        if int(v) >= max(2, top - 1) and int(v) > 1:
+            crit = band_criteria(methods["rula"], part).get(int(v), f"score {int(v)}")
+            parts.append(f"{words}: {crit} (RULA band {int(v)})")
+    return "; ".join(parts) if parts else "no single body part in a high band: the combination of postures"
+
+
+# ------------------------------------------------------------------ reconstruction quality
+
+
+def worker_diagnostics(diag: Any, *, frames_reliable: int, reliable_rule: str, error_3d_m: float = float("nan"),
+                       region_limb: str = "hip_width") -> Any:
+    """A WorkerDiagnostics from ergopose.recon.diagnostics.WorkerLimbDiagnostics.
+
+    frames_reliable / reliable_rule: from :func:`ergopose.report.quality.reliable_frames`.
+    region_frames are the frames per lens region of ``region_limb`` (the hips: where the body is).
+    """
+    from ergopose.keypoints import LIMBS
+    from ergopose.report.context import LimbFrequency, LimbStats, WorkerDiagnostics
+
+    stats, freq = [], []
+    for limb, _, _ in LIMBS:
+        a = diag.stats[(limb, "all")]
+        p = a.percentiles_m
+        stats.append(LimbStats(limb=limb, n=int(a.reconstructed), mean_m=a.mean_m, std_m=a.std_m, p5_m=p[0],
+                               q1_m=p[1], median_m=p[2], q3_m=p[3], p95_m=p[4]))
+        for region in ("all", "central", "outer", "edge"):
+            r = diag.stats.get((limb, region))
+            if r is not None:
+                freq.append(LimbFrequency(limb=limb, region=region, frames=int(r.frames),
+                                          reconstructed=int(r.reconstructed)))
+    region_frames = {region: int(diag.stats[(region_limb, region)].frames) for region in ("central", "outer", "edge")}
+    return WorkerDiagnostics(worker_id=str(diag.worker), frames_observed=int(diag.frames),
+                             frames_reliable=int(frames_reliable), reliable_rule=reliable_rule,
+                             region_frames=region_frames, limb_lengths=tuple(stats), reconstruction=tuple(freq),
+                             error_3d_m=float(error_3d_m))
+
+
+# ------------------------------------------------------------------------- calibration
+
+
+def calibration_info(path: str | Path, cameras: Sequence[str], *, reprojection_rms_px: float = float("nan"),
+                     check: Any = None) -> Any:
+    """A CalibrationInfo from the calibration file and, when run, its bar check
+    (ergopose.calibration.check.CheckReport)."""
+    from ergopose.report.context import CalibrationInfo, RegionAccuracy
+
+    regions = ()
+    if check is not None:
+        regions = tuple(RegionAccuracy(region=r.region, target_m=float(r.target), measured_m=float(r.mean),
+                                       spread_m=float(r.std), n=int(r.n),
+                                       angles=f"{r.angle_range_deg[0]:g}-{r.angle_range_deg[1]:g} deg")
+                        for r in check.regions)
+    return CalibrationInfo(file=Path(path).name, sha256=file_sha256(path), cameras=tuple(cameras),
+                           reprojection_rms_px=float(reprojection_rms_px), regions=regions)
+
+
+# ---------------------------------------------------------------------------- session
+
+
+#: What each task factor of the session settings feeds (RULA / REBA steps).
+FACTOR_USE = {
+    "load_kg": "RULA force/load (steps 7 and 14), REBA load/force (step 5)",
+    "load_mode": "RULA force/load (steps 7 and 14)",
+    "shock": "RULA force/load, REBA load/force (shock or rapid build-up)",
+    "coupling": "REBA coupling (step 11)",
+    "arm_supported": "RULA upper arm (step 1a), REBA upper arm (step 7a)",
+    "seated": "RULA trunk (step 10), REBA legs (step 3)",
+    "legs_supported": "RULA legs (step 11)",
+    "wrist_twist_end_range": "RULA wrist twist (step 4)",
+}
+FACTOR_WORDS = {
+    "load_kg": "load", "load_mode": "load held", "shock": "shock or rapid build-up of force", "coupling": "hand coupling",
+    "arm_supported": "arm supported or leaning", "seated": "seated", "legs_supported": "legs and feet supported",
+    "wrist_twist_end_range": "wrist twisted near the end of its range",
+}
+
+
+def _factor_value(name: str, value: Any) -> str:
+    if value is None:
+        return "not given: scored as unknown"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if name == "load_kg":
+        return f"{value:g} kg"
+    return str(value)
+
+
+def _clock(shift_s: float, start: Any) -> str:
+    import datetime as _dt
+
+    if start is not None:
+        return (start + _dt.timedelta(seconds=float(shift_s))).strftime("%H:%M:%S")
+    h, rem = divmod(int(round(shift_s)), 3600)
+    return f"{h}:{rem // 60:02d}:{rem % 60:02d}"
+
+
+def worker_assumptions(session: Any, worker: Any | None, settings_name: str = "settings.toml") -> tuple:
+    """What was assumed for a worker (ergopose.session.WorkerInfo, or None for an unnamed worker):
+    every task factor with the value in force for the whole session and where it was set, then
+    every period that changes a factor."""
+    from ergopose.report.context import Assumption
+
+    start = getattr(session, "recorded_at", None)
+    out = []
+    own = worker.factors if worker is not None else None
+    for name in FACTOR_USE:
+        v_own = getattr(own, name) if own is not None else None
+        v_def = getattr(session.defaults, name)
+        if v_own is not None:
+            value, src = v_own, f"{settings_name} [workers.{worker.worker_id}]"
+        elif v_def is not None:
+            value, src = v_def, f"{settings_name} [defaults]"
+        else:
+            value, src = None, "not in the settings"
+        out.append(Assumption(item=FACTOR_WORDS[name], value=_factor_value(name, value), applies_to=FACTOR_USE[name],
+                              source=src))
+    periods = [(p, f"{settings_name} [[periods]]") for p in session.periods]
+    if worker is not None:
+        periods += [(p, f"{settings_name} [[workers.{worker.worker_id}.periods]]") for p in worker.periods]
+    for p, src in periods:
+        when = f"{_clock(p.start_s, start)} to {_clock(p.end_s, start)}"
+        for name, value in p.factors.given().items():
+            out.append(Assumption(item=f"{FACTOR_WORDS[name]}, {when}", value=_factor_value(name, value),
+                                  applies_to=FACTOR_USE[name], source=src))
+    return tuple(out)
+
+
+def worker_infos(session: Any, worker_ids: Sequence[str], csv_files: Mapping[str, Sequence[tuple[str, str]]] | None = None,
+                 settings_name: str = "settings.toml") -> tuple:
+    """WorkerInfo records for the workers found in a session (ids as in the results), with names
+    and assumptions from the session settings (ergopose.session.Session) and their CSV files
+    ({id: [(label, path relative to the report folder), ...]})."""
+    from ergopose.report.context import DataFile, WorkerInfo
+
+    named = {w.worker_id: w for w in session.workers}
+    out = []
+    for wid in worker_ids:
+        w = named.get(wid)
+        files = tuple(DataFile(label, path) for label, path in (csv_files or {}).get(wid, ()))
+        out.append(WorkerInfo(worker_id=wid, name=w.name if w is not None else None,
+                              assumptions=worker_assumptions(session, w, settings_name), csv_files=files))
+    return tuple(out)

@@ -24,8 +24,10 @@ METHODS = ("rula", "reba")
 #: Lens regions of the quality section (ergopose.sim.scene.LENS_REGIONS_DEG), in order; "all" is
 #: the whole field of view.
 REGIONS = ("all", "central", "outer", "edge")
-#: Verdicts of ISO 11226 / EN 1005-4 flags, best to worst.
-FLAG_VERDICTS = ("acceptable", "conditionally acceptable", "not recommended", "not acceptable")
+#: Verdicts of ISO 11226 / EN 1005-4 flags (ergopose.ergonomics.aggregate), best to worst, then
+#: "not measured" (the angles needed were not available).
+FLAG_VERDICTS = ("acceptable", "conditionally acceptable", "time-limited", "not recommended", "not acceptable",
+                 "not measured")
 
 
 # ----------------------------------------------------------------------------- session
@@ -82,6 +84,7 @@ class RegionAccuracy:
 
     region: "central", "outer" or "edge". target_m: the bar's true length. measured_m: mean of the
     measured lengths. spread_m: their standard deviation (NaN with one measurement). n: count.
+    angles: the region's angles from the lens axis in words ("40-70 deg"; empty if unknown).
     """
 
     region: str
@@ -89,6 +92,7 @@ class RegionAccuracy:
     measured_m: float
     spread_m: float
     n: int
+    angles: str = ""
 
 
 @dataclass(frozen=True)
@@ -165,19 +169,33 @@ class Assumption:
 
 
 @dataclass(frozen=True)
+class DataFile:
+    """A data file the report links to: label (what it holds, in words), path (relative to the
+    report folder, '/'-separated; no '..', no absolute path, no URL)."""
+
+    label: str
+    path: str
+
+    def __post_init__(self) -> None:
+        p = self.path.replace("\\", "/")
+        if not p or ":" in p or p.startswith("/") or ".." in p.split("/"):
+            raise ValueError(f"data file path {self.path!r} must be relative to the report folder")
+
+
+@dataclass(frozen=True)
 class WorkerInfo:
     """A worker of the session.
 
     worker_id: pseudonymous id (WORKER_ID_PATTERN; used in file names). name: the name the session
     settings map to the id, or None (reports then show only the id); any text, always escaped.
-    assumptions: what was assumed for this worker. csv: path of the worker's CSV file relative to
-    the report folder (written by ergopose.ergonomics.export), or None.
+    assumptions: what was assumed for this worker. csv_files: the worker's CSV files (written by
+    ergopose.ergonomics.export: per-frame scores, shift summary).
     """
 
     worker_id: str
     name: str | None = None
     assumptions: tuple[Assumption, ...] = ()
-    csv: str | None = None
+    csv_files: tuple[DataFile, ...] = ()
 
     def __post_init__(self) -> None:
         if not WORKER_ID_PATTERN.match(self.worker_id):
@@ -203,8 +221,8 @@ class SessionInfo:
     created: when the results were written (ISO 8601, UTC). models, methods: what scored it.
     settings: the scoring settings (ergopose.ergonomics.settings.ScoringSettings) as used.
     calibration: the calibration and its accuracy, or None. floor: the monitored area.
-    workers: every worker, in report order. summary_csv: the session summary CSV relative to the
-    report folder, or None.
+    workers: every worker, in report order. csv_files: session-wide CSV files (the session
+    summary).
     """
 
     session_id: str
@@ -222,7 +240,7 @@ class SessionInfo:
     calibration: CalibrationInfo | None
     floor: FloorPlan
     workers: tuple[WorkerInfo, ...]
-    summary_csv: str | None = None
+    csv_files: tuple[DataFile, ...] = ()
 
     def __post_init__(self) -> None:
         ids = [w.worker_id for w in self.workers]
@@ -287,20 +305,22 @@ class Hold:
 
 @dataclass(frozen=True)
 class Repetition:
-    """Repetitive movement of one joint angle.
+    """Repetitive movement of one joint angle (ergopose.ergonomics.aggregate.Repetitions).
 
-    body_part: in words. angle: the posture-table angle ("left_upper_arm_flexion").
-    median_per_min, max_per_min: actions per minute over the shift (sliding window of
-    ScoringSettings.repetition_window_s). limit_per_min: the method threshold it is compared with.
-    seconds_over_limit: time the rate was at or over the limit.
+    body_part: in words. angle: the posture-table angle ("left_upper_arm_flexion"). actions: rises
+    and falls of the angle by at least ScoringSettings.repetition_amplitude_deg over the shift.
+    per_minute: actions per observed minute. max_in_one_minute: most actions in one minute of
+    the shift. limit_per_min: the threshold of the methods (4 per minute). minutes_over_limit:
+    minutes of the shift with at least that many actions.
     """
 
     body_part: str
     angle: str
-    median_per_min: float
-    max_per_min: float
+    actions: int
+    per_minute: float
+    max_in_one_minute: int
     limit_per_min: float
-    seconds_over_limit: float
+    minutes_over_limit: int
 
 
 @dataclass(frozen=True)

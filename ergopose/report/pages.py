@@ -26,7 +26,8 @@ from markupsafe import Markup
 
 from ergopose.keypoints import LIMBS
 from ergopose.report import svg
-from ergopose.report.context import (Assumption, MethodInfo, ModelInfo, SessionInfo, WorkerResults, WorkerSummary)
+from ergopose.report.context import (FLAG_VERDICTS, Assumption, MethodInfo, ModelInfo, SessionInfo, WorkerResults,
+                                     WorkerSummary)
 from ergopose.report.quality import Finding, Verdict, quality_verdict
 
 # ------------------------------------------------------------------------- shared records
@@ -173,11 +174,13 @@ class HoldRow:
 
 @dataclass(frozen=True)
 class RepetitionRow:
-    """Repetitive movement: body_part, median and max (actions per minute), limit (per minute),
-    over_limit (time at or over the limit)."""
+    """Repetitive movement: body_part, actions (over the shift), per_minute (actions per tracked
+    minute), max (most actions in one minute), limit (per minute), over_limit (minutes of the
+    shift with at least the limit)."""
 
     body_part: str
-    median: str
+    actions: str
+    per_minute: str
     max: str
     limit: str
     over_limit: str
@@ -221,14 +224,14 @@ class HourTable:
 @dataclass(frozen=True)
 class FlagRow:
     """An ISO 11226 / EN 1005-4 judgement: standard, body_part, condition, verdict (words),
-    severity (0 acceptable to 3 not acceptable; used for styling, the verdict words carry the
+    severity ("ok", "caution", "bad" or "unknown"; for styling only, the verdict words carry the
     meaning), time, longest (hold), note."""
 
     standard: str
     body_part: str
     condition: str
     verdict: str
-    severity: int
+    severity: str
     time: str
     longest: str
     note: str
@@ -333,7 +336,7 @@ class WorkerRow:
     """A worker on the index page: display_name, page (link to the worker page), tracked (time),
     rula_high (share at RULA action level 3-4), reba_high (share at REBA high or very high),
     reliable (share with a reliable skeleton), verdict_label (confidence in words), verdict_rating
-    ("good"/"fair"/"poor", for styling), csv (link to the worker's CSV)."""
+    ("good"/"fair"/"poor", for styling), csv (links to the worker's CSV files)."""
 
     display_name: str
     page: Link
@@ -343,7 +346,7 @@ class WorkerRow:
     reliable: str
     verdict_label: str
     verdict_rating: str
-    csv: Link
+    csv: tuple[Link, ...]
 
 
 @dataclass(frozen=True)
@@ -526,7 +529,8 @@ def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
         spread = f" ± {100 * r.spread_m:.1f} cm" if math.isfinite(r.spread_m) else ""
         err = (f"{100 * (r.measured_m - r.target_m) / r.target_m:+.1f} %"
                if math.isfinite(r.measured_m) and r.target_m > 0 else "n/a")
-        rows.append(CalibrationRow(region=REGION_NAMES.get(r.region, r.region), target=f"{r.target_m:.3f} m",
+        region = REGION_NAMES.get(r.region, r.region) + (f" ({r.angles})" if r.angles else "")
+        rows.append(CalibrationRow(region=region, target=f"{r.target_m:.3f} m",
                                    measured=f"{r.measured_m:.3f} m{spread} (n = {r.n})", error=err))
     rms = (f" The calibration's reprojection error is {cal.reprojection_rms_px:.2f} pixels (RMS)."
            if math.isfinite(cal.reprojection_rms_px) else "")
@@ -570,11 +574,11 @@ def _fmt_setting(v: bool | float | str) -> str:
     return str(v)
 
 
-def _csv_link(report_dir: Path | None, path: str | None, text: str) -> Link:
+def _csv_link(report_dir: Path | None, path: str, text: str) -> Link:
     href = safe_href(path)
     if href is None:
-        return Link(href="", text=text, note="not written for this session" if not path else "unsafe path ignored")
-    if report_dir is not None and not (report_dir / path).is_file():  # type: ignore[operator]
+        return Link(href="", text=text, note="unsafe path ignored")
+    if report_dir is not None and not (report_dir / path).is_file():
         return Link(href=href, text=text, note=f"missing: expected {path} next to this report")
     return Link(href=href, text=text, note="")
 
@@ -893,7 +897,9 @@ def _cm(m: float) -> str:
     return f"{100 * m:.1f} cm" if math.isfinite(m) else "n/a"
 
 
-FLAG_SEVERITY = {"acceptable": 0, "conditionally acceptable": 1, "not recommended": 2, "not acceptable": 3}
+FLAG_ORDER = FLAG_VERDICTS[-1:] + FLAG_VERDICTS[:-1]  # sort key: not measured last, worst first
+FLAG_SEVERITY = {"acceptable": "ok", "conditionally acceptable": "caution", "time-limited": "caution",
+                 "not recommended": "bad", "not acceptable": "bad", "not measured": "unknown"}
 
 
 def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path | None = None) -> WorkerPage:
@@ -914,17 +920,17 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
     holds = tuple(HoldRow(body_part=h.body_part, method=METHOD_TITLES.get(h.method, h.method), score=h.score,
                           criterion=h.criterion, start=clock(h.start_s), duration=fmt_duration(h.duration_s))
                   for h in summ.holds)
-    reps = tuple(RepetitionRow(body_part=r.body_part, median=f"{r.median_per_min:.1f}", max=f"{r.max_per_min:.1f}",
-                               limit=f"{r.limit_per_min:g}", over_limit=fmt_duration(r.seconds_over_limit))
+    reps = tuple(RepetitionRow(body_part=r.body_part, actions=f"{r.actions:,}", per_minute=f"{r.per_minute:.1f}",
+                               max=f"{r.max_in_one_minute}", limit=f"{r.limit_per_min:g}",
+                               over_limit=f"{r.minutes_over_limit} min")
                  for r in summ.repetitions)
     hourly_figs, hourly_tables = hourly_section(summ, session, who, clock)
     flags = tuple(FlagRow(standard=f.standard, body_part=f.body_part, condition=f.condition, verdict=f.verdict,
                           severity=FLAG_SEVERITY[f.verdict], time=fmt_duration(f.seconds),
                           longest=fmt_duration(f.longest_s), note=f.note)
-                  for f in sorted(summ.flags, key=lambda f: -FLAG_SEVERITY[f.verdict]))
+                  for f in sorted(summ.flags, key=lambda f: -FLAG_ORDER.index(f.verdict)))
     floor_figs, floor_note = floor_section(frames, session, who)
-    downloads = (_csv_link(report_dir, info.csv, f"Per-frame scores of {who} (CSV)"),
-                 _csv_link(report_dir, session.summary_csv, "Session summary (CSV)"))
+    downloads = tuple(_csv_link(report_dir, f.path, f"{f.label} (CSV)") for f in info.csv_files + session.csv_files)
     return WorkerPage(
         page_title=f"{who}: ergonomic report, {header.title}", session=header, worker_id=info.worker_id,
         display_name=who, nav=tuple(nav), tracked=tracked,
@@ -969,12 +975,12 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
             display_name=who, page=Link(href=quote(worker_page_name(info.worker_id)), text=who, note=""),
             tracked=fmt_duration(summ.observed_s), rula_high=highs["rula"], reba_high=highs["reba"],
             reliable=fmt_percent(d.frames_reliable, d.frames_observed), verdict_label=RATING_LABELS[verdict.rating],
-            verdict_rating=verdict.rating, csv=_csv_link(report_dir, info.csv, "CSV")))
+            verdict_rating=verdict.rating, csv=tuple(_csv_link(report_dir, f.path, f.label) for f in info.csv_files)))
     cal_rows, cal_note = calibration_rows(session)
     return IndexPage(page_title=f"Ergonomic report: {header.title}", session=header, workers=tuple(rows),
                      overview_figures=tuple(figs), calibration_rows=cal_rows, calibration_note=cal_note,
                      methods=methods_section(session),
-                     downloads=(_csv_link(report_dir, session.summary_csv, "Session summary (CSV)"),))
+                     downloads=tuple(_csv_link(report_dir, f.path, f"{f.label} (CSV)") for f in session.csv_files))
 
 
 __all__ = [

@@ -135,3 +135,36 @@ def quality_verdict(diag: WorkerDiagnostics, calibration: CalibrationInfo | None
                                 f"the tracked time."))
     rating = max((f.rating for f in findings), key=RATINGS.index)
     return Verdict(rating=rating, headline=HEADLINES[rating], findings=tuple(findings))
+
+
+#: Relative deviation from the worker's median limb length still counted as reliable.
+RELIABLE_LENGTH_TOLERANCE = 0.15
+
+
+def reliable_rule(tolerance: float = RELIABLE_LENGTH_TOLERANCE) -> str:
+    """The reliability rule of :func:`reliable_frames` in words (shown in the reports)."""
+    return (f"every limb the scores rest on ({len(SCORED_LIMBS)} limbs: upper arms, forearms, trunk sides, thighs, "
+            f"shanks) reconstructed in 3D and within {100 * tolerance:.0f} % of the worker's median length")
+
+
+def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE):
+    """Per frame of one worker, whether the skeleton is reliable (the rule of :func:`reliable_rule`).
+
+    points_world: (F, 33, 3) joints in metres, NaN = missing. Returns a bool array (F,). The median
+    length of each limb is taken over the frames given (the worker's whole shift).
+    """
+    import numpy as np
+
+    from ergopose.keypoints import LIMB_INDEX, LIMBS
+
+    pts = np.asarray(points_world, dtype=np.float64)
+    names = [n for n, _, _ in LIMBS]
+    idx = LIMB_INDEX[[names.index(n) for n in SCORED_LIMBS]]
+    lengths = np.linalg.norm(pts[:, idx[:, 0]] - pts[:, idx[:, 1]], axis=-1)  # (F, limbs)
+    if lengths.shape[0] == 0:
+        return np.zeros(0, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        median = np.nanmedian(np.where(np.isfinite(lengths), lengths, np.nan), axis=0) if np.isfinite(lengths).any() \
+            else np.full(lengths.shape[1], np.nan)
+        ok = np.isfinite(lengths) & (np.abs(lengths - median) <= tolerance * median)
+    return np.all(ok, axis=1)

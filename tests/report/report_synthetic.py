@@ -24,7 +24,7 @@ from ergopose.ergonomics.methods import load_method
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records
-from ergopose.report.context import (Assumption, BandTime, CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
+from ergopose.report.context import (Assumption, BandTime, DataFile, CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
                                      LimbStats, ModelInfo, RegionAccuracy, Repetition, SessionInfo, StandardFlag,
                                      WorkerDiagnostics, WorkerInfo, WorkerSummary, WorstMoment)
 from ergopose.report.results import frames_table
@@ -70,7 +70,7 @@ def _stations(scene):
     return [(s.name, _kind(s.name), np.array(s.position, dtype=np.float64)) for s in scene.stations]
 
 
-def _worker_frames(rng: np.random.Generator, duration_s: float, fps: float, stations) -> pd.DataFrame:
+def _worker_frames(rng: np.random.Generator, duration_s: float, fps: float, stations, gaps: bool = True) -> pd.DataFrame:
     n_all = int(round(duration_s * fps))
     t = np.arange(n_all) / fps
     # task segments: mean 25 s, a station per run of segments (a few minutes at each)
@@ -100,11 +100,12 @@ def _worker_frames(rng: np.random.Generator, duration_s: float, fps: float, stat
     pos = np.stack([s[2] for s in stations])[st] + rng.normal(0.0, 0.12, (n_all, 2))
     # not tracked: a 30-minute break mid-shift (if long enough) and short occlusions
     tracked = np.ones(n_all, dtype=bool)
-    if duration_s > 3 * 3600:
+    if gaps and duration_s > 3 * 3600:
         b0 = duration_s * 0.5
         tracked &= ~((t >= b0) & (t < b0 + 1800))
     occl = rng.random(n_seg) < 0.04
-    tracked &= ~occl[seg_of]
+    if gaps:
+        tracked &= ~occl[seg_of]
     # unscored stretches (joints missing) and reliability worse near the edge
     unscored = (rng.random(n_seg) < 0.03)[seg_of]
     radius = np.hypot(pos[:, 0], pos[:, 1])
@@ -161,8 +162,9 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
                 body_parts.append(BandTime(m, part, score, crit, float(s * scored * rng.uniform(0.93, 0.99))))
     holds = tuple(Hold(part, "rula", bands[-1][0], bands[-1][1], float(rng.uniform(0, duration_s - 300)),
                        float(rng.uniform(20, 240))) for part, bands in RULA_PARTS[:4])
-    reps = tuple(Repetition(part, angle, float(rng.uniform(1, 4)), float(rng.uniform(5, 14)), 4.0,
-                            float(rng.uniform(60, 1800)))
+    minutes = int(observed // 60)
+    reps = tuple(Repetition(part, angle, int(rng.integers(minutes, 4 * minutes + 1)), float(rng.uniform(1, 4)),
+                            int(rng.integers(5, 15)), 4.0, int(rng.integers(0, max(minutes // 4, 1))))
                  for part, angle in (("left upper arm", "left_upper_arm_flexion"),
                                      ("right upper arm", "right_upper_arm_flexion"),
                                      ("trunk", "trunk_flexion"), ("right wrist", "right_wrist_flexion")))
@@ -194,12 +196,14 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
     flags = (
         StandardFlag("ISO 11226", "trunk", "trunk inclination over 60 deg", "not recommended",
                      float(rng.uniform(300, 900)), float(rng.uniform(5, 40)), "held longer than 4 s"),
-        StandardFlag("ISO 11226", "upper arm", "upper arm elevation 20-60 deg without support", "conditionally acceptable",
+        StandardFlag("ISO 11226", "left upper arm", "upper arm elevation 20-60 deg", "time-limited",
                      float(rng.uniform(1000, 3000)), float(rng.uniform(30, 120)), "holding time within the limit"),
         StandardFlag("EN 1005-4", "upper arm", "upper arm elevation over 60 deg", "not acceptable",
                      float(rng.uniform(200, 600)), float(rng.uniform(5, 30)), "at 2 or more per minute"),
         StandardFlag("EN 1005-4", "trunk", "trunk twist or side bend under 10 deg", "acceptable",
                      float(rng.uniform(5000, 9000)), float(rng.uniform(100, 600)), "within the first limit"),
+        StandardFlag("ISO 11226", "left shoulder", "the angles needed were not measured", "not measured", 0.0,
+                     float("nan"), ""),
     )
     return WorkerSummary(worker_id=worker_id, observed_s=observed, levels=tuple(levels), unscored_s=unscored,
                          body_parts=tuple(body_parts), holds=holds, repetitions=reps, hourly=tuple(hourly),
@@ -247,8 +251,11 @@ def _diagnostics(worker_id: str, frames: pd.DataFrame, rng: np.random.Generator,
 
 def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: float = 12.0, seed: int = 20240506,
                       names: dict[str, str] | None = None, start: str | None = START,
-                      csv: bool = True) -> tuple[SessionInfo, list[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]]:
-    """A session record and per-worker (summary, diagnostics, frames), seeded."""
+                      csv: bool = True, gaps: bool = True) -> tuple[SessionInfo, list[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]]:
+    """A session record and per-worker (summary, diagnostics, frames), seeded.
+
+    gaps: False tracks every worker in every frame (no break, no occlusions).
+    """
     rng = np.random.default_rng(seed)
     scene = default_scene()
     stations = _stations(scene)
@@ -257,7 +264,7 @@ def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: f
     for k in range(n_workers):
         wid = f"W{k + 1}"
         body = BodyMeasurements.from_stature(1.62 + 0.08 * k)
-        frames = _worker_frames(rng, duration_s, fps, stations)
+        frames = _worker_frames(rng, duration_s, fps, stations, gaps)
         summary = _summary(wid, frames, fps, duration_s, rng, body)
         diag = _diagnostics(wid, frames, rng, body)
         infos.append(WorkerInfo(
@@ -266,7 +273,8 @@ def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: f
                                     f"session.toml [workers.{wid}]"),
                          Assumption("coupling", "fair", "REBA step 11", "default"),
                          Assumption("arm support", "none", "RULA step 1a, REBA step 7a", "default")),
-            csv=f"csv/{wid}.csv" if csv else None))
+            csv_files=(DataFile("Per-frame scores", f"csv/{wid}.csv"),
+                       DataFile("Shift summary", f"csv/{wid}-summary.csv")) if csv else ()))
         results.append((summary, diag, frames))
     cams = [(f"cam_{i + 1}", p[0], p[1]) for i, p in enumerate(RIG_POSITIONS)]
     session = SessionInfo(
@@ -284,15 +292,15 @@ def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: f
                                              RegionAccuracy("outer", 1.5, 1.52, 0.018, 12),
                                              RegionAccuracy("edge", 1.5, 1.56, 0.035, 12))),
         floor=floor_plan_from_scene(scene, cams), workers=tuple(infos),
-        summary_csv="csv/summary.csv" if csv else None)
+        csv_files=(DataFile("Session summary", "csv/session-summary.csv"),) if csv else ())
     return session, results
 
 
 def write_csv_targets(report_dir: Path, session: SessionInfo, only_workers: bool = False) -> None:
     """Tiny CSV files where the session says they are, so the report links resolve (ergopose.ergonomics.export writes the real ones)."""
-    paths = [w.csv for w in session.workers if w.csv]
-    if session.summary_csv and not only_workers:
-        paths.append(session.summary_csv)
+    paths = [f.path for w in session.workers for f in w.csv_files]
+    if not only_workers:
+        paths += [f.path for f in session.csv_files]
     for p in paths:
         f = report_dir / p
         f.parent.mkdir(parents=True, exist_ok=True)

@@ -110,11 +110,11 @@ def test_links_point_at_the_csv_files(rendered_report):
     folder, session, workers, files = rendered_report
     page = Page((folder / "worker-W1.html").read_text(encoding="utf-8"))
     hrefs = [a.get("href") for t, a in page.tags if t == "a"]
-    assert "csv/W1.csv" in hrefs and (folder / "csv" / "W1.csv").is_file()
+    assert {"csv/W1.csv", "csv/W1-summary.csv"} <= set(hrefs) and (folder / "csv" / "W1.csv").is_file()
     assert "worker-W2.html" in hrefs and "index.html" in hrefs
     # the session summary CSV was not written in this folder: named as missing, not linked
-    assert "csv/summary.csv" not in hrefs
-    assert "missing: expected csv/summary.csv next to this report" in "".join(page.text)
+    assert "csv/session-summary.csv" not in hrefs
+    assert "missing: expected csv/session-summary.csv next to this report" in "".join(page.text)
     index = Page((folder / "index.html").read_text(encoding="utf-8"))
     assert {"worker-W1.html", "worker-W2.html", "worker-W3.html", "csv/W3.csv"} <= {a.get("href") for t, a in index.tags if t == "a"}
 
