@@ -63,7 +63,10 @@ class Detector(Protocol):
 class PoseSettings:
     """Settings of the fisheye 2D stage (angles in radians).
 
-    search_every: frames between searches for new people (also searched when a target is lost).
+    search_every: frames between searches for new people while someone is being followed.
+    idle_search_every: frames between searches while nobody is being followed.
+    coast_frames: a person not found in their view is looked for in the same view for this
+        many more frames (a brief occlusion) before the view is dropped.
     min_presence: a view whose pose flag is below this holds no person.
     min_keypoint_confidence: keypoints below this confidence do not steer the next view.
     body_margin: the view's half field of view is the body's angular radius times this.
@@ -83,6 +86,8 @@ class PoseSettings:
     """
 
     search_every: int = 12
+    idle_search_every: int = 4
+    coast_frames: int = 2
     min_presence: float = 0.5
     min_keypoint_confidence: float = 0.3
     body_margin: float = 1.3
@@ -107,6 +112,7 @@ class Target:
     direction_cam: np.ndarray
     half_fov: float
     source: int
+    missed: int = 0
 
 
 @dataclass(frozen=True)
@@ -225,7 +231,6 @@ class FisheyePoseEstimator:
         self._background = cv2.createBackgroundSubtractorMOG2(history=300, varThreshold=25, detectShadows=False)
         self._frames_seen = 0
         self._targets: list[Target] = []
-        self._lost = False
 
     # -- search views ------------------------------------------------------------------------
     def _make_search_views(self) -> list[tuple[VirtualView, ViewMap]]:
@@ -291,21 +296,30 @@ class FisheyePoseEstimator:
         return float(np.clip(body_radius * s.body_margin, s.min_half_fov, s.max_half_fov))
 
     def process(self, frame_bgr: np.ndarray, frame_index: int) -> FrameDetections:
-        """Find the people in one frame; keeps what it needs to re-focus on the next frame."""
+        """Find the people in one frame; keeps what it needs to re-focus on the next frame.
+
+        Searches are scheduled by the count of frames this estimator has seen (not by the frame
+        index), so a chunk of frames gives the same result wherever it starts.
+        """
         s = self.settings
         targets = list(self._targets)
-        search_now = self._lost or frame_index % s.search_every == 0 or not targets
+        seen = self._frames_seen
+        search_now = seen % (s.search_every if targets else s.idle_search_every) == 0
         motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
         self._frames_seen += 1
         if search_now:
             cues = motion + (self._search_cues(frame_bgr) if self.detector is not None else [])
             targets += [c for c in cues if not self._covered(c, targets)]
-        results = [self._run_view(frame_bgr, t) for t in targets[: 4 * s.max_people]]
-        people = [r for r in results if r is not None]
-        people = self._merge(people)[: s.max_people]
-        self._lost = len(people) < len(self._targets)
-        self._targets = [self._refocus(p) for p in people]
-        self._targets = [t for t in self._targets if t is not None]
+        targets = targets[: 4 * s.max_people]
+        results = [self._run_view(frame_bgr, t) for t in targets]
+        people = self._merge([r for r in results if r is not None])[: s.max_people]
+        found = [self._refocus(p) for p in people]
+        # Views that found nobody this time keep looking for a few frames (brief occlusions),
+        # unless a person found elsewhere now covers them.
+        coasting = [Target(t.direction_cam, t.half_fov, t.source, t.missed + 1)
+                    for t, r in zip(targets, results)
+                    if r is None and t.source == SOURCE_REFOCUS and t.missed < s.coast_frames]
+        self._targets = found + [t for t in coasting if not self._covered(t, found)]
         return self._record(people, frame_index)
 
     def _covered(self, cue: Target, targets: Sequence[Target]) -> bool:

@@ -1,0 +1,1 @@
+"""An assessment from videos to scores: chunked, resumable, using both cores."""

@@ -1,0 +1,120 @@
+"""The per-chunk work of an assessment: video frames -> 2D poses -> people in 3D.
+
+One chunk is a run of consecutive frames of both cameras. Its work depends only on the chunk
+(every chunk starts its 2D stage afresh with a search for people), so chunks can run in any
+order and in any process, and an interrupted assessment recomputes only the chunks it had not
+finished, with the same result as an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from ergopose.geometry.camera import Camera
+from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.progress import ProgressCallback, report
+from ergopose.recon.records import People3D
+from ergopose.recon.settings import ReconSettings
+from ergopose.recon.triangulate import reconstruct_frames
+from ergopose.video import read_frames
+
+
+@dataclass(frozen=True)
+class DetectJob:
+    """Everything a worker process needs to process chunks (picklable).
+
+    cameras, videos: the session's cameras and their video files, in the session's order.
+    fps: frame rate; time of frame i is i / fps.
+    model_dir: the pose model cache (None: the default cache).
+    num_threads: LiteRT threads per network in one worker process.
+    """
+
+    cameras: tuple[Camera, ...]
+    videos: tuple[str, ...]
+    fps: float
+    model_dir: str | None = None
+    num_threads: int = 1
+    pose: PoseSettings = PoseSettings()
+    recon: ReconSettings = ReconSettings()
+
+
+@dataclass(frozen=True)
+class ChunkResult:
+    """The result of one chunk: frames start .. stop-1.
+
+    people: the People3D rows of the chunk (association + triangulation, before tracking).
+    detections: (stop - start, C) int16, people found by the 2D stage per frame and camera.
+    """
+
+    start: int
+    stop: int
+    people: People3D
+    detections: np.ndarray
+
+
+_NETWORKS: dict[tuple, tuple] = {}
+
+
+def _networks(job: DetectJob):
+    """The pose networks of this process, loaded once and reused for every chunk."""
+    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
+
+    key = (job.model_dir, job.num_threads)
+    if key not in _NETWORKS:
+        _NETWORKS[key] = (
+            BlazePoseLandmarker(model_dir=job.model_dir, num_threads=job.num_threads),
+            BlazePoseDetector(model_dir=job.model_dir, num_threads=job.num_threads),
+        )
+    return _NETWORKS[key]
+
+
+def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None) -> ChunkResult:
+    """2D poses in both cameras for frames start .. stop-1, associated and triangulated."""
+    landmarker, detector = _networks(job)
+    stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose) for i, cam in enumerate(job.cameras)]
+    readers = [read_frames(path, start, stop) for path in job.videos]
+    frames_2d = []
+    counts = np.zeros((stop - start, len(job.cameras)), np.int16)
+    for k, frames in enumerate(zip(*readers)):
+        index = frames[0][0]
+        time_s = index / job.fps
+        per_camera = []
+        for c, ((_, image), stage, cam) in enumerate(zip(frames, stages, job.cameras)):
+            found = stage.process(image, index)
+            counts[k, c] = found.count
+            per_camera.append(found.to_recon(cam, time_s))
+        frames_2d.append(per_camera)
+        report(progress, "pose", k + 1, stop - start, unit="frame")
+    people = reconstruct_frames(frames_2d, job.recon)
+    return ChunkResult(start, stop, people, counts)
+
+
+def chunk_ranges(n_frames: int, chunk_frames: int) -> list[tuple[int, int]]:
+    """[(start, stop), ...] covering frames 0 .. n_frames-1 in chunks of chunk_frames."""
+    if chunk_frames <= 0:
+        raise ValueError("chunk_frames must be positive")
+    return [(s, min(n_frames, s + chunk_frames)) for s in range(0, n_frames, chunk_frames)]
+
+
+def default_workers() -> int:
+    """Worker processes: one per core (each network runs single-threaded inside its process)."""
+    return max(1, os.cpu_count() or 1)
+
+
+#: The per-row array fields of People3D (everything but the camera names), in declaration order.
+_FIELDS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(People3D) if f.name != "cameras")
+
+
+def people_to_arrays(people: People3D) -> dict[str, np.ndarray]:
+    """People3D as named arrays (for storing a chunk with numpy.savez)."""
+    out = {f: getattr(people, f) for f in _FIELDS}
+    out["cameras"] = np.array(people.cameras)
+    return out
+
+
+def people_from_arrays(arrays) -> People3D:
+    return People3D(tuple(str(c) for c in arrays["cameras"]), *(np.asarray(arrays[f]) for f in _FIELDS))

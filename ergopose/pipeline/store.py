@@ -1,0 +1,110 @@
+"""Where an assessment keeps its intermediate results, so an interrupted run can resume.
+
+Layout under the output folder::
+
+    results/manifest.json          what the results were computed from (the input fingerprint)
+    results/chunks/chunk_000000.npz one file per finished chunk of frames (2D -> 3D people)
+
+Every file is written under a temporary name and renamed when complete, so a killed process
+leaves either a whole chunk file or none. A chunk file that cannot be read is computed again.
+When the inputs change (videos, calibration, settings, models, ergopose version, chunk size),
+the fingerprint changes and the earlier chunks are not reused.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import zipfile
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from ergopose import __version__
+from ergopose.atomic import atomic_path, write_text
+from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
+
+FORMAT_VERSION = 1
+
+
+def file_fingerprint(path: str | os.PathLike, sample_bytes: int = 1 << 20) -> str:
+    """SHA-256 over a file's size and its first and last ``sample_bytes`` (cheap for large videos)."""
+    path = Path(path)
+    size = path.stat().st_size
+    h = hashlib.sha256(str(size).encode())
+    with path.open("rb") as f:
+        h.update(f.read(sample_bytes))
+        if size > 2 * sample_bytes:
+            f.seek(size - sample_bytes)
+            h.update(f.read(sample_bytes))
+        elif size > sample_bytes:
+            h.update(f.read())
+    return h.hexdigest()
+
+
+def fingerprint(parts: dict[str, Any]) -> str:
+    """SHA-256 of a JSON-serialisable description of the inputs (keys sorted)."""
+    text = json.dumps(parts, sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class ResultStore:
+    """The results folder of one assessment."""
+
+    def __init__(self, out_dir: str | os.PathLike):
+        self.root = Path(out_dir) / "results"
+        self.chunks_dir = self.root / "chunks"
+        self.manifest_path = self.root / "manifest.json"
+
+    def open(self, inputs: dict[str, Any]) -> bool:
+        """Prepare the store for inputs; True when earlier chunks of the same inputs are reused.
+
+        A store made from other inputs is cleared of its chunk files (they cannot be reused).
+        """
+        manifest = {"format": FORMAT_VERSION, "ergopose": __version__, "fingerprint": fingerprint(inputs),
+                    "inputs": inputs}
+        old = self._read_manifest()
+        reuse = old is not None and old.get("fingerprint") == manifest["fingerprint"] \
+            and old.get("format") == FORMAT_VERSION
+        self.chunks_dir.mkdir(parents=True, exist_ok=True)
+        if not reuse:
+            for p in self.chunks_dir.glob("chunk_*.npz"):
+                p.unlink()
+            write_text(self.manifest_path, json.dumps(manifest, indent=2, sort_keys=True, default=repr) + "\n")
+        return reuse
+
+    def _read_manifest(self) -> dict | None:
+        try:
+            return json.loads(self.manifest_path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def chunk_path(self, start: int) -> Path:
+        return self.chunks_dir / f"chunk_{start:09d}.npz"
+
+    def save_chunk(self, result: ChunkResult) -> Path:
+        final = self.chunk_path(result.start)
+        arrays = people_to_arrays(result.people)
+        with atomic_path(final) as tmp:
+            with tmp.open("wb") as f:
+                np.savez(f, start=result.start, stop=result.stop, detections=result.detections, **arrays)
+        return final
+
+    def load_chunk(self, start: int, stop: int) -> ChunkResult | None:
+        """A finished chunk, or None if it is missing, unreadable or not for this range."""
+        path = self.chunk_path(start)
+        if not path.exists():
+            return None
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                if int(data["start"]) != start or int(data["stop"]) != stop:
+                    return None
+                return ChunkResult(start, stop, people_from_arrays(data), np.asarray(data["detections"]))
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError):
+            return None
+
+    def finished(self, ranges: Iterable[tuple[int, int]]) -> set[int]:
+        """Start frames of the chunks already stored and readable."""
+        return {start for start, stop in ranges if self.load_chunk(start, stop) is not None}
