@@ -89,6 +89,44 @@ class GroundTruth:
         rows = self.postures[self.postures["worker"] == worker_id]
         return rows.reset_index(drop=True)
 
+    def person_table(self):
+        """One row per frame, camera and worker (pandas DataFrame) for detection statistics:
+        frame, time_s, camera, worker, task, theta_deg (mid-hip angle from the lens axis), region
+        (central / outer / edge, see scene["lens_regions"]), n_visible and n_in_image (of the 33
+        joints), and the box u_min, v_min, u_max, v_max (fisheye pixels) of the joints in the image."""
+        import pandas as pd
+
+        from ergopose.keypoints import JOINT_INDEX
+        from ergopose.sim.scene import LENS_REGIONS_DEG, lens_region
+
+        f, c, w = self.visibility.shape[:3]
+        hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
+        theta = self.theta[..., hips].astype(np.float64).mean(axis=-1)            # (F, C, W)
+        region = lens_region(theta)
+        names = np.array([r[0] for r in LENS_REGIONS_DEG] + [""], dtype=object)
+        inside = self.visibility != 4
+        px = np.where(inside[..., None], self.pixels, np.nan)
+        with np.errstate(all="ignore"):
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                lo = np.nanmin(px, axis=3)
+                hi = np.nanmax(px, axis=3)
+        ff, cc, ww = np.meshgrid(np.arange(f), np.arange(c), np.arange(w), indexing="ij")
+        return pd.DataFrame({
+            "frame": ff.ravel(), "time_s": self.times_s[ff.ravel()],
+            "camera": pd.array(np.array(self.camera_names, dtype=object)[cc.ravel()], dtype="string"),
+            "worker": pd.array(np.array(self.worker_ids, dtype=object)[ww.ravel()], dtype="string"),
+            "task": pd.array(np.array(self.task_names, dtype=object)[self.task[ff.ravel(), ww.ravel()]], dtype="string"),
+            "theta_deg": np.degrees(theta).ravel(),
+            "region": pd.array(names[region.ravel()], dtype="string"),
+            "n_visible": (self.visibility == 0).sum(axis=-1).ravel(),
+            "n_in_image": inside.sum(axis=-1).ravel(),
+            "u_min": lo[..., 0].ravel(), "v_min": lo[..., 1].ravel(),
+            "u_max": hi[..., 0].ravel(), "v_max": hi[..., 1].ravel(),
+        })
+
     def reference_bars(self) -> list[dict[str, Any]]:
         """The reference bars: name, end_a, end_b (world, metres), length_m, per-camera angles."""
         return list(self.scene.get("reference_bars", []))

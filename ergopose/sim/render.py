@@ -573,6 +573,18 @@ def pixel_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
 # --- per-frame rendering ------------------------------------------------------------------------------
 
 
+def _quiet(fn):
+    """Run a ray kernel with NaN/inf arithmetic silent (NaN marks a miss, by design)."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            return fn(*args, **kwargs)
+
+    return wrapper
+
+
 def _sphere_samples() -> np.ndarray:
     pts = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
     pts += [(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
@@ -678,6 +690,7 @@ class CameraRenderer:
         col = boxes[prim, 0] + local % bwp
         return row * w_img + col, prim
 
+    @_quiet
     def _capsules(self, flat: np.ndarray, prim: np.ndarray, a: np.ndarray, b: np.ndarray,
                   r: np.ndarray) -> np.ndarray:
         """Hit distances (N,) of pixel rays with capsules a, b (P, 3), r (P,) by primitive row; NaN = miss."""
@@ -706,6 +719,7 @@ class CameraRenderer:
         t2 = -rdob - np.sqrt(rdob * rdob - consts[:, 4])
         return np.fmin(np.fmin(t, t1), t2)
 
+    @_quiet
     def _ellipsoids(self, flat: np.ndarray, prim: np.ndarray, centre: np.ndarray, axes: np.ndarray,
                     radii: np.ndarray) -> np.ndarray:
         """Hit distances (N,) of pixel rays with ellipsoids (P, ...) by primitive row; NaN = miss."""
@@ -721,6 +735,7 @@ class CameraRenderer:
         qb = self.rx_flat[flat] * coef[:, 6] + self.ry_flat[flat] * coef[:, 7] + self.rz_flat[flat] * coef[:, 8]
         return (-qb - np.sqrt(qb * qb - qa * coef[:, 9])) / qa
 
+    @_quiet
     def _obb(self, flat: np.ndarray, centre: np.ndarray, axes: np.ndarray, half: np.ndarray) -> np.ndarray:
         o_l = axes.T.astype(np.float64) @ (self.origin - centre)
         rx, ry, rz = self.rx_flat[flat], self.ry_flat[flat], self.rz_flat[flat]
@@ -742,9 +757,37 @@ class CameraRenderer:
         if not self.bodies:
             return self._noise_add(img)
         boxes = self._frame_boxes(frame)
-        nw = len(self.bodies)
+        pix, t, gid = self._depth_pass(frame, boxes)
+        if pix.size:
+            colours = np.empty((len(pix), 3), np.uint8)
+            worker = gid // N_PRIMITIVES
+            for w in range(len(self.bodies)):
+                sel = worker == w
+                if sel.any():
+                    colours[sel] = self._shade_body(frame, w, gid[sel] - w * N_PRIMITIVES, t[sel],
+                                                    self.rays_flat[pix[sel]])
+            self._composite(img, pix, colours, boxes)
+        return self._noise_add(img)
+
+    def surface_ids(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
+        """(ids, depth) of one frame, (H, W) each: what each pixel's ray meets first.
+
+        ids: worker index * N_PRIMITIVES + primitive index (PRIMITIVE_NAMES), or -1 for the static
+        scene (floor, furniture, bars) and outside the lens. depth: distance along the ray, metres.
+        """
+        ids = np.full(self.camera.height * self.camera.width, -1, np.int16)
+        depth = self.bg_depth_flat.copy()
+        if self.bodies:
+            pix, t, gid = self._depth_pass(frame, self._frame_boxes(frame))
+            ids[pix] = gid
+            depth[pix] = t
+        shape = (self.camera.height, self.camera.width)
+        return ids.reshape(shape), depth.reshape(shape)
+
+    def _depth_pass(self, frame: int, boxes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Body pixels nearer than the static scene: (flat pixel index, distance, global id), one per pixel."""
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            # capsules of all workers in one batch
+            # capsules of all workers in one batch, then ellipsoids, then carried cartons
             cap_boxes = np.concatenate([b[:N_CAPSULES] for b in boxes])
             flat_c, prim_c = self._pixels_of_boxes(cap_boxes)
             t_c = self._capsules(flat_c, prim_c,
@@ -769,26 +812,15 @@ class CameraRenderer:
                     gids.append(np.full(len(f_b), w * N_PRIMITIVES + CARTON))
             flat = np.concatenate(flats)
             t = np.concatenate(ts)
-            gid = np.concatenate(gids)
+            gid = np.concatenate(gids).astype(np.int16)
             hit = t < self.bg_depth_flat[flat]           # NaN (miss) compares False
             flat, t, gid = flat[hit], t[hit], gid[hit]
-        if flat.size == 0:
-            return self._noise_add(img)
-        # z-buffer: the nearest surface per pixel (sort by pixel, then depth; keep the first)
+        # z-buffer: the nearest surface per pixel (sort by pixel, then distance; keep the first)
         order = np.lexsort((t, flat))
         flat, t, gid = flat[order], t[order], gid[order]
         first = np.ones(len(flat), bool)
         first[1:] = flat[1:] != flat[:-1]
-        pix, t, gid = flat[first], t[first], gid[first]
-        colours = np.empty((len(pix), 3), np.uint8)
-        worker = gid // N_PRIMITIVES
-        for w in range(nw):
-            sel = worker == w
-            if sel.any():
-                colours[sel] = self._shade_body(frame, w, gid[sel] - w * N_PRIMITIVES, t[sel],
-                                                self.rays_flat[pix[sel]])
-        self._composite(img, pix, colours, boxes)
-        return self._noise_add(img)
+        return flat[first], t[first], gid[first]
 
     def _composite(self, img: np.ndarray, pix: np.ndarray, colours: np.ndarray, boxes: list[np.ndarray]) -> None:
         """Paint the body pixels into the sharp background, blur around them, paste into ``img``."""
