@@ -272,7 +272,8 @@ def _worst_moments(summary: Any, methods: Mapping[str, Method], frames: Any, joi
 
 
 def _reason(row: Any, methods: Mapping[str, Method]) -> str:
-    """The body parts in a high band at a frame, in words (what drove the score)."""
+    """The (at most four) body parts in their highest bands at a frame, worst first, in words: what
+    drove the score ("trunk 20-60 flexion (band 3 of 4)"; angles in degrees)."""
     if row is None:
         return "the episode's level (no frame details stored)"
     from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
@@ -287,9 +288,10 @@ def _reason(row: Any, methods: Mapping[str, Method]) -> str:
         _, words, part = body_part_of(col)
         b = methods["rula"].bands.get(part)
         top = max(b.scores) if b is not None else 2
-        if int(v) >= max(2, top - 1) and int(v) > 1:
+        if int(v) > 1 and int(v) >= max(2, top - 1):
             crit = band_criteria(methods["rula"], part).get(int(v), f"score {int(v)}")
-            parts.append(f"{words}: {crit} (RULA band {int(v)})")
+            parts.append((int(v) / top, f"{words} {crit} (band {int(v)} of {top})"))
+    parts = [text for _, text in sorted(parts, key=lambda p: -p[0])[:4]]
     return "; ".join(parts) if parts else "no single body part in a high band: the combination of postures"
 
 

@@ -160,7 +160,7 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
             share = rng.dirichlet(np.linspace(3.0, 0.6, len(bands)))
             for (score, crit), s in zip(bands, share):
                 body_parts.append(BandTime(m, part, score, crit, float(s * scored * rng.uniform(0.93, 0.99))))
-    holds = tuple(Hold(part, "rula", bands[-1][0], bands[-1][1], float(rng.uniform(0, duration_s - 300)),
+    holds = tuple(Hold(part, "rula", bands[-1][0], bands[-1][1], float(rng.uniform(0, max(duration_s - 300, 1.0))),
                        float(rng.uniform(20, 240))) for part, bands in RULA_PARTS[:4])
     minutes = int(observed // 60)
     reps = tuple(Repetition(part, angle, int(rng.integers(minutes, 4 * minutes + 1)), float(rng.uniform(1, 4)),
