@@ -10,8 +10,8 @@ Column kinds:
     distances  metres. NaN = not measured.
     flags      0.0 / 1.0, NaN = unknown.
     load_kg    kilograms >= 0, NaN = unknown.
-    load_mode  intermittent | static | repeated, missing = unknown.
-    coupling   good | fair | poor | unacceptable, missing = unknown.
+    load_mode  intermittent | static | repeated, missing = unknown (a Categorical after prepare).
+    coupling   good | fair | poor | unacceptable, missing = unknown (a Categorical after prepare).
     time_s     seconds, strictly increasing per worker.
 Per-side columns carry a ``left_`` or ``right_`` prefix; an unprefixed per-side column means
 "both sides" (its values are used for each side; giving both forms is an error).
@@ -193,32 +193,42 @@ def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: 
                 i = _first_bad(bad)
                 problems.append(f"time_s: row {i + 1}: the time is missing")
         elif col in CATEGORIES:
-            s = frame[col]
-            text = s.astype("string").str.strip().str.lower()
-            ok = text.isna() | (text == "") | text.isin(CATEGORIES[col])
-            bad = ~ok.to_numpy(dtype=bool, na_value=True)
-            if bad.any():
-                i = _first_bad(bad)
-                problems.append(f"{col}: row {i + 1}: {_show(s.iloc[i])} is not one of {', '.join(CATEGORIES[col])}")
+            codes, normal = _category_codes(frame[col])
+            bad_codes = [k for k, u in enumerate(normal) if u is not None and u not in CATEGORIES[col]]
+            if bad_codes:
+                i = _first_bad(np.isin(codes, bad_codes))
+                problems.append(f"{col}: row {i + 1}: {_show(frame[col].iloc[i])} is not one of "
+                                f"{', '.join(CATEGORIES[col])}")
     if problems:
         raise InputError("invalid value(s): " + "; ".join(problems), path=source)
 
 
+def _category_codes(s: pd.Series) -> tuple[np.ndarray, list[str | None]]:
+    """Codes per row and the distinct values, trimmed and lower-cased (None = missing/empty)."""
+    codes, uniques = pd.factorize(s, use_na_sentinel=True)
+    normal = [None if (pd.isna(u) or not str(u).strip()) else str(u).strip().lower() for u in uniques]
+    return codes, normal
+
+
 def _clean(frame: pd.DataFrame) -> pd.DataFrame:
-    """Numbers as float64, categories as lower-case strings (missing as <NA>)."""
+    """Numbers as float64, categories as pandas Categoricals of their allowed values."""
     out = {}
     for col in frame.columns:
         s = frame[col]
         if col in CATEGORIES:
-            t = s.astype("string").str.strip().str.lower()
-            out[col] = t.mask(t == "")
+            codes, normal = _category_codes(s)
+            allowed = list(CATEGORIES[col])
+            lut = np.array([allowed.index(u) if u is not None else -1 for u in normal] + [-1], dtype=np.int64)
+            out[col] = pd.Categorical.from_codes(lut[codes], categories=allowed)
         elif col == "worker":
             out[col] = s.astype("string")
         elif col == "frame":
             out[col] = s
+        elif s.dtype == np.float64:
+            out[col] = s
         else:
             out[col] = pd.to_numeric(s, errors="coerce").astype(np.float64)
-    return pd.DataFrame(out, index=frame.index)
+    return pd.DataFrame(out, index=frame.index, copy=False)
 
 
 def prepare(frame: pd.DataFrame, method: str | Sequence[str], source: str | None = None, *, degrees: bool = False) -> pd.DataFrame:

@@ -144,23 +144,23 @@ def lookup(table: ScoreTable, *scores: np.ndarray) -> np.ndarray:
 
 
 def _k_or(*xs: np.ndarray) -> np.ndarray:
-    """Three-valued OR: 1 if any is 1, 0 if all are 0, NaN otherwise."""
-    any_one = np.zeros(xs[0].shape, dtype=bool)
-    any_nan = np.zeros(xs[0].shape, dtype=bool)
-    for x in xs:
-        any_one |= x == 1
-        any_nan |= np.isnan(x)
-    return np.where(any_one, 1.0, np.where(any_nan, NAN, 0.0))
+    """Three-valued OR of 0/1/NaN arrays: 1 if any is 1, 0 if all are 0, NaN otherwise."""
+    known_max = xs[0]
+    strict_max = xs[0]
+    for x in xs[1:]:
+        known_max = np.fmax(known_max, x)      # NaN only where all are NaN
+        strict_max = np.maximum(strict_max, x)  # NaN where any is NaN
+    return np.where(known_max == 1, 1.0, strict_max)
 
 
 def _k_and(*xs: np.ndarray) -> np.ndarray:
-    """Three-valued AND: 0 if any is 0, 1 if all are 1, NaN otherwise."""
-    any_zero = np.zeros(xs[0].shape, dtype=bool)
-    any_nan = np.zeros(xs[0].shape, dtype=bool)
-    for x in xs:
-        any_zero |= x == 0
-        any_nan |= np.isnan(x)
-    return np.where(any_zero, 0.0, np.where(any_nan, NAN, 1.0))
+    """Three-valued AND of 0/1/NaN arrays: 0 if any is 0, 1 if all are 1, NaN otherwise."""
+    known_min = xs[0]
+    strict_min = xs[0]
+    for x in xs[1:]:
+        known_min = np.fmin(known_min, x)
+        strict_min = np.minimum(strict_min, x)
+    return np.where(known_min == 0, 0.0, strict_min)
 
 
 def _k_not(x: np.ndarray) -> np.ndarray:
@@ -170,6 +170,7 @@ def _k_not(x: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------ the inputs
 
 
+_ACTIVITY_FLAGS = frozenset({"static_posture", "repeated_action", "rapid_change"})
 _COMPOSITE = frozenset({"arm_across_midline_or_out", "wrist_deviated_or_twisted", "neck_twisted_or_side_bent",
                         "trunk_twisted_or_side_bent", "legs_supported_balanced", "unilateral_stance"})
 
@@ -267,20 +268,26 @@ class _Inputs:
 
     def flag(self, name: str, side: str = "") -> np.ndarray:
         """A yes/no input as the scoring uses it (policy for unknown values applied)."""
-        kleene = self._value(name, side, self.leaf)
-        if not self.absent:
-            return kleene
-        unknown = np.isnan(kleene)
-        if not unknown.any():
-            return kleene
-        if name in _COMPOSITE:
-            filled = self._value(name, side, self._filled_leaf)
-        else:
-            filled = np.where(unknown, 0.0, kleene)
-        if (name, side) not in self._counted:
+        # flags of the posture table are the same for every method; activity flags are per method
+        shared = name not in _ACTIVITY_FLAGS
+        key = (name, side, self.absent)
+        cached = self.shared.flags.get(key) if shared else None
+        if cached is None:
+            kleene = self._value(name, side, self.leaf)
+            unknown = np.isnan(kleene)
+            if not self.absent or not unknown.any():
+                cached = (kleene, None)
+            elif name in _COMPOSITE:
+                cached = (self._value(name, side, self._filled_leaf), unknown)
+            else:
+                cached = (np.where(unknown, 0.0, kleene), unknown)
+            if shared:
+                self.shared.flags[key] = cached
+        value, unknown = cached
+        if unknown is not None and (name, side) not in self._counted:
             self._counted.add((name, side))
             self.unknown += unknown
-        return filled
+        return value
 
     def _filled_leaf(self, name: str, side: str) -> np.ndarray:
         x = self.leaf(name, side)
@@ -307,6 +314,19 @@ class _Shared:
         self._timelines: list[act.Timeline] = []
         self._rates: dict[str, np.ndarray] = {}
         self._cols: dict[str, np.ndarray | None] = {}
+        self.flags: dict[tuple, tuple[np.ndarray, np.ndarray | None]] = {}
+
+    def category(self, name: str, mapping: Mapping[str, int]) -> np.ndarray:
+        """A text column mapped to numbers (float; NaN where missing or absent)."""
+        key = f"category:{name}:{sorted(mapping.items())}"
+        if key not in self._cols:
+            out = np.full(len(self.table), NAN)
+            if name in self.table.columns:
+                codes, uniques = pd.factorize(self.table[name], use_na_sentinel=True)
+                lut = np.array([mapping.get(str(u), NAN) for u in uniques] + [NAN], dtype=np.float64)
+                out = lut[codes]  # code -1 (missing) picks the trailing NaN
+            self._cols[key] = out
+        return self._cols[key]
 
     def col(self, name: str) -> np.ndarray | None:
         """A numeric column as float64 (NaN = missing), or None if the table lacks it."""
@@ -425,14 +445,9 @@ def _load_score(inp: _Inputs, method: Method) -> np.ndarray:
     row = np.zeros(inp.n, dtype=np.intp)
     for e, rule_at in zip(rule.edges_kg, rule.at_edge):
         row += (kg >= e) if rule_at == "higher" else (kg > e)
-    col = np.zeros(inp.n, dtype=np.intp)
-    if "load_mode" in inp.t.columns:
-        mode = inp.t["load_mode"]
-        unknown_mode = mode.isna().to_numpy()
-        for name, c in rule.modes.items():
-            col[(mode == name).to_numpy(dtype=bool, na_value=False)] = c
-    else:
-        unknown_mode = np.ones(inp.n, dtype=bool)
+    mode = inp.shared.category("load_mode", rule.modes)
+    unknown_mode = np.isnan(mode)
+    col = np.where(unknown_mode, rule.modes["intermittent"], mode).astype(np.intp)
     score = rule.table[row, col].astype(np.float64)
     if rule.table.shape[1] > 1:
         # the mode matters only where the table's columns differ for the load band
@@ -609,10 +624,7 @@ def score_reba(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
                                           c[f"{side}reba_wrist"])
     table_b, side_label = _worse(c["left_reba_table_b"], c["right_reba_table_b"])
     c["reba_table_b"] = table_b
-    coupling = table["coupling"] if "coupling" in table.columns else pd.Series(pd.NA, index=table.index, dtype="string")
-    cpl = np.full(inp.n, NAN)
-    for name, pts in m.coupling.items():
-        cpl[(coupling == name).to_numpy(dtype=bool, na_value=False)] = pts
+    cpl = inp.shared.category("coupling", m.coupling).copy()
     unknown_cpl = np.isnan(cpl)
     if inp.absent:
         inp.assumed("coupling", unknown_cpl)
