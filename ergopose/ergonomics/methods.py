@@ -157,9 +157,11 @@ class ActionLevel:
     wording: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Method:
-    """One scoring method as read from its TOML file (see assessments/rula.toml)."""
+    """One scoring method as read from its TOML file (see assessments/rula.toml).
+
+    Compared and hashed by identity (load_method caches one per file version)."""
 
     name: str
     title: str
