@@ -2,8 +2,9 @@
 
 Input: a posture table (ergopose.ergonomics.posture; docs/posture-table.md), angles in radians.
 Output: a DataFrame with the same index and one column per step score (docs/csv-columns.md):
-integers as pandas nullable Int64, <NA> where an input the step needs was not measured (a
-missing joint is never guessed). The method data (bands, tables, levels) come from
+pandas nullable integers (SCORE_DTYPE, Int16: scores never exceed 15, and ~90 Int64 columns
+would take ~1 GB per 8-hour shift of 4 workers), <NA> where an input the step needs was not
+measured (a missing joint is never guessed). The method data (bands, tables, levels) come from
 assessments/*.toml through ergopose.ergonomics.methods; the open choices from ScoringSettings.
 
 How a step is scored (docs/scoring.md):
