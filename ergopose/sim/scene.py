@@ -223,8 +223,13 @@ RIG_ORIENTATIONS_DEG = ((3.0, 1.2, -0.8), (181.5, -0.9, 1.4))
 CAMERA_NAMES = ("cam_1", "cam_2")
 
 
-def rig_lens(width: int, height: int) -> KannalaBrandt:
-    """The simulated fisheye lens for an image of width x height pixels.
+#: Per camera: focal length scale, fy / fx, principal point offset from the image centre (pixels at
+#: 768 rows): two real cameras of the same type never have identical intrinsics.
+RIG_INTRINSIC_SPREAD = ((1.0, 1.0004, 1.7, -1.1), (0.997, 1.0007, -2.3, 1.6))
+
+
+def rig_lens(width: int, height: int, index: int = 0) -> KannalaBrandt:
+    """The simulated fisheye lens of camera ``index`` (0 or 1) for an image of width x height pixels.
 
     The focal length puts IMAGE_CIRCLE_THETA (95 degrees) just inside the short side of the
     image; the principal point sits slightly off the image centre, as in a real camera.
@@ -232,9 +237,10 @@ def rig_lens(width: int, height: int) -> KannalaBrandt:
     k1, k2, k3, k4 = LENS_COEFFICIENTS
     t = IMAGE_CIRCLE_THETA
     rd = t * (1 + k1 * t**2 + k2 * t**4 + k3 * t**6 + k4 * t**8)
-    f = (min(width, height) / 2.0 - 2.0) / rd
+    f_scale, aspect, dx, dy = RIG_INTRINSIC_SPREAD[index]
     scale = min(width, height) / 768.0
-    return KannalaBrandt(fx=f, fy=f * 1.0004, cx=(width - 1) / 2.0 + 1.7 * scale, cy=(height - 1) / 2.0 - 1.1 * scale,
+    f = (min(width, height) / 2.0 - 2.0 - 2.0 * scale) / rd * f_scale
+    return KannalaBrandt(fx=f, fy=f * aspect, cx=(width - 1) / 2.0 + dx * scale, cy=(height - 1) / 2.0 + dy * scale,
                          k1=k1, k2=k2, k3=k3, k4=k4)
 
 
@@ -251,9 +257,8 @@ def _rig_rotation(yaw_deg: float, tilt_x_deg: float, tilt_y_deg: float) -> np.nd
 
 def rig_cameras(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1]) -> tuple[Camera, Camera]:
     """The two ceiling cameras (cam_1, cam_2) at the given image size."""
-    lens = rig_lens(width, height)
     return tuple(
-        Camera(name=name, lens=lens, width=width, height=height,
+        Camera(name=name, lens=rig_lens(width, height, k), width=width, height=height,
                rotation_world_from_cam=_rig_rotation(*orient), position_world=np.array(pos))
-        for name, pos, orient in zip(CAMERA_NAMES, RIG_POSITIONS, RIG_ORIENTATIONS_DEG)
+        for k, (name, pos, orient) in enumerate(zip(CAMERA_NAMES, RIG_POSITIONS, RIG_ORIENTATIONS_DEG))
     )

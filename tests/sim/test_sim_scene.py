@@ -23,10 +23,14 @@ def test_rig_geometry(size):
         assert cam.axis_world[2] < -0.99                           # looking down, within 8 degrees
         # 95 degrees off-axis lands just inside the short side of the image: the image circle fits
         lens = cam.lens
-        rim = lens.project(np.array([math.sin(IMAGE_CIRCLE_THETA), 0.0, math.cos(IMAGE_CIRCLE_THETA)]))
-        radius = abs(rim[0] - lens.cx)
-        assert min(size) / 2 - 4 <= radius <= min(size) / 2
+        phi = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+        t = IMAGE_CIRCLE_THETA
+        rim = lens.project(np.stack([np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full_like(phi, np.cos(t))], 1))
+        assert cam.in_image(rim).all()
+        short = (rim[:, 1] if size[1] <= size[0] else rim[:, 0])
+        assert short.min() < 0.02 * min(size) and short.max() > 0.98 * min(size)
         assert cam.lens.max_theta > IMAGE_CIRCLE_THETA
+    assert cams[0].lens != cams[1].lens  # two real cameras never share exact intrinsics
 
 
 def test_whole_area_is_seen_by_both_cameras():
