@@ -2,8 +2,9 @@
 
 Layout under the output folder::
 
-    results/manifest.json          what the results were computed from (the input fingerprint)
-    results/chunks/chunk_000000.npz one file per finished chunk of frames (2D -> 3D people)
+    pipeline/manifest.json           what the results were computed from (the input fingerprint)
+    pipeline/chunks/chunk_*.npz      one file per finished chunk of frames (2D -> 3D people)
+    pipeline/tracks.parquet          the tracks table (written by the tracking stage)
 
 Every file is written under a temporary name and renamed when complete, so a killed process
 leaves either a whole chunk file or none. A chunk file that cannot be read is computed again.
@@ -54,9 +55,15 @@ class ResultStore:
     """The results folder of one assessment."""
 
     def __init__(self, out_dir: str | os.PathLike):
-        self.root = Path(out_dir) / "results"
+        self.root = Path(out_dir) / "pipeline"
         self.chunks_dir = self.root / "chunks"
         self.manifest_path = self.root / "manifest.json"
+        self.tracks_path = self.root / "tracks.parquet"
+
+    @classmethod
+    def at(cls, root: str | os.PathLike) -> "ResultStore":
+        """The store whose root folder is ``root`` (as passed to worker processes)."""
+        return cls(Path(root).parent)
 
     def open(self, inputs: dict[str, Any]) -> bool:
         """Prepare the store for inputs; True when earlier chunks of the same inputs are reused.

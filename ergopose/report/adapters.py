@@ -48,7 +48,8 @@ def model_info(card: Any, sha256: str | None = None) -> ModelInfo:
     sha256: the digest verified before the run (defaults to the card's pinned digest).
     """
     source = getattr(card, "source", None)
-    src = source.requirement() if hasattr(source, "requirement") else str(source or "")
+    requirement = getattr(source, "requirement", None)
+    src = requirement() if callable(requirement) else (requirement or str(source or ""))
     return ModelInfo(name=card.name, file=card.file.filename, sha256=sha256 or card.file.sha256, source=src)
 
 

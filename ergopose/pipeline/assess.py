@@ -1,0 +1,176 @@
+"""``ergopose assess``: a session folder in, per-worker scores, CSV files and an HTML report out.
+
+Stages, each reporting progress:
+
+1. *Session*: read and check the session (videos, calibration, settings).
+2. *Models*: make sure the pose networks are in the cache (fetched on first use).
+3. *Pose*: chunks of frames (10 s by default) go through the 2D stage of both cameras and are
+   associated and triangulated (:mod:`ergopose.pipeline.detect`), in as many processes as there
+   are cores. Each finished chunk is stored at once (:mod:`ergopose.pipeline.store`); a run that
+   was interrupted continues with the chunks it had not finished.
+4. *Tracking*: the stored chunks, in frame order, through identity tracking and smoothing
+   (:class:`ergopose.recon.pipeline.ShiftReconstruction`) into the tracks table (Parquet).
+5. *Scoring*: per worker, joint angles, the task factors of the settings, RULA and REBA per
+   frame, and the shift aggregation.
+6. *Output*: per-worker CSV files, the session summary CSV, the stored report results and the
+   HTML pages, each written atomically.
+
+Stages 4-6 are recomputed from the stored chunks on every run; they are deterministic, so a
+resumed run writes the same bytes as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+from ergopose.errors import ConfigError
+from ergopose.progress import ProgressCallback, report
+from ergopose.session import Session, load_session
+
+#: Frames per chunk = CHUNK_SECONDS x fps.
+CHUNK_SECONDS = 10.0
+
+
+@dataclass(frozen=True)
+class AssessOptions:
+    """How to run an assessment.
+
+    out_dir: the report folder (default: reports/<session folder name> under the current folder).
+    processes: worker processes for the 2D stage (default: one per core).
+    chunk_seconds: length of a chunk of video processed and stored as one piece.
+    model_dir: the pose model cache (default: ERGOPOSE_MODEL_DIR or the user cache).
+    """
+
+    out_dir: Path | None = None
+    processes: int | None = None
+    chunk_seconds: float = CHUNK_SECONDS
+    model_dir: str | None = None
+
+
+@dataclass(frozen=True)
+class WorkerOutput:
+    """One worker's results: id, shown name, tracked seconds, share of tracked time at RULA
+    action level 3-4 and REBA risk level 3-4, and the CSV files written."""
+
+    worker_id: str
+    name: str
+    observed_s: float
+    rula_high_share: float
+    reba_high_share: float
+    csv_files: tuple[Path, ...]
+
+
+@dataclass(frozen=True)
+class AssessResult:
+    """What an assessment wrote and how the work went."""
+
+    session: Path
+    report_dir: Path
+    index_html: Path
+    session_csv: Path
+    tracks: Path
+    workers: tuple[WorkerOutput, ...]
+    frames: int
+    chunks_total: int
+    chunks_reused: int
+    seconds: float
+    stage_seconds: dict = field(default_factory=dict)
+
+
+def default_out_dir(session: Session) -> Path:
+    return Path("reports") / session.path.resolve().name
+
+
+def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
+           progress: ProgressCallback | None = None) -> AssessResult:
+    """Run the whole assessment of a session (see the module docstring)."""
+    from ergopose.pipeline import detect, stages
+    from ergopose.pipeline.store import ResultStore
+
+    t_start = time.perf_counter()
+    timings: dict[str, float] = {}
+    report(progress, "session", 0, 1, unit="step", message="checking videos, calibration and settings")
+    session = load_session(session_dir)
+    report(progress, "session", 1, 1, unit="step")
+    out_dir = Path(options.out_dir) if options.out_dir is not None else default_out_dir(session)
+    scoring = stages.scoring_settings(session)
+
+    t0 = time.perf_counter()
+    models = stages.ensure_models(options.model_dir, progress)
+    timings["models"] = time.perf_counter() - t0
+
+    processes = options.processes or detect.default_workers()
+    if processes < 1:
+        raise ConfigError(f"expected at least 1 process, got {processes}", field="processes")
+    chunk_frames = max(1, int(round(options.chunk_seconds * session.fps)))
+    job = detect.DetectJob(cameras=session.calibrated_cameras,
+                           videos=tuple(str(c.video_path) for c in session.cameras),
+                           fps=session.fps, model_dir=options.model_dir,
+                           num_threads=1 if processes > 1 else 2)
+    store = ResultStore(out_dir)
+    store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
+    ranges = detect.chunk_ranges(session.frame_count, chunk_frames)
+    done = store.finished(ranges)
+    todo = [r for r in ranges if r[0] not in done]
+
+    t0 = time.perf_counter()
+    _run_chunks(job, store, todo, ranges, len(done), processes, progress)
+    timings["pose"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    tracks = stages.track_session(session, store, ranges, job.recon, progress)
+    timings["tracking"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    outputs = stages.score_and_report(session, tracks, out_dir, scoring, models, job.recon, progress)
+    timings["scoring_and_report"] = time.perf_counter() - t0
+
+    return AssessResult(session=session.path, report_dir=out_dir, index_html=outputs.index_html,
+                        session_csv=outputs.session_csv, tracks=tracks.path, workers=outputs.workers,
+                        frames=session.frame_count, chunks_total=len(ranges), chunks_reused=len(done),
+                        seconds=time.perf_counter() - t_start, stage_seconds=timings)
+
+
+def _chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
+    """Worker-process entry point: one chunk, stored before returning."""
+    from ergopose.pipeline.detect import detect_chunk
+    from ergopose.pipeline.store import ResultStore
+
+    result = detect_chunk(job, start, stop)
+    ResultStore.at(store_root).save_chunk(result)
+    return start, stop
+
+
+def _run_chunks(job, store, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int,
+                progress: ProgressCallback | None) -> None:
+    total_frames = ranges[-1][1] if ranges else 0
+    done_frames = sum(stop - start for start, stop in ranges) - sum(stop - start for start, stop in todo)
+    msg = f"{already} of {len(ranges)} chunks already done" if already else ""
+    report(progress, "pose", done_frames, total_frames, unit="frame", message=msg)
+    if not todo:
+        return
+    if processes == 1 or len(todo) == 1:
+        for start, stop in todo:
+            _chunk_task(job, str(store.root), start, stop)
+            done_frames += stop - start
+            report(progress, "pose", done_frames, total_frames, unit="frame")
+        return
+    # 'spawn': every worker starts clean (no forked LiteRT or OpenCV thread state).
+    ctx = multiprocessing.get_context("spawn")
+    with cf.ProcessPoolExecutor(max_workers=min(processes, len(todo)), mp_context=ctx) as pool:
+        futures = {pool.submit(_chunk_task, job, str(store.root), s, e): (s, e) for s, e in todo}
+        try:
+            for fut in cf.as_completed(futures):
+                start, stop = fut.result()
+                done_frames += stop - start
+                report(progress, "pose", done_frames, total_frames, unit="frame")
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+

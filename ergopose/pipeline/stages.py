@@ -1,0 +1,274 @@
+"""The stages of an assessment after the 2D work: tracking, scoring, CSV files and the report.
+
+Each function takes what the previous one produced and the session; :mod:`ergopose.pipeline.
+assess` calls them in order. Nothing here looks at video.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from ergopose import __version__
+from ergopose.errors import InputError
+from ergopose.keypoints import JOINT_INDEX
+from ergopose.progress import ProgressCallback, report
+from ergopose.session import Session
+
+_HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
+CSV_DIR = "csv"
+SESSION_CSV = "session_summary.csv"
+
+
+# ----------------------------------------------------------------------------------- inputs
+
+
+def scoring_settings(session: Session):
+    """The scoring settings of the session's [scoring] table (defaults where not given)."""
+    from ergopose.ergonomics.settings import from_mapping
+
+    return from_mapping(dict(session.scoring), source=session.settings_path)
+
+
+@dataclass(frozen=True)
+class ModelUse:
+    """A pose model used by the run: its card and the SHA-256 verified before use."""
+
+    card: Any
+    sha256: str
+    path: Path
+
+
+def ensure_models(model_dir: str | None, progress: ProgressCallback | None) -> tuple[ModelUse, ...]:
+    """Both BlazePose networks in the cache (fetched with a progress bar on first use), verified."""
+    from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, model_card
+
+    out = []
+    names = (BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL)
+    for k, name in enumerate(names):
+        report(progress, "models", k, len(names), unit="model", message=name)
+        path = ensure_model(name, progress, model_dir=model_dir)
+        card = model_card(name)
+        out.append(ModelUse(card=card, sha256=card.file.sha256, path=Path(path)))
+    report(progress, "models", len(names), len(names), unit="model")
+    return tuple(out)
+
+
+def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequence[ModelUse]) -> dict[str, Any]:
+    """What the stored chunks depend on: videos, calibration, 2D and 3D settings, models, version.
+
+    Task factors, worker names and scoring settings are not part of it: changing them re-runs
+    only the stages after the 2D work.
+    """
+    from ergopose.pipeline.store import file_fingerprint
+
+    return {
+        "ergopose": __version__,
+        "videos": [file_fingerprint(c.video_path) for c in session.cameras],
+        "calibration": file_fingerprint(session.calibration_path),
+        "cameras": list(session.camera_names),
+        "fps": session.fps,
+        "frames": session.frame_count,
+        "chunk_frames": int(chunk_frames),
+        "pose_settings": repr(job.pose),
+        "recon_settings": repr(job.recon),
+        "models": [m.sha256 for m in models],
+    }
+
+
+# --------------------------------------------------------------------------------- tracking
+
+
+@dataclass(frozen=True)
+class Tracks:
+    """The reconstructed workers of a session: path of the tracks table and its rows in memory."""
+
+    path: Path
+    frames: Any  # ergopose.recon.pipeline.TrackFrames
+    worker_summary: dict
+
+
+def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon,
+                  progress: ProgressCallback | None) -> Tracks:
+    """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet)."""
+    from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
+    from ergopose.recon.session import worker_summary
+    from ergopose.recon.table import TracksWriter
+
+    shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras)
+    parts = []
+    with TracksWriter(store.tracks_path, fps=session.fps, cameras=session.camera_names,
+                      settings=recon.as_dict()) as writer:
+        for k, (start, stop) in enumerate(ranges):
+            chunk = store.load_chunk(start, stop)
+            if chunk is None:
+                raise InputError(f"the stored chunk of frames {start}-{stop - 1} is missing or unreadable; "
+                                 "run the assessment again", path=store.chunk_path(start))
+            part = shift.push(chunk.people, start, stop)
+            writer.write(part)
+            parts.append(part)
+            report(progress, "tracking", k + 1, len(ranges) + 1, unit="chunk")
+        part = shift.finish()
+        writer.write(part)
+        parts.append(part)
+        summary = worker_summary(shift)
+        writer.set_workers(summary)
+    report(progress, "tracking", len(ranges) + 1, len(ranges) + 1, unit="chunk")
+    return Tracks(path=store.tracks_path, frames=TrackFrames.concat(parts), worker_summary=summary)
+
+
+# ---------------------------------------------------------------------------------- scoring
+
+
+@dataclass(frozen=True)
+class ScoredWorker:
+    """One worker after scoring: id, per-frame table (posture in radians + every score column),
+    the shift summary, the limb-length diagnostics, and per-frame reliability."""
+
+    worker_id: str
+    frames: pd.DataFrame
+    summary: Any  # ShiftSummary
+    diagnostics: Any  # WorkerLimbDiagnostics
+    reliable: np.ndarray
+    points_world: np.ndarray  # (n, 33, 3)
+
+
+def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -> ScoredWorker:
+    """Joint angles -> posture table with the task factors -> RULA and REBA -> shift summary."""
+    from ergopose.ergonomics.aggregate import aggregate_shift
+    from ergopose.ergonomics.angles import joint_angles
+    from ergopose.ergonomics.scoring import score_posture
+    from ergopose.report.quality import reliable_frames
+
+    angles = joint_angles(rows.points_world, rows.time_s)
+    posture = angles.to_frame().reset_index(drop=True)
+    factors = session.factor_table(worker_id, rows.time_s)
+    posture = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])],
+                        axis=1)
+    scores = score_posture(posture, settings=scoring, with_events=True)
+    ident = pd.DataFrame({"worker": worker_id, "frame": np.asarray(rows.frame, dtype=np.int64)})
+    frames = pd.concat([ident, posture, scores], axis=1)
+    summary = aggregate_shift(frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps)
+    return ScoredWorker(worker_id=worker_id, frames=frames, summary=summary, diagnostics=diagnostics,
+                        reliable=reliable_frames(rows.points_world), points_world=rows.points_world)
+
+
+# ----------------------------------------------------------------------------------- output
+
+
+@dataclass(frozen=True)
+class Outputs:
+    index_html: Path
+    session_csv: Path
+    workers: tuple
+
+
+def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
+                     progress: ProgressCallback | None) -> Outputs:
+    """Score every tracked worker, write the CSV files, the stored results and the HTML report."""
+    from ergopose.ergonomics.export import (write_session_summary_csv, write_worker_frames_csv,
+                                            write_worker_summary_csv)
+    from ergopose.pipeline.assess import WorkerOutput
+    from ergopose.recon.diagnostics import limb_diagnostics
+    from ergopose.recon.tracking import identity_name
+
+    tf = tracks.frames
+    workers = tf.workers
+    diagnostics = {d.worker: d for d in limb_diagnostics(tf, recon)} if workers else {}
+    scored: list[ScoredWorker] = []
+    for k, w in enumerate(workers):
+        wid = identity_name(w)
+        report(progress, "scoring", k, len(workers), unit="worker", message=wid)
+        scored.append(score_worker(session, tf.worker_rows(w), wid, scoring, diagnostics[wid]))
+    report(progress, "scoring", len(workers), len(workers), unit="worker")
+
+    csv_dir = out_dir / CSV_DIR
+    csv_files: dict[str, list[tuple[str, str]]] = {}
+    outputs = []
+    for s in scored:
+        frames_csv = write_worker_frames_csv(csv_dir / f"{s.worker_id}_frames.csv", s.frames)
+        summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}_summary.csv", s.summary)
+        csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
+                                  ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
+        outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
+                                    observed_s=float(s.summary.observed_s),
+                                    rula_high_share=_high_share(s.frames, "rula_action_level", 3),
+                                    reba_high_share=_high_share(s.frames, "reba_risk_level", 3),
+                                    csv_files=(frames_csv, summary_csv)))
+    session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
+    index = write_report(session, scored, out_dir, scoring, models, csv_files, progress)
+    return Outputs(index_html=index, session_csv=session_csv, workers=tuple(outputs))
+
+
+def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
+    levels = frames[column]
+    scored = levels.notna()
+    n = int(scored.sum())
+    return float((levels[scored] >= threshold).sum() / n) if n else float("nan")
+
+
+def write_report(session: Session, scored: Sequence[ScoredWorker], out_dir: Path, scoring,
+                 models: Sequence[ModelUse], csv_files: dict, progress: ProgressCallback | None) -> Path:
+    """Store the report results (ergopose.report.results) and render the pages."""
+    from ergopose.report import adapters
+    from ergopose.report.context import DataFile, SessionInfo
+    from ergopose.report.quality import reliable_rule
+    from ergopose.report.render import render_report
+    from ergopose.report.results import frames_table, save_results
+
+    worker_records = []
+    for s in scored:
+        f = s.frames
+        mid_hip = s.points_world[:, _HIPS, :].mean(axis=1)  # NaN unless both hips are known
+        table = frames_table(f["time_s"].to_numpy(), rula_grand=f["rula_grand"], rula_action_level=f["rula_action_level"],
+                             reba_score=f["reba_score"], reba_risk_level=f["reba_risk_level"],
+                             floor_x_m=mid_hip[:, 0], floor_y_m=mid_hip[:, 1], reliable=s.reliable)
+        times = f["time_s"].to_numpy()
+        points = s.points_world
+
+        def joints_at(t: float, times=times, points=points):
+            i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
+            return points[i] if len(times) else None
+
+        summary = adapters.worker_summary(s.summary, frames=f, joints_at=joints_at)
+        diag = adapters.worker_diagnostics(s.diagnostics, frames_reliable=int(s.reliable.sum()),
+                                           reliable_rule=reliable_rule())
+        worker_records.append((summary, diag, table))
+    floor = _floor_plan(session)
+    info = SessionInfo(
+        session_id=session.path.resolve().name, title=session.description or "", site="",
+        start=session.recorded_at.isoformat() if session.recorded_at else None, fps=float(session.fps),
+        frames=int(session.frame_count), duration_s=float(session.duration_s), ergopose_version=__version__,
+        created=dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
+        models=tuple(adapters.model_info(m.card, m.sha256) for m in models), methods=adapters.methods_info(),
+        settings=adapters.settings_records(scoring),
+        calibration=adapters.calibration_info(session.calibration_path, session.camera_names),
+        floor=floor, workers=adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
+        csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),))
+    save_results(out_dir, info, worker_records)
+    files = render_report(out_dir, progress=progress)
+    return files.index
+
+
+def _floor_plan(session: Session):
+    """The monitored area for the floor map: the simulated scene's layout when known, else 6 x 6 m."""
+    import dataclasses
+    import tomllib
+
+    from ergopose.report.adapters import floor_plan_from_boxes, floor_plan_from_mapping
+    from ergopose.report.context import FloorCamera
+
+    cams = [(c.name, float(c.position_world[0]), float(c.position_world[1])) for c in session.calibrated_cameras]
+    if session.ground_truth_dir is not None:
+        from ergopose.sim.ground_truth import SCENE_FILE
+
+        scene_path = Path(session.ground_truth_dir) / SCENE_FILE
+        if scene_path.exists():
+            plan = floor_plan_from_mapping(tomllib.loads(scene_path.read_text()))
+            return dataclasses.replace(plan, cameras=tuple(FloorCamera(name=n, x=x, y=y) for n, x, y in cams))
+    return floor_plan_from_boxes([], cameras=cams)
