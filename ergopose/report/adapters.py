@@ -311,13 +311,12 @@ def worker_diagnostics(diag: Any, *, frames_reliable: int, reliable_rule: str, e
 
     stats, freq = [], []
     for limb, _, _ in LIMBS:
-        a = diag.stats[(limb, "all")]
-        p = a.percentiles_m
-        stats.append(LimbStats(limb=limb, n=int(a.reconstructed), mean_m=a.mean_m, std_m=a.std_m, p5_m=p[0],
-                               q1_m=p[1], median_m=p[2], q3_m=p[3], p95_m=p[4]))
         for region in ("all", "central", "outer", "edge"):
             r = diag.stats.get((limb, region))
             if r is not None:
+                p = r.percentiles_m
+                stats.append(LimbStats(limb=limb, n=int(r.reconstructed), mean_m=r.mean_m, std_m=r.std_m, p5_m=p[0],
+                                       q1_m=p[1], median_m=p[2], q3_m=p[3], p95_m=p[4], region=region))
                 freq.append(LimbFrequency(limb=limb, region=region, frames=int(r.frames),
                                           reconstructed=int(r.reconstructed)))
     region_frames = {region: int(diag.stats[(region_limb, region)].frames) for region in ("central", "outer", "edge")}

@@ -417,7 +417,8 @@ class LimbStats:
     """Statistics of one limb's 3D length over the shift (metres; NaN when n = 0).
 
     limb: name from ergopose.keypoints.LIMBS. n: frames with the limb reconstructed. p5/p95 are
-    the whiskers of the box plot, q1/q3 the box, median the line.
+    the whiskers of the box plot, q1/q3 the box, median the line. region: one of REGIONS ("all"
+    = every frame; else the frames in which the limb was in that lens region).
     """
 
     limb: str
@@ -429,6 +430,11 @@ class LimbStats:
     median_m: float
     q3_m: float
     p95_m: float
+    region: str = "all"
+
+    def __post_init__(self) -> None:
+        if self.region not in REGIONS:
+            raise ValueError(f"region must be one of {', '.join(REGIONS)}, got {self.region!r}")
 
 
 @dataclass(frozen=True)

@@ -251,6 +251,15 @@ class LimbRow:
 
 
 @dataclass(frozen=True)
+class RegionSpreadRow:
+    """A limb's length spread per lens region: limb, cells (interquartile range and count in the
+    central, outer and edge regions, in that order)."""
+
+    limb: str
+    cells: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class RegionRow:
     """Time in one lens region: region, time (tracked there), percent (of the tracked time),
     reconstruction (median reconstruction frequency of the scored limbs there)."""
@@ -267,7 +276,8 @@ class QualitySection:
 
     verdict: overall rating, plain-language headline and findings. verdict_label: the rating in
     words ("High confidence"). reliable: sentence on the share of the shift with a reliable
-    skeleton. limb_figure / limb_rows: limb-length box plots and their table.
+    skeleton. limb_figure / limb_rows: limb-length box plots and their table. region_spread: the
+    spread of each limb's length per lens region (the paper: errors grow towards the lens edge).
     frequency_figure: reconstruction frequency per limb overall and per lens region.
     regions: time per lens region. calibration_rows / calibration_note: the calibration's accuracy.
     error_3d: median 3D error against ground truth in a sentence (empty when there is none).
@@ -278,6 +288,7 @@ class QualitySection:
     reliable: str
     limb_figure: Figure
     limb_rows: tuple[LimbRow, ...]
+    region_spread: tuple[RegionSpreadRow, ...]
     frequency_figure: Figure
     regions: tuple[RegionRow, ...]
     calibration_rows: tuple[CalibrationRow, ...]
@@ -843,7 +854,13 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
                 f"), that is {fmt_percent(d.frames_reliable, session.frames)} of the whole session. Rule: "
                 f"{d.reliable_rule}.")
     order = [name for name, _, _ in LIMBS]
-    stats = sorted(d.limb_lengths, key=lambda s: order.index(s.limb) if s.limb in order else len(order))
+    stats = sorted((s for s in d.limb_lengths if s.region == "all"),
+                   key=lambda s: order.index(s.limb) if s.limb in order else len(order))
+    by_region = {(s.limb, s.region): s for s in d.limb_lengths}
+    region_spread = tuple(
+        RegionSpreadRow(limb=s.limb.replace("_", " "),
+                        cells=tuple(_spread(by_region.get((s.limb, reg))) for reg in ("central", "outer", "edge")))
+        for s in stats)
     boxes = [svg.BoxRow(s.limb.replace("_", " "), 100 * s.p5_m, 100 * s.q1_m, 100 * s.median_m, 100 * s.q3_m,
                         100 * s.p95_m, s.n) for s in stats]
     limb_fig = svg.box_plots(boxes, title=f"3D limb lengths over the shift, {who}",
@@ -890,7 +907,15 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
         frequency_figure=Figure(id="fig-frequency", svg=freq_fig,
                                 caption="Share of tracked frames (%) in which each limb was reconstructed, overall and "
                                         "per lens region (central, outer, edge)."),
-        regions=tuple(regions), calibration_rows=cal_rows, calibration_note=cal_note, error_3d=err)
+        region_spread=region_spread, regions=tuple(regions), calibration_rows=cal_rows, calibration_note=cal_note,
+        error_3d=err)
+
+
+def _spread(s) -> str:
+    """A limb's length spread in one region: "1.2 cm (n = 3,456)", or "no data"."""
+    if s is None or s.n == 0 or not (math.isfinite(s.q1_m) and math.isfinite(s.q3_m)):
+        return "no data"
+    return f"{100 * (s.q3_m - s.q1_m):.1f} cm (n = {s.n:,})"
 
 
 def _cm(m: float) -> str:

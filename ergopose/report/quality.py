@@ -89,7 +89,7 @@ def quality_verdict(diag: WorkerDiagnostics, calibration: CalibrationInfo | None
     else:
         findings.append(Finding("reliable skeleton", "poor", "The worker was never tracked."))
     # limb-length stability
-    stats = {s.limb: s for s in diag.limb_lengths}
+    stats = {s.limb: s for s in diag.limb_lengths if s.region == "all"}
     spreads = []
     never = []
     for limb in SCORED_LIMBS:

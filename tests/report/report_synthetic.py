@@ -236,7 +236,12 @@ def _diagnostics(worker_id: str, frames: pd.DataFrame, rng: np.random.Generator,
             total_n += nf
             total_r += nr
             m = min(nr, 4000)
-            samples.append(true_len[li] + rng.normal(0, noise[reg] * (0.5 + true_len[li]), m))
+            reg_samples = true_len[li] + rng.normal(0, noise[reg] * (0.5 + true_len[li]), m)
+            samples.append(reg_samples)
+            if m:
+                rq = np.percentile(reg_samples, [5, 25, 50, 75, 95])
+                stats.append(LimbStats(limb, nr, float(reg_samples.mean()), float(reg_samples.std()), *map(float, rq),
+                                       region=reg))
         recon.append(LimbFrequency(limb, "all", total_n, total_r))
         s = np.concatenate(samples)
         q = np.percentile(s, [5, 25, 50, 75, 95]) if s.size else [np.nan] * 5

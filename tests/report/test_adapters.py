@@ -126,7 +126,8 @@ def test_diagnostics_adapter(pipeline_records):
                                     reliable_rule=reliable_rule())
     assert d.frames_observed == len(frames)
     assert sum(d.region_frames.values()) == len(frames)
-    stats = {s.limb: s for s in d.limb_lengths}
+    stats = {s.limb: s for s in d.limb_lengths if s.region == "all"}
+    assert {s.region for s in d.limb_lengths} == {"all", "central", "outer", "edge"}
     assert set(stats) == {n for n, _, _ in LIMBS}
     src = diags[0].get("left_thigh")
     assert stats["left_thigh"].median_m == pytest.approx(src.percentiles_m[2])
