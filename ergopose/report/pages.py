@@ -585,6 +585,10 @@ def _fmt_setting(v: bool | float | str) -> str:
     return str(v)
 
 
+def _csv_label(label: str) -> str:
+    return label if "csv" in label.lower() else f"{label} (CSV)"
+
+
 def _csv_link(report_dir: Path | None, path: str, text: str) -> Link:
     href = safe_href(path)
     if href is None:
@@ -955,7 +959,7 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
                           longest=fmt_duration(f.longest_s), note=f.note)
                   for f in sorted(summ.flags, key=lambda f: -FLAG_ORDER.index(f.verdict)))
     floor_figs, floor_note = floor_section(frames, session, who)
-    downloads = tuple(_csv_link(report_dir, f.path, f"{f.label} (CSV)") for f in info.csv_files + session.csv_files)
+    downloads = tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in info.csv_files + session.csv_files)
     return WorkerPage(
         page_title=f"{who}: ergonomic report, {header.title}", session=header, worker_id=info.worker_id,
         display_name=who, nav=tuple(nav), tracked=tracked,
@@ -1005,7 +1009,7 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
     return IndexPage(page_title=f"Ergonomic report: {header.title}", session=header, workers=tuple(rows),
                      overview_figures=tuple(figs), calibration_rows=cal_rows, calibration_note=cal_note,
                      methods=methods_section(session),
-                     downloads=tuple(_csv_link(report_dir, f.path, f"{f.label} (CSV)") for f in session.csv_files))
+                     downloads=tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in session.csv_files))
 
 
 __all__ = [
