@@ -6,7 +6,7 @@ upright virtual pinhole views instead of the raw fisheye image, finds people any
 ceiling fisheye without retraining. This module measures that claim with the SAME network
 (the BlazePose landmark model) on the SAME people, changing only what the network is shown.
 
-Conditions (``CONDITIONS``), each per ground-truth person whose torso the camera sees:
+Conditions (``CONDITIONS``), each per ground-truth person whose torso the camera sees (below):
 
 ``view``
     An upright virtual pinhole view (the network's input size, 256 x 256) aimed at the true
@@ -46,7 +46,13 @@ in fisheye pixels and one in torso lengths; the summaries pool these per region 
 
 Region: the angle of the true hip centre off the camera's lens axis, in the simulator's lens
 regions (ergopose.sim.scene.LENS_REGIONS_DEG: central < 30 deg, outer 30-55, edge >= 55).
-Counted persons: torso visible, i.e. ground-truth visibility 0 for both shoulders and both hips.
+Counted persons: the camera sees the torso, i.e. both shoulders and both hips have ground-truth
+visibility 0 (visible) or 1 (self-occluded: behind the person's own body, as the far hip and
+shoulder of anyone seen from the side are), and none is hidden by furniture or another worker or
+outside the image. ``EvaluationSettings.torso_codes = (0,)`` counts only people whose four
+torso joints are all directly visible (people facing the camera or seen from above); that
+drops almost everyone seen from the side, the view the rig's second camera has of a person
+under the first.
 """
 
 from __future__ import annotations
@@ -100,6 +106,8 @@ class EvaluationSettings:
     margin, min_half_fov, max_half_fov: the view fit (defaults: the 2D stage's PoseSettings).
     min_presence: pose flag needed to count a person as found (the stage's threshold).
     found_within_torso: largest hip-centre error, in torso lengths, of a found person.
+    torso_codes: ground-truth visibility codes the four torso joints may have for a person to
+        be counted (0 visible, 1 self-occluded; see the module docstring).
     stage: the 2D stage's settings for the ``stage`` condition.
     """
 
@@ -108,6 +116,7 @@ class EvaluationSettings:
     max_half_fov: float = float(np.radians(55.0))
     min_presence: float = 0.5
     found_within_torso: float = 0.5
+    torso_codes: tuple[int, ...] = (0, 1)
     stage: object = None  # PoseSettings; None: the stage's defaults
 
     def stage_settings(self):
@@ -306,7 +315,12 @@ class PersonGeometry:
 
     @property
     def torso_visible(self) -> bool:
+        """All four torso joints directly visible (visibility 0)."""
         return bool(np.all(self.visibility[_TORSO] == _VISIBLE))
+
+    def counted(self, settings: EvaluationSettings) -> bool:
+        """The person counts in the evaluation: every torso joint's code is in settings.torso_codes."""
+        return bool(np.all(np.isin(self.visibility[_TORSO], settings.torso_codes)))
 
     def view(self, camera, size: tuple[int, int], settings: EvaluationSettings):
         """The upright virtual view aimed at the true hip centre, fitted to the true body."""
@@ -465,7 +479,7 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
         for w in range(n_workers):
             p = PersonGeometry.of(camera, gt.joints_world[index, w], gt.pixels[index, camera_index, w],
                                   gt.visibility[index, camera_index, w])
-            if p.torso_visible:
+            if p.counted(settings):
                 people.append((w, p))
             elif np.any(p.visibility != _OUTSIDE_IMAGE):
                 hidden.append(p)

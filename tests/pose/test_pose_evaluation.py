@@ -103,10 +103,16 @@ def test_person_geometry_torso_angle_and_theta(camera, x, y):
     mean_ray = left / np.linalg.norm(left) + right / np.linalg.norm(right)
     mean_ray *= [1, -1, -1]  # world -> camera frame of a ceiling camera with yaw 0
     assert p.theta == pytest.approx(np.arccos(mean_ray[2] / np.linalg.norm(mean_ray)), abs=1e-12)
-    assert p.torso_visible
-    hidden = np.zeros(NUM_JOINTS, np.int8)
-    hidden[JOINT_INDEX["right_hip"]] = 2
-    assert not geometry(camera, joints, hidden).torso_visible
+    assert p.torso_visible and p.counted(SETTINGS)
+    side = np.zeros(NUM_JOINTS, np.int8)
+    side[JOINT_INDEX["right_hip"]] = 1  # behind the person's own body: still counted
+    assert not geometry(camera, joints, side).torso_visible
+    assert geometry(camera, joints, side).counted(SETTINGS)
+    assert not geometry(camera, joints, side).counted(EvaluationSettings.like_stage(torso_codes=(0,)))
+    for code in (2, 3, 4):  # hidden by another worker, by furniture, outside the image
+        hidden = side.copy()
+        hidden[JOINT_INDEX["left_shoulder"]] = code
+        assert not geometry(camera, joints, hidden).counted(SETTINGS)
 
 
 def test_perfect_prediction_is_found_with_zero_error(camera):
