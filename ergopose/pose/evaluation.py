@@ -716,3 +716,54 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
                          f"{_pct(o.found_other, o.persons)} | {_pct(o.found_either, o.persons)} |")
         lines.append("")
     return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------
+# Command line: python -m ergopose.pose.evaluation SESSION [options]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Evaluate a simulated session and write the markdown tables (stdout or --out, atomically)."""
+    import argparse
+    import sys
+
+    from ergopose.errors import ErgoposeError
+
+    parser = argparse.ArgumentParser(
+        prog="python -m ergopose.pose.evaluation",
+        description="Detection rate and keypoint error of the BlazePose landmark model on upright views, "
+                    "raw fisheye crops, rotated crops and the full 2D stage, per lens region, "
+                    "on a session written by 'ergopose simulate' (docs/pose-in-fisheye.md).")
+    parser.add_argument("session", type=Path, help="simulated session folder")
+    parser.add_argument("--conditions", default=",".join(CONDITIONS), help="comma-separated, from "
+                        + ", ".join(CONDITIONS))
+    parser.add_argument("--start", type=int, default=0)
+    parser.add_argument("--stop", type=int, default=None)
+    parser.add_argument("--step", type=int, default=1, help="score every STEP-th frame (the stage sees all)")
+    parser.add_argument("--processes", type=int, default=2, choices=(1, 2),
+                        help="2: one process per camera (default)")
+    parser.add_argument("--threads", type=int, default=1, help="LiteRT threads per process (default 1)")
+    parser.add_argument("--model-dir", type=Path, default=None)
+    parser.add_argument("--out", type=Path, default=None, help="write the markdown here instead of stdout")
+    args = parser.parse_args(argv)
+    from ergopose.cli_progress import ProgressBars
+
+    try:
+        result = evaluate_session(args.session, conditions=[c.strip() for c in args.conditions.split(",") if c.strip()],
+                                  start=args.start, stop=args.stop, step=args.step, processes=args.processes,
+                                  num_threads=args.threads, model_dir=args.model_dir, progress=ProgressBars())
+    except ErgoposeError as exc:
+        print(f"ergopose: error: {exc}", file=sys.stderr)
+        return 2
+    text = render_markdown(result) + f"\nEvaluated in {result.seconds:.0f} s.\n"
+    if args.out is not None:
+        from ergopose.atomic import write_text
+
+        write_text(args.out, text)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

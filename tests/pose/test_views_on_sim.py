@@ -182,3 +182,17 @@ def test_session_without_ground_truth_is_refused(sim_session, tmp_path):
     shutil.copytree(sim_session, copy, ignore=shutil.ignore_patterns("ground_truth"))
     with pytest.raises(InputError, match="ground_truth"):
         evaluate_session(copy, conditions=("view",))
+
+
+def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_path, capsys):
+    from ergopose.pose.evaluation import main
+
+    out = tmp_path / "tables.md"
+    code = main([str(sim_session), "--conditions", "view,crop", "--step", "6", "--processes", "1",
+                 "--model-dir", str(fetched_model_dir[0]), "--out", str(out)])
+    assert code == 0
+    text = out.read_text(encoding="utf-8")
+    assert "| view | outer |" in text and "| crop | all |" in text and "| stage |" not in text
+    assert "6 scored frames per camera" in text
+    assert main([str(tmp_path / "missing"), "--conditions", "view"]) == 2
+    assert "ergopose: error:" in capsys.readouterr().err
