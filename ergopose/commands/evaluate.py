@@ -1,0 +1,89 @@
+"""ergopose evaluate --session DIR --results OUT [--json FILE] [--oracle ...]: an assessed
+simulated session against its ground truth (docs/evaluation.md)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ergopose.cli_progress import ProgressBars
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser(
+        "evaluate",
+        help="compare an assessed SIMULATED session with its ground truth (3D error, identities, angles, scores)",
+        description=(
+            "Compare what 'ergopose assess' wrote for a simulated session (made by 'ergopose simulate')\n"
+            "with the simulation's ground truth: 3D joint error per lens region, limb lengths, detection\n"
+            "rate, identity switches, joint-angle error, agreement of RULA and REBA with the scores of the\n"
+            "true angles (Cohen's kappa), and the reference-bar table. Prints a summary and writes JSON.\n\n"
+            "--oracle runs the reconstruction on the simulator's ORACLE 2D keypoints (true joints with\n"
+            "pixel noise) instead of the pose network's, writes it to OUT/oracle/ and evaluates that:\n"
+            "geometry, tracking and smoothing measured apart from the network."),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--session", required=True, type=Path, metavar="DIR",
+                   help="the simulated session folder (with ground_truth/)")
+    p.add_argument("--results", required=True, type=Path, metavar="OUT",
+                   help="the folder 'ergopose assess --out OUT' wrote (with --oracle: where OUT/oracle/ goes)")
+    p.add_argument("--json", type=Path, metavar="FILE", default=None,
+                   help="where to write the evaluation as JSON (default OUT/evaluation.json, "
+                        "with --oracle OUT/oracle/evaluation.json)")
+    o = p.add_argument_group("ORACLE run (evaluation only)")
+    o.add_argument("--oracle", action="store_true",
+                   help="reconstruct from the simulator's ORACLE 2D keypoints instead of evaluating assess's output")
+    o.add_argument("--noise-px", type=float, default=2.0, metavar="PX",
+                   help="ORACLE pixel noise on visible joints, standard deviation per axis (default 2)")
+    o.add_argument("--dropout", type=float, default=0.02, metavar="P",
+                   help="ORACLE probability that a worker is missed in a camera frame (default 0.02)")
+    o.add_argument("--joint-dropout", type=float, default=0.02, metavar="P",
+                   help="ORACLE probability that a single visible joint is missing (default 0.02)")
+    o.add_argument("--occluded-noise-px", type=float, default=6.0, metavar="PX",
+                   help="ORACLE pixel noise on joints a camera cannot see (default 6)")
+    o.add_argument("--oracle-seed", type=int, default=0, metavar="N", help="ORACLE random seed (default 0)")
+    b = p.add_argument_group("reference bar")
+    b.add_argument("--bar-noise-px", type=float, default=0.5, metavar="PX",
+                   help="pixel noise added to the bar ends (default 0.5)")
+    b.add_argument("--bar-draws", type=int, default=100, metavar="N",
+                   help="noisy measurements per bar (default 100)")
+    b.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the bar's pixel noise (default 0)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from ergopose.errors import ConfigError
+    from ergopose.evaluation.compare import ResultsLayout, evaluate_results, write_json
+    from ergopose.evaluation.oracle import OracleOptions, run_oracle
+    from ergopose.evaluation.text import format_evaluation
+
+    progress = ProgressBars()
+    oracle = None
+    if args.oracle:
+        for name in ("noise_px", "occluded_noise_px"):
+            v = getattr(args, name)
+            if not (v == v and 0 <= v < float("inf")):
+                raise ConfigError(f"expected a number of pixels >= 0, got {v}", field="--" + name.replace("_", "-"))
+        for name in ("dropout", "joint_dropout"):
+            v = getattr(args, name)
+            if not (0.0 <= v <= 1.0):
+                raise ConfigError(f"expected a probability between 0 and 1, got {v}",
+                                  field="--" + name.replace("_", "-"))
+        options = OracleOptions(noise_px=args.noise_px, person_dropout=args.dropout, joint_dropout=args.joint_dropout,
+                                occluded_noise_px=args.occluded_noise_px, seed=args.oracle_seed)
+        print(options.banner(), flush=True)
+        layout = run_oracle(args.session, args.results, options, progress=progress)
+        oracle = options.as_dict()
+        source = options.banner()
+        default_json = layout.root / "evaluation.json"
+    else:
+        layout = ResultsLayout.of_assess(args.results)
+        source = "pose network (ergopose assess)"
+        default_json = layout.root / "evaluation.json"
+    evaluation = evaluate_results(args.session, layout, source=source, oracle=oracle, bar_noise_px=args.bar_noise_px,
+                                  bar_draws=args.bar_draws, seed=args.seed, progress=progress)
+    path = write_json(evaluation, args.json or default_json)
+    print(format_evaluation(evaluation.to_dict()))
+    print(f"\nJSON: {path}")
+    return 0
