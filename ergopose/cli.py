@@ -25,6 +25,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.score",
     "ergopose.commands.simulate",
     "ergopose.commands.report",
+    "ergopose.commands.evaluate",
 )
 
 DESCRIPTION = """\
