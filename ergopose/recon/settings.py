@@ -27,7 +27,10 @@ class ReconSettings:
     """Settings of the 3D reconstruction over a shift.
 
     2D input and triangulation
-        min_confidence: 0.3 -- 2D keypoints with a lower confidence are not used at all.
+        min_confidence: 0.5 -- 2D keypoints with a lower confidence are not used at all (a
+            network's guess at a hidden joint; with the simulator's oracle, keeping hidden
+            joints reported at confidence 0.3-0.4 raised the raw 3D error from 28 to 41 mm,
+            docs/reconstruction.md).
         keypoint_sigma_px: 1.5 -- standard deviation (view pixels) of a 2D keypoint with
             confidence 1; it sets the variance of each triangulated point from the geometry of
             its rays (triangulate.point_variance), which weighs the measurements in smoothing.
@@ -92,7 +95,7 @@ class ReconSettings:
             but gives no limits).
     """
 
-    min_confidence: float = 0.3
+    min_confidence: float = 0.5
     keypoint_sigma_px: float = 1.5
     reprojection_threshold_px: float = 15.0
 

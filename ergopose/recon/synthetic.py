@@ -231,3 +231,30 @@ def observe(cameras, points_world: np.ndarray, *, noise_px: float = 2.0, dropout
         frames.append(tuple(dets))
         order.append(orders)
     return frames, order
+
+
+def frames_from_oracle(observations, cameras, *, view_size: tuple[int, int] = (256, 256)):
+    """Detections2D per frame from the simulator's ORACLE observations (evaluation only).
+
+    observations: :class:`ergopose.sim.oracle.OracleObservations` (fisheye pixels (F, C, W, 33, 2),
+    confidence, detected); cameras: the session's cameras in its camera order. Each detected
+    worker becomes one person of the camera's record (in worker order: the reconstruction does
+    not use the order). Returns (frames, order) as :func:`observe` does.
+    """
+    names = tuple(c.name for c in cameras)
+    if tuple(observations.camera_names) != names:
+        raise ValueError(f"cameras {names} do not match the observations' {observations.camera_names}")
+    frames, order = [], []
+    for k, frame in enumerate(observations.frames):
+        dets, orders = [], []
+        for c, cam in enumerate(cameras):
+            px = observations.pixels_fisheye[k, c]
+            conf = observations.confidence[k, c].astype(np.float64)
+            people = np.flatnonzero(observations.detected[k, c] & (conf > 0).any(axis=-1))
+            det = detections_from_fisheye(cam, int(frame), float(observations.times_s[k]), px[people], conf[people],
+                                          view_size=view_size)
+            dets.append(det)
+            orders.append(people)
+        frames.append(tuple(dets))
+        order.append(orders)
+    return frames, order

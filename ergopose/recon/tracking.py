@@ -4,16 +4,17 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
 
 1. Prediction. Each live track predicts its body centre (mean of the torso joints) with
    constant velocity from its last update.
-2. Matching people seen by both cameras. Cost = distance between predicted and triangulated
-   centre; a pair is possible within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per
+2. Matching people seen by both cameras. Cost = horizontal (x, y) distance between predicted
+   and triangulated centre (the height of the centre jumps when the torso is hidden and the
+   centre falls back to other joints; the floor position hardly does); a pair is possible within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per
    second the track has gone unseen; globally optimal assignment
    (scipy.optimize.linear_sum_assignment). A matched track updates its centre and velocity with
    an alpha-beta filter (gains ALPHA, BETA).
 3. Matching people seen by one camera only. Tracks still unmatched are compared with the torso
-   rays of single-view people: cost = distance of the predicted centre from the ray (in front
-   of the camera), gated by ``single_view_gate_m``. A match keeps the track alive (its identity
-   goes on through an occlusion from one camera) and moves the centre across the ray only
-   (the depth along the ray is unknown).
+   rays of single-view people: cost = horizontal distance between the predicted centre and the
+   point where the ray reaches the track's height (in front of the camera), gated by
+   ``single_view_gate_m``. A match keeps the track alive (its identity goes on through an
+   occlusion from one camera) and moves the centre to that point in x and y.
 4. Births. A person seen by both cameras and matched to no track starts a new, *tentative*
    track.
 5. Ends. A track unseen for more than ``max_coast_s`` ends.
@@ -72,6 +73,16 @@ def limb_lengths(points_world: np.ndarray) -> np.ndarray:
     """(..., 33, 3) -> (..., L) length of every limb of keypoints.LIMBS, NaN where a joint is NaN."""
     X = np.asarray(points_world, dtype=np.float64)
     return np.linalg.norm(X[..., LIMB_INDEX[:, 0], :] - X[..., LIMB_INDEX[:, 1], :], axis=-1)
+
+
+def _ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray):
+    """Points of rays o + t d (R rays) at heights z (T tracks): (T, R, 3) and t (T, R).
+
+    A nearly horizontal ray (|d_z| < 0.05) does not fix a point at a height: t is NaN there."""
+    dz = ray[:, 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = (z[:, None] - origin[None, :, 2]) / np.where(np.abs(dz) >= 0.05, dz, np.nan)[None, :]
+    return origin[None] + t[..., None] * ray[None], t
 
 
 class LimbHistogram:
@@ -273,7 +284,7 @@ class Tracker:
                 gate = gate0 + growth * np.maximum(unseen - dt1, 0.0)
             unmatched3 = rows3
             if tracks and len(rows3):
-                cost = np.linalg.norm(pred[:, None, :] - centre[rows3][None, :, :], axis=-1)
+                cost = np.linalg.norm(pred[:, None, :2] - centre[rows3][None, :, :2], axis=-1)
                 cost = np.where(cost <= gate[:, None], cost, np.inf)
                 if np.isfinite(cost).any():
                     ti, ri = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
@@ -292,10 +303,9 @@ class Tracker:
             if tracks and len(rows1) and len(matched_tracks) < len(tracks):
                 free = np.array([a for a in range(len(tracks)) if a not in matched_tracks])
                 o, d = origin[rows1], ray[rows1]
-                q = pred[free][:, None, :] - o[None, :, :]
-                along = np.einsum("tri,ri->tr", q, d)
-                perp = q - along[..., None] * d[None]
-                cost = np.linalg.norm(perp, axis=-1)
+                hit, along = _ray_at_height(o, d, pred[free][:, 2])  # (T, R, 3) ray point at the track's height
+                diff = hit - pred[free][:, None, :]
+                cost = np.linalg.norm(diff[..., :2], axis=-1)
                 cost = np.where((along > 0) & (cost <= s.single_view_gate_m + (gate[free] - gate0)[:, None]),
                                 cost, np.inf)
                 if np.isfinite(cost).any():
@@ -305,7 +315,9 @@ class Tracker:
                             continue
                         t = tracks[free[a]]
                         row = rows1[b]
-                        self._update_track(t, pred[free[a]], pred[free[a]] - perp[a, b], gap[free[a]], f)
+                        meas = pred[free[a]].copy()
+                        meas[:2] = hit[a, b, :2]
+                        self._update_track(t, pred[free[a]], meas, gap[free[a]], f)
                         track_of[row] = t.id
                         matched_tracks.add(int(free[a]))
             for row in unmatched3:
