@@ -1,0 +1,51 @@
+"""Helpers for the evaluation tests: results folders made from the ground truth itself."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+def ground_truth_tracks(gt, worker_order=None):
+    """TrackFrames whose every row is the ground truth: worker number k+1 is simulated worker
+    ``worker_order[k]`` (default: the ground truth's order), every frame, raw = final = true joints."""
+    from ergopose.keypoints import NUM_JOINTS
+    from ergopose.recon.pipeline import TrackFrames
+
+    order = list(range(len(gt.worker_ids))) if worker_order is None else list(worker_order)
+    F, P = gt.n_frames, len(order)
+    frame = np.repeat(np.arange(F), P)
+    person = np.tile(np.asarray(order), F)
+    worker = np.tile(np.arange(1, P + 1), F)
+    points = gt.joints_world[frame, person]
+    angle = np.degrees(np.nanmax(gt.theta.astype(np.float64), axis=1))[frame, person]  # (n, 33)
+    n = len(frame)
+    return TrackFrames(worker=worker.astype(np.int64), frame=frame.astype(np.int64), time_s=gt.times_s[frame],
+                       points_world=points.copy(), raw_points_world=points.copy(),
+                       confidence=np.ones((n, NUM_JOINTS)), reprojection_error_px=np.zeros((n, NUM_JOINTS)),
+                       views=np.full((n, NUM_JOINTS), 2, np.int8), gap_filled=np.zeros((n, NUM_JOINTS), bool),
+                       gated=np.zeros((n, NUM_JOINTS), bool), smoothed=False, lens_angle_deg=angle)
+
+
+def write_results(session_dir: Path, out: Path, tracks) -> Path:
+    """An 'ergopose assess'-shaped results folder from TrackFrames: the tracks table written with
+    the project's TracksWriter, and per worker the frames CSV from the pipeline's own scoring
+    (joint angles -> task factors -> RULA/REBA) and CSV writer."""
+    from ergopose.ergonomics.export import write_worker_frames_csv
+    from ergopose.pipeline.stages import score_worker, scoring_settings
+    from ergopose.recon.settings import ReconSettings
+    from ergopose.recon.table import TracksWriter
+    from ergopose.recon.tracking import identity_name
+    from ergopose.session import load_session
+
+    session = load_session(session_dir, check_videos=False)
+    with TracksWriter(out / "pipeline" / "tracks.parquet", fps=session.fps, cameras=session.camera_names,
+                      settings=ReconSettings().as_dict()) as writer:
+        writer.write(tracks)
+    scoring = scoring_settings(session)
+    for w in tracks.workers:
+        wid = identity_name(w)
+        scored = score_worker(session, tracks.worker_rows(w), wid, scoring, None)
+        write_worker_frames_csv(out / "csv" / f"{wid}_frames.csv", scored.frames)
+    return out

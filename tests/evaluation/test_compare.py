@@ -1,0 +1,196 @@
+"""evaluate_results against results with known answers: a perfect reconstruction (the ground truth
+itself, written with the project's writers), swapped and switched identities, a known offset, and
+hand-made changes to the angles and scores of the frames CSV."""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ergopose.errors import InputError
+from ergopose.evaluation.compare import ResultsLayout, evaluate_results
+from ergopose.keypoints import BLAZEPOSE33, LIMBS
+from ergopose.recon.diagnostics import REGIONS
+from ergopose.sim.ground_truth import load_ground_truth
+
+from evaluation_helpers import ground_truth_tracks, write_results
+
+DRAWS = 40
+
+
+def _evaluate(session, out):
+    return evaluate_results(session, ResultsLayout.of_assess(out), bar_draws=DRAWS).to_dict()
+
+
+@pytest.fixture(scope="module")
+def gt(small_session):
+    return load_ground_truth(small_session)
+
+
+@pytest.fixture(scope="module")
+def perfect(small_session, gt, tmp_path_factory):
+    out = write_results(small_session, tmp_path_factory.mktemp("perfect") / "out", ground_truth_tracks(gt))
+    return out, _evaluate(small_session, out)
+
+
+def test_perfect_reconstruction_scores_zero_error(perfect, gt):
+    _, ev = perfect
+    F, P = gt.n_frames, len(gt.worker_ids)
+    m = ev["matching"]
+    assert m["mapping"] == {"worker_1": "w1", "worker_2": "w2"}
+    assert m["identity_switches"] == 0 and m["unmatched_tracked_workers"] == []
+    # Positions are stored as float32 in the tracks table: errors below 1e-6 m, 0.00 mm when rounded.
+    for source in ("final", "raw"):
+        e = ev["errors_3d"][source]
+        assert e["mpjpe_mm"] == 0.0
+        assert e["by_region"]["all"]["points"] == F * P * 33
+        assert sum(e["by_region"][r]["points"] for r in REGIONS) == F * P * 33
+        assert all(e["by_region"][r]["mean_mm"] in (0.0, None) for r in REGIONS)
+        assert all(j["p95_mm"] == 0.0 for j in e["by_joint"].values())
+    d = ev["detection"]
+    assert d["detection_rate_pct"] == 100.0 and d["tracked_rows_triangulated_unmatched"] == 0
+    assert d["all_worker_frames"]["rate_pct"] == 100.0
+
+
+def test_perfect_reconstruction_limbs_angles_and_scores(perfect):
+    _, ev = perfect
+    limbs = ev["limbs"]
+    assert limbs["error"]["rmse_mm"] == 0.0 and limbs["frequency_pct"] == 100.0
+    for name, row in limbs["by_limb"].items():
+        # the measured spread is exactly the body model's own (the trunk sides follow the shoulders)
+        assert row["cv_pct"]["all"] == pytest.approx(row["true_cv_pct"], abs=1e-3), name
+    assert limbs["cv_mean_rigid_pct"] == 0.0
+    assert "left_trunk_side" not in limbs["rigid_limbs"] and "left_forearm" in limbs["rigid_limbs"]
+
+    angles = ev["angles"]
+    assert angles["rows_compared"] == 360
+    assert len(angles["by_angle"]) >= 16
+    for name, row in angles["by_angle"].items():
+        # angles re-derived from float32 positions, written with 2 decimals: within 0.01 degree
+        assert row["n"] == 360 and row["missing"] == 0, name
+        assert row["rmse_deg"] < 0.01, name
+
+    scores = ev["scores"]
+    for c in ("rula_grand", "rula_action_level", "reba_score", "reba_risk_level"):
+        s = scores[c]
+        assert s["pairs"] == 360 and s["missing_tracked"] == 0
+        truth_categories = np.count_nonzero(np.sum(s["confusion_matrix"]["counts"], axis=0))
+        assert truth_categories >= 2, c  # otherwise kappa is undefined and the test could not fail
+        # Away from band edges a perfect reconstruction agrees exactly.
+        assert s["off_edge"]["exact_agreement_pct"] == 100.0, c
+        assert s["off_edge"]["kappa"] == 1.0 and s["off_edge"]["kappa_linear"] == 1.0, c
+        # The simulator builds some postures exactly on a limit (walking arm swing of 20.000 deg):
+        # there 1e-7 rad of float32 storage decides the band. Few frames, never more than one step.
+        assert s["truth_on_band_edge"] <= 0.1 * s["pairs"], c
+        assert s["within_one_pct"] == 100.0, c
+        assert s["exact_agreement_pct"] >= 100.0 * (1 - s["truth_on_band_edge"] / s["pairs"]), c
+    assert scores["rula_grand"]["kappa"] == 1.0 and scores["rula_action_level"]["exact_agreement_pct"] == 100.0
+
+
+def test_reference_bar_table(perfect):
+    _, ev = perfect
+    bar = ev["bar"]
+    assert [b["name"] for b in bar["bars"]] == ["bar_central", "bar_outer", "bar_edge"]
+    assert [b["region"] for b in bar["bars"]] == ["central", "outer", "edge"]
+    for b in bar["bars"]:
+        assert b["noiseless_length_m"] == pytest.approx(1.5, abs=1e-6)  # calibration = truth
+    assert bar["calibration_vs_truth_px"] == 0.0
+    regions = {r["region"]: r for r in bar["regions"]}
+    assert all(regions[r]["n"] == DRAWS for r in REGIONS)
+    # Noise of 0.5 px: a longer lever in the outer rings, so the spread grows outward
+    assert regions["central"]["std_m"] < regions["edge"]["std_m"]
+    assert abs(regions["central"]["error_pct"]) < 1.0
+    assert "central" in bar["table"] and "Region" in bar["table"]
+    assert ev["lens_regions"]["used_limits_deg"] == [30.0, 60.0]
+
+
+def test_order_of_tracked_identities_does_not_matter(small_session, gt, tmp_path):
+    out = write_results(small_session, tmp_path / "out", ground_truth_tracks(gt, worker_order=[1, 0]))
+    ev = _evaluate(small_session, out)
+    assert ev["matching"]["mapping"] == {"worker_1": "w2", "worker_2": "w1"}
+    assert ev["errors_3d"]["mpjpe_mm"] == 0.0
+    assert ev["angles"]["rmse_all_deg"] < 0.01
+    assert ev["scores"]["rula_grand"]["off_edge"]["kappa"] == 1.0
+
+
+def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, tmp_path):
+    tf = ground_truth_tracks(gt)
+    half = gt.n_frames // 2
+    swap = tf.frame >= half
+    points = tf.points_world.copy()
+    # after `half` the two tracked identities exchange people: worker 1 follows w2 and vice versa
+    points[swap] = gt.joints_world[tf.frame[swap], 2 - tf.worker[swap]]
+    angles = np.degrees(np.nanmax(gt.theta.astype(np.float64), axis=1))[tf.frame, np.where(swap, 2 - tf.worker, tf.worker - 1)]
+    switched = dataclasses.replace(tf, points_world=points, raw_points_world=points.copy(), lens_angle_deg=angles)
+    out = write_results(small_session, tmp_path / "out", switched)
+    ev = _evaluate(small_session, out)
+    assert ev["matching"]["identity_switches"] == 2  # each simulated worker changes id once
+    assert ev["detection"]["detection_rate_pct"] == 100.0  # every person is still reconstructed
+    # Half of each tracked worker is compared with the wrong person: errors of metres
+    true_distance = np.linalg.norm(gt.joints_world[half:, 0] - gt.joints_world[half:, 1], axis=-1).mean()
+    assert ev["errors_3d"]["mpjpe_mm"] == pytest.approx(1000 * true_distance / 2, rel=0.02)
+
+
+def test_known_offset_of_the_smoothed_positions(small_session, gt, tmp_path):
+    tf = ground_truth_tracks(gt)
+    shifted = dataclasses.replace(tf, points_world=tf.points_world + np.array([0.010, 0.0, 0.0]))
+    out = write_results(small_session, tmp_path / "out", shifted)
+    ev = _evaluate(small_session, out)
+    assert ev["errors_3d"]["final"]["mpjpe_mm"] == pytest.approx(10.0, abs=0.01)
+    assert ev["errors_3d"]["final"]["by_region"]["all"]["p95_mm"] == pytest.approx(10.0, abs=0.01)
+    assert ev["errors_3d"]["raw"]["mpjpe_mm"] == 0.0
+    assert ev["limbs"]["error"]["rmse_mm"] == 0.0  # a translation keeps every length
+    assert ev["angles"]["rmse_all_deg"] < 0.01
+
+
+def test_changes_to_the_frames_csv_are_measured(perfect, small_session, tmp_path):
+    src, reference = perfect
+    out = tmp_path / "out"
+    shutil.copytree(src, out)
+    path = out / "csv" / "worker_1_frames.csv"
+    frames = pd.read_csv(path)
+    n = len(frames)
+    frames["trunk_flexion"] = frames["trunk_flexion"] + 3.0
+    frames.loc[:9, "neck_flexion"] = np.nan
+    grand = frames["rula_grand"].to_numpy().copy()
+    changed = np.arange(0, n, 4)  # every 4th frame of worker_1 one grand score higher (capped at 7)
+    grand[changed] = np.minimum(grand[changed] + 1, 7)
+    really = int(np.sum(grand != frames["rula_grand"].to_numpy()))
+    frames["rula_grand"] = grand
+    frames.loc[:4, "reba_risk_level"] = np.nan
+    frames.to_csv(path, index=False)
+    ev = _evaluate(small_session, out)
+    t = ev["angles"]["by_angle"]["trunk_flexion"]
+    # worker_1 off by 3 degrees, worker_2 exact: RMSE = 3 / sqrt(2), bias 1.5
+    assert t["rmse_deg"] == pytest.approx(3.0 / np.sqrt(2.0), abs=0.01)
+    assert t["bias_deg"] == pytest.approx(1.5, abs=0.01)
+    assert ev["angles"]["by_angle"]["neck_flexion"]["missing"] == 10
+    g = ev["scores"]["rula_grand"]
+    assert really > 10
+    assert g["exact_agreement_pct"] == pytest.approx(100.0 * (2 * n - really) / (2 * n), abs=0.01)
+    assert g["within_one_pct"] == 100.0
+    assert g["kappa"] < g["kappa_linear"] < 1.0
+    assert g["mean_difference"] == pytest.approx(really / (2 * n), abs=1e-3)
+    r = ev["scores"]["reba_risk_level"]
+    assert r["missing_tracked"] == 5 and r["pairs"] == reference["scores"]["reba_risk_level"]["pairs"] - 5
+
+
+def test_missing_inputs_are_named(perfect, small_session, tmp_path):
+    src, _ = perfect
+    out = tmp_path / "out"
+    shutil.copytree(src, out)
+    (out / "csv" / "worker_2_frames.csv").unlink()
+    with pytest.raises(InputError, match="worker_2_frames.csv"):
+        _evaluate(small_session, out)
+    with pytest.raises(InputError, match="tracks"):
+        _evaluate(small_session, tmp_path / "nothing")
+    plain = tmp_path / "plain"
+    shutil.copytree(small_session, plain)
+    shutil.rmtree(plain / "ground_truth")
+    with pytest.raises(InputError, match="not a simulated session"):
+        _evaluate(plain, src)
