@@ -258,3 +258,33 @@ def frames_from_oracle(observations, cameras, *, view_size: tuple[int, int] = (2
         frames.append(tuple(dets))
         order.append(orders)
     return frames, order
+
+
+def simulated_ground_truth(n_workers: int, seconds: float, *, fps: float = 12.0, seed: int = 0,
+                           size: tuple[int, int] = PAPER_SIZE):
+    """A simulated session's ground truth built in memory, without rendering video.
+
+    The simulator's room, rig (at ``size``), scripted workers and per-joint visibility (ray casts
+    through bodies and furniture) -- everything :class:`ergopose.sim.oracle.OracleSource` needs.
+    Returns (ground_truth, cameras).
+    """
+    from ergopose.sim.ground_truth import GroundTruth
+    from ergopose.sim.motion import TASKS, simulate_motion
+    from ergopose.sim.render import all_body_primitives, joint_visibility
+    from ergopose.sim.scene import default_scene, rig_cameras
+
+    scene = default_scene()
+    cameras = rig_cameras(*size)
+    motion = simulate_motion(scene, n_workers, seconds, fps, seed)
+    bodies = all_body_primitives(motion)
+    per_camera = [joint_visibility(cam, scene, motion, bodies) for cam in cameras]
+    joints = motion.joints_world
+    nf, nw = joints.shape[:2]
+    gt = GroundTruth(
+        path=None, fps=fps, worker_ids=motion.worker_ids, camera_names=tuple(c.name for c in cameras),
+        joints_world=joints, pixels=np.stack([p[0] for p in per_camera], axis=1),
+        theta=np.stack([p[1] for p in per_camera], axis=1), visibility=np.stack([p[2] for p in per_camera], axis=1),
+        task=np.zeros((nf, nw), np.int8), task_names=tuple(TASKS), planted=np.zeros((nf, nw, 2), bool),
+        carrying=np.zeros((nf, nw), bool), times_s=motion.times_s, postures=None,
+        scene={"workers": [{"id": w.worker_id, "stature_m": w.spec.measurements.stature} for w in motion.workers]})
+    return gt, cameras

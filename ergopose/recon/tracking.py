@@ -57,11 +57,11 @@ HIST_BINS = 1500
 #: at least MIN_COMMON_LIMBS such limbs in both.
 MIN_LIMB_SAMPLES = 5
 MIN_COMMON_LIMBS = 6
-#: Winter (2009, Fig. 4.1) fractions of stature of the shank (0.246), thigh (0.245) and trunk
-#: (hip to shoulder, 0.818 - 0.530): the stature estimate is the sum of the median lengths of
-#: these segments divided by the sum of the fractions.
-_STATURE_LIMBS = {"left_shank": 0.246, "right_shank": 0.246, "left_thigh": 0.245, "right_thigh": 0.245,
-                  "left_trunk_side": 0.288, "right_trunk_side": 0.288}
+#: Winter (2009, Fig. 4.1) fractions of stature of the body's long segments: trunk (hip to
+#: shoulder, 0.818 - 0.530), thigh, shank, upper arm, forearm. The stature estimate is the sum of
+#: the median lengths of the segments known (mean of the sides known) divided by the sum of their
+#: fractions; the trunk must be among them (legs are often hidden from one of two ceiling cameras).
+_STATURE_SEGMENTS = {"trunk_side": 0.288, "thigh": 0.245, "shank": 0.246, "upper_arm": 0.186, "forearm": 0.146}
 
 
 def identity_name(number: int) -> str:
@@ -125,17 +125,20 @@ class LimbHistogram:
         return np.where(n >= max(min_samples, 1), med, np.nan)
 
     def stature_estimate(self) -> float:
-        """Estimated stature (metres) from the median shank, thigh and trunk-side lengths
-        (Winter's fractions of stature, see _STATURE_LIMBS); NaN if any is unknown."""
+        """Estimated stature (metres) from the median lengths of the long segments known (see
+        _STATURE_SEGMENTS, Winter's fractions of stature); NaN without the trunk."""
         med = self.medians()
         names = [n for n, _, _ in LIMBS]
         total = 0.0
         frac = 0.0
-        for name, f in _STATURE_LIMBS.items():
-            v = med[names.index(name)]
-            if not np.isfinite(v):
-                return float("nan")
-            total += v
+        for segment, f in _STATURE_SEGMENTS.items():
+            sides = [med[names.index(f"{side}_{segment}")] for side in ("left", "right")]
+            sides = [v for v in sides if np.isfinite(v)]
+            if not sides:
+                if segment == "trunk_side":
+                    return float("nan")
+                continue
+            total += float(np.mean(sides))
             frac += f
         return float(total / frac)
 

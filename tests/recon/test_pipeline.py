@@ -85,3 +85,25 @@ def test_bone_constraint_reaches_target_lengths(rng):
     out2 = constrain_bone_lengths(noisy, var, target)
     assert np.allclose(out2[:, 13], noisy[:, 13], atol=1e-9)
     assert not np.allclose(out2[:, 15], noisy[:, 15], atol=1e-6)
+
+
+def test_chunks_without_anybody(rng):
+    """Frames where nobody is seen (an empty chunk, then people again) are handled and the
+    rows stop while nobody is there."""
+    from ergopose.recon.records import People3D
+    from ergopose.recon.synthetic import WorkerScript, walk_workers
+
+    n = int(20 * FPS)
+    truth = walk_workers([WorkerScript(1.7, np.array([[0.0, 0.0], [1.0, 1.0]]), pause_s=3.0)], n, FPS)
+    vis = np.ones(n, bool)
+    vis[60:150] = False  # gone for 7.5 s
+    f = np.flatnonzero(vis)
+    people = People3D.from_points(f, f / FPS, truth[f, 0] + rng.normal(0, 0.01, (len(f), 33, 3)), sigma_m=0.01)
+    sr = ShiftReconstruction(ReconSettings(), FPS)
+    parts = []
+    for a, b in ((0, 60), (60, 150), (150, n)):
+        parts.append(sr.push(people.take((people.frame >= a) & (people.frame < b)), a, b))
+    parts.append(sr.finish())
+    tf = TrackFrames.concat(parts)
+    assert tf.workers == [1]  # re-linked: the only identity that could be there
+    assert np.array_equal(tf.frame, f)
