@@ -431,9 +431,11 @@ SETTING_MEANINGS = {
 
 
 def fmt_duration(seconds: float) -> str:
-    """Seconds as "2 h 05 min", "4 min 10 s" or "12 s" (rounded to whole seconds)."""
+    """Seconds as "2 h 05 min", "4 min 10 s", "12 s" (whole seconds) or "0.4 s" (below 10 s)."""
     if not math.isfinite(seconds):
         return "unknown"
+    if 0 < seconds < 9.95:
+        return f"{seconds:.1f} s"
     s = int(round(max(seconds, 0.0)))
     h, rem = divmod(s, 3600)
     m, sec = divmod(rem, 60)
@@ -681,7 +683,7 @@ def binned_scores(time_s: np.ndarray, scores: pd.Series, duration_s: float, bin_
 
 
 def _time_ticks(duration_s: float, clock: Clock) -> list[tuple[float, str]]:
-    for step in (60, 300, 600, 900, 1800, 3600, 7200):
+    for step in (5, 10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600, 7200):
         if duration_s / step <= 10:
             break
     if clock.known:
@@ -692,7 +694,7 @@ def _time_ticks(duration_s: float, clock: Clock) -> list[tuple[float, str]]:
         ticks = [offset + k * step for k in range(k0, int((duration_s - offset) // step) + 1)]
     else:
         ticks = [k * step for k in range(int(duration_s // step) + 1)]
-    return [(t, clock(t, seconds=False)) for t in ticks if 0 <= t <= duration_s]
+    return [(t, clock(t, seconds=step < 60)) for t in ticks if 0 <= t <= duration_s]
 
 
 def timeline_figures(frames: pd.DataFrame, session: SessionInfo, who: str, clock: Clock) -> tuple[tuple[Figure, ...], str]:

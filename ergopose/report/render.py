@@ -41,6 +41,18 @@ def environment(template_dir: str | os.PathLike | None = None,
                      trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
 
 
+def readable(path: str | os.PathLike) -> None:
+    """Give a written file (or folder) the permissions the user's umask allows for new files.
+
+    Atomic writing goes through temporary files that are private (0600, folders 0700); reports
+    are meant to be opened by others from a shared drive.
+    """
+    mask = os.umask(0)
+    os.umask(mask)
+    p = Path(path)
+    os.chmod(p, (0o777 if p.is_dir() else 0o666) & ~mask)
+
+
 def context_variables(context: Any) -> dict[str, Any]:
     """A page context's fields as template variables (the template sees exactly these names)."""
     return {f.name: getattr(context, f.name) for f in dataclasses.fields(context)}
@@ -92,6 +104,7 @@ def render_report(report_dir: str | os.PathLike, results: SessionResults | None 
     sizes = {}
     for name, html in pages.items():
         write_text(folder / name, html)
+        readable(folder / name)
         sizes[name] = len(html.encode("utf-8"))
     return ReportFiles(index=folder / INDEX_FILE,
                        workers=tuple(folder / worker_page_name(w.info.worker_id) for w in results.workers),

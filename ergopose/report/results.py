@@ -123,6 +123,10 @@ def save_results(report_dir: str | os.PathLike, session: SessionInfo,
             (wdir / SUMMARY_FILE).write_text(_dump("summary", summary), encoding="utf-8")
             (wdir / DIAGNOSTICS_FILE).write_text(_dump("diagnostics", diagnostics), encoding="utf-8")
             frames.loc[:, list(FRAME_COLUMNS)].to_parquet(wdir / FRAMES_FILE, index=False)
+        from ergopose.report.render import readable
+
+        for p in (tmp, *tmp.rglob("*")):
+            readable(p)
     return final
 
 

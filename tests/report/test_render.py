@@ -162,3 +162,30 @@ def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
 def test_own_page_title_holds_the_hostile_name(hostile_report):
     page = Page((hostile_report / "worker-W3.html").read_text(encoding="utf-8"))
     assert page.title.startswith(HOSTILE_NAMES["W3"] + " (W3):")
+
+
+def test_pages_and_results_are_readable_by_others(rendered_report):
+    """Reports live on shared drives: files get the umask's permissions, not the private 0600 of
+    temporary files."""
+    import os
+    import stat
+
+    folder, session, workers, files = rendered_report
+    mask = os.umask(0)
+    os.umask(mask)
+    for p in [files.index, *files.workers, folder / "results", folder / "results" / "session.json",
+              folder / "results" / "workers" / "W1" / "frames.parquet"]:
+        mode = stat.S_IMODE(p.stat().st_mode)
+        assert mode == (0o777 if p.is_dir() else 0o666) & ~mask, (p, oct(mode))
+
+
+def test_short_times_and_ticks():
+    from ergopose.report.pages import Clock, _time_ticks, fmt_duration
+
+    assert fmt_duration(0.4) == "0.4 s" and fmt_duration(0) == "0 s" and fmt_duration(59.6) == "1 min 00 s"
+    assert fmt_duration(7260) == "2 h 01 min"
+    ticks = _time_ticks(60.0, Clock("2024-03-04T08:00:00"))
+    assert [label for _, label in ticks] == ["08:00:00", "08:00:10", "08:00:20", "08:00:30", "08:00:40", "08:00:50",
+                                             "08:01:00"]
+    ticks = _time_ticks(8 * 3600.0, Clock("2024-03-04T07:45:00"))
+    assert ticks[0] == (900.0, "08:00") and ticks[-1][1] == "15:00"
