@@ -2,8 +2,8 @@
 
 The ORACLE (:class:`ergopose.sim.oracle.OracleSource`) reports the simulated workers' true fisheye
 pixels with seeded noise and dropouts instead of running the pose network. Feeding it to the same
-reconstruction the assessment uses (per-person upright virtual views with
-:func:`ergopose.recon.records.detections_from_fisheye`, association, triangulation, tracking and
+reconstruction the assessment uses (per-person upright virtual views,
+:func:`ergopose.recon.synthetic.frames_from_oracle`; association, triangulation, tracking and
 smoothing with :func:`ergopose.recon.session.reconstruct_session`, then joint angles, task factors
 and RULA/REBA with :func:`ergopose.pipeline.stages.score_worker`) measures geometry, tracking and
 smoothing apart from the network.
@@ -68,27 +68,21 @@ def oracle_layout(out_dir: str | Path):
                          csv_prefix=PREFIX)
 
 
-def oracle_frames(session, gt, options: OracleOptions, progress: ProgressCallback | None = None) -> Iterator[list]:
-    """Per frame, one Detections2D per camera (session order) made from the ORACLE's keypoints."""
-    from ergopose.recon.records import detections_from_fisheye
+def oracle_frames(session, gt, options: OracleOptions, progress: ProgressCallback | None = None) -> Iterator[tuple]:
+    """Per frame, one Detections2D per camera (session order) made from the ORACLE's keypoints
+    (:func:`ergopose.recon.synthetic.frames_from_oracle`, in pieces of CHUNK_FRAMES frames)."""
+    from ergopose.recon.synthetic import frames_from_oracle
     from ergopose.sim.oracle import OracleSource
 
     source = OracleSource(gt, noise_px=options.noise_px, occluded_noise_px=options.occluded_noise_px,
                           person_dropout=options.person_dropout, joint_dropout=options.joint_dropout,
                           seed=options.seed)
-    cameras = session.calibrated_cameras
     F = gt.n_frames
     for start in range(0, F, CHUNK_FRAMES):
-        obs = source.observe(np.arange(start, min(F, start + CHUNK_FRAMES)))
-        for k, frame in enumerate(obs.frames):
-            t = float(obs.times_s[k])
-            per_camera = []
-            for c, cam in enumerate(cameras):
-                sel = obs.detected[k, c]
-                per_camera.append(detections_from_fisheye(cam, int(frame), t, obs.pixels_fisheye[k, c, sel],
-                                                          obs.confidence[k, c, sel]))
-            yield per_camera
-        report(progress, "oracle 2D", min(F, start + CHUNK_FRAMES), F, unit="frame")
+        stop = min(F, start + CHUNK_FRAMES)
+        frames, _ = frames_from_oracle(source.observe(np.arange(start, stop)), session.calibrated_cameras)
+        yield from frames
+        report(progress, "oracle 2D", stop, F, unit="frame")
 
 
 def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOptions = OracleOptions(),

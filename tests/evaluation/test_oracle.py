@@ -1,0 +1,77 @@
+"""The ORACLE run: reconstruction from the simulator's ORACLE 2D keypoints, labelled ORACLE in every
+output, exact without noise, worse with it; and through the command line."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ergopose.cli import main
+from ergopose.evaluation.compare import evaluate_results
+from ergopose.evaluation.oracle import OracleOptions, run_oracle
+from ergopose.recon.table import read_metadata
+
+EXACT = OracleOptions(noise_px=0.0, occluded_noise_px=0.0, person_dropout=0.0, joint_dropout=0.0)
+
+
+@pytest.fixture(scope="module")
+def exact_run(small_session, tmp_path_factory):
+    out = tmp_path_factory.mktemp("oracle") / "out"
+    layout = run_oracle(small_session, out, EXACT)
+    ev = evaluate_results(small_session, layout, source=EXACT.banner(), oracle=EXACT.as_dict(), bar_draws=5)
+    return out, layout, ev.to_dict()
+
+
+def test_oracle_outputs_are_labelled(exact_run):
+    out, layout, ev = exact_run
+    assert layout.root == out / "oracle"
+    readme = (layout.root / "README_ORACLE.txt").read_text()
+    assert readme.startswith("ORACLE 2D (simulated ground truth projected with 0 px noise) — not the pose network")
+    assert layout.tracks.name == "ORACLE_tracks.parquet" and layout.tracks.is_file()
+    meta = read_metadata(layout.tracks)
+    assert meta["source"] == "oracle" and meta["oracle"]["noise_px"] == 0.0
+    csvs = sorted(p.name for p in (layout.root / "csv").iterdir())
+    assert csvs and all(name.startswith("ORACLE_worker_") and name.endswith("_frames.csv") for name in csvs)
+    assert ev["source"].startswith("ORACLE 2D") and ev["oracle"]["banner"] == ev["source"]
+
+
+def test_exact_oracle_reconstructs_the_ground_truth(exact_run):
+    _, _, ev = exact_run
+    assert ev["matching"]["identity_switches"] == 0
+    assert sorted(ev["matching"]["mapping"].values()) == ["w1", "w2"]
+    # Triangulation of exact rays is exact; the smoother lags behind fast hands and feet.
+    assert ev["errors_3d"]["raw"]["mpjpe_mm"] < 0.5
+    assert ev["errors_3d"]["final"]["mpjpe_mm"] < 15.0
+    assert ev["detection"]["detection_rate_pct"] >= 98.0
+    assert ev["limbs"]["error"]["rmse_mm"] < 15.0
+
+
+def test_pixel_noise_costs_accuracy(small_session, exact_run, tmp_path):
+    _, _, exact = exact_run
+    noisy = OracleOptions(noise_px=1.0, occluded_noise_px=3.0, person_dropout=0.0, joint_dropout=0.0, seed=3)
+    layout = run_oracle(small_session, tmp_path / "out", noisy)
+    ev = evaluate_results(small_session, layout, source=noisy.banner(), bar_draws=5).to_dict()
+    assert ev["errors_3d"]["raw"]["mpjpe_mm"] > exact["errors_3d"]["raw"]["mpjpe_mm"] + 5.0
+    assert ev["errors_3d"]["final"]["mpjpe_mm"] < ev["errors_3d"]["raw"]["mpjpe_mm"]  # smoothing helps
+
+
+def test_oracle_through_the_command_line(small_session, tmp_path, capsys):
+    out = tmp_path / "out"
+    code = main(["evaluate", "--session", str(small_session), "--results", str(out), "--oracle",
+                 "--noise-px", "0.5", "--dropout", "0.01", "--bar-draws", "5"])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert text.splitlines()[0] == "ORACLE 2D (simulated ground truth projected with 0.5 px noise) — not the pose network"
+    data = json.loads((out / "oracle" / "evaluation.json").read_text())
+    assert data["oracle"]["noise_px"] == 0.5 and data["oracle"]["person_dropout"] == 0.01
+    assert data["source"].startswith("ORACLE 2D")
+    assert not (out / "evaluation.json").exists()  # nothing outside OUT/oracle/
+
+
+def test_bad_oracle_options_are_one_line_errors(small_session, tmp_path, capsys):
+    code = main(["evaluate", "--session", str(small_session), "--results", str(tmp_path), "--oracle",
+                 "--dropout", "1.5"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ergopose: error:") and err.count("\n") == 1 and "--dropout" in err
