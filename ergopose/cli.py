@@ -19,6 +19,7 @@ from ergopose.errors import ErgoposeError
 #: Subcommand modules, in the order ``--help`` lists them.
 COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.assess",
+    "ergopose.commands.demo",
     "ergopose.commands.models",
     "ergopose.commands.camera",
     "ergopose.commands.calibrate",

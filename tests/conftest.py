@@ -24,3 +24,17 @@ def shared_data() -> Path:
     if not DATA.is_dir():
         pytest.fail(f"../shared/data is missing (expected at {DATA}); it comes with every clone's workspace")
     return DATA
+
+
+@pytest.fixture(scope="session")
+def fetched_model_dir(tmp_path_factory):
+    """A model cache filled by a real fetch (pip download of the mediapipe wheel), once per session.
+
+    Returns (model folder, progress events of the fetch).
+    """
+    from ergopose.pose.models import fetch_models
+
+    model_dir = tmp_path_factory.mktemp("models")
+    events = []
+    fetch_models(progress=events.append, model_dir=model_dir)
+    return model_dir, events

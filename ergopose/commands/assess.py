@@ -43,6 +43,12 @@ def run(args: argparse.Namespace) -> int:
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,
                             model_dir=args.model_dir)
     result = assess(args.session, options, progress=ProgressBars())
+    print_result(result)
+    return 0
+
+
+def print_result(result) -> None:
+    """The summary a user sees at the end: workers, shares at high risk, where the files are."""
     print(f"assessed {result.session} ({result.frames} frames, {result.seconds:.0f} s"
           + (f", {result.chunks_reused} of {result.chunks_total} chunks reused" if result.chunks_reused else "") + ")")
     for w in result.workers:
@@ -51,7 +57,6 @@ def run(args: argparse.Namespace) -> int:
               f"RULA action level 3-4 {_pct(w.rula_high_share)}, REBA high/very high {_pct(w.reba_high_share)}")
     print(f"report: {result.index_html}")
     print(f"CSV files: {result.session_csv.parent}")
-    return 0
 
 
 def _pct(x: float) -> str:

@@ -111,7 +111,7 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     job = detect.DetectJob(cameras=session.calibrated_cameras,
                            videos=tuple(str(c.video_path) for c in session.cameras),
                            fps=session.fps, model_dir=options.model_dir,
-                           num_threads=1 if processes > 1 else 2)
+                           num_threads=1)  # one thread per process: the same numbers whatever the process count
     store = ResultStore(out_dir)
     store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
     ranges = detect.chunk_ranges(session.frame_count, chunk_frames)

@@ -1,0 +1,152 @@
+"""ergopose assess end to end on a tiny simulated session with the real pose network:
+outputs, resuming after kills with identical CSV files, and one clear message for bad input."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from ergopose import cli
+
+REPO = Path(__file__).resolve().parents[2]
+PROGRESS_LINE = re.compile(r"^\s*[\w ]+ \[[#-]+\] ")
+
+
+@pytest.fixture(scope="module")
+def tiny_session(tmp_path_factory):
+    """3 seconds of a simulated two-worker shift (36 frame pairs at 12 fps)."""
+    from ergopose.sim.writer import SimulationConfig, simulate_session
+
+    path = tmp_path_factory.mktemp("session") / "day1"
+    simulate_session(path, SimulationConfig(workers=2, minutes=0.05, seed=4))
+    return path
+
+
+def _assess_args(session, out, model_dir, *extra):
+    return ["assess", "--session", str(session), "--out", str(out), "--model-dir", str(model_dir),
+            "--chunk-seconds", "0.5", *extra]
+
+
+@pytest.fixture(scope="module")
+def reference(tiny_session, fetched_model_dir, tmp_path_factory):
+    """An uninterrupted run: the report folder and the bytes of every CSV file."""
+    out = tmp_path_factory.mktemp("reference") / "report"
+    assert cli.main(_assess_args(tiny_session, out, fetched_model_dir[0])) == 0
+    return out, _csv_bytes(out)
+
+
+def _csv_bytes(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted((out / "csv").glob("*.csv"))}
+
+
+def test_assess_writes_the_report_and_csv_files(reference, capsys):
+    out, csvs = reference
+    assert (out / "index.html").exists()
+    assert "session_summary.csv" in csvs
+    frames = [name for name in csvs if name.endswith("_frames.csv")]
+    assert frames, "no worker was tracked"
+    header = csvs[frames[0]].split(b"\n", 1)[0].decode()
+    for column in ("time_s", "trunk_flexion", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level"):
+        assert column in header.split(",")
+    html = (out / "index.html").read_text()
+    assert "worker_1" in html and "<script" not in html
+    assert (out / "pipeline" / "tracks.parquet").exists()
+
+
+def test_killed_runs_resume_to_identical_csv_files(reference, tiny_session, fetched_model_dir, tmp_path):
+    """Kill the assessment at five random moments, then let it finish: the CSVs equal an uninterrupted run's."""
+    _, expected = reference
+    out = tmp_path / "report"
+    args = [sys.executable, "-m", "ergopose", *_assess_args(tiny_session, out, fetched_model_dir[0])]
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        proc = subprocess.Popen(args, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                start_new_session=True)
+        time.sleep(float(rng.uniform(1.0, 6.0)))
+        os.killpg(proc.pid, signal.SIGKILL)  # the process and its worker processes: a power cut
+        proc.wait()
+    done = subprocess.run(args, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert _csv_bytes(out) == expected
+    leftovers = [p for p in out.rglob("*") if ".tmp" in p.name]
+    assert not leftovers, f"temporary files left behind: {leftovers}"
+
+
+def _copy_session(src: Path, dst: Path) -> Path:
+    shutil.copytree(src, dst)
+    return dst
+
+
+def _corrupt(session: Path) -> str:
+    (session / "cam_2.mp4").write_bytes(b"\x00not a video" * 1000)
+    return "cam_2.mp4"
+
+
+def _truncate(session: Path) -> str:
+    data = (session / "cam_1.mp4").read_bytes()
+    (session / "cam_1.mp4").write_bytes(data[: len(data) // 3])
+    return "cam_1.mp4"
+
+
+def _fewer_frames(session: Path) -> str:
+    src = session / "cam_2.mp4"
+    cap = cv2.VideoCapture(str(src))
+    frames = []
+    while True:
+        ok, f = cap.read()
+        if not ok:
+            break
+        frames.append(f)
+    cap.release()
+    h, w = frames[0].shape[:2]
+    tmp = session / "short.mp4"
+    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), 12.0, (w, h))
+    for f in frames[:-5]:
+        writer.write(f)
+    writer.release()
+    os.replace(tmp, src)
+    return "frames"
+
+
+def _wrong_size(session: Path) -> str:
+    text = (session / "calibration.toml").read_text()
+    (session / "calibration.toml").write_text(text.replace("width = 1024", "width = 2048", 1))
+    return "calibration"
+
+
+def _unknown_key(session: Path) -> str:
+    text = (session / "settings.toml").read_text()
+    (session / "settings.toml").write_text(text.replace("fps = ", "colour = 3\nfps = ", 1))
+    return "colour"
+
+
+@pytest.mark.parametrize("damage", [_corrupt, _truncate, _fewer_frames, _wrong_size, _unknown_key])
+def test_bad_input_gives_one_clear_message_and_keeps_earlier_outputs(damage, reference, tiny_session,
+                                                                     fetched_model_dir, tmp_path, capsys):
+    ref_out, expected = reference
+    out = tmp_path / "report"
+    shutil.copytree(ref_out, out)
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    session = _copy_session(tiny_session, tmp_path / "day1")
+    expected_word = damage(session)
+    capsys.readouterr()
+    code = cli.main(_assess_args(session, out, fetched_model_dir[0]))
+    err = capsys.readouterr().err
+    assert code == 2
+    lines = [ln for ln in err.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
+    assert len(lines) == 1 and lines[0].startswith("ergopose: error:"), err
+    assert expected_word in lines[0]
+    assert "Traceback" not in err
+    after = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
