@@ -6,14 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from ergopose.cli import main
-
-
-def simulate(out: Path, *, workers: int = 2, minutes: float = 0.25, seed: int = 0, size: str = "320x240") -> Path:
-    code = main(["simulate", "--out", str(out), "--workers", str(workers), "--minutes", str(minutes),
-                 "--seed", str(seed), "--size", size])
-    assert code == 0
-    return out
+from evaluation_helpers import simulate
 
 
 @pytest.fixture(scope="session")

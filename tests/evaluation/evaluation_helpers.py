@@ -6,6 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ergopose.cli import main
+
+
+def simulate(out: Path, *, workers: int = 2, minutes: float = 0.25, seed: int = 0, size: str = "320x240") -> Path:
+    code = main(["simulate", "--out", str(out), "--workers", str(workers), "--minutes", str(minutes),
+                 "--seed", str(seed), "--size", size])
+    assert code == 0
+    return out
+
 
 def ground_truth_tracks(gt, worker_order=None):
     """TrackFrames whose every row is the ground truth: worker number k+1 is simulated worker
