@@ -163,8 +163,11 @@ def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE):
     lengths = np.linalg.norm(pts[:, idx[:, 0]] - pts[:, idx[:, 1]], axis=-1)  # (F, limbs)
     if lengths.shape[0] == 0:
         return np.zeros(0, dtype=bool)
+    known = np.isfinite(lengths)
+    counts = known.sum(axis=0)
+    median = np.full(lengths.shape[1], np.nan)
+    for k in np.flatnonzero(counts):  # one column per limb (10): a limb never seen has no median
+        median[k] = np.median(lengths[known[:, k], k])
     with np.errstate(invalid="ignore"):
-        median = np.nanmedian(np.where(np.isfinite(lengths), lengths, np.nan), axis=0) if np.isfinite(lengths).any() \
-            else np.full(lengths.shape[1], np.nan)
-        ok = np.isfinite(lengths) & (np.abs(lengths - median) <= tolerance * median)
+        ok = known & (np.abs(lengths - median) <= tolerance * median)
     return np.all(ok, axis=1)
