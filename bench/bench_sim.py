@@ -43,7 +43,7 @@ def bench_render_fps() -> None:
     cams = rig_cameras(*DEFAULT_SIZE)
     motion = simulate_motion(scene, WORKERS, SECONDS, 12.0, seed=1)
     bodies = all_body_primitives(motion)
-    config = SimulationConfig(workers=WORKERS, minutes=SECONDS / 60.0, seed=1)
+    config = SimulationConfig(workers=WORKERS, minutes=SECONDS / 60.0, seed=1, processes=2)
     with tempfile.TemporaryDirectory() as tmp:
         cpu0 = _cpu_seconds()
         t0 = time.perf_counter()
