@@ -623,26 +623,33 @@ def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scor
 
 def scores_section(inp: _Inputs, mapping: dict[int, int], csvs: Mapping[int, pd.DataFrame]) -> dict:
     from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
-    from ergopose.recon.tracking import identity_name
-
     from ergopose.ergonomics.posture import ANGLE_COLUMNS
+    from ergopose.recon.tracking import identity_name
 
     gt, session = inp.gt, inp.session
     postures: dict[int, pd.DataFrame] = {}
+    scored: dict[tuple[int, int], tuple[pd.DataFrame, list[pd.DataFrame]]] = {}
     pairs: dict[str, tuple[list, list, list]] = {c: ([], [], []) for c in SCORE_SCALES}
     regions = []
     for w, csv in csvs.items():
         p = mapping[w]
         if p not in postures:
             postures[p] = ground_truth_posture(gt, p)
-        truth = ground_truth_scores(session, gt, p, identity_name(w), inp.scoring, postures[p])
-        # The truth's score is "on a band edge" where nudging every angle by +-EDGE_NUDGE_RAD changes it.
-        nudged = []
-        for sign in (1.0, -1.0):
-            moved = postures[p].copy()
-            cols = [c for c in ANGLE_COLUMNS if c in moved.columns]
-            moved[cols] = moved[cols] + sign * EDGE_NUDGE_RAD
-            nudged.append(ground_truth_scores(session, gt, p, identity_name(w), inp.scoring, moved))
+        # The same person with the same task factors (usually every tracked id: only the defaults and
+        # periods for everyone apply to worker_N) is scored once.
+        factors = session.factor_table(identity_name(w), gt.times_s)
+        key = (p, int(pd.util.hash_pandas_object(factors, index=False).sum()))
+        if key not in scored:
+            truth = ground_truth_scores(session, gt, p, identity_name(w), inp.scoring, postures[p])
+            # The truth's score is "on a band edge" where moving every angle by +-EDGE_NUDGE_RAD changes it.
+            nudged = []
+            for sign in (1.0, -1.0):
+                moved = postures[p].copy()
+                cols = [c for c in ANGLE_COLUMNS if c in moved.columns]
+                moved[cols] = moved[cols] + sign * EDGE_NUDGE_RAD
+                nudged.append(ground_truth_scores(session, gt, p, identity_name(w), inp.scoring, moved))
+            scored[key] = (truth, nudged)
+        truth, nudged = scored[key]
         frames = csv["frame"].to_numpy(np.int64)
         known = (frames >= 0) & (frames < gt.n_frames)
         frames = frames[known]
@@ -694,7 +701,7 @@ def scores_section(inp: _Inputs, mapping: dict[int, int], csvs: Mapping[int, pd.
                 for k, rg in enumerate(REGIONS)},
         }
         out[c] = entry
-    named = {w.worker_id for w in session.workers}
+    named = {w.worker_id for w in session.workers if w.periods or w.factors.given()}
     tracked = {identity_name(w) for w in inp.tracks.workers}
     foreign = sorted(named - tracked)
     out["task_factor_note"] = (
