@@ -24,12 +24,17 @@ Conditions (``CONDITIONS``), each per ground-truth person whose torso the camera
     image of the hip-to-shoulder direction points up (side = 2 x margin x the largest distance
     from the hip centre to a body keypoint in fisheye pixels): the region MediaPipe's own
     pipeline would hand its landmark model (its detector aligns the crop with the body axis).
+``aligned_view``
+    The ``view`` above rolled about its own optical axis so that the image of the true
+    hip-to-shoulder direction points straight up: still a pinhole view of the same part of the
+    scene, but aligned with the body the way MediaPipe's crops are (a person leaning over a
+    table leans in an upright view and stands straight in an aligned one).
 ``stage``
     The full 2D stage, :class:`ergopose.pose.fisheye.FisheyePoseEstimator`, run end to end on
     every frame (search views with the detector, motion cues, re-focusing, coasting); nothing
     from the ground truth is given to it. Its detections are matched one to one to the people.
 
-The three oracle conditions (``view``, ``crop``, ``rotated_crop``) give the network the true
+The four oracle conditions (all but ``stage``) give the network the true
 position and size of the person, so they measure only the effect of what the network sees;
 ``stage`` measures the product.
 
@@ -69,13 +74,14 @@ from ergopose.errors import ConfigError, InputError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
 
-CONDITIONS: tuple[str, ...] = ("view", "crop", "rotated_crop", "stage")
+CONDITIONS: tuple[str, ...] = ("view", "crop", "rotated_crop", "aligned_view", "stage")
 
 #: One line per condition for tables and reports.
 CONDITION_TEXT: dict[str, str] = {
     "view": "upright virtual view aimed at the true hip centre, field of view fitted to the true body",
     "crop": "raw fisheye crop: axis-aligned square around the true keypoints' box, resized to 256 x 256",
     "rotated_crop": "raw fisheye crop centred on the true hips, rotated so the body axis points up",
+    "aligned_view": "the upright view rolled about its axis so the true hip-to-shoulder direction points up",
     "stage": "full 2D stage (FisheyePoseEstimator: search views + detector, motion, re-focus), no ground truth",
 }
 
@@ -330,6 +336,22 @@ class PersonGeometry:
         half = float(np.clip(radius * settings.margin, settings.min_half_fov, settings.max_half_fov))
         return VirtualView.aimed_along(camera, self.hip_ray, hfov=2.0 * half, size=size)
 
+    def aligned_view(self, camera, size: tuple[int, int], settings: EvaluationSettings):
+        """:meth:`view` rolled about its optical axis so hip -> shoulder points up in the image."""
+        from ergopose.geometry.views import VirtualView
+
+        view = self.view(camera, size, settings)
+        r = view.rotation_cam_from_view
+        hip = view.lens.project(self.hip_ray @ r)
+        shoulder = view.lens.project(_unit(self.rays_cam[_SHOULDERS].mean(axis=0)) @ r)
+        d = shoulder - hip
+        roll = float(np.arctan2(d[0], -d[1])) if np.all(np.isfinite(d)) and np.any(d != 0) else 0.0
+        c, s = np.cos(roll), np.sin(roll)
+        # A view pixel direction turned clockwise by ``roll`` from up comes out straight up.
+        rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return VirtualView(source=view.source, lens=view.lens, width=view.width, height=view.height,
+                           rotation_cam_from_view=r @ rz)
+
     def _fit_pixels(self) -> np.ndarray:
         px = self.pixels[FIT_JOINTS]
         inside = (self.visibility[FIT_JOINTS] != _OUTSIDE_IMAGE) & np.isfinite(px).all(axis=1)
@@ -484,11 +506,13 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
             elif np.any(p.visibility != _OUTSIDE_IMAGE):
                 hidden.append(p)
         for w, p in people:
-            if "view" in want:
-                view = p.view(camera, size, settings)
+            for name, make in (("view", p.view), ("aligned_view", p.aligned_view)):
+                if name not in want:
+                    continue
+                view = make(camera, size, settings)
                 kp = landmarker(view.build_map().apply(frame))
                 rays = view.view_pixels_to_rays_cam(kp.pixels)
-                rows.add(want["view"], index, camera_index, w, p, kp.presence,
+                rows.add(want[name], index, camera_index, w, p, kp.presence,
                          score_prediction(p, camera.lens.project(rays), rays, kp.presence, settings))
             for name, make in (("crop", p.crop_roi), ("rotated_crop", p.rotated_roi)):
                 if name not in want:

@@ -173,6 +173,48 @@ def test_view_is_aimed_at_the_hips_and_holds_the_body(camera, x, y):
     assert above[1] < centre[1] and abs(above[0] - centre[0]) < 1e-6
 
 
+def leaning_person(x: float, y: float, heading: float, lean: float) -> np.ndarray:
+    """The standing person with the upper body tipped forward by ``lean`` (radians) about the hips."""
+    joints = standing_person(0.0, 0.0)
+    hip_height = _BODY["left_hip"][2]
+    upper = joints[:, 2] > hip_height + 1e-9
+    rel = joints[upper] - [0.0, 0.0, hip_height]
+    c, s = np.cos(lean), np.sin(lean)
+    joints[upper] = np.stack([c * rel[:, 0] + s * rel[:, 2], rel[:, 1], -s * rel[:, 0] + c * rel[:, 2]], axis=1)
+    joints[upper, 2] += hip_height
+    ch, sh = np.cos(heading), np.sin(heading)
+    out = joints.copy()
+    out[:, 0] = x + ch * joints[:, 0] - sh * joints[:, 1]
+    out[:, 1] = y + sh * joints[:, 0] + ch * joints[:, 1]
+    return out
+
+
+@pytest.mark.parametrize("x, y, side", [(1.2, 0.0, 1), (0.0, -1.5, -1), (-1.4, 1.4, 1), (0.3, 0.2, -1)])
+def test_aligned_view_is_the_upright_view_rolled_to_the_body(camera, x, y, side):
+    # Leaning across the line of sight (a lean along it would not tip the torso in the image).
+    heading = np.arctan2(y, x) + side * np.pi / 2
+    joints = leaning_person(x, y, heading, lean=np.radians(35.0))
+    p = geometry(camera, joints)
+    upright = p.view(camera, (256, 256), SETTINGS)
+    aligned = p.aligned_view(camera, (256, 256), SETTINGS)
+    r = aligned.rotation_cam_from_view
+    assert np.allclose(r.T @ r, np.eye(3), atol=1e-12) and np.linalg.det(r) == pytest.approx(1.0)
+    # Same optical axis and lens: only rolled.
+    assert np.allclose(r[:, 2], upright.rotation_cam_from_view[:, 2], atol=1e-12)
+    assert aligned.lens == upright.lens
+    shoulder_ray = p.rays_cam[[JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]].mean(axis=0)
+    hip = aligned.lens.project(p.hip_ray @ r)
+    sh = aligned.lens.project(shoulder_ray / np.linalg.norm(shoulder_ray) @ r)
+    assert np.allclose(hip, 127.5, atol=1e-6)
+    assert sh[1] < hip[1] and abs(sh[0] - hip[0]) < 1e-6 * abs(sh[1] - hip[1])
+    # In the upright view the leaning torso is tipped: the roll is not zero.
+    r0 = upright.rotation_cam_from_view
+    d = upright.lens.project(shoulder_ray / np.linalg.norm(shoulder_ray) @ r0) - upright.lens.project(p.hip_ray @ r0)
+    assert abs(np.degrees(np.arctan2(d[0], -d[1]))) > 5.0
+    body = aligned.project_world(joints[FIT_JOINTS])
+    assert np.all((body > -0.5) & (body < 255.5))
+
+
 @pytest.mark.parametrize("x, y", [(1.0, 0.0), (0.0, -1.5), (-1.4, 1.4), (2.2, 1.9)])
 def test_crops_around_the_true_keypoints(camera, x, y):
     joints = standing_person(x, y, heading=-0.4)
@@ -244,4 +286,4 @@ def test_summary_counts_and_percentiles():
 def test_unknown_condition_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="unknown condition"):
         evaluate_session(tmp_path, conditions=("view", "fisheye_network"))
-    assert CONDITIONS == ("view", "crop", "rotated_crop", "stage")
+    assert CONDITIONS == ("view", "crop", "rotated_crop", "aligned_view", "stage")
