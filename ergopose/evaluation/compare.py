@@ -6,10 +6,15 @@ an :class:`Evaluation`: identity matching and switches, detection rate, 3D joint
 joint and lens region, limb-length errors and reconstruction frequencies, joint-angle errors, the
 agreement of RULA and REBA with the scores of the ground-truth angles, and the reference-bar check.
 
-Tracked workers ("worker_1", ...) are matched to the simulated workers ("w1", ...) with
-:func:`ergopose.recon.diagnostics.match_workers` (majority of per-frame matches of body centres
-within 0.5 m); every per-frame comparison uses that mapping, so frames after an identity switch
-are compared with the wrong person and show up as large errors (as they would in a report).
+Tracked workers ("worker_1", ...) are matched to the simulated workers ("w1", ...) frame by frame:
+in each frame the tracked rows and the simulated workers are paired one-to-one by the distance of
+their body centres (at most 0.5 m, the default of :mod:`ergopose.recon.diagnostics`), and every
+per-frame comparison (3D error, limb lengths, angles, scores) uses that pairing, so geometry is
+measured apart from identity mistakes. The identities are judged separately: the mapping of each
+tracked id to its most frequent partner (:func:`ergopose.recon.diagnostics.match_workers`), the
+identity switches (:func:`~ergopose.recon.diagnostics.identity_switches`), and the 3D error when
+every row is compared with its id's mapped worker (``by_track_identity``), which is what a report
+attributing a whole track to one person would suffer.
 
 One lens-region definition: ``lens_region_limits_deg`` of the reconstruction settings stored in
 the tracks table (the regions the reconstruction's own diagnostics use). The simulator's
@@ -253,25 +258,49 @@ def _per_frame_matches(tracks, truth_points: np.ndarray, points: np.ndarray,
     return out
 
 
-def matching_section(inp: _Inputs) -> tuple[dict, dict[int, int]]:
+def row_people(inp: _Inputs) -> np.ndarray:
+    """(n,) the simulated worker each tracked row is in its frame (-1: nobody within
+    MATCH_DISTANCE_M): per frame the optimal one-to-one assignment of body centres, from the final
+    positions where known, else the raw triangulation (as ergopose.recon.diagnostics matches)."""
+    tf = inp.tracks
+    points = np.where(np.isfinite(tf.points_world), tf.points_world, tf.raw_points_world)
+    return _per_frame_matches(tf, inp.gt.joints_world, points)
+
+
+def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, int]]:
     from ergopose.recon.diagnostics import identity_switches, match_workers
     from ergopose.recon.tracking import identity_name
 
     tf, gt = inp.tracks, inp.gt
     mapping = match_workers(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else {}
     switches = identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else 0
-    per_gt = {gid: sorted(identity_name(w) for w, p in mapping.items() if p == k) for k, gid in enumerate(gt.worker_ids)}
-    tracked = [identity_name(w) for w in tf.workers]
+    per_gt = {gid: sorted((identity_name(w) for w, p in mapping.items() if p == k), key=_worker_number)
+              for k, gid in enumerate(gt.worker_ids)}
+    majority = np.array([mapping.get(int(w), -1) for w in tf.worker], dtype=np.int64) if len(tf) else np.zeros(0, int)
+    matched = person >= 0
     section = {
-        "tracked_workers": tracked,
+        "definition": ("per frame, tracked rows and simulated workers are paired one-to-one by body-centre distance "
+                       f"(at most {MATCH_DISTANCE_M} m); mapping = each tracked id's most frequent partner "
+                       "(ergopose.recon.diagnostics.match_workers); identity_switches = how often a simulated "
+                       "worker's partner id changes (diagnostics.identity_switches; a duplicate track of the same "
+                       "person alternating with the original counts at every alternation)"),
+        "tracked_workers": [identity_name(w) for w in tf.workers],
         "ground_truth_workers": list(gt.worker_ids),
         "mapping": {identity_name(w): gt.worker_ids[p] for w, p in sorted(mapping.items())},
         "unmatched_tracked_workers": [identity_name(w) for w in tf.workers if w not in mapping],
         "tracked_ids_per_ground_truth_worker": per_gt,
         "identity_switches": int(switches),
+        "rows": int(len(tf)),
+        "rows_matched": int(matched.sum()),
+        "rows_matched_to_another_worker_than_the_mapping": int((matched & (person != majority)).sum()),
         "match_distance_m": MATCH_DISTANCE_M,
     }
     return section, mapping
+
+
+def _worker_number(name: str) -> int:
+    tail = name.rpartition("_")[2]
+    return int(tail) if tail.isdigit() else 0
 
 
 # ------------------------------------------------------------------------------------------ detection
@@ -328,19 +357,13 @@ def detection_section(inp: _Inputs) -> dict:
 # ----------------------------------------------------------------------------------------- 3D errors
 
 
-def _errors_by_worker(inp: _Inputs, mapping: dict[int, int], source: str) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 33) joint errors (metres) and (n, 33) lens regions of the rows of matched workers."""
-    from ergopose.recon.diagnostics import lens_region, truth_for_workers
-
+def truth_rows(inp: _Inputs, person: np.ndarray) -> np.ndarray:
+    """(n, 33, 3) true joints of the simulated worker matched to each tracked row (NaN: none)."""
     tf = inp.tracks
-    truth = truth_for_workers(tf, inp.gt.joints_world, mapping) if mapping else {}
-    errs, regs = [np.zeros((0, NUM_JOINTS))], [np.zeros((0, NUM_JOINTS), np.int8)]
-    for w, g in truth.items():
-        r = tf.worker_rows(w)
-        X = r.points_world if source == "final" else r.raw_points_world
-        errs.append(np.linalg.norm(X - g, axis=-1))
-        regs.append(lens_region(r.lens_angle_deg, inp.recon.lens_region_limits_deg))
-    return np.concatenate(errs), np.concatenate(regs)
+    out = np.full((len(tf), NUM_JOINTS, 3), np.nan)
+    ok = person >= 0
+    out[ok] = inp.gt.joints_world[tf.frame[ok], person[ok]]
+    return out
 
 
 def _stats_mm(e: np.ndarray) -> dict:
@@ -352,26 +375,37 @@ def _stats_mm(e: np.ndarray) -> dict:
             "p95_mm": _r(np.percentile(v, 95), 2), "rmse_mm": _r(np.sqrt(np.mean(v * v)), 2)}
 
 
-def errors_section(inp: _Inputs, mapping: dict[int, int]) -> dict:
-    from ergopose.recon.diagnostics import region_errors, truth_for_workers
+def errors_section(inp: _Inputs, person: np.ndarray, mapping: dict[int, int]) -> dict:
+    from ergopose.recon.diagnostics import lens_region, region_errors, truth_for_workers
 
-    out: dict[str, Any] = {"definition": "Euclidean distance between a tracked joint and the same joint of the "
-                                         "matched simulated worker in the same frame (MPJPE = the mean)"}
-    truth = truth_for_workers(inp.tracks, inp.gt.joints_world, mapping) if mapping else {}
+    tf = inp.tracks
+    truth = truth_rows(inp, person)
+    regions = lens_region(tf.lens_angle_deg, inp.recon.lens_region_limits_deg)
+    out: dict[str, Any] = {
+        "definition": ("Euclidean distance between a tracked joint and the same joint of the simulated worker the "
+                       "row is matched to in that frame (MPJPE = the mean over joints with a position); 'final' are "
+                       "the tracks table's positions (smoothed, gaps filled), 'raw' the triangulation; a joint's "
+                       "region is that of its lens_angle_deg. by_track_identity compares every row with the "
+                       "tracked id's mapped worker instead (ergopose.recon.diagnostics.region_errors), so rows "
+                       "after an identity mix-up count against the wrong person, as a report would"),
+    }
+    majority = truth_for_workers(tf, inp.gt.joints_world, mapping) if mapping else {}
     for source in ("final", "raw"):
-        by_region = region_errors(inp.tracks, truth, inp.recon, source=source)
-        e, g = _errors_by_worker(inp, mapping, source)
+        X = tf.points_world if source == "final" else tf.raw_points_world
+        e = np.linalg.norm(X - truth, axis=-1) if len(tf) else np.zeros((0, NUM_JOINTS))
         section = {
-            "mpjpe_mm": _r(by_region["all"].mean_m * 1000.0, 2),
-            "by_region": {k: {"points": v.points, "mean_mm": _r(v.mean_m * 1000, 2),
-                              "median_mm": _r(v.median_m * 1000, 2), "p95_mm": _r(v.p95_m * 1000, 2),
-                              "rmse_mm": _r(v.rmse_m * 1000, 2)} for k, v in by_region.items()},
+            "by_region": {"all": _stats_mm(e)} | {r: _stats_mm(e[regions == k]) for k, r in enumerate(REGIONS)},
             "by_joint": {},
         }
+        section["mpjpe_mm"] = section["by_region"]["all"]["mean_mm"]
         for j, name in enumerate(BLAZEPOSE33):
             row = _stats_mm(e[:, j])
-            row["by_region_mean_mm"] = {r: _stats_mm(e[g[:, j] == k, j])["mean_mm"] for k, r in enumerate(REGIONS)}
+            row["by_region_mean_mm"] = {r: _stats_mm(e[regions[:, j] == k, j])["mean_mm"]
+                                        for k, r in enumerate(REGIONS)}
             section["by_joint"][name] = row
+        by_id = region_errors(tf, majority, inp.recon, source=source)
+        section["by_track_identity"] = {k: {"points": v.points, "mean_mm": _r(v.mean_m * 1000, 2)}
+                                        for k, v in by_id.items()}
         out[source] = section
     out["mpjpe_mm"] = out["final"]["mpjpe_mm"]
     return out
@@ -380,13 +414,15 @@ def errors_section(inp: _Inputs, mapping: dict[int, int]) -> dict:
 # ---------------------------------------------------------------------------------------------- limbs
 
 
-def limbs_section(inp: _Inputs, mapping: dict[int, int]) -> dict:
-    """Limb lengths of the matched workers against the true lengths in the same frames."""
-    from ergopose.recon.diagnostics import lens_region, limb_diagnostics, truth_for_workers
+def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
+    """Limb lengths of the tracked workers (those matched to a simulated worker in at least one
+    frame) against the true lengths of the matched worker in the same frames."""
+    from ergopose.recon.diagnostics import lens_region, limb_diagnostics
     from ergopose.recon.tracking import identity_name, limb_lengths
 
     tf = inp.tracks
-    truth = truth_for_workers(tf, inp.gt.joints_world, mapping) if mapping else {}
+    T = truth_rows(inp, person)
+    truth = {int(w): T[tf.worker == w] for w in np.unique(tf.worker[person >= 0])}
     diags = {d.worker: d for d in limb_diagnostics(tf, inp.recon)} if len(tf) else {}
     meas_all, true_all, reg_all = [], [], []
     cvs: dict[str, dict[str, list[float]]] = {name: {r: [] for r in ("all",) + REGIONS} for name, _, _ in LIMBS}
@@ -445,8 +481,9 @@ def limbs_section(inp: _Inputs, mapping: dict[int, int]) -> dict:
     rigid = [name for name in true_cvs if true_cvs[name] and max(true_cvs[name]) < RIGID_CV]
     rigid_cv = [c for name in rigid for c in cvs[name]["all"]]
     return {
-        "definition": ("per matched tracked worker and limb of keypoints.LIMBS: measured length (final positions) "
-                       "minus the true length of the same limb in the same frame; CV = std / mean of the "
+        "definition": ("per tracked worker (matched in at least one frame) and limb of keypoints.LIMBS: measured "
+                       "length (final positions) minus the true length of the limb of the simulated worker the row "
+                       "is matched to in that frame; CV = std / mean of the "
                        "worker's measured lengths (ergopose.recon.diagnostics.limb_diagnostics), averaged over "
                        "workers; true_cv_pct is the same for the true lengths (the body model's own variation: "
                        "the trunk sides change with shoulder elevation); rigid limbs are those whose true CV is "
@@ -495,10 +532,23 @@ def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
     return frame
 
 
-def _worker_frames(inp: _Inputs, layout: ResultsLayout, mapping: dict[int, int]) -> dict[int, pd.DataFrame]:
+def _worker_frames(inp: _Inputs, layout: ResultsLayout,
+                   person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
+    """{worker: (frames CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
+    every tracked worker matched to a simulated worker in at least one frame."""
     from ergopose.recon.tracking import identity_name
 
-    return {w: _read_frames_csv(layout, identity_name(w)) for w in sorted(mapping)}
+    tf = inp.tracks
+    out = {}
+    for w in np.unique(tf.worker[person >= 0]):
+        w = int(w)
+        csv = _read_frames_csv(layout, identity_name(w))
+        sel = tf.worker == w
+        frames, people = tf.frame[sel], person[sel]
+        f = csv["frame"].to_numpy(np.int64)
+        pos = np.clip(np.searchsorted(frames, f), 0, len(frames) - 1)
+        out[w] = (csv, np.where(frames[pos] == f, people[pos], -1))
+    return out
 
 
 def _region_of_rows(inp: _Inputs, w: int, frames: np.ndarray) -> np.ndarray:
@@ -525,30 +575,44 @@ def _region_of_rows(inp: _Inputs, w: int, frames: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------------------ angles
 
 
-def angles_section(inp: _Inputs, mapping: dict[int, int], csvs: Mapping[int, pd.DataFrame]) -> dict:
+def _built_angles(gt, columns: Sequence[str]) -> dict[str, np.ndarray]:
+    """{angle: (F, P) radians} from ground_truth/postures.parquet (NaN where a row is missing)."""
+    post = gt.postures
+    F, P = gt.n_frames, len(gt.worker_ids)
+    index = {wid: k for k, wid in enumerate(gt.worker_ids)}
+    p = np.array([index.get(str(w), -1) for w in post["worker"].astype(str)], dtype=np.int64)
+    f = post["frame"].to_numpy(np.int64)
+    ok = (p >= 0) & (f >= 0) & (f < F)
+    out = {}
+    for c in columns:
+        a = np.full((F, P), np.nan)
+        a[f[ok], p[ok]] = post[c].to_numpy(np.float64)[ok]
+        out[c] = a
+    return out
+
+
+def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     """Tracked posture angles (frames CSV, degrees) against the angles the motion was built from."""
     from ergopose.ergonomics.posture import ANGLE_COLUMNS
 
     gt = inp.gt
-    post = gt.postures
-    columns = [c for c in ANGLE_COLUMNS if c in post.columns]
+    columns = [c for c in ANGLE_COLUMNS if c in gt.postures.columns]
+    built = _built_angles(gt, columns)
     diffs: dict[str, list[np.ndarray]] = {c: [] for c in columns}
     regions: list[np.ndarray] = []
-    rows = 0
-    for w, csv in csvs.items():
-        gid = gt.worker_ids[mapping[w]]
-        truth = post[post["worker"] == gid].set_index("frame")
-        frames = csv["frame"].to_numpy(np.int64)
-        known = np.isin(frames, truth.index.to_numpy())
-        frames = frames[known]
+    rows = unmatched = 0
+    for w, (csv, people) in csvs.items():
+        ok = people >= 0
+        unmatched += int((~ok).sum())
+        frames, people = csv["frame"].to_numpy(np.int64)[ok], people[ok]
         rows += len(frames)
         regions.append(_region_of_rows(inp, w, frames))
         for c in columns:
             if c not in csv.columns:
                 diffs[c].append(np.full(len(frames), np.nan))
                 continue
-            measured = pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[known]
-            true = np.degrees(truth.loc[frames, c].to_numpy(np.float64))
+            measured = pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[ok]
+            true = np.degrees(built[c][frames, people])
             diffs[c].append((measured - true + 180.0) % 360.0 - 180.0)
     reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
     per_angle = {}
@@ -562,9 +626,11 @@ def angles_section(inp: _Inputs, mapping: dict[int, int], csvs: Mapping[int, pd.
     allv = np.concatenate(pooled) if pooled else np.zeros(0)
     return {
         "definition": ("frames CSV angle (degrees, 2 decimals) minus the angle the simulated motion was built from "
-                       "(ground_truth/postures.parquet), same matched worker and frame; differences wrapped to "
-                       "[-180, 180); angles NaN in the CSV (not measured) are counted as missing"),
+                       "(ground_truth/postures.parquet) of the simulated worker the row is matched to in that "
+                       "frame; differences wrapped to [-180, 180); angles NaN in the CSV (not measured) are counted "
+                       "as missing; rows matched to nobody are left out (rows_unmatched)"),
         "rows_compared": int(rows),
+        "rows_unmatched": int(unmatched),
         "rmse_all_deg": _r(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
         "by_angle": per_angle,
         "caveat": ("shoulder_elevation is measured against the worker's median shoulder height over the tracked "
@@ -621,7 +687,7 @@ def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scor
     return score_posture(table, settings=scoring)
 
 
-def scores_section(inp: _Inputs, mapping: dict[int, int], csvs: Mapping[int, pd.DataFrame]) -> dict:
+def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
     from ergopose.ergonomics.posture import ANGLE_COLUMNS
     from ergopose.recon.tracking import identity_name
@@ -631,44 +697,50 @@ def scores_section(inp: _Inputs, mapping: dict[int, int], csvs: Mapping[int, pd.
     scored: dict[tuple[int, int], tuple[pd.DataFrame, list[pd.DataFrame]]] = {}
     pairs: dict[str, tuple[list, list, list]] = {c: ([], [], []) for c in SCORE_SCALES}
     regions = []
-    for w, csv in csvs.items():
-        p = mapping[w]
-        if p not in postures:
-            postures[p] = ground_truth_posture(gt, p)
+
+    def truth_of(p: int, worker: str):
         # The same person with the same task factors (usually every tracked id: only the defaults and
         # periods for everyone apply to worker_N) is scored once.
-        factors = session.factor_table(identity_name(w), gt.times_s)
+        factors = session.factor_table(worker, gt.times_s)
         key = (p, int(pd.util.hash_pandas_object(factors, index=False).sum()))
         if key not in scored:
-            truth = ground_truth_scores(session, gt, p, identity_name(w), inp.scoring, postures[p])
+            if p not in postures:
+                postures[p] = ground_truth_posture(gt, p)
+            truth = ground_truth_scores(session, gt, p, worker, inp.scoring, postures[p])
             # The truth's score is "on a band edge" where moving every angle by +-EDGE_NUDGE_RAD changes it.
             nudged = []
             for sign in (1.0, -1.0):
                 moved = postures[p].copy()
                 cols = [c for c in ANGLE_COLUMNS if c in moved.columns]
                 moved[cols] = moved[cols] + sign * EDGE_NUDGE_RAD
-                nudged.append(ground_truth_scores(session, gt, p, identity_name(w), inp.scoring, moved))
+                nudged.append(ground_truth_scores(session, gt, p, worker, inp.scoring, moved))
             scored[key] = (truth, nudged)
-        truth, nudged = scored[key]
-        frames = csv["frame"].to_numpy(np.int64)
-        known = (frames >= 0) & (frames < gt.n_frames)
-        frames = frames[known]
-        regions.append(_region_of_rows(inp, w, frames))
-        for c in SCORE_SCALES:
-            t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)
-            edge = np.zeros(len(t), bool)
-            for other in nudged:
-                o = other[c].to_numpy(dtype=np.float64, na_value=np.nan)
-                edge |= (o != t) & np.isfinite(o) & np.isfinite(t)
-            pairs[c][0].append(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[known])
-            pairs[c][1].append(t[frames])
-            pairs[c][2].append(edge[frames])
+        return scored[key]
+
+    for w, (csv, people_all) in csvs.items():
+        for p in np.unique(people_all[people_all >= 0]):
+            p = int(p)
+            sel = people_all == p
+            truth, nudged = truth_of(p, identity_name(w))
+            frames = csv["frame"].to_numpy(np.int64)[sel]
+            regions.append(_region_of_rows(inp, w, frames))
+            for c in SCORE_SCALES:
+                t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)
+                edge = np.zeros(len(t), bool)
+                for other in nudged:
+                    o = other[c].to_numpy(dtype=np.float64, na_value=np.nan)
+                    edge |= (o != t) & np.isfinite(o) & np.isfinite(t)
+                pairs[c][0].append(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[sel])
+                pairs[c][1].append(t[frames])
+                pairs[c][2].append(edge[frames])
     reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
     out: dict[str, Any] = {
         "definition": ("scores of the frames CSV (the pipeline's) against the scores of the ground-truth posture of "
                        "the matched worker (built angles; stance flags and the other unrecorded inputs from the true "
-                       "joints), scored by ergopose.ergonomics.scoring.score_posture with the session's scoring "
-                       "settings and the task factors the pipeline applied (session.factor_table of the tracked "
+                       "joints) of the simulated worker the row is matched to in that frame, scored by "
+                       "ergopose.ergonomics.scoring.score_posture (over that worker's whole simulated shift) with the "
+                       "session's scoring settings and the task factors the pipeline applied (session.factor_table "
+                       "of the tracked "
                        "worker id); frames where either score is missing are left out and counted; off_edge "
                        f"repeats the agreement without the frames whose true score changes when every true angle "
                        f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge)"),
@@ -732,18 +804,19 @@ def evaluate_results(session_dir: str | Path, layout: ResultsLayout, *, source: 
     inp = load_inputs(session_dir, layout)
     regions, notes = lens_region_info(inp.recon)
     step("matching tracked workers to the simulated ones")
-    matching, mapping = matching_section(inp)
+    person = row_people(inp)
+    matching, mapping = matching_section(inp, person)
     step("detection rate")
     detection = detection_section(inp)
     step("3D joint errors")
-    errors = errors_section(inp, mapping)
-    step("limb lengths")
-    limbs = limbs_section(inp, mapping)
-    csvs = _worker_frames(inp, layout, mapping)
+    errors = errors_section(inp, person, mapping)
+    step("limbs")
+    limbs = limbs_section(inp, person)
+    csvs = _worker_frames(inp, layout, person)
     step("joint angles")
-    angles = angles_section(inp, mapping, csvs)
+    angles = angles_section(inp, csvs)
     step("RULA and REBA agreement")
-    scores = scores_section(inp, mapping, csvs)
+    scores = scores_section(inp, csvs)
     step("reference bar")
     bar = bar_section(inp.session, inp.gt, inp.recon.lens_region_limits_deg, noise_px=bar_noise_px,
                       draws=bar_draws, seed=seed)

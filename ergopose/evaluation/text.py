@@ -34,7 +34,8 @@ def format_evaluation(ev: dict) -> str:
     m = ev["matching"]
     lines += ["", "Identities"]
     lines.append(f"  tracked {len(m['tracked_workers'])} worker id(s) for {len(m['ground_truth_workers'])} simulated "
-                 f"worker(s); identity switches: {m['identity_switches']}")
+                 f"worker(s); identity switches: {m['identity_switches']}; rows matched to another worker than "
+                 f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}")
     for gid, ids in m["tracked_ids_per_ground_truth_worker"].items():
         lines.append(f"    {gid}: {', '.join(ids) if ids else '(not tracked)'}")
     if m["unmatched_tracked_workers"]:
@@ -54,6 +55,9 @@ def format_evaluation(ev: dict) -> str:
         br = e[src]["by_region"]
         lines.append(f"  {label:<18} all {_f(br['all']['mean_mm'], '.1f', ' mm')}"
                      + "".join(f", {r} {_f(br[r]['mean_mm'], '.1f', ' mm')} (n={br[r]['points']})" for r in REGIONS))
+    bi = e["final"]["by_track_identity"]["all"]
+    lines.append(f"  every row against its id's mapped worker (identity mistakes included): "
+                 f"{_f(bi['mean_mm'], '.1f', ' mm')} (smoothed)")
     worst = sorted(((k, j["mean_mm"]) for k, j in e["final"]["by_joint"].items() if j["mean_mm"] is not None),
                    key=lambda kv: -kv[1])[:5]
     if worst:
