@@ -149,7 +149,8 @@ class PersonTrials:
     condition: (N,) int, index into CONDITIONS. frame, camera, worker: (N,) int (frame index in
     the video, camera index in the session, worker index in the ground truth).
     region: (N,) int, index into LENS_REGIONS_DEG of the true hip centre. theta: (N,) its angle
-    off the lens axis, radians.
+    off the lens axis, radians. trunk_inclination: (N,) angle of the true 3D hip-centre to
+    shoulder-centre direction from the vertical, radians (0 upright, pi/2 bent flat).
     presence: (N,) the network's pose flag (stage: of the matched detection; NaN when no
     detection matched).
     found: (N,) bool (see the module docstring).
@@ -166,6 +167,7 @@ class PersonTrials:
     worker: np.ndarray
     region: np.ndarray
     theta: np.ndarray
+    trunk_inclination: np.ndarray
     presence: np.ndarray
     found: np.ndarray
     hip_error_torso: np.ndarray
@@ -293,7 +295,8 @@ class PersonGeometry:
     hips). hip_ray: (3,) unit ray of the hip centre, the normalised mean of the two hip rays
     (the construction used for predictions). torso_angle: 3D torso length (shoulder centre to
     hip centre) / distance of the hip centre from the camera (radians). theta: angle of
-    hip_ray off the lens axis (radians).
+    hip_ray off the lens axis (radians). trunk_inclination: angle of the 3D hip-centre to
+    shoulder-centre direction from the vertical (radians).
     """
 
     rays_cam: np.ndarray
@@ -303,13 +306,16 @@ class PersonGeometry:
     hip_ray: np.ndarray
     torso_angle: float
     theta: float
+    trunk_inclination: float = float("nan")
 
     @classmethod
     def of(cls, camera, joints_world: np.ndarray, pixels: np.ndarray, visibility: np.ndarray) -> "PersonGeometry":
         points_cam = camera.points_world_to_cam(joints_world)
         rays = _unit(points_cam)
         hip_world = joints_world[_HIPS].mean(axis=0)
-        torso = float(np.linalg.norm(joints_world[_SHOULDERS].mean(axis=0) - hip_world))
+        trunk = joints_world[_SHOULDERS].mean(axis=0) - hip_world
+        torso = float(np.linalg.norm(trunk))
+        inclination = float(np.arccos(np.clip(trunk[2] / torso, -1.0, 1.0))) if torso > 0 else float("nan")
         distance = float(np.linalg.norm(camera.points_world_to_cam(hip_world)))
         # The hip centre's ray is built as for a prediction (mean of the two hip rays), so a
         # perfect prediction scores exactly zero; it differs from the ray to the 3D mid-point
@@ -317,7 +323,7 @@ class PersonGeometry:
         hip_ray = _hip_centre_ray(rays)
         theta = float(np.arctan2(np.hypot(hip_ray[0], hip_ray[1]), hip_ray[2]))
         return cls(rays, np.asarray(pixels, np.float64), np.asarray(visibility), hip_world, hip_ray,
-                   torso / distance, theta)
+                   torso / distance, theta, inclination)
 
     @property
     def torso_visible(self) -> bool:
@@ -410,8 +416,8 @@ class _Rows:
 
         region = int(lens_region(np.array(person.theta)))
         found, hip_error, err_px, err_torso = scored
-        self.rows.append((condition, frame, camera, worker, region, person.theta, presence, found, hip_error,
-                          err_px, err_torso))
+        self.rows.append((condition, frame, camera, worker, region, person.theta, person.trunk_inclination,
+                          presence, found, hip_error, err_px, err_torso))
 
     def trials(self) -> PersonTrials:
         n = len(self.rows)
@@ -419,12 +425,13 @@ class _Rows:
         if n == 0:
             z = np.zeros(0)
             return PersonTrials(z.astype(np.int64), z.astype(np.int64), z.astype(np.int64), z.astype(np.int64),
-                                z.astype(np.int64), z, z, z.astype(bool), z, np.zeros((0, k)), np.zeros((0, k)))
+                                z.astype(np.int64), z, z, z, z.astype(bool), z, np.zeros((0, k)), np.zeros((0, k)))
         cols = list(zip(*self.rows))
         ints = [np.array(c, dtype=np.int64) for c in cols[:5]]
-        return PersonTrials(*ints, theta=np.array(cols[5], np.float64), presence=np.array(cols[6], np.float64),
-                            found=np.array(cols[7], bool), hip_error_torso=np.array(cols[8], np.float64),
-                            joint_error_px=np.stack(cols[9]), joint_error_torso=np.stack(cols[10]))
+        return PersonTrials(*ints, theta=np.array(cols[5], np.float64),
+                            trunk_inclination=np.array(cols[6], np.float64), presence=np.array(cols[7], np.float64),
+                            found=np.array(cols[8], bool), hip_error_torso=np.array(cols[9], np.float64),
+                            joint_error_px=np.stack(cols[10]), joint_error_torso=np.stack(cols[11]))
 
 
 def _match_stage(people: list[tuple[int, PersonGeometry]], others: list[PersonGeometry], found,
@@ -686,6 +693,9 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
 # --------------------------------------------------------------------------------------------
 # Markdown
 
+#: Trunk inclination bins (degrees from the vertical) of the markdown's last table.
+INCLINATION_BINS_DEG: tuple[tuple[float, float], ...] = ((0.0, 15.0), (15.0, 30.0), (30.0, 60.0), (60.0, 180.0))
+
 
 def _pct(found: int, persons: int) -> str:
     return "-" if persons == 0 else f"{100.0 * found / persons:.1f} % ({found}/{persons})"
@@ -725,6 +735,21 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
             lines.append(f"Camera {cam}:")
             lines.append("")
             table(cam)
+    lines.append("Detection rate by trunk inclination (true hip-to-shoulder direction from the vertical), "
+                 "both cameras, all regions:")
+    lines.append("")
+    lines.append("| trunk inclination | " + " | ".join(result.conditions) + " |")
+    lines.append("|---" * (len(result.conditions) + 1) + "|")
+    t = result.trials
+    incl = np.degrees(t.trunk_inclination)
+    for lo, hi in INCLINATION_BINS_DEG:
+        cells = []
+        for condition in result.conditions:
+            m = (t.condition == CONDITIONS.index(condition)) & (incl >= lo) & (incl < hi)
+            cells.append(_pct(int(t.found[m].sum()), int(m.sum())))
+        label = f"{lo:g}-{hi:g} deg" if hi < 180 else f">= {lo:g} deg"
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines.append("")
     if "stage" in result.conditions:
         fp = ", ".join(f"{c} {n}" for c, n in zip(result.cameras, result.stage_false_positives))
         lines.append(f"Stage detections matched to no worker (false positives) in the scored frames: {fp} "

@@ -94,6 +94,9 @@ def test_person_geometry_torso_angle_and_theta(camera, x, y):
     shoulder = joints[[JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]].mean(axis=0)
     offset = hip - np.array([0.0, 0.0, CAMERA_HEIGHT])
     assert p.torso_angle == pytest.approx(0.50 / np.linalg.norm(offset), rel=1e-12)
+    assert p.trunk_inclination == pytest.approx(0.0, abs=1e-12)
+    leaning = geometry(camera, leaning_person(x, y, 0.7, np.radians(35.0)))
+    assert np.degrees(leaning.trunk_inclination) == pytest.approx(35.0)
     assert np.allclose(p.hip_world, hip)
     assert np.linalg.norm(shoulder - hip) == pytest.approx(0.50)
     # The camera looks straight down: the angle off its axis is the angle off the vertical.
@@ -269,7 +272,7 @@ def test_summary_counts_and_percentiles():
     err[2, :2] = [5.0, 10.0]
     trials = PersonTrials(
         condition=np.zeros(n, np.int64), frame=np.arange(n), camera=np.zeros(n, np.int64),
-        worker=np.zeros(n, np.int64), region=np.ones(n, np.int64), theta=np.full(n, 0.7),
+        worker=np.zeros(n, np.int64), region=np.ones(n, np.int64), theta=np.full(n, 0.7), trunk_inclination=np.full(n, 0.1),
         presence=np.array([0.9, 0.2, 0.8, np.nan, 0.1]), found=np.array([True, False, True, False, False]),
         hip_error_torso=np.full(n, 0.1), joint_error_px=err, joint_error_torso=err / 10.0)
     s = _summary("view", "all", "outer", trials)
