@@ -14,9 +14,10 @@ two different people standing in the same epipolar plane (on a line parallel to 
 have rays that meet exactly, but at a point between or above them, which makes a body far too
 short or too high.
 
-The pairs are chosen by a globally optimal assignment (``scipy.optimize.linear_sum_assignment``
-on the cost matrix, impossible pairs excluded); a pair whose cost exceeds
-``association_max_distance_m`` is dropped. People left without a partner are single-view
+The pairs are chosen by a globally optimal assignment among the candidates whose cost is at
+most ``association_max_distance_m`` (:func:`gated_assignment`: the total margin below the gate
+is maximised with ``scipy.optimize.linear_sum_assignment``; leaving a person unpaired is allowed,
+so one good pair is not traded for two poor ones). People left without a partner are single-view
 observations: they are kept (the tracker uses them to follow an identity) but never
 triangulated.
 """
@@ -31,8 +32,6 @@ from scipy.optimize import linear_sum_assignment
 from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS, Detections2D
 from ergopose.recon.settings import ReconSettings
 
-#: Cost given to impossible pairs in the assignment (never accepted: far above any gate).
-_IMPOSSIBLE = 1e6
 
 
 @dataclass(frozen=True)
@@ -50,6 +49,31 @@ class Association:
     single_a: np.ndarray
     single_b: np.ndarray
     cost_matrix_m: np.ndarray
+
+
+def gated_assignment(cost: np.ndarray, gate) -> tuple[np.ndarray, np.ndarray]:
+    """Optimal pairs among candidates with cost <= gate (gate: scalar, or per row (R, 1)).
+
+    Maximises the total relative margin sum(1 - cost / gate) over the chosen pairs, where
+    leaving a row or a column unpaired costs nothing: linear_sum_assignment on
+    min(cost / gate - 1, 0) (impossible and gated-out candidates weigh 0, like no pair).
+    A plain assignment on the costs must pair as many as it can and would trade one good pair
+    for two poor ones (two wrong pairs when one person's partner is missing); dividing by the
+    gate keeps rows with wide gates (tracks unseen for a while) from outbidding close ones.
+    Returns (rows, cols) of the chosen pairs.
+    """
+    cost = np.asarray(cost, dtype=np.float64)
+    if cost.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(cost) & (cost <= gate)
+    if not ok.any():
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.where(ok, cost / gate - 1.0, 0.0)
+    rows, cols = linear_sum_assignment(w)
+    keep = ok[rows, cols]
+    return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
 
 
 def ray_closest_points(origin_a, rays_a, origin_b, rays_b):
@@ -124,12 +148,8 @@ def associate(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings 
     settings = settings or ReconSettings()
     cost = pair_costs(det_a, det_b, settings)
     na, nb = cost.shape
-    pairs = np.zeros((0, 2), dtype=np.int64)
-    if na and nb and np.isfinite(cost).any():
-        c = np.where(np.isfinite(cost), cost, _IMPOSSIBLE)
-        rows, cols = linear_sum_assignment(c)
-        keep = cost[rows, cols] <= settings.association_max_distance_m
-        pairs = np.stack([rows[keep], cols[keep]], axis=1).astype(np.int64)
+    rows, cols = gated_assignment(cost, settings.association_max_distance_m)
+    pairs = np.stack([rows, cols], axis=1).astype(np.int64)
     single_a = np.setdiff1d(np.arange(na), pairs[:, 0])
     single_b = np.setdiff1d(np.arange(nb), pairs[:, 1])
     return Association(pairs=pairs, cost_m=cost[pairs[:, 0], pairs[:, 1]] if len(pairs) else np.zeros(0),

@@ -216,17 +216,28 @@ def match_workers(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: n
 
 
 def identity_switches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray | None = None,
-                      max_distance_m: float = 0.5) -> int:
+                      max_distance_m: float = 0.5, min_frames: int = 1) -> int:
     """How many times a ground-truth person's matched worker id changes to a different id
-    (frames where the person is not matched do not count; the CLEAR-MOT notion of an ID switch)."""
+    (frames where the person is not matched do not count). min_frames = 1 is the CLEAR-MOT
+    notion of an ID switch (every change counts, also a flicker of one frame when two people
+    pass each other); with min_frames = k a change counts only when the new id then holds for
+    at least k matched frames (sustained swaps)."""
     truth_frames = np.arange(len(truth_points)) if truth_frames is None else np.asarray(truth_frames)
-    last: dict[int, int] = {}
-    switches = 0
+    seq: dict[int, list[int]] = {}
     for _, pairs in _frame_matches(tracks, truth_points, truth_frames, max_distance_m):
         for w, p in pairs:
-            if p in last and last[p] != w:
-                switches += 1
-            last[p] = w
+            seq.setdefault(p, []).append(w)
+    switches = 0
+    for ids in seq.values():
+        # Runs of equal ids; a run shorter than min_frames is ignored (merged into its context).
+        runs = []
+        for w in ids:
+            if runs and runs[-1][0] == w:
+                runs[-1][1] += 1
+            else:
+                runs.append([w, 1])
+        kept = [r[0] for r in runs if r[1] >= min_frames]
+        switches += sum(1 for a, b in zip(kept[:-1], kept[1:]) if a != b)
     return switches
 
 

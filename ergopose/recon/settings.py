@@ -48,12 +48,16 @@ class ReconSettings:
         trunk_min_length_m, trunk_max_length_m: 0.25, 0.8 -- mid-hip to mid-shoulder distance
             of a pair must lie within these bounds (where both are seen).
     Tracking of identities
-        track_gate_m: 0.5 -- largest distance between a track's predicted body centre and a
+        track_gate_m: 0.6 -- largest distance between a track's predicted body centre and a
             person's triangulated centre for a match, at one frame of coasting.
         track_gate_growth_m_per_s: 1.5 -- the gate grows by this much per second without a
             match (the person may have changed pace while unseen).
         single_view_gate_m: 0.35 -- largest distance of a track's predicted centre from the
             torso ray of a person seen by one camera only, for that person to keep the track.
+        contact_distance_m: 0.5 -- two tracks whose centres come closer than this (people
+            passing each other) are split; after relink_window_s their continuations get the
+            two identities back, crossed over only if the body-measurement signatures say so
+            (by relink_margin_m). 0 disables the check.
         max_coast_s: 2.0 -- a track without any observation for longer than this ends; its
             identity waits in the pool of lost identities for re-linking.
         min_track_s: 1.0 -- a new track that ends before it has this many seconds of 3D
@@ -106,9 +110,10 @@ class ReconSettings:
     trunk_min_length_m: float = 0.25
     trunk_max_length_m: float = 0.8
 
-    track_gate_m: float = 0.5
+    track_gate_m: float = 0.6
     track_gate_growth_m_per_s: float = 1.5
     single_view_gate_m: float = 0.35
+    contact_distance_m: float = 0.5
     max_coast_s: float = 2.0
     min_track_s: float = 1.0
     relink_window_s: float = 3.0
@@ -146,7 +151,7 @@ _BOOLS = {"smoothing", "bone_length_constraint"}
 _INTS = {"association_min_joints", "max_gated_run"}
 #: Numbers that may be zero or negative (everything else must be > 0).
 _ANY_SIGN = {"torso_min_z_m", "torso_max_z_m"}
-_MAY_BE_ZERO = {"outlier_gate_chi2", "relink_margin_m", "min_confidence", "min_track_s"}
+_MAY_BE_ZERO = {"outlier_gate_chi2", "relink_margin_m", "min_confidence", "min_track_s", "contact_distance_m"}
 
 
 def _validate(s: ReconSettings, source: str | None) -> None:

@@ -6,10 +6,11 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    constant velocity from its last update.
 2. Matching people seen by both cameras. Cost = horizontal (x, y) distance between predicted
    and triangulated centre (the height of the centre jumps when the torso is hidden and the
-   centre falls back to other joints; the floor position hardly does); a pair is possible within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per
-   second the track has gone unseen; globally optimal assignment
-   (scipy.optimize.linear_sum_assignment). A matched track updates its centre and velocity with
-   an alpha-beta filter (gains ALPHA, BETA).
+   centre falls back to other joints; the floor position hardly does); a pair is possible
+   within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per second the track has gone
+   unseen; globally optimal assignment among the candidates within
+   the gates (associate.gated_assignment, scipy.optimize.linear_sum_assignment). A matched
+   track updates its centre and velocity with an alpha-beta filter (gains ALPHA, BETA).
 3. Matching people seen by one camera only. Tracks still unmatched are compared with the torso
    rays of single-view people: cost = horizontal distance between the predicted centre and the
    point where the ray reaches the track's height (in front of the camera), gated by
@@ -17,7 +18,8 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    occlusion from one camera) and moves the centre to that point in x and y.
 4. Births. A person seen by both cameras and matched to no track starts a new, *tentative*
    track.
-5. Ends. A track unseen for more than ``max_coast_s`` ends.
+5. Ends. A track unseen for more than ``max_coast_s`` ends (a tentative one after
+   TENTATIVE_MAX_COAST_S).
 6. Identities. A tentative track is resolved once it has ``relink_window_s`` of 3D data, or
    when it ends (dropped as noise if it has less than ``min_track_s``). It is then compared
    with the identities that are not being followed right now (lost, or coasting since before
@@ -37,19 +39,29 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from ergopose.errors import InputError
 from ergopose.keypoints import LIMB_INDEX, LIMBS
+from ergopose.recon.associate import gated_assignment
+from scipy.optimize import linear_sum_assignment
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 
-#: Alpha-beta gains of the centre filter (position, velocity). The centre of a triangulated
-#: torso is accurate to about a centimetre, so the filter follows the measurement closely.
-ALPHA = 0.8
-BETA = 0.3
+#: Alpha-beta gains of the centre filter (position, velocity). The triangulated centre jumps by
+#: up to ~0.2 m when the set of visible torso joints changes (a bent-over worker's shoulders lie
+#: ahead of the hips), so the filter follows it only partly, and a single jump moves the velocity
+#: by at most BETA * VELOCITY_RESIDUAL_CAP / dt.
+ALPHA = 0.5
+BETA = 0.1
+VELOCITY_RESIDUAL_CAP_M = 0.15
 #: Largest speed (m/s) the centre filter keeps (a walking or hurrying person).
 MAX_SPEED_M_S = 3.0
+#: A tentative track (identity not decided yet) unseen for longer than this ends: a spurious
+#: birth (the centre of a person jumped out of its track's gate for a frame) must not linger and
+#: later take over the person from its real track.
+TENTATIVE_MAX_COAST_S = 0.25
+#: A contact group waits at most this many relink windows for comparable limb data.
+GROUP_MAX_WAIT = 4
 #: Limb-length histogram: bin width and number of bins (0 .. 1.5 m in millimetres).
 HIST_BIN_M = 0.001
 HIST_BINS = 1500
@@ -143,6 +155,19 @@ class LimbHistogram:
         return float(total / frac)
 
 
+def _group_costs(members: list[np.ndarray], identities: list[np.ndarray]) -> np.ndarray:
+    """(M, I) RMS difference of limb medians between contact continuations and the group's
+    identities, each row over the limbs known in that member and in every identity (so a row
+    compares the identities on equal terms); NaN rows when no such limb exists."""
+    known_all = np.all([np.isfinite(i) for i in identities], axis=0)
+    out = np.full((len(members), len(identities)), np.nan)
+    for r, m in enumerate(members):
+        ok = np.isfinite(m) & known_all
+        if ok.any():
+            out[r] = [float(np.sqrt(np.mean((m[ok] - i[ok]) ** 2))) for i in identities]
+    return out
+
+
 def signature_distance(a: np.ndarray, b: np.ndarray) -> float:
     """RMS difference (metres) of two limb-median vectors over the limbs known in both; NaN when
     fewer than MIN_COMMON_LIMBS are."""
@@ -165,6 +190,9 @@ class _Track:
     identity: int | None = None
     hist: LimbHistogram = field(default_factory=LimbHistogram)
     pending_rows: list = field(default_factory=list)   # chunk rows not yet in hist
+    group: int | None = None            # contact group of a continuation track
+    default_identity: int | None = None  # the identity it had before the contact
+    no_split_with: set = field(default_factory=set)  # identities it was resolved with, still close
 
 
 @dataclass
@@ -174,6 +202,7 @@ class _Identity:
     last_frame: int
     last_pos: np.ndarray
     track: int | None  # id of the live track following it, if any
+    reserved: bool = False  # in a contact group waiting for its decision
 
 
 @dataclass(frozen=True)
@@ -223,7 +252,10 @@ class Tracker:
         self.next_frame: int | None = None
         s = self.settings
         self._coast_frames = s.max_coast_s * self.fps
+        self._tentative_coast_frames = min(s.max_coast_s, TENTATIVE_MAX_COAST_S) * self.fps
         self._window_frames = max(1, int(round(s.relink_window_s * self.fps)))
+        self.groups: dict[int, dict] = {}  # contact group id -> {"identities", "members", "ended"}
+        self.next_group = 0
         self._min_frames = int(round(s.min_track_s * self.fps))
 
     # --- queries ----------------------------------------------------------------------------------
@@ -233,6 +265,7 @@ class Tracker:
         the smallest first frame of an unresolved track and last observed frame + 1 of a live
         track, and the next frame to process."""
         cands = [t.first_frame for t in self.tracks if t.identity is None]
+        cands += [m.first_frame for g in self.groups.values() for m in g["members"]]
         cands += [t.last_frame + 1 for t in self.tracks]
         if self.next_frame is not None:
             cands.append(self.next_frame)
@@ -288,12 +321,10 @@ class Tracker:
             unmatched3 = rows3
             if tracks and len(rows3):
                 cost = np.linalg.norm(pred[:, None, :2] - centre[rows3][None, :, :2], axis=-1)
-                cost = np.where(cost <= gate[:, None], cost, np.inf)
-                if np.isfinite(cost).any():
-                    ti, ri = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
-                    ok = np.isfinite(cost[ti, ri])
+                ti, ri = gated_assignment(cost, gate[:, None])
+                if len(ti):
                     used = np.zeros(len(rows3), bool)
-                    for a, b in zip(ti[ok], ri[ok]):
+                    for a, b in zip(ti, ri):
                         t = tracks[a]
                         row = rows3[b]
                         self._update_track(t, pred[a], centre[row], gap[a], f)
@@ -309,13 +340,10 @@ class Tracker:
                 hit, along = _ray_at_height(o, d, pred[free][:, 2])  # (T, R, 3) ray point at the track's height
                 diff = hit - pred[free][:, None, :]
                 cost = np.linalg.norm(diff[..., :2], axis=-1)
-                cost = np.where((along > 0) & (cost <= s.single_view_gate_m + (gate[free] - gate0)[:, None]),
-                                cost, np.inf)
-                if np.isfinite(cost).any():
-                    ti, ri = linear_sum_assignment(np.where(np.isfinite(cost), cost, 1e9))
+                cost = np.where(along > 0, cost, np.inf)
+                ti, ri = gated_assignment(cost, (s.single_view_gate_m + gate[free] - gate0)[:, None])
+                if len(ti):
                     for a, b in zip(ti, ri):
-                        if not np.isfinite(cost[a, b]):
-                            continue
                         t = tracks[free[a]]
                         row = rows1[b]
                         meas = pred[free[a]].copy()
@@ -330,8 +358,11 @@ class Tracker:
                 self.next_track += 1
                 track_of[row] = t.id
                 self.tracks.append(t)
+            if s.contact_distance_m > 0:
+                self._contacts(f, dt1, ended)
             # Ends, then resolutions (in order of birth).
-            stale = [t for t in self.tracks if f - t.last_frame > self._coast_frames]
+            stale = [t for t in self.tracks if f - t.last_frame > (
+                self._coast_frames if t.identity is not None else self._tentative_coast_frames)]
             for t in stale:
                 if not any(e.track == t.id for e in ended):
                     self._end(t, resolved, ended)
@@ -340,7 +371,11 @@ class Tracker:
                 self.tracks = [t for t in self.tracks if t.id not in gone]
             for t in list(self.tracks):
                 if t.identity is None and t.frames_3d >= self._window_frames:
-                    self._resolve(t, resolved, ended)
+                    if t.group is not None:
+                        if t.group in self.groups and self._group_ready(t.group):
+                            self._resolve_group(t.group, resolved)
+                    else:
+                        self._resolve(t, resolved, ended)
             for t in self.tracks:
                 cent_f.append(f)
                 cent_t.append(t.id)
@@ -375,7 +410,9 @@ class Tracker:
         r = meas - pred
         t.pos = pred + ALPHA * r
         if gap_s > 0:
-            v = t.vel + BETA * r / gap_s
+            size = float(np.linalg.norm(r))
+            rv = r if size <= VELOCITY_RESIDUAL_CAP_M else r * (VELOCITY_RESIDUAL_CAP_M / size)
+            v = t.vel + BETA * rv / gap_s
             speed = float(np.linalg.norm(v))
             t.vel = v if speed <= MAX_SPEED_M_S else v * (MAX_SPEED_M_S / speed)
         t.last_update_frame = f
@@ -391,6 +428,15 @@ class Tracker:
             self._flush(t)
 
     def _end(self, t: _Track, resolved: dict, ended: list) -> None:
+        if t.group is not None and t.identity is None:
+            # A continuation after a contact: decided with its group.
+            self._flush(t)
+            ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, None))
+            g = self.groups[t.group]
+            g["ended"].add(t.id)
+            if all(m.id in g["ended"] for m in g["members"]):
+                self._resolve_group(t.group, resolved)
+            return
         if t.identity is None:
             if t.frames_3d >= max(self._min_frames, 1):
                 self._resolve(t, resolved, ended)
@@ -412,6 +458,8 @@ class Tracker:
         live = {x.id: x for x in self.tracks}
         cands = []
         for ident in self.identities.values():
+            if ident.reserved:
+                continue
             if ident.track is not None:
                 other = live.get(ident.track)
                 if other is None or other.last_frame >= t.first_frame:
@@ -452,4 +500,127 @@ class Tracker:
         choice.track = t.id
         t.identity = choice.number
         resolved[t.id] = choice.number
+
+    # --- contacts -----------------------------------------------------------------------------------
+
+    def _contacts(self, f: int, dt1: float, ended: list) -> None:
+        """Split confirmed tracks that come within contact_distance_m of each other.
+
+        Two people this close (passing each other, or a simulated body passing through another)
+        can swap tracks without any geometric sign. Each track of a contact group ends here and a
+        tentative continuation carries on; once the continuations have relink_window_s of 3D data
+        (or all ended), :meth:`_resolve_group` gives them the group's identities back -- crossed
+        over only if the body-measurement signatures say so by relink_margin_m.
+        """
+        s = self.settings
+        live = [t for t in self.tracks if t.identity is not None]
+        for t in self.tracks:
+            if t.no_split_with:
+                near = set()
+                for o in self.tracks:
+                    if o.identity in t.no_split_with and np.linalg.norm((o.pos - t.pos)[:2]) < 1.5 * s.contact_distance_m:
+                        near.add(o.identity)
+                t.no_split_with = near
+        if len(live) < 2:
+            return
+        pos = np.array([t.pos[:2] + t.vel[:2] * (f - t.last_update_frame) * dt1 for t in live])
+        d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
+        close = d < s.contact_distance_m
+        np.fill_diagonal(close, False)
+        for a in range(len(live)):
+            for b in range(len(live)):
+                if close[a, b] and live[b].identity in live[a].no_split_with:
+                    close[a, b] = False
+        if not close.any():
+            return
+        # Connected groups of close tracks.
+        label = list(range(len(live)))
+
+        def root(i):
+            while label[i] != i:
+                label[i] = label[label[i]]
+                i = label[i]
+            return i
+
+        for a, b in zip(*np.nonzero(close)):
+            label[root(a)] = root(b)
+        groups: dict[int, list[_Track]] = {}
+        for i in range(len(live)):
+            if close[i].any():
+                groups.setdefault(root(i), []).append(live[i])
+        for members in groups.values():
+            gid = self.next_group
+            self.next_group += 1
+            conts = []
+            for t in members:
+                self._flush(t)
+                ident = self.identities[t.identity]
+                ident.track = None
+                ident.reserved = True
+                ident.last_frame = t.last_frame
+                ident.last_pos = t.pos.copy()
+                ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
+                c = _Track(id=self.next_track, first_frame=f + 1, first_pos=t.pos.copy(), pos=t.pos.copy(),
+                           vel=t.vel.copy(), last_frame=f, last_update_frame=t.last_update_frame,
+                           group=gid, default_identity=t.identity)
+                self.next_track += 1
+                conts.append(c)
+            self.groups[gid] = {"identities": [t.identity for t in members], "members": conts, "ended": set()}
+            ids = {t.id for t in members}
+            self.tracks = [t for t in self.tracks if t.id not in ids] + conts
+
+    def _group_ready(self, gid: int) -> bool:
+        """A contact group is decided once every live continuation has relink_window_s of 3D
+        data and the signatures can be compared (a limb known in every member and identity), or
+        after GROUP_MAX_WAIT windows whatever the data."""
+        g = self.groups[gid]
+        live = [m for m in g["members"] if m.id not in g["ended"]]
+        if any(m.frames_3d < self._window_frames for m in live):
+            return False
+        if any(m.frames_3d >= GROUP_MAX_WAIT * self._window_frames for m in live):
+            return True
+        for m in g["members"]:
+            self._flush(m)
+        cost = _group_costs([m.hist.medians() for m in g["members"]],
+                            [self.identities[k].hist.medians() for k in g["identities"]])
+        return bool(np.isfinite(cost).all(axis=1).sum() >= 2)
+
+    def _resolve_group(self, gid: int, resolved: dict) -> None:
+        """Give a contact group's continuations their identities (see :meth:`_contacts`)."""
+        s = self.settings
+        g = self.groups.pop(gid)
+        members: list[_Track] = g["members"]
+        idents = [self.identities[k] for k in g["identities"]]
+        for m in members:
+            self._flush(m)
+        default = {m.id: m.default_identity for m in members}
+        cost = _group_costs([m.hist.medians() for m in members], [i.hist.medians() for i in idents])
+        assign = dict(default)
+        comparable = np.isfinite(cost).all(axis=1)
+        if comparable.sum() >= 2:
+            rows = np.flatnonzero(comparable)
+            sub = cost[rows]
+            r, c = linear_sum_assignment(sub)
+            best = {members[rows[i]].id: idents[j].number for i, j in zip(r, c)}
+            col = {i.number: j for j, i in enumerate(idents)}
+            now = sum(cost[k, col[default[members[k].id]]] for k in rows)
+            new = sum(cost[k, col[best[members[k].id]]] for k in rows)
+            changed = sum(best[members[k].id] != default[members[k].id] for k in rows)
+            if changed and new + s.relink_margin_m * changed <= now:
+                assign.update(best)
+        alive = {t.id for t in self.tracks} - g["ended"]
+        for m in members:
+            ident = self.identities[assign[m.id]]
+            ident.hist.merge(m.hist)
+            m.hist = ident.hist
+            m.identity = ident.number
+            m.group = None
+            m.no_split_with = {i.number for i in idents} - {ident.number}
+            resolved[m.id] = ident.number
+            if m.id in alive:
+                ident.track = m.id
+            else:
+                ident.last_frame, ident.last_pos = m.last_frame, m.pos.copy()
+        for i in idents:
+            i.reserved = False
 

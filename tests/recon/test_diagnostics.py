@@ -83,3 +83,16 @@ def test_identity_switch_count():
     tf = TrackFrames(**{**tf.__dict__, "frame": np.r_[np.arange(n), np.arange(n)]})
     assert D.identity_switches(tf, truth) == 2
     assert D.match_workers(tf, truth) in ({1: 0, 2: 1}, {1: 1, 2: 0})
+
+
+def test_identity_switch_flicker_vs_sustained():
+    n = 40
+    truth = np.zeros((n, 2, 33, 3))
+    truth[:, 1, :, 1] = 2.0
+    pts = np.concatenate([truth[:, 0], truth[:, 1]])
+    worker = np.r_[np.ones(n, np.int64), np.full(n, 2)]
+    worker[[20, 20 + n]] = 2, 1  # one frame swapped: a flicker
+    tf = _tracks(pts, np.zeros((2 * n, 33)), worker)
+    tf = TrackFrames(**{**tf.__dict__, "frame": np.r_[np.arange(n), np.arange(n)]})
+    assert D.identity_switches(tf, truth) == 4  # CLEAR-MOT: away and back, for both people
+    assert D.identity_switches(tf, truth, min_frames=3) == 0

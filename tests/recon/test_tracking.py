@@ -126,3 +126,29 @@ def test_tracker_state_carries_over_chunks_and_pickles(shift):
         parts.append(tr.update(people.take(rows), a, b).track)
         tr = pickle.loads(pickle.dumps(tr))
     assert np.array_equal(np.concatenate(parts), whole)
+
+
+def test_people_meeting_and_turning_back_keep_their_identities(rng):
+    """Two workers walk up to each other, stand 10 cm apart for 2.5 s (closer than any geometry
+    can separate) and walk back. The contact check splits their tracks and gives the
+    identities back by body measurements; without it the tracks cross over."""
+    n = int(14 * FPS)
+    scripts = [WorkerScript(1.60, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
+               WorkerScript(1.90, np.array([[2.0, 0.0], [0.05, 0.0], [2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0))]
+    truth = walk_workers(scripts, n, FPS)
+    people = _stored(truth, np.ones((n, 2), bool), rng, sigma=0.01)
+    f, p = np.nonzero(np.ones((n, 2), bool))
+
+    def kept(settings):
+        tr = Tracker(settings, FPS)
+        res = tr.update(people, 0, n)
+        fin = tr.finish()
+        resolved = {**res.resolved, **fin.resolved}
+        ident = np.array([resolved[t] for t in res.track])
+        same = all(set(ident[(p == q) & (f > n - 24)]) == set(ident[(p == q) & (f < 12)]) and
+                   len(set(ident[(p == q) & (f > n - 24)])) == 1 for q in (0, 1))
+        return same, len(set(ident)), tr.next_group
+
+    same, identities, groups = kept(ReconSettings())
+    assert same and identities == 2 and groups >= 1
+    assert not kept(ReconSettings(contact_distance_m=0.0))[0]
