@@ -445,9 +445,12 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
                     cvs[name][region].append(s.cv)
                 freq[name][region][0] += s.reconstructed
                 freq[name][region][1] += s.frames
-            t = Lt[np.isfinite(Lm[:, li]) & np.isfinite(Lt[:, li]), li]
-            if len(t) > 1 and t.mean() > 0:
-                true_cvs[name].append(float(t.std() / t.mean()))
+    # The body model's own variation: each simulated worker's true limb lengths over the whole shift.
+    L_gt = limb_lengths(inp.gt.joints_world)  # (F, P, L)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cv_gt = np.nanstd(L_gt, axis=0) / np.nanmean(L_gt, axis=0)  # (P, L)
+    for li, (name, _, _) in enumerate(LIMBS):
+        true_cvs[name] = [float(v) for v in cv_gt[:, li] if np.isfinite(v)]
     L = len(LIMBS)
     Lm = np.concatenate(meas_all) if meas_all else np.zeros((0, L))
     Lt = np.concatenate(true_all) if true_all else np.zeros((0, L))
@@ -485,8 +488,9 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
                        "length (final positions) minus the true length of the limb of the simulated worker the row "
                        "is matched to in that frame; CV = std / mean of the "
                        "worker's measured lengths (ergopose.recon.diagnostics.limb_diagnostics), averaged over "
-                       "workers; true_cv_pct is the same for the true lengths (the body model's own variation: "
-                       "the trunk sides change with shoulder elevation); rigid limbs are those whose true CV is "
+                       "workers; true_cv_pct is the same for each simulated worker's true lengths over the whole "
+                       "shift, averaged over them (the body model's own variation: the trunk sides change with "
+                       "shoulder elevation); rigid limbs are those whose true CV is "
                        f"below {100 * RIGID_CV:g} %; "
                        "frequency = share of the worker's rows where both joints have a position"),
         "cv_mean_pct": _r(100.0 * np.mean(all_cv), 3) if all_cv else float("nan"),
