@@ -84,9 +84,13 @@ FLAG_FACTORS = ("shock", "arm_supported", "seated", "legs_supported", "wrist_twi
 FACTOR_NAMES = ("load_kg", "load_mode", "coupling") + FLAG_FACTORS
 
 _TOP_KEYS = {"format_version", "recorded_at", "fps", "description", "calibration", "cameras", "defaults",
-             "periods", "workers", "scoring"}
+             "periods", "workers", "scoring", "identification", "calibration_check"}
+_IDENTIFICATION_KEYS = {"stature_tolerance_m", "stature_margin_m"}
+_CHECK_KEYS = {"observations", "length_m"}
+#: Plausible adult statures (metres) for a worker's given stature.
+STATURE_RANGE_M = (1.2, 2.3)
 _CAMERA_KEYS = {"name", "video"}
-_WORKER_KEYS = {"name", "periods", *FACTOR_NAMES}
+_WORKER_KEYS = {"name", "stature_m", "periods", *FACTOR_NAMES}
 _PERIOD_KEYS = {"start", "end", *FACTOR_NAMES}
 #: Largest accepted relative difference between the settings' fps and a video's frame rate.
 FPS_TOLERANCE = 0.01
@@ -126,12 +130,44 @@ class FactorPeriod:
 
 @dataclass(frozen=True)
 class WorkerInfo:
-    """A worker named in the settings: id (as in the results), optional name, own factors and periods."""
+    """A worker named in the settings: id (as in the results), optional name, own factors and periods.
+
+    stature_m: the worker's body height in metres, if given; ergopose then recognises the worker
+    among the tracked people by the stature it measures (docs/session-format.md, "Workers").
+    """
 
     worker_id: str
     name: str | None
     factors: TaskFactors
     periods: tuple[FactorPeriod, ...]
+    stature_m: float | None = None
+
+
+@dataclass(frozen=True)
+class Identification:
+    """How tracked people are matched to the workers of the settings that give a stature.
+
+    stature_tolerance_m: largest difference between a worker's given stature and the stature
+        measured for a tracked person for the two to be matched.
+    stature_margin_m: the best matching must beat every other matching of the same people by
+        at least this much in total (otherwise two workers are too alike in height to tell apart,
+        and nobody is named).
+    """
+
+    stature_tolerance_m: float = 0.05
+    stature_margin_m: float = 0.02
+
+
+@dataclass(frozen=True)
+class CalibrationCheck:
+    """A reference bar measured by both cameras (ergopose calibrate check; docs/calibration.md).
+
+    observations_path: CSV of the bar ends' pixel positions (measurement,camera,end,u,v).
+    length_m: the bar's true length in metres.
+    """
+
+    observations_path: Path
+    length_m: float
 
 
 @dataclass(frozen=True)
@@ -157,6 +193,8 @@ class Session:
     defaults / periods / workers: the task factors (see the module docstring).
     scoring: the [scoring] table as given (a plain dict; ergopose.ergonomics.settings reads it).
     ground_truth_dir: the ground_truth/ folder of a simulated session, else None.
+    identification: how tracked people are matched to workers with a given stature.
+    calibration_check: the reference-bar observations for the accuracy check, or None.
     """
 
     path: Path
@@ -173,6 +211,8 @@ class Session:
     ground_truth_dir: Path | None
     settings_path: Path
     calibration_path: Path
+    identification: Identification = Identification()
+    calibration_check: CalibrationCheck | None = None
 
     @property
     def duration_s(self) -> float:
@@ -359,15 +399,47 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
             raise r.fail(where, "expected a table (name, task factors, periods)")
         r.no_unknown(table, _WORKER_KEYS, where)
         name = r.optional_str(table, "name", f"{where}.name")
+        stature = None
+        if "stature_m" in table:
+            stature = r.number(table["stature_m"], f"{where}.stature_m")
+            lo, hi = STATURE_RANGE_M
+            if not lo <= stature <= hi:
+                raise r.fail(f"{where}.stature_m", f"expected a body height in metres between {lo} and {hi}, "
+                                                   f"got {table['stature_m']!r}")
         factors = r.factors({k: v for k, v in table.items() if k in FACTOR_NAMES}, where, set(FACTOR_NAMES))
         wperiods = r.periods(table.get("periods", []), f"{where}.periods", recorded_at, duration)
-        workers.append(WorkerInfo(worker_id=str(wid), name=name, factors=factors, periods=wperiods))
+        workers.append(WorkerInfo(worker_id=str(wid), name=name, factors=factors, periods=wperiods,
+                                  stature_m=stature))
+    identification = _identification(r, data.get("identification", {}))
+    check = _calibration_check(r, root, data.get("calibration_check"))
     gt = root / GROUND_TRUTH_DIR
     return Session(path=root, format_version=version, recorded_at=recorded_at, fps=float(fps),
                    frame_count=counts[0], cameras=tuple(session_cams), defaults=defaults, periods=periods,
                    workers=tuple(workers), scoring=dict(scoring), description=description,
                    ground_truth_dir=gt if gt.is_dir() else None, settings_path=settings_path,
-                   calibration_path=calibration_path)
+                   calibration_path=calibration_path, identification=identification, calibration_check=check)
+
+
+def _identification(r: "_Reader", table: Any) -> Identification:
+    if not isinstance(table, dict):
+        raise r.fail("identification", "expected a table (stature_tolerance_m, stature_margin_m)")
+    r.no_unknown(table, _IDENTIFICATION_KEYS, "identification")
+    values = {k: r.positive(v, f"identification.{k}") for k, v in table.items()}
+    return Identification(**values)
+
+
+def _calibration_check(r: "_Reader", root: Path, table: Any) -> CalibrationCheck | None:
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise r.fail("calibration_check", "expected a table (observations, length_m)")
+    r.no_unknown(table, _CHECK_KEYS, "calibration_check")
+    name = r.string(r.require(table, "observations", "calibration_check"), "calibration_check.observations")
+    length = r.positive(r.require(table, "length_m", "calibration_check"), "calibration_check.length_m")
+    path = root / name
+    if not path.is_file():
+        raise r.fail("calibration_check.observations", f"the file {name!r} does not exist in the session folder")
+    return CalibrationCheck(observations_path=path, length_m=length)
 
 
 def _check_scoring(table: dict[str, Any], path: Path) -> None:
@@ -559,7 +631,8 @@ def probe_video(path: Path, *, full: bool = True) -> tuple[int, float, tuple[int
 def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, str]], fps: float | None = None,
                      description: str | None = None, defaults: TaskFactors | None = None,
                      periods: Sequence[FactorPeriod] = (), workers: Sequence[WorkerInfo] = (),
-                     scoring: Mapping[str, Any] | None = None, header: str = "") -> str:
+                     scoring: Mapping[str, Any] | None = None, header: str = "",
+                     calibration_check: tuple[str, float] | None = None) -> str:
     """The text of a settings.toml (format_version 1) for these values; load_session reads it back."""
     import tomli_w
 
@@ -579,6 +652,8 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
             entry: dict[str, Any] = {}
             if w.name:
                 entry["name"] = w.name
+            if w.stature_m is not None:
+                entry["stature_m"] = float(w.stature_m)
             entry.update(w.factors.given())
             if w.periods:
                 entry["periods"] = [_period_dict(p) for p in w.periods]
@@ -586,6 +661,8 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
         data["workers"] = table
     if scoring:
         data["scoring"] = dict(scoring)
+    if calibration_check is not None:
+        data["calibration_check"] = {"observations": calibration_check[0], "length_m": float(calibration_check[1])}
     return header + tomli_w.dumps(data)
 
 

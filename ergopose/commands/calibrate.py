@@ -94,11 +94,15 @@ def register(subparsers) -> argparse.ArgumentParser:
                     "and print target and measured length per lens region (by the largest angle from a lens\n"
                     "axis among the measurement's rays: central < 40 deg, outer 40-70 deg, edge > 70 deg).\n"
                     "Observation CSV columns: measurement,camera,end,u,v (end is a or b; one row per camera\n"
-                    "and end; measurement labels one placement of the bar). Sessions: a later release.",
-        epilog="Example: ergopose calibrate check --calibration calibration.toml --observations bar.csv --length 1.5")
-    p.add_argument("--calibration", required=True, metavar="FILE", help="calibration TOML (intrinsics and poses)")
-    p.add_argument("--observations", required=True, metavar="CSV", help="bar-end pixels (see above)")
-    p.add_argument("--length", type=float, required=True, metavar="M", help="true bar length, metres")
+                    "and end; measurement labels one placement of the bar).\n\n"
+                    "With --session, the calibration, the observations and the length come from the session's\n"
+                    "settings.toml ([calibration_check] observations, length_m; docs/session-format.md).",
+        epilog="Examples:\n  ergopose calibrate check --session day1/\n"
+               "  ergopose calibrate check --calibration calibration.toml --observations bar.csv --length 1.5")
+    p.add_argument("--session", metavar="DIR", help="a session folder whose settings name the bar observations")
+    p.add_argument("--calibration", metavar="FILE", help="calibration TOML (intrinsics and poses)")
+    p.add_argument("--observations", metavar="CSV", help="bar-end pixels (see above)")
+    p.add_argument("--length", type=float, metavar="M", help="true bar length, metres")
     p.add_argument("--rings", default="40,70", metavar="DEG,DEG",
                    help="ring bounds in degrees from the lens axis (default 40,70)")
     p.add_argument("--out", metavar="CSV", help="also write every measurement (length, region, angle) here")
@@ -327,13 +331,31 @@ def run_check(args: argparse.Namespace) -> int:
     from ergopose.calibration import check
     from ergopose.geometry.calibration_file import load_calibration
 
-    cameras = load_calibration(args.calibration)
+    if args.session is not None:
+        if any(v is not None for v in (args.calibration, args.observations, args.length)):
+            raise ConfigError("give either --session or --calibration, --observations and --length, not both",
+                              field="--session")
+        from ergopose.session import load_session
+
+        session = load_session(args.session, check_videos=False)
+        if session.calibration_check is None:
+            raise ConfigError("the settings name no reference bar: add a [calibration_check] table with "
+                              "observations (a CSV of bar-end pixels) and length_m", path=session.settings_path)
+        cameras = list(session.calibrated_cameras)
+        observations, length = session.calibration_check.observations_path, session.calibration_check.length_m
+    else:
+        missing = [o for o, v in (("--calibration", args.calibration), ("--observations", args.observations),
+                                  ("--length", args.length)) if v is None]
+        if missing:
+            raise ConfigError(f"missing {', '.join(missing)} (or give --session DIR)", field=missing[0])
+        cameras = load_calibration(args.calibration)
+        observations, length = args.observations, args.length
     if len(cameras) < 2:
         raise ConfigError(f"the check needs at least two cameras, the file has {len(cameras)}", path=args.calibration)
     rings = _floats(args.rings, 2, "--rings")
     names = [c.name for c in cameras]
-    labels, pixels = check.read_bar_observations(args.observations, names)
-    report = check.measure_bar(cameras, pixels, args.length, ring_bounds_deg=rings, labels=labels)
+    labels, pixels = check.read_bar_observations(observations, names)
+    report = check.measure_bar(cameras, pixels, length, ring_bounds_deg=rings, labels=labels)
     m = report.measurements
     print(f"Bar length check: target {report.target_length:.3f} m, cameras {', '.join(names)}, "
           f"{len(m.labels)} measurements")

@@ -175,16 +175,20 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
                                             write_worker_summary_csv)
     from ergopose.pipeline.assess import WorkerOutput
     from ergopose.recon.diagnostics import limb_diagnostics
+    from ergopose.pipeline.identify import identify_by_stature
     from ergopose.recon.tracking import identity_name
 
     tf = tracks.frames
     workers = tf.workers
     diagnostics = {d.worker: d for d in limb_diagnostics(tf, recon)} if workers else {}
+    measured = {name: info.get("stature_estimate_m") for name, info in tracks.worker_summary.items()}
+    ident = identify_by_stature({identity_name(w): measured.get(identity_name(w)) for w in workers}, session)
     scored: list[ScoredWorker] = []
     for k, w in enumerate(workers):
-        wid = identity_name(w)
+        tracked = identity_name(w)
+        wid = ident.rename(tracked)
         report(progress, "scoring", k, len(workers), unit="worker", message=wid)
-        scored.append(score_worker(session, tf.worker_rows(w), wid, scoring, diagnostics[wid]))
+        scored.append(score_worker(session, tf.worker_rows(w), wid, scoring, diagnostics[tracked]))
     report(progress, "scoring", len(workers), len(workers), unit="worker")
 
     csv_dir = out_dir / CSV_DIR
@@ -201,7 +205,7 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
                                     reba_high_share=_high_share(s.frames, "reba_risk_level", 3),
                                     csv_files=(frames_csv, summary_csv)))
     session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
-    index = write_report(session, scored, out_dir, scoring, models, csv_files, progress)
+    index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress)
     return Outputs(index_html=index, session_csv=session_csv, workers=tuple(outputs))
 
 
@@ -213,7 +217,7 @@ def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
 
 
 def write_report(session: Session, scored: Sequence[ScoredWorker], out_dir: Path, scoring,
-                 models: Sequence[ModelUse], csv_files: dict, progress: ProgressCallback | None) -> Path:
+                 models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None) -> Path:
     """Store the report results (ergopose.report.results) and render the pages."""
     from ergopose.report import adapters
     from ergopose.report.context import DataFile, SessionInfo
@@ -247,12 +251,50 @@ def write_report(session: Session, scored: Sequence[ScoredWorker], out_dir: Path
         created=dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
         models=tuple(adapters.model_info(m.card, m.sha256) for m in models), methods=adapters.methods_info(),
         settings=adapters.settings_records(scoring),
-        calibration=adapters.calibration_info(session.calibration_path, session.camera_names),
-        floor=floor, workers=adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
+        calibration=adapters.calibration_info(session.calibration_path, session.camera_names,
+                                              check=calibration_check(session)),
+        floor=floor, workers=_with_identities(adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
+                                              ident, session),
         csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),))
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, progress=progress)
     return files.index
+
+
+def calibration_check(session: Session):
+    """The reference-bar check of the session's calibration (None when the settings give no bar)."""
+    if session.calibration_check is None:
+        return None
+    from ergopose.calibration import check
+
+    spec = session.calibration_check
+    labels, pixels = check.read_bar_observations(spec.observations_path, session.camera_names)
+    return check.measure_bar(session.calibrated_cameras, pixels, spec.length_m, labels=labels)
+
+
+def _with_identities(infos, ident, session: Session):
+    """Each worker's assumptions, plus how the tracked person was matched to the settings' worker."""
+    import dataclasses
+
+    from ergopose.report.context import Assumption
+
+    out = []
+    for info in infos:
+        m = ident.match_of(info.worker_id)
+        if m is not None:
+            extra = Assumption(item="who this is",
+                               value=f"the person tracked as {m.tracked_id}: measured stature {m.measured_m:.2f} m, "
+                                     f"given {m.given_m:.2f} m",
+                               applies_to="the name, task factors and periods of this worker",
+                               source=f"{session.settings_path.name} [workers.{m.worker_id}] stature_m")
+            info = dataclasses.replace(info, assumptions=(extra,) + tuple(info.assumptions))
+        elif ident.notes:
+            extra = Assumption(item="who this is", value="not matched to a worker of the settings: "
+                               + "; ".join(ident.notes), applies_to="the defaults and periods for everyone apply",
+                               source=f"{session.settings_path.name} stature_m")
+            info = dataclasses.replace(info, assumptions=(extra,) + tuple(info.assumptions))
+        out.append(info)
+    return tuple(out)
 
 
 def _floor_plan(session: Session):

@@ -93,7 +93,8 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
         save_calibration(tmp / "calibration.toml", cameras,
                          description=f"SIMULATED rig of ergopose simulate (seed {config.seed}): exact values")
         videos = [f"{c.name}.mp4" for c in cameras]
-        (tmp / "settings.toml").write_text(_settings_text(config, motion, cameras, videos), encoding="utf-8")
+        bars = write_bar_observations_for(tmp / BARS_FILE, scene, cameras, config.seed)
+        (tmp / "settings.toml").write_text(_settings_text(config, motion, cameras, videos, bars), encoding="utf-8")
         per_camera = render_cameras(tmp, scene, cameras, motion, bodies, videos, config, progress)
         gt = tmp / "ground_truth"
         gt.mkdir()
@@ -107,15 +108,44 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
     return out
 
 
-def _settings_text(config: SimulationConfig, motion: Motion, cameras, videos: list[str]) -> str:
+#: The reference-bar observations of a simulated session (for the calibration check).
+BARS_FILE = "reference_bars.csv"
+#: Pixel noise (standard deviation, px) of the simulated bar-end observations: what a careful
+#: person marking the bar ends in the two videos would achieve.
+BAR_MARK_NOISE_PX = 0.5
+
+
+def write_bar_observations_for(path: Path, scene, cameras, seed: int) -> float | None:
+    """Write where the scene's reference bars' ends appear in every camera (with marking noise).
+
+    Returns the bars' length (all have the same), or None when the scene has no bar.
+    """
+    from ergopose.calibration.check import write_bar_observations
+
+    bars = list(scene.bars)
+    if not bars:
+        return None
+    ends = np.array([[b.end_a, b.end_b] for b in bars], dtype=np.float64)  # (M, 2, 3)
+    rng = np.random.default_rng([int(seed), 7])
+    pixels = np.stack([cam.project_world(ends) for cam in cameras], axis=1)  # (M, V, 2, 2)
+    pixels = pixels + rng.normal(0.0, BAR_MARK_NOISE_PX, size=pixels.shape)
+    write_bar_observations(path, [c.name for c in cameras], pixels, labels=[b.name for b in bars])
+    return float(bars[0].length)
+
+
+def _settings_text(config: SimulationConfig, motion: Motion, cameras, videos: list[str],
+                   bar_length: float | None = None) -> str:
     workers = []
     for w in motion.workers:
         periods = tuple(SessionPeriod(start_s=p.start_s, end_s=p.end_s,
                                       factors=TaskFactors(load_kg=p.load_kg, load_mode=p.load_mode,
                                                           coupling=p.coupling))
                         for p in _merge_periods(w.periods))
+        # The stature as a safety engineer would note it (to the centimetre): it lets ergopose tell
+        # which tracked person is which worker.
         workers.append(WorkerInfo(worker_id=w.worker_id, name=f"Simulated worker {w.worker_id[1:]}",
-                                  factors=TaskFactors(), periods=periods))
+                                  factors=TaskFactors(), periods=periods,
+                                  stature_m=round(float(w.spec.stature), 2)))
     header = ("# A SIMULATED session written by 'ergopose simulate' (docs/simulator.md); the format is in\n"
               "# docs/session-format.md. The workers' load periods are the simulation's ground truth.\n")
     return settings_to_toml(
@@ -124,7 +154,8 @@ def _settings_text(config: SimulationConfig, motion: Motion, cameras, videos: li
                      f"{config.size[0]} x {config.size[1]} px at {config.fps:g} fps"),
         defaults=TaskFactors(load_kg=0.0, load_mode="intermittent", coupling="good", shock=False,
                              arm_supported=False, seated=False),
-        workers=workers, header=header)
+        workers=workers, header=header,
+        calibration_check=(BARS_FILE, bar_length) if bar_length is not None else None)
 
 
 def _merge_periods(periods) -> list:
