@@ -424,6 +424,8 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
     T = truth_rows(inp, person)
     truth = {int(w): T[tf.worker == w] for w in np.unique(tf.worker[person >= 0])}
     diags = {d.worker: d for d in limb_diagnostics(tf, inp.recon)} if len(tf) else {}
+    raw_diags = {d.worker: d for d in limb_diagnostics(tf, inp.recon, source="raw")} if len(tf) else {}
+    raw_cvs: list[float] = []
     meas_all, true_all, reg_all = [], [], []
     cvs: dict[str, dict[str, list[float]]] = {name: {r: [] for r in ("all",) + REGIONS} for name, _, _ in LIMBS}
     true_cvs: dict[str, list[float]] = {name: [] for name, _, _ in LIMBS}
@@ -438,6 +440,7 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
         true_all.append(Lt)
         reg_all.append(reg)
         d = diags[identity_name(w)]
+        raw_cvs += [c for c in (raw_diags[identity_name(w)].get(name).cv for name, _, _ in LIMBS) if math.isfinite(c)]
         for li, (name, _, _) in enumerate(LIMBS):
             for region in ("all",) + REGIONS:
                 s = d.get(name, region)
@@ -486,15 +489,16 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
     return {
         "definition": ("per tracked worker (matched in at least one frame) and limb of keypoints.LIMBS: measured "
                        "length (final positions) minus the true length of the limb of the simulated worker the row "
-                       "is matched to in that frame; CV = std / mean of the "
-                       "worker's measured lengths (ergopose.recon.diagnostics.limb_diagnostics), averaged over "
-                       "workers; true_cv_pct is the same for each simulated worker's true lengths over the whole "
-                       "shift, averaged over them (the body model's own variation: the trunk sides change with "
-                       "shoulder elevation); rigid limbs are those whose true CV is "
-                       f"below {100 * RIGID_CV:g} %; "
+                       "is matched to in that frame; CV = std / mean of the worker's measured lengths "
+                       "(ergopose.recon.diagnostics.limb_diagnostics), averaged over workers and limbs "
+                       "(cv_mean_raw_pct: the same from the raw triangulation); true_cv_pct is the same for each "
+                       "simulated worker's true lengths over the whole shift, averaged over them (the body model's "
+                       "own variation: the trunk sides change with shoulder elevation); rigid limbs are those whose "
+                       f"true CV is below {100 * RIGID_CV:g} %; "
                        "frequency = share of the worker's rows where both joints have a position"),
         "cv_mean_pct": _r(100.0 * np.mean(all_cv), 3) if all_cv else float("nan"),
         "cv_max_pct": _r(100.0 * np.max(all_cv), 3) if all_cv else float("nan"),
+        "cv_mean_raw_pct": _r(100.0 * np.mean(raw_cvs), 3) if raw_cvs else float("nan"),
         "rigid_limbs": rigid,
         "cv_mean_rigid_pct": _r(100.0 * np.mean(rigid_cv), 3) if rigid_cv else float("nan"),
         "cv_max_rigid_pct": _r(100.0 * np.max(rigid_cv), 3) if rigid_cv else float("nan"),
@@ -527,7 +531,7 @@ def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
     if not path.is_file():
         raise InputError(f"the frames CSV of {worker} is missing (the tracks table has this worker)", path=path)
     try:
-        frame = pd.read_csv(path)
+        frame = pd.read_csv(path, low_memory=False)
     except (OSError, ValueError) as exc:
         raise InputError(f"cannot read the frames CSV ({exc})", path=path) from None
     for col in ("frame",) + tuple(SCORE_SCALES):

@@ -66,7 +66,8 @@ def format_evaluation(ev: dict) -> str:
     lines += ["", "Limb lengths"]
     lines.append(f"  CV mean {_f(lb['cv_mean_pct'], '.2f', ' %')}, max {_f(lb['cv_max_pct'], '.2f', ' %')} "
                  f"(rigid limbs: mean {_f(lb['cv_mean_rigid_pct'], '.2f', ' %')}, "
-                 f"max {_f(lb['cv_max_rigid_pct'], '.2f', ' %')}); "
+                 f"max {_f(lb['cv_max_rigid_pct'], '.2f', ' %')}; raw triangulation: mean "
+                 f"{_f(lb['cv_mean_raw_pct'], '.2f', ' %')}); "
                  f"reconstructed {_f(lb['frequency_pct'], '.1f', ' %')} of limb-frames; error "
                  f"bias {_f(lb['error']['bias_mm'], '.1f', ' mm')}, RMSE {_f(lb['error']['rmse_mm'], '.1f', ' mm')}")
     lines.append(f"  {'limb':<17} {'true m':>7} {'CV %':>6} {'true CV %':>9} {'RMSE mm':>8} {'freq %':>7}  "
