@@ -154,6 +154,8 @@ class _Inputs:
     recon: Any  # ReconSettings
     scoring: Any  # ScoringSettings
     metadata: dict
+    reported: dict  # tracked id ("worker_3") -> id the results use ("w1" when named by stature)
+    identification_notes: tuple
 
 
 def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> _Inputs:
@@ -179,8 +181,25 @@ def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> _Inputs:
     table = read_tracks(layout.tracks)
     settings = table.metadata.get("settings") or {}
     recon = from_mapping(settings, source=layout.tracks) if settings else ReconSettings()
-    return _Inputs(session=session, gt=gt, tracks=table_to_frames(table), recon=recon,
-                   scoring=scoring_settings(session), metadata=table.metadata)
+    tracks = table_to_frames(table)
+    reported, notes = reported_ids(session, tracks, table.metadata)
+    return _Inputs(session=session, gt=gt, tracks=tracks, recon=recon, scoring=scoring_settings(session),
+                   metadata=table.metadata, reported=reported, identification_notes=notes)
+
+
+def reported_ids(session, tracks, metadata: Mapping) -> tuple[dict[str, str], tuple[str, ...]]:
+    """{tracked id: the id the results use}: ``ergopose assess`` names a tracked person after the
+    settings' worker whose given stature matches its measured one
+    (:func:`ergopose.pipeline.identify.identify_by_stature`, on the stature estimates stored in the
+    tracks table) and keeps the pseudonym otherwise; the same decision is re-made here."""
+    from ergopose.pipeline.identify import identify_by_stature
+    from ergopose.recon.tracking import identity_name
+
+    names = [identity_name(w) for w in tracks.workers]
+    workers = metadata.get("workers") or {}
+    measured = {n: (workers.get(n) or {}).get("stature_estimate_m") for n in names}
+    ident = identify_by_stature(measured, session)
+    return {n: ident.rename(n) for n in names}, tuple(ident.notes)
 
 
 # ------------------------------------------------------------------------------------ lens regions
@@ -290,12 +309,33 @@ def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, 
         "unmatched_tracked_workers": [identity_name(w) for w in tf.workers if w not in mapping],
         "tracked_ids_per_ground_truth_worker": per_gt,
         "identity_switches": int(switches),
+        "reported_as": dict(inp.reported),
+        "named_by_stature": _naming(inp, person),
         "rows": int(len(tf)),
         "rows_matched": int(matched.sum()),
         "rows_matched_to_another_worker_than_the_mapping": int((matched & (person != majority)).sum()),
         "match_distance_m": MATCH_DISTANCE_M,
     }
     return section, mapping
+
+
+def _naming(inp: _Inputs, person: np.ndarray) -> dict:
+    """How often a tracked person named after a settings worker (by stature) really is that worker:
+    rows of the named ids matched, frame by frame, to the simulated worker of the same id."""
+    from ergopose.recon.tracking import identity_name
+
+    tf, gt = inp.tracks, inp.gt
+    named = {w: inp.reported[identity_name(w)] for w in tf.workers
+             if inp.reported[identity_name(w)] != identity_name(w)}
+    rows = correct = 0
+    for w, wid in named.items():
+        sel = (tf.worker == w) & (person >= 0)
+        rows += int(sel.sum())
+        if wid in gt.worker_ids:
+            correct += int((person[sel] == gt.worker_ids.index(wid)).sum())
+    return {"ids": {identity_name(w): wid for w, wid in named.items()}, "rows": rows, "rows_correct": correct,
+            "correct_pct": _r(100.0 * correct / rows, 2) if rows else float("nan"),
+            "notes": list(inp.identification_notes)}
 
 
 def _worker_number(name: str) -> int:
@@ -550,7 +590,7 @@ def _worker_frames(inp: _Inputs, layout: ResultsLayout,
     out = {}
     for w in np.unique(tf.worker[person >= 0]):
         w = int(w)
-        csv = _read_frames_csv(layout, identity_name(w))
+        csv = _read_frames_csv(layout, inp.reported[identity_name(w)])
         sel = tf.worker == w
         frames, people = tf.frame[sel], person[sel]
         f = csv["frame"].to_numpy(np.int64)
@@ -729,7 +769,7 @@ def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
         for p in np.unique(people_all[people_all >= 0]):
             p = int(p)
             sel = people_all == p
-            truth, nudged = truth_of(p, identity_name(w))
+            truth, nudged = truth_of(p, inp.reported[identity_name(w)])
             frames = csv["frame"].to_numpy(np.int64)[sel]
             regions.append(_region_of_rows(inp, w, frames))
             for c in SCORE_SCALES:
@@ -748,7 +788,7 @@ def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
                        "joints) of the simulated worker the row is matched to in that frame, scored by "
                        "ergopose.ergonomics.scoring.score_posture (over that worker's whole simulated shift) with the "
                        "session's scoring settings and the task factors the pipeline applied (session.factor_table "
-                       "of the tracked "
+                       "of the id the results use for the tracked "
                        "worker id); frames where either score is missing are left out and counted; off_edge "
                        f"repeats the agreement without the frames whose true score changes when every true angle "
                        f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge)"),
@@ -782,11 +822,11 @@ def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
         }
         out[c] = entry
     named = {w.worker_id for w in session.workers if w.periods or w.factors.given()}
-    tracked = {identity_name(w) for w in inp.tracks.workers}
+    tracked = set(inp.reported.values())
     foreign = sorted(named - tracked)
     out["task_factor_note"] = (
-        f"settings.toml gives task factors for worker ids {', '.join(foreign)} that no tracked worker has; the "
-        "pipeline (session.factor_table of worker_N) did not apply them, and neither do these ground-truth scores"
+        f"settings.toml gives task factors for worker ids {', '.join(foreign)} that no tracked person was named "
+        "after; the pipeline did not apply them to anyone, and neither do these ground-truth scores"
         if foreign else "")
     return out
 

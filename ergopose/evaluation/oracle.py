@@ -93,6 +93,7 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
     """
     from ergopose.atomic import atomic_dir, write_text
     from ergopose.ergonomics.export import write_worker_frames_csv
+    from ergopose.pipeline.identify import identify_by_stature
     from ergopose.pipeline.stages import score_worker, scoring_settings
     from ergopose.recon.diagnostics import limb_diagnostics
     from ergopose.recon.session import reconstruct_session
@@ -119,19 +120,22 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
     with atomic_dir(layout.root) as tmp:
         tracks_path = tmp / layout.tracks.relative_to(layout.root)
         tracks_path.parent.mkdir(parents=True, exist_ok=True)
+        statures = {name: {"stature_estimate_m": _num(summary.stature_m.get(name))} for name in summary.workers}
         with TracksWriter(tracks_path, fps=session.fps, cameras=session.camera_names,
                           settings=recon.as_dict()) as writer:
             writer.meta["source"] = "oracle"
             writer.meta["oracle"] = options.as_dict()
             writer.write(tracks)
-            writer.set_workers({name: {"stature_estimate_m": _num(summary.stature_m.get(name))}
-                                for name in summary.workers})
+            writer.set_workers(statures)
+        # Named after the settings' workers by stature, as ergopose assess does.
+        ident = identify_by_stature({k: v["stature_estimate_m"] for k, v in statures.items()}, session)
         diagnostics = {d.worker: d for d in limb_diagnostics(tracks, recon)} if len(tracks) else {}
         workers = tracks.workers
         for k, w in enumerate(workers):
-            wid = identity_name(w)
+            tracked = identity_name(w)
+            wid = ident.rename(tracked)
             report(progress, "oracle scoring", k, len(workers), unit="worker", message=wid)
-            scored = score_worker(session, tracks.worker_rows(w), wid, scoring, diagnostics[wid])
+            scored = score_worker(session, tracks.worker_rows(w), wid, scoring, diagnostics[tracked])
             write_worker_frames_csv(tmp / "csv" / f"{PREFIX}{wid}_frames.csv", scored.frames)
         report(progress, "oracle scoring", len(workers), len(workers), unit="worker")
         write_text(tmp / README, _readme(options, session, len(workers), summary.seconds))

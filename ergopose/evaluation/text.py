@@ -36,6 +36,13 @@ def format_evaluation(ev: dict) -> str:
     lines.append(f"  tracked {len(m['tracked_workers'])} worker id(s) for {len(m['ground_truth_workers'])} simulated "
                  f"worker(s); identity switches: {m['identity_switches']}; rows matched to another worker than "
                  f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}")
+    nb = m["named_by_stature"]
+    if nb["ids"]:
+        lines.append(f"  named after settings workers by stature: "
+                     + ", ".join(f"{t} -> {w}" for t, w in nb["ids"].items())
+                     + f"; right person in {_f(nb['correct_pct'], '.1f', ' %')} of their rows")
+    for note in nb["notes"]:
+        lines.append(f"  naming: {note}")
     for gid, ids in m["tracked_ids_per_ground_truth_worker"].items():
         lines.append(f"    {gid}: {', '.join(ids) if ids else '(not tracked)'}")
     if m["unmatched_tracked_workers"]:

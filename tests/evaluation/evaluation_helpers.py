@@ -37,10 +37,13 @@ def ground_truth_tracks(gt, worker_order=None):
                        gated=np.zeros((n, NUM_JOINTS), bool), smoothed=False, lens_angle_deg=angle)
 
 
-def write_results(session_dir: Path, out: Path, tracks) -> Path:
+def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = None) -> Path:
     """An 'ergopose assess'-shaped results folder from TrackFrames: the tracks table written with
     the project's TracksWriter, and per worker the frames CSV from the pipeline's own scoring
-    (joint angles -> task factors -> RULA/REBA) and CSV writer."""
+    (joint angles -> task factors -> RULA/REBA) and CSV writer. With ``statures`` ({tracked id:
+    metres}, stored as the table's stature estimates) the workers are named after the settings'
+    workers by stature, as assess does."""
+    from ergopose.pipeline.identify import identify_by_stature
     from ergopose.ergonomics.export import write_worker_frames_csv
     from ergopose.pipeline.stages import score_worker, scoring_settings
     from ergopose.recon.settings import ReconSettings
@@ -52,9 +55,12 @@ def write_results(session_dir: Path, out: Path, tracks) -> Path:
     with TracksWriter(out / "pipeline" / "tracks.parquet", fps=session.fps, cameras=session.camera_names,
                       settings=ReconSettings().as_dict()) as writer:
         writer.write(tracks)
+        if statures:
+            writer.set_workers({k: {"stature_estimate_m": v} for k, v in statures.items()})
+    ident = identify_by_stature(dict(statures or {}), session)
     scoring = scoring_settings(session)
     for w in tracks.workers:
-        wid = identity_name(w)
+        wid = ident.rename(identity_name(w))
         scored = score_worker(session, tracks.worker_rows(w), wid, scoring, None)
         write_worker_frames_csv(out / "csv" / f"{wid}_frames.csv", scored.frames)
     return out

@@ -118,6 +118,28 @@ def test_order_of_tracked_identities_does_not_matter(small_session, gt, tmp_path
     assert ev["scores"]["rula_grand"]["off_edge"]["kappa"] == 1.0
 
 
+def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_session, gt, tmp_path):
+    statures = {w["id"]: w["stature_m"] for w in gt.scene["workers"]}
+    # worker_1 is w2 and worker_2 is w1; the stored stature estimates name them correctly ...
+    tracks = ground_truth_tracks(gt, worker_order=[1, 0])
+    out = write_results(small_session, tmp_path / "right", tracks,
+                        statures={"worker_1": statures["w2"], "worker_2": statures["w1"]})
+    assert sorted(p.name for p in (out / "csv").iterdir()) == ["w1_frames.csv", "w2_frames.csv"]
+    ev = _evaluate(small_session, out)
+    m = ev["matching"]
+    assert m["reported_as"] == {"worker_1": "w2", "worker_2": "w1"}
+    assert m["named_by_stature"]["correct_pct"] == 100.0 and m["named_by_stature"]["rows"] == 2 * gt.n_frames
+    # the true scores use the named workers' loads, exactly as the pipeline did: full agreement
+    assert ev["scores"]["rula_grand"]["off_edge"]["exact_agreement_pct"] == 100.0
+    assert ev["scores"]["task_factor_note"] == ""
+    # ... and swapped estimates name them wrongly: every named row is the other person
+    out = write_results(small_session, tmp_path / "wrong", tracks,
+                        statures={"worker_1": statures["w1"], "worker_2": statures["w2"]})
+    ev = _evaluate(small_session, out)
+    assert ev["matching"]["named_by_stature"]["correct_pct"] == 0.0
+    assert ev["errors_3d"]["mpjpe_mm"] == 0.0  # the geometry is still exact
+
+
 def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, tmp_path):
     tf = ground_truth_tracks(gt)
     half = gt.n_frames // 2

@@ -32,13 +32,16 @@ def test_oracle_outputs_are_labelled(exact_run):
     meta = read_metadata(layout.tracks)
     assert meta["source"] == "oracle" and meta["oracle"]["noise_px"] == 0.0
     csvs = sorted(p.name for p in (layout.root / "csv").iterdir())
-    assert csvs and all(name.startswith("ORACLE_worker_") and name.endswith("_frames.csv") for name in csvs)
+    # named after the settings' workers by stature, as assess does (the simulator gives the statures)
+    assert csvs == ["ORACLE_w1_frames.csv", "ORACLE_w2_frames.csv"]
     assert ev["source"].startswith("ORACLE 2D") and ev["oracle"]["banner"] == ev["source"]
 
 
 def test_exact_oracle_reconstructs_the_ground_truth(exact_run):
     _, _, ev = exact_run
     assert ev["matching"]["identity_switches"] == 0
+    named = ev["matching"]["named_by_stature"]
+    assert sorted(named["ids"].values()) == ["w1", "w2"] and named["correct_pct"] == 100.0
     assert sorted(ev["matching"]["mapping"].values()) == ["w1", "w2"]
     # Triangulation of exact rays is exact; the smoother lags behind fast hands and feet.
     assert ev["errors_3d"]["raw"]["mpjpe_mm"] < 0.5
