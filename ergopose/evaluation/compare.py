@@ -57,6 +57,9 @@ MIN_VISIBLE_TORSO = 2
 #: way) changes it: the simulator builds some postures exactly on scoring limits (a walking arm
 #: swing of exactly 20 degrees), where a reconstruction off by 1e-7 rad already flips the band.
 EDGE_NUDGE_RAD = 1e-6
+#: An identity switch is "sustained" when the new id then holds for this long (seconds of matched
+#: frames); shorter flickers happen when two simulated workers pass through each other.
+SUSTAINED_SWITCH_S = 1.0
 #: Limbs whose true length varies less than this (coefficient of variation) count as rigid.
 RIGID_CV = 1e-3
 
@@ -293,6 +296,9 @@ def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, 
     tf, gt = inp.tracks, inp.gt
     mapping = match_workers(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else {}
     switches = identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else 0
+    hold = max(1, int(round(SUSTAINED_SWITCH_S * gt.fps)))
+    sustained = (identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M, min_frames=hold)
+                 if len(tf) else 0)
     per_gt = {gid: sorted((identity_name(w) for w, p in mapping.items() if p == k), key=_worker_number)
               for k, gid in enumerate(gt.worker_ids)}
     majority = np.array([mapping.get(int(w), -1) for w in tf.worker], dtype=np.int64) if len(tf) else np.zeros(0, int)
@@ -302,13 +308,18 @@ def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, 
                        f"(at most {MATCH_DISTANCE_M} m); mapping = each tracked id's most frequent partner "
                        "(ergopose.recon.diagnostics.match_workers); identity_switches = how often a simulated "
                        "worker's partner id changes (diagnostics.identity_switches; a duplicate track of the same "
-                       "person alternating with the original counts at every alternation)"),
+                       "person alternating with the original counts at every alternation, and so does a flicker "
+                       "of one frame while two simulated workers pass through each other); "
+                       "identity_switches_sustained counts only changes to an id that then holds for "
+                       f"{SUSTAINED_SWITCH_S:g} s of matched frames"),
         "tracked_workers": [identity_name(w) for w in tf.workers],
         "ground_truth_workers": list(gt.worker_ids),
         "mapping": {identity_name(w): gt.worker_ids[p] for w, p in sorted(mapping.items())},
         "unmatched_tracked_workers": [identity_name(w) for w in tf.workers if w not in mapping],
         "tracked_ids_per_ground_truth_worker": per_gt,
         "identity_switches": int(switches),
+        "identity_switches_sustained": int(sustained),
+        "sustained_min_frames": hold,
         "reported_as": dict(inp.reported),
         "named_by_stature": _naming(inp, person),
         "rows": int(len(tf)),

@@ -34,7 +34,8 @@ def format_evaluation(ev: dict) -> str:
     m = ev["matching"]
     lines += ["", "Identities"]
     lines.append(f"  tracked {len(m['tracked_workers'])} worker id(s) for {len(m['ground_truth_workers'])} simulated "
-                 f"worker(s); identity switches: {m['identity_switches']}; rows matched to another worker than "
+                 f"worker(s); identity switches: {m['identity_switches']} ({m['identity_switches_sustained']} "
+                 f"holding at least {m['sustained_min_frames']} frames); rows matched to another worker than "
                  f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}")
     nb = m["named_by_stature"]
     if nb["ids"]:

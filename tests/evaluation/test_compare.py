@@ -43,7 +43,8 @@ def test_perfect_reconstruction_scores_zero_error(perfect, gt):
     F, P = gt.n_frames, len(gt.worker_ids)
     m = ev["matching"]
     assert m["mapping"] == {"worker_1": "w1", "worker_2": "w2"}
-    assert m["identity_switches"] == 0 and m["unmatched_tracked_workers"] == []
+    assert m["identity_switches"] == 0 and m["identity_switches_sustained"] == 0
+    assert m["unmatched_tracked_workers"] == []
     # Positions are stored as float32 in the tracks table: errors below 1e-6 m, 0.00 mm when rounded.
     for source in ("final", "raw"):
         e = ev["errors_3d"][source]
@@ -153,6 +154,7 @@ def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, t
     ev = _evaluate(small_session, out)
     m = ev["matching"]
     assert m["identity_switches"] == 2  # each simulated worker changes id once
+    assert m["identity_switches_sustained"] == 2  # and keeps the new one for half the session
     # the ids' majority partners: a tie of half and half each, so both rows sets of one half are "wrong"
     assert m["rows_matched"] == 2 * gt.n_frames
     assert m["rows_matched_to_another_worker_than_the_mapping"] == pytest.approx(gt.n_frames, abs=2)
@@ -167,6 +169,19 @@ def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, t
     true_distance = np.linalg.norm(gt.joints_world[half:, 0] - gt.joints_world[half:, 1], axis=-1).mean()
     by_id = ev["errors_3d"]["final"]["by_track_identity"]["all"]["mean_mm"]
     assert by_id == pytest.approx(1000 * true_distance / 2, rel=0.02)
+
+
+def test_a_one_frame_flicker_is_a_switch_but_not_a_sustained_one(small_session, gt, tmp_path):
+    tf = ground_truth_tracks(gt)
+    flick = tf.frame == 90  # the two ids exchange people for one frame only
+    points = tf.points_world.copy()
+    points[flick] = gt.joints_world[90, 2 - tf.worker[flick]]
+    out = write_results(small_session, tmp_path / "out", dataclasses.replace(tf, points_world=points,
+                                                                               raw_points_world=points.copy()))
+    m = _evaluate(small_session, out)["matching"]
+    assert m["identity_switches"] == 4  # each person: to the other id and back
+    assert m["identity_switches_sustained"] == 0 and m["sustained_min_frames"] == 12
+    assert m["rows_matched_to_another_worker_than_the_mapping"] == 2
 
 
 def test_known_offset_of_the_smoothed_positions(small_session, gt, tmp_path):
