@@ -1,11 +1,12 @@
 """Accuracy check: measure a bar of known length with the calibrated cameras, per lens region.
 
 Like the source paper's Table 1, the fisheye field of view is split into three rings by the
-angle between a ray and the lens axis (ring bounds default to 40 and 70 degrees):
+angle between a ray and the lens axis (ring bounds default to the project's lens regions,
+ergopose.geometry.regions: 30 and 60 degrees):
 
-- central: every observation of the measurement within 40 degrees of its camera's axis,
-- outer:   the largest angle between 40 and 70 degrees,
-- edge:    the largest angle above 70 degrees.
+- central: every observation of the measurement within 30 degrees of its camera's axis,
+- outer:   the largest angle between 30 and 60 degrees,
+- edge:    the largest angle above 60 degrees.
 
 A measurement's region is decided by its LARGEST angle over both bar ends and all cameras that
 saw them: a length is only as good as its worst ray.
@@ -31,9 +32,11 @@ from typing import Sequence
 import numpy as np
 
 from ergopose.errors import InputError
+from ergopose.geometry.regions import DEFAULT_LIMITS_DEG
 
 REGIONS = ("central", "outer", "edge")
-DEFAULT_RING_BOUNDS_DEG = (40.0, 70.0)
+#: The project's one definition of the lens regions (ergopose.geometry.regions).
+DEFAULT_RING_BOUNDS_DEG = DEFAULT_LIMITS_DEG
 
 
 @dataclass(frozen=True)

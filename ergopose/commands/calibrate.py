@@ -92,7 +92,7 @@ def register(subparsers) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description="Triangulate both ends of a bar of known length from its pixels in two or more cameras\n"
                     "and print target and measured length per lens region (by the largest angle from a lens\n"
-                    "axis among the measurement's rays: central < 40 deg, outer 40-70 deg, edge > 70 deg).\n"
+                    "axis among the measurement's rays: central < 30 deg, outer 30-60 deg, edge > 60 deg).\n"
                     "Observation CSV columns: measurement,camera,end,u,v (end is a or b; one row per camera\n"
                     "and end; measurement labels one placement of the bar).\n\n"
                     "With --session, the calibration, the observations and the length come from the session's\n"
@@ -103,8 +103,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--calibration", metavar="FILE", help="calibration TOML (intrinsics and poses)")
     p.add_argument("--observations", metavar="CSV", help="bar-end pixels (see above)")
     p.add_argument("--length", type=float, metavar="M", help="true bar length, metres")
-    p.add_argument("--rings", default="40,70", metavar="DEG,DEG",
-                   help="ring bounds in degrees from the lens axis (default 40,70)")
+    p.add_argument("--rings", default="30,60", metavar="DEG,DEG",
+                   help="ring bounds in degrees from the lens axis (default 30,60: ergopose's lens regions)")
     p.add_argument("--out", metavar="CSV", help="also write every measurement (length, region, angle) here")
     p.set_defaults(func=run_check)
 

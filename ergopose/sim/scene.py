@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, region_index, region_table
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 
@@ -47,17 +48,12 @@ IMAGE_CIRCLE_THETA = math.radians(95.0)
 #: Lens regions for per-region statistics (angle from the lens axis, degrees): central below 30,
 #: outer 30-55, edge above 55. ergopose's choice: the paper splits the field of view into three
 #: rings without giving their limits; floor points of the 6 x 6 m area lie within about 58 degrees.
-LENS_REGIONS_DEG = (("central", 0.0, 30.0), ("outer", 30.0, 55.0), ("edge", 55.0, 180.0))
+LENS_REGIONS_DEG = region_table(DEFAULT_LIMITS_DEG)
 
 
 def lens_region(theta: np.ndarray) -> np.ndarray:
     """Angle from the lens axis (radians, any shape) -> region index into LENS_REGIONS_DEG (-1 for NaN)."""
-    deg = np.round(np.degrees(np.asarray(theta, dtype=np.float64)), 9)  # 30 deg in radians and back is 29.999...
-    out = np.full(deg.shape, -1, dtype=np.int8)
-    for k, (_, lo, hi) in enumerate(LENS_REGIONS_DEG):
-        with np.errstate(invalid="ignore"):
-            out[(deg >= lo) & (deg < hi)] = k
-    return out
+    return region_index(np.degrees(np.asarray(theta, dtype=np.float64)), DEFAULT_LIMITS_DEG)
 
 
 @dataclass(frozen=True)

@@ -80,7 +80,7 @@ def test_bar_measured_exactly_through_exact_cameras(rng):
     np.testing.assert_allclose(rep.measurements.endpoints_world, ends, atol=1e-7)
     # the region is the one of the largest angle from a lens axis
     angles = np.stack([np.stack([c.theta_of_points_world(ends[:, e]) for e in range(2)], -1) for c in cams], 1)
-    expected = region_of(angles.max(axis=(1, 2)), (np.radians(40), np.radians(70)))
+    expected = region_of(angles.max(axis=(1, 2)), (np.radians(30), np.radians(60)))
     assert [("central", "outer", "edge")[i] for i in expected] == list(rep.measurements.regions)
     assert sum(r.n for r in rep.regions) == 50
     np.testing.assert_allclose(angles_from_axis(cams[0], px[:, 0, 0]), angles[:, 0, 0], atol=1e-9)

@@ -85,8 +85,8 @@ def _bars(rng: np.random.Generator, n: int) -> np.ndarray:
     """(M, 2, 3) ends of a 1.5 m bar held anywhere in the 6 x 6 m room, 0.05-2.8 m high."""
     centre = np.concatenate([
         np.stack([rng.uniform(-2.7, 2.7, n), rng.uniform(-2.7, 2.7, n), rng.uniform(0.3, 2.4, n)], -1),
-        # more bars under the rig, where the central region is
-        np.stack([rng.uniform(-0.6, 0.6, n // 2), rng.uniform(-0.6, 0.6, n // 2), rng.uniform(0.2, 1.0, n // 2)], -1),
+        # more bars under the rig, where the central region (< 30 deg from both axes) is
+        np.stack([rng.uniform(-0.6, 0.6, n), rng.uniform(-0.6, 0.6, n), rng.uniform(0.2, 1.0, n)], -1),
     ])
     m = len(centre)
     az, el = rng.uniform(0, np.pi, m), rng.uniform(-0.3, 0.3, m)

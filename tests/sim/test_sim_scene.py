@@ -67,5 +67,5 @@ def test_stations_are_clear_of_furniture_and_inside_the_area():
 
 
 def test_lens_region_boundaries():
-    theta = np.radians([0.0, 29.9, 30.0, 54.9, 55.0, 90.0, np.nan])
+    theta = np.radians([0.0, 29.9, 30.0, 59.9, 60.0, 90.0, np.nan])
     assert lens_region(theta).tolist() == [0, 0, 1, 1, 2, 2, -1]
