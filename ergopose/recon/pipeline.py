@@ -108,42 +108,58 @@ def _empty_frames(smoothed: bool) -> TrackFrames:
 
 
 class _Rows:
-    """Columnar rows (dict of arrays with a common first axis), appended in batches."""
+    """Columnar rows (dict of arrays with a common first axis) kept sorted by frame.
+
+    New batches are merged (and sorted, stably) once when rows are next read; reading a range
+    of frames and dropping the rows before a frame are binary searches and slices, so a long
+    chunk is not copied once per smoothing block.
+    """
 
     def __init__(self) -> None:
-        self.batches: list[dict[str, np.ndarray]] = []
+        self.data: dict[str, np.ndarray] | None = None
+        self.new: list[dict[str, np.ndarray]] = []
 
     def add(self, batch: dict[str, np.ndarray]) -> None:
         if len(batch["frame"]):
-            self.batches.append(batch)
+            self.new.append(batch)
 
     def all(self) -> dict[str, np.ndarray] | None:
-        if not self.batches:
-            return None
-        if len(self.batches) > 1:
-            keys = self.batches[0].keys()
-            self.batches = [{k: np.concatenate([b[k] for b in self.batches]) for k in keys}]
-        return self.batches[0]
+        if self.new:
+            parts = ([self.data] if self.data is not None else []) + self.new
+            keys = parts[0].keys()
+            cat = {k: np.concatenate([p[k] for p in parts]) for k in keys}
+            frame = cat["frame"]
+            if len(frame) > 1 and np.any(frame[1:] < frame[:-1]):
+                order = np.argsort(frame, kind="stable")
+                cat = {k: v[order] for k, v in cat.items()}
+            self.data = cat
+            self.new = []
+        return self.data
 
     def split(self, keep: np.ndarray) -> dict[str, np.ndarray]:
         """Keep rows where ``keep`` (over :meth:`all`), return the others."""
         rows = self.all()
         out = {k: v[~keep] for k, v in rows.items()}
         kept = {k: v[keep] for k, v in rows.items()}
-        self.batches = [kept] if len(kept["frame"]) else []
+        self.data = kept if len(kept["frame"]) else None
         return out
 
     def range(self, f0: int, f1: int) -> dict[str, np.ndarray] | None:
         rows = self.all()
         if rows is None:
             return None
-        sel = (rows["frame"] >= f0) & (rows["frame"] < f1)
-        return {k: v[sel] for k, v in rows.items()}
+        i0, i1 = np.searchsorted(rows["frame"], [f0, f1])
+        return {k: v[i0:i1] for k, v in rows.items()}
 
     def drop_before(self, f: int) -> None:
         rows = self.all()
-        if rows is not None:
-            self.split(rows["frame"] >= f)
+        if rows is None:
+            return
+        i0 = int(np.searchsorted(rows["frame"], f))
+        if i0 == len(rows["frame"]):
+            self.data = None
+        elif i0:
+            self.data = {k: v[i0:] for k, v in rows.items()}
 
 
 class ShiftReconstruction:

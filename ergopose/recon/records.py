@@ -15,7 +15,6 @@ per person and frame, before tracking gives them identities.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np

@@ -8,9 +8,9 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    and triangulated centre (the height of the centre jumps when the torso is hidden and the
    centre falls back to other joints; the floor position hardly does); a pair is possible
    within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per second the track has gone
-   unseen; globally optimal assignment among the candidates within
-   the gates (associate.gated_assignment, scipy.optimize.linear_sum_assignment). A matched
-   track updates its centre and velocity with an alpha-beta filter (gains ALPHA, BETA).
+   unseen; globally optimal assignment among the candidates within the gates
+   (associate.gated_assignment, scipy.optimize.linear_sum_assignment). A matched track
+   updates its centre and velocity with an alpha-beta filter (gains ALPHA, BETA).
 3. Matching people seen by one camera only. Tracks still unmatched are compared with the torso
    rays of single-view people: cost = horizontal distance between the predicted centre and the
    point where the ray reaches the track's height (in front of the camera), gated by
@@ -18,7 +18,7 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    occlusion from one camera) and moves the centre to that point in x and y.
 4. Births. A person seen by both cameras and matched to no track starts a new, *tentative*
    track.
-5. Ends. A track unseen for more than ``max_coast_s`` ends (a tentative one after
+5. Ends. A track unseen for more than ``max_coast_s`` ends (a newly born tentative one after
    TENTATIVE_MAX_COAST_S).
 6. Identities. A tentative track is resolved once it has ``relink_window_s`` of 3D data, or
    when it ends (dropped as noise if it has less than ``min_track_s``). It is then compared
@@ -30,6 +30,14 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    ``relink_margin_m`` less than the second best candidate. The best such candidate gives the
    track its identity (a coasting track of that identity ends); otherwise the track gets a new
    identity. Identities are numbered in order of appearance: worker_1, worker_2, ...
+7. Contacts. Confirmed tracks whose centres come closer than ``contact_distance_m`` (people
+   passing each other, standing together) can swap people without any geometric sign. Their
+   tracks end and continuations carry on with the same identities, provisionally (their rows
+   wait); once each live continuation has ``relink_window_s`` of 3D data and a limb is
+   comparable (at most GROUP_MAX_WAIT windows), the identities are confirmed or crossed over by
+   optimal assignment on the signatures -- crossed only if that beats keeping them by
+   ``relink_margin_m`` per changed identity (:meth:`Tracker._resolve_group`). A continuation
+   that ends first keeps its identity.
 
 Single-view people never start tracks and are never triangulated. Frame times are frame / fps.
 """
@@ -39,11 +47,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from ergopose.errors import InputError
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.recon.associate import gated_assignment
-from scipy.optimize import linear_sum_assignment
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 
@@ -190,8 +198,7 @@ class _Track:
     identity: int | None = None
     hist: LimbHistogram = field(default_factory=LimbHistogram)
     pending_rows: list = field(default_factory=list)   # chunk rows not yet in hist
-    group: int | None = None            # contact group of a continuation track
-    default_identity: int | None = None  # the identity it had before the contact
+    group: int | None = None            # contact group whose decision is pending (provisional identity)
     no_split_with: set = field(default_factory=set)  # identities it was resolved with, still close
 
 
@@ -202,7 +209,6 @@ class _Identity:
     last_frame: int
     last_pos: np.ndarray
     track: int | None  # id of the live track following it, if any
-    reserved: bool = False  # in a contact group waiting for its decision
 
 
 @dataclass(frozen=True)
@@ -265,7 +271,7 @@ class Tracker:
         the smallest first frame of an unresolved track and last observed frame + 1 of a live
         track, and the next frame to process."""
         cands = [t.first_frame for t in self.tracks if t.identity is None]
-        cands += [m.first_frame for g in self.groups.values() for m in g["members"]]
+        cands += [m.first_frame for g in self.groups.values() for m in g["members"]]  # provisional
         cands += [t.last_frame + 1 for t in self.tracks]
         if self.next_frame is not None:
             cands.append(self.next_frame)
@@ -371,11 +377,10 @@ class Tracker:
                 self.tracks = [t for t in self.tracks if t.id not in gone]
             for t in list(self.tracks):
                 if t.identity is None and t.frames_3d >= self._window_frames:
-                    if t.group is not None:
-                        if t.group in self.groups and self._group_ready(t.group):
-                            self._resolve_group(t.group, resolved)
-                    else:
-                        self._resolve(t, resolved, ended)
+                    self._resolve(t, resolved, ended)
+            for gid in list(self.groups):
+                if self._group_ready(gid):
+                    self._resolve_group(gid, resolved)
             for t in self.tracks:
                 cent_f.append(f)
                 cent_t.append(t.id)
@@ -405,16 +410,23 @@ class Tracker:
 
     # --- pieces -----------------------------------------------------------------------------------
 
-    @staticmethod
-    def _update_track(t: _Track, pred: np.ndarray, meas: np.ndarray, gap_s: float, f: int) -> None:
+    def _update_track(self, t: _Track, pred: np.ndarray, meas: np.ndarray, gap_s: float, f: int) -> None:
+        """Alpha-beta update of a track's centre; after a gap of several frames the prediction
+        is worth little, so the position follows the measurement (gain 1 - (1 - ALPHA)^frames)
+        and the velocity moves half way to the mean velocity over the gap."""
+        frames = max(1, int(round(gap_s * self.fps)))
         r = meas - pred
-        t.pos = pred + ALPHA * r
-        if gap_s > 0:
+        if frames == 1:
+            t.pos = pred + ALPHA * r
             size = float(np.linalg.norm(r))
             rv = r if size <= VELOCITY_RESIDUAL_CAP_M else r * (VELOCITY_RESIDUAL_CAP_M / size)
             v = t.vel + BETA * rv / gap_s
-            speed = float(np.linalg.norm(v))
-            t.vel = v if speed <= MAX_SPEED_M_S else v * (MAX_SPEED_M_S / speed)
+        else:
+            gain = 1.0 - (1.0 - ALPHA) ** frames
+            v = 0.5 * t.vel + 0.5 * (meas - t.pos) / gap_s
+            t.pos = pred + gain * r
+        speed = float(np.linalg.norm(v))
+        t.vel = v if speed <= MAX_SPEED_M_S else v * (MAX_SPEED_M_S / speed)
         t.last_update_frame = f
         t.last_frame = f
 
@@ -428,15 +440,10 @@ class Tracker:
             self._flush(t)
 
     def _end(self, t: _Track, resolved: dict, ended: list) -> None:
-        if t.group is not None and t.identity is None:
-            # A continuation after a contact: decided with its group.
-            self._flush(t)
-            ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, None))
-            g = self.groups[t.group]
-            g["ended"].add(t.id)
-            if all(m.id in g["ended"] for m in g["members"]):
-                self._resolve_group(t.group, resolved)
-            return
+        if t.group is not None:
+            # A provisional continuation ends before its contact group is decided: it keeps its
+            # identity (only live continuations can be crossed over).
+            self._settle(t, resolved)
         if t.identity is None:
             if t.frames_3d >= max(self._min_frames, 1):
                 self._resolve(t, resolved, ended)
@@ -458,8 +465,6 @@ class Tracker:
         live = {x.id: x for x in self.tracks}
         cands = []
         for ident in self.identities.values():
-            if ident.reserved:
-                continue
             if ident.track is not None:
                 other = live.get(ident.track)
                 if other is None or other.last_frame >= t.first_frame:
@@ -493,6 +498,8 @@ class Tracker:
             # The identity's coasting track ends here: the new track is the same person.
             old = live[choice.track]
             self.tracks = [x for x in self.tracks if x.id != old.id]
+            if old.group is not None:
+                self._settle(old, resolved)
             self._flush(old)
             ended.append(TrackEnd(old.id, old.first_frame, old.last_frame, old.identity))
         choice.hist.merge(t.hist)
@@ -508,12 +515,13 @@ class Tracker:
 
         Two people this close (passing each other, or a simulated body passing through another)
         can swap tracks without any geometric sign. Each track of a contact group ends here and a
-        tentative continuation carries on; once the continuations have relink_window_s of 3D data
-        (or all ended), :meth:`_resolve_group` gives them the group's identities back -- crossed
-        over only if the body-measurement signatures say so by relink_margin_m.
+        continuation carries on with the same identity, *provisionally*: its rows wait, and its
+        limb lengths are collected apart. Once the live continuations have relink_window_s of 3D
+        data and a comparable limb (or after GROUP_MAX_WAIT windows), :meth:`_resolve_group`
+        confirms the identities or crosses them over, if the body-measurement signatures say so
+        by relink_margin_m. A continuation that ends first keeps its identity.
         """
         s = self.settings
-        live = [t for t in self.tracks if t.identity is not None]
         for t in self.tracks:
             if t.no_split_with:
                 near = set()
@@ -521,9 +529,11 @@ class Tracker:
                     if o.identity in t.no_split_with and np.linalg.norm((o.pos - t.pos)[:2]) < 1.5 * s.contact_distance_m:
                         near.add(o.identity)
                 t.no_split_with = near
+        # Only tracks seen in this frame: an extrapolated coasting track proves no contact.
+        live = [t for t in self.tracks if t.identity is not None and t.group is None and t.last_update_frame == f]
         if len(live) < 2:
             return
-        pos = np.array([t.pos[:2] + t.vel[:2] * (f - t.last_update_frame) * dt1 for t in live])
+        pos = np.array([t.pos[:2] for t in live])
         d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
         close = d < s.contact_distance_m
         np.fill_diagonal(close, False)
@@ -533,7 +543,6 @@ class Tracker:
                     close[a, b] = False
         if not close.any():
             return
-        # Connected groups of close tracks.
         label = list(range(len(live)))
 
         def root(i):
@@ -548,79 +557,88 @@ class Tracker:
         for i in range(len(live)):
             if close[i].any():
                 groups.setdefault(root(i), []).append(live[i])
+        gone = set()
+        new_tracks = []
         for members in groups.values():
             gid = self.next_group
             self.next_group += 1
             conts = []
             for t in members:
                 self._flush(t)
-                ident = self.identities[t.identity]
-                ident.track = None
-                ident.reserved = True
-                ident.last_frame = t.last_frame
-                ident.last_pos = t.pos.copy()
                 ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
+                gone.add(t.id)
                 c = _Track(id=self.next_track, first_frame=f + 1, first_pos=t.pos.copy(), pos=t.pos.copy(),
-                           vel=t.vel.copy(), last_frame=f, last_update_frame=t.last_update_frame,
-                           group=gid, default_identity=t.identity)
+                           vel=t.vel.copy(), last_frame=t.last_frame, last_update_frame=t.last_update_frame,
+                           identity=t.identity, group=gid)
                 self.next_track += 1
+                self.identities[t.identity].track = c.id
                 conts.append(c)
-            self.groups[gid] = {"identities": [t.identity for t in members], "members": conts, "ended": set()}
-            ids = {t.id for t in members}
-            self.tracks = [t for t in self.tracks if t.id not in ids] + conts
+            self.groups[gid] = {"members": conts, "settled": set()}
+            new_tracks += conts
+        self.tracks = [t for t in self.tracks if t.id not in gone] + new_tracks
+
+    def _live_members(self, gid: int) -> list[_Track]:
+        g = self.groups[gid]
+        alive = {t.id for t in self.tracks}
+        return [m for m in g["members"] if m.id in alive and m.id not in g["settled"]]
 
     def _group_ready(self, gid: int) -> bool:
-        """A contact group is decided once every live continuation has relink_window_s of 3D
-        data and the signatures can be compared (a limb known in every member and identity), or
-        after GROUP_MAX_WAIT windows whatever the data."""
-        g = self.groups[gid]
-        live = [m for m in g["members"] if m.id not in g["ended"]]
+        """Decide a contact group once every live continuation has relink_window_s of 3D data
+        and the signatures can be compared (a limb known in the continuation and in every
+        identity of the group), after GROUP_MAX_WAIT windows whatever the data, or when fewer
+        than two continuations are left."""
+        live = self._live_members(gid)
+        if len(live) < 2:
+            return True
         if any(m.frames_3d < self._window_frames for m in live):
             return False
         if any(m.frames_3d >= GROUP_MAX_WAIT * self._window_frames for m in live):
             return True
-        for m in g["members"]:
+        for m in live:
             self._flush(m)
-        cost = _group_costs([m.hist.medians() for m in g["members"]],
-                            [self.identities[k].hist.medians() for k in g["identities"]])
+        cost = _group_costs([m.hist.medians() for m in live], [self.identities[m.identity].hist.medians() for m in live])
         return bool(np.isfinite(cost).all(axis=1).sum() >= 2)
 
-    def _resolve_group(self, gid: int, resolved: dict) -> None:
-        """Give a contact group's continuations their identities (see :meth:`_contacts`)."""
-        s = self.settings
-        g = self.groups.pop(gid)
-        members: list[_Track] = g["members"]
-        idents = [self.identities[k] for k in g["identities"]]
-        for m in members:
-            self._flush(m)
-        default = {m.id: m.default_identity for m in members}
-        cost = _group_costs([m.hist.medians() for m in members], [i.hist.medians() for i in idents])
-        assign = dict(default)
-        comparable = np.isfinite(cost).all(axis=1)
-        if comparable.sum() >= 2:
-            rows = np.flatnonzero(comparable)
-            sub = cost[rows]
-            r, c = linear_sum_assignment(sub)
-            best = {members[rows[i]].id: idents[j].number for i, j in zip(r, c)}
-            col = {i.number: j for j, i in enumerate(idents)}
-            now = sum(cost[k, col[default[members[k].id]]] for k in rows)
-            new = sum(cost[k, col[best[members[k].id]]] for k in rows)
-            changed = sum(best[members[k].id] != default[members[k].id] for k in rows)
-            if changed and new + s.relink_margin_m * changed <= now:
-                assign.update(best)
-        alive = {t.id for t in self.tracks} - g["ended"]
-        for m in members:
-            ident = self.identities[assign[m.id]]
-            ident.hist.merge(m.hist)
-            m.hist = ident.hist
-            m.identity = ident.number
-            m.group = None
-            m.no_split_with = {i.number for i in idents} - {ident.number}
-            resolved[m.id] = ident.number
-            if m.id in alive:
-                ident.track = m.id
-            else:
-                ident.last_frame, ident.last_pos = m.last_frame, m.pos.copy()
-        for i in idents:
-            i.reserved = False
+    def _settle(self, m: _Track, resolved: dict) -> None:
+        """Make a continuation's (current) identity final and merge its limb lengths into it."""
+        self._flush(m)
+        g = self.groups.get(m.group)
+        ident = self.identities[m.identity]
+        ident.hist.merge(m.hist)
+        m.hist = ident.hist
+        resolved[m.id] = m.identity
+        if g is not None:
+            g["settled"].add(m.id)
+            if all(x.id in g["settled"] for x in g["members"]):
+                del self.groups[m.group]
+        m.group = None
 
+    def _resolve_group(self, gid: int, resolved: dict) -> None:
+        """Confirm or cross over the identities of a contact group's live continuations."""
+        s = self.settings
+        live = self._live_members(gid)
+        if len(live) >= 2:
+            for m in live:
+                self._flush(m)
+            idents = [m.identity for m in live]
+            cost = _group_costs([m.hist.medians() for m in live], [self.identities[k].hist.medians() for k in idents])
+            comparable = np.flatnonzero(np.isfinite(cost).all(axis=1))
+            if len(comparable) >= 2:
+                sub = cost[np.ix_(comparable, comparable)]
+                r, c = linear_sum_assignment(sub)
+                now = float(np.trace(sub))
+                new = float(sub[r, c].sum())
+                changed = int(np.sum(r != c))
+                if changed and new + s.relink_margin_m * changed <= now:
+                    new_ids = {int(comparable[i]): idents[comparable[j]] for i, j in zip(r, c)}
+                    for k, ident in new_ids.items():
+                        live[k].identity = ident
+                        self.identities[ident].track = live[k].id
+            for m in live:
+                m.no_split_with = set(idents) - {m.identity}
+        for m in list(live):
+            self._settle(m, resolved)
+        if gid in self.groups:  # members that ended were settled already; nothing else waits
+            for m in list(self.groups[gid]["members"]):
+                if m.id not in self.groups[gid]["settled"]:
+                    self._settle(m, resolved)

@@ -9,7 +9,7 @@ from ergopose.recon.records import Detections2D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.synthetic import observe, walk_workers
 from ergopose.recon.triangulate import reconstruct_frames
-from tests.recon.conftest import FPS, crossing_scripts
+from tests.recon.conftest import FPS
 
 
 def test_ray_closest_points_known_answer():

@@ -3,7 +3,6 @@ self-occlusion from its ray casts): the whole reconstruction against the simulat
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from ergopose.recon import diagnostics as D
