@@ -85,7 +85,7 @@ FACTOR_NAMES = ("load_kg", "load_mode", "coupling") + FLAG_FACTORS
 
 _TOP_KEYS = {"format_version", "recorded_at", "fps", "description", "calibration", "cameras", "defaults",
              "periods", "workers", "scoring", "identification", "calibration_check"}
-_IDENTIFICATION_KEYS = {"stature_tolerance_m", "stature_margin_m"}
+_IDENTIFICATION_KEYS = {"by_stature", "stature_tolerance_m", "stature_margin_m"}
 _CHECK_KEYS = {"observations", "length_m"}
 #: Plausible adult statures (metres) for a worker's given stature.
 STATURE_RANGE_M = (1.2, 2.3)
@@ -147,6 +147,9 @@ class WorkerInfo:
 class Identification:
     """How tracked people are matched to the workers of the settings that give a stature.
 
+    by_stature: match at all (off by default: a stature measured from a noisy reconstruction can
+        be several centimetres off, and a wrong match puts one worker's loads on another; switch
+        it on where the report's limb-length quality is good and the workers differ in height).
     stature_tolerance_m: largest difference between a worker's given stature and the stature
         measured for a tracked person for the two to be matched.
     stature_margin_m: the best matching must beat every other matching of the same people by
@@ -154,6 +157,7 @@ class Identification:
         and nobody is named).
     """
 
+    by_stature: bool = False
     stature_tolerance_m: float = 0.05
     stature_margin_m: float = 0.02
 
@@ -424,7 +428,14 @@ def _identification(r: "_Reader", table: Any) -> Identification:
     if not isinstance(table, dict):
         raise r.fail("identification", "expected a table (stature_tolerance_m, stature_margin_m)")
     r.no_unknown(table, _IDENTIFICATION_KEYS, "identification")
-    values = {k: r.positive(v, f"identification.{k}") for k, v in table.items()}
+    values: dict[str, Any] = {}
+    for k, v in table.items():
+        if k == "by_stature":
+            if not isinstance(v, bool):
+                raise r.fail("identification.by_stature", f"expected true or false, got {v!r}")
+            values[k] = v
+        else:
+            values[k] = r.positive(v, f"identification.{k}")
     return Identification(**values)
 
 

@@ -11,7 +11,10 @@ settings' id (and with it the worker's name, loads and periods) when
   height are not told apart by height; then nobody is named and the report says why).
 
 The best matching minimises the sum of absolute stature differences (an optimal assignment).
-Tracked people without a match keep their pseudonymous ids.
+Tracked people without a match keep their pseudonymous ids. Matching runs only when the settings
+switch it on (``[identification] by_stature = true``): a wrong match would put one worker's
+loads on another, and a stature measured from a noisy reconstruction can be several centimetres
+off (docs/evaluation.md has the figures).
 """
 
 from __future__ import annotations
@@ -76,6 +79,9 @@ def identify_by_stature(measured: dict[str, float], session: Session) -> Identif
     tracked = [t for t, v in measured.items() if v is not None and math.isfinite(v)]
     if not workers:
         return Identification((), ())
+    if not rules.by_stature:
+        return Identification((), ("the settings give statures, but matching tracked people by stature is off "
+                                   "([identification] by_stature = false)",))
     if not tracked:
         return Identification((), ("no tracked person's stature could be measured, so nobody was identified",))
     diff = np.abs(np.array([[measured[t] - w.stature_m for w in workers] for t in tracked]))

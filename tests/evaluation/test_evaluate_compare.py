@@ -120,6 +120,12 @@ def test_order_of_tracked_identities_does_not_matter(small_session, gt, tmp_path
 
 
 def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_session, gt, tmp_path):
+    # naming by stature is off by default: switch it on in a copy of the session
+    import shutil
+
+    small_session = shutil.copytree(small_session, tmp_path / "session")
+    settings = small_session / "settings.toml"
+    settings.write_text(settings.read_text() + "\n[identification]\nby_stature = true\n")
     statures = {w["id"]: w["stature_m"] for w in gt.scene["workers"]}
     # worker_1 is w2 and worker_2 is w1; the stored stature estimates name them correctly ...
     tracks = ground_truth_tracks(gt, worker_order=[1, 0])

@@ -17,6 +17,12 @@ EXACT = OracleOptions(noise_px=0.0, occluded_noise_px=0.0, person_dropout=0.0, j
 
 @pytest.fixture(scope="module")
 def exact_run(small_session, tmp_path_factory):
+    # naming tracked people by stature is off by default; with exact 2D it must name them right
+    import shutil
+
+    small_session = shutil.copytree(small_session, tmp_path_factory.mktemp("by_stature") / "session")
+    settings = small_session / "settings.toml"
+    settings.write_text(settings.read_text() + "\n[identification]\nby_stature = true\n")
     out = tmp_path_factory.mktemp("oracle") / "out"
     layout = run_oracle(small_session, out, EXACT)
     ev = evaluate_results(small_session, layout, source=EXACT.banner(), oracle=EXACT.as_dict(), bar_draws=5)

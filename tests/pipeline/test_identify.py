@@ -9,7 +9,7 @@ from ergopose.session import Identification as Rules
 from ergopose.session import Session, TaskFactors, WorkerInfo
 
 
-def _session(statures: dict[str, float], rules: Rules = Rules()) -> Session:
+def _session(statures: dict[str, float], rules: Rules = Rules(by_stature=True)) -> Session:
     workers = tuple(WorkerInfo(w, None, TaskFactors(), (), stature_m=s) for w, s in statures.items())
     return Session(path=Path("day1"), format_version=1, recorded_at=None, fps=12.0, frame_count=10, cameras=(),
                    defaults=TaskFactors(), periods=(), workers=workers, scoring={}, description=None,
@@ -44,5 +44,10 @@ def test_a_settings_id_equal_to_an_unmatched_pseudonym_is_not_reused():
 
 
 def test_tolerance_is_a_setting():
-    loose = identify_by_stature({"worker_1": 1.60}, _session({"anna": 1.70}, Rules(stature_tolerance_m=0.12)))
+    loose = identify_by_stature({"worker_1": 1.60}, _session({"anna": 1.70}, Rules(by_stature=True, stature_tolerance_m=0.12)))
     assert [m.worker_id for m in loose.matches] == ["anna"]
+
+
+def test_matching_is_off_unless_the_settings_switch_it_on():
+    ident = identify_by_stature({"worker_1": 1.64}, _session({"anna": 1.64}, Rules()))
+    assert not ident.matches and "by_stature = false" in ident.notes[0]
