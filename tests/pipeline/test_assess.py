@@ -150,3 +150,32 @@ def test_bad_input_gives_one_clear_message_and_keeps_earlier_outputs(damage, ref
     assert "Traceback" not in err
     after = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after == before
+
+
+@pytest.mark.browser
+def test_assessed_report_in_chromium(reference, tmp_path):
+    """The report of a real assessment in headless Chromium (offline): no console message, no
+    resource loaded, every figure laid out, the headline shares equal to the stored frames."""
+    import pandas as pd
+
+    from tests.report.test_browser import probe
+
+    out, _ = reference
+    pages = [out / "index.html", *sorted(out.glob("worker-*.html"))]
+    assert len(pages) >= 2
+    for page in pages:
+        result = probe(page, tmp_path)
+        assert result["resources"] == 0
+        assert result["svgs"], page.name
+        for s in result["svgs"]:
+            assert s["width"] > 50 and s["height"] > 30, (page.name, s)
+    worker_page = pages[1]
+    worker_id = worker_page.stem[len("worker-"):]
+    frames = pd.read_parquet(out / "results" / "workers" / worker_id / "frames.parquet")
+    result = probe(worker_page, tmp_path)
+    for method, col, levels in (("rula", "rula_action_level", range(1, 5)), ("reba", "reba_risk_level", range(0, 5))):
+        lv = frames[col].to_numpy(dtype=np.float64, na_value=np.nan)
+        for k in levels:
+            cell = result["shares"][f"{method}-{k}"]
+            assert cell["text"] == f"{100.0 * np.sum(lv == k) / len(lv):.1f} %"
+            assert cell["shown"]
