@@ -59,7 +59,7 @@ def bench_view(session_dir: Path) -> None:
     from ergopose.pose.evaluation import EvaluationSettings, PersonGeometry
     from ergopose.session import load_session
     from ergopose.sim.ground_truth import load_ground_truth
-    from ergopose.sim.scene import lens_region
+    from ergopose.geometry.regions import region_index
     from ergopose.video import read_frames
 
     session = load_session(session_dir)
@@ -71,7 +71,7 @@ def bench_view(session_dir: Path) -> None:
     for f in range(gt.n_frames):
         for w in range(len(gt.worker_ids)):
             p = PersonGeometry.of(camera, gt.joints_world[f, w], gt.pixels[f, 0, w], gt.visibility[f, 0, w])
-            if p.torso_visible and lens_region(np.array(p.theta)) == 1:
+            if p.torso_visible and region_index(np.degrees(p.theta)) == 1:
                 person, frame_index = p, f
                 break
         if person is not None:

@@ -49,8 +49,9 @@ Keypoint error: for every found person, each of the 12 limb keypoints (shoulders
 wrists, hips, knees, ankles) that the camera sees (ground-truth visibility 0) gives one error
 in fisheye pixels and one in torso lengths; the summaries pool these per region and camera.
 
-Region: the angle of the true hip centre off the camera's lens axis, in the simulator's lens
-regions (ergopose.sim.scene.LENS_REGIONS_DEG: central < 30 deg, outer 30-55, edge >= 55).
+Region: the angle of the true hip centre off the camera's lens axis, in ergopose's lens regions
+(ergopose.geometry.regions: central < 30 deg, outer 30-60, edge >= 60 by default;
+``EvaluationSettings.region_limits_deg``).
 Counted persons: the camera sees the torso, i.e. both shoulders and both hips have ground-truth
 visibility 0 (visible) or 1 (self-occluded: behind the person's own body, as the far hip and
 shoulder of anyone seen from the side are), and none is hidden by furniture or another worker or
@@ -71,6 +72,7 @@ from typing import Sequence
 import numpy as np
 
 from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, REGION_NAMES, describe, region_index
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
 
@@ -112,6 +114,7 @@ class EvaluationSettings:
     margin, min_half_fov, max_half_fov: the view fit (defaults: the 2D stage's PoseSettings).
     min_presence: pose flag needed to count a person as found (the stage's threshold).
     found_within_torso: largest hip-centre error, in torso lengths, of a found person.
+    region_limits_deg: where the outer and edge lens regions begin (degrees off the lens axis).
     torso_codes: ground-truth visibility codes the four torso joints may have for a person to
         be counted (0 visible, 1 self-occluded; see the module docstring).
     stage: the 2D stage's settings for the ``stage`` condition.
@@ -123,6 +126,7 @@ class EvaluationSettings:
     min_presence: float = 0.5
     found_within_torso: float = 0.5
     torso_codes: tuple[int, ...] = (0, 1)
+    region_limits_deg: tuple[float, float] = DEFAULT_LIMITS_DEG
     stage: object = None  # PoseSettings; None: the stage's defaults
 
     def stage_settings(self):
@@ -148,7 +152,7 @@ class PersonTrials:
 
     condition: (N,) int, index into CONDITIONS. frame, camera, worker: (N,) int (frame index in
     the video, camera index in the session, worker index in the ground truth).
-    region: (N,) int, index into LENS_REGIONS_DEG of the true hip centre. theta: (N,) its angle
+    region: (N,) int, index into ergopose.geometry.regions.REGION_NAMES of the true hip centre. theta: (N,) its angle
     off the lens axis, radians. trunk_inclination: (N,) angle of the true 3D hip-centre to
     shoulder-centre direction from the vertical, radians (0 upright, pi/2 bent flat).
     presence: (N,) the network's pose flag (stage: of the matched detection; NaN when no
@@ -407,14 +411,13 @@ def score_prediction(person: PersonGeometry, pixels_fisheye: np.ndarray, rays_ca
 
 
 class _Rows:
-    def __init__(self):
+    def __init__(self, limits_deg: tuple[float, float]):
+        self.limits_deg = limits_deg
         self.rows: list[tuple] = []
 
     def add(self, condition: int, frame: int, camera: int, worker: int, person: PersonGeometry,
             presence: float, scored: tuple[bool, float, np.ndarray, np.ndarray]) -> None:
-        from ergopose.sim.scene import lens_region
-
-        region = int(lens_region(np.array(person.theta)))
+        region = int(region_index(np.degrees(person.theta), self.limits_deg))
         found, hip_error, err_px, err_torso = scored
         self.rows.append((condition, frame, camera, worker, region, person.theta, person.trunk_inclination,
                           presence, found, hip_error, err_px, err_torso))
@@ -491,7 +494,7 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
     stage = None
     if "stage" in want:
         stage = FisheyePoseEstimator(camera, camera_index, landmarker, detector, settings.stage_settings())
-    rows = _Rows()
+    rows = _Rows(settings.region_limits_deg)
     false_positives = 0
     stage_frames = 0
     n_workers = len(gt.worker_ids)
@@ -633,7 +636,6 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
 
     from ergopose.session import load_session
     from ergopose.sim.ground_truth import load_ground_truth
-    from ergopose.sim.scene import LENS_REGIONS_DEG
 
     t0 = time.perf_counter()
     conditions = tuple(conditions)
@@ -678,7 +680,7 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
                                     progress, ci * per_camera, n_cam * per_camera) for ci in range(n_cam)]
     trials = PersonTrials.concatenate([r[0] for r in results])
     cameras = session.camera_names
-    regions = tuple(r[0] for r in LENS_REGIONS_DEG)
+    regions = REGION_NAMES
     summaries = _summarise(trials, conditions, cameras, regions)
     return PoseEvaluation(
         session=session_dir, frames=frames, image_size=(session.cameras[0].camera.width, session.cameras[0].camera.height),
@@ -713,7 +715,8 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
     w, h = result.image_size
     lines.append(f"Session `{result.session.name}`: {w}x{h}, cameras {', '.join(result.cameras)}, "
                  f"workers {', '.join(result.workers)}, frames {start}..{stop - 1} every {step} "
-                 f"({result.scored_frames} scored frames per camera).")
+                 f"({result.scored_frames} scored frames per camera). Lens regions: "
+                 f"{describe(result.settings.region_limits_deg)}.")
     lines.append("")
 
     def table(camera: str) -> None:

@@ -290,3 +290,19 @@ def test_unknown_condition_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="unknown condition"):
         evaluate_session(tmp_path, conditions=("view", "fisheye_network"))
     assert CONDITIONS == ("view", "crop", "rotated_crop", "aligned_view", "stage")
+
+
+def test_region_follows_the_configured_limits(camera):
+    from ergopose.pose.evaluation import _Rows
+
+    # Hips 0.95 m up under a camera at 3 m: 57 degrees off-axis at 3.16 m from the axis.
+    p = geometry(camera, standing_person(3.16, 0.0))
+    assert np.degrees(p.theta) == pytest.approx(57.0, abs=0.2)
+    nan = np.full(EVAL_JOINTS.size, np.nan)
+    regions = []
+    for limits in ((30.0, 60.0), (30.0, 55.0), (60.0, 70.0)):
+        rows = _Rows(limits)
+        rows.add(0, 0, 0, 0, p, 0.9, (False, 1.0, nan, nan))
+        regions.append(int(rows.trials().region[0]))
+    assert regions == [1, 2, 0]
+    assert EvaluationSettings().region_limits_deg == (30.0, 60.0)

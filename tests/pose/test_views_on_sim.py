@@ -23,11 +23,11 @@ from ergopose.pose.evaluation import (
 )
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
-from ergopose.sim.scene import LENS_REGIONS_DEG, lens_region
+from ergopose.geometry.regions import REGION_NAMES, region_index
 
 HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
 SHOULDERS = [JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]
-REGIONS = tuple(r[0] for r in LENS_REGIONS_DEG)
+REGIONS = REGION_NAMES
 
 
 @pytest.fixture(scope="module")
@@ -136,7 +136,7 @@ def test_evaluation_counts_every_visible_person_once_per_condition(evaluation, t
     for k, condition in enumerate(CONDITIONS):
         rows = t.select(t.condition == k)
         assert sorted(zip(rows.frame, rows.camera, rows.worker)) == sorted((f, c, w) for f, c, w, _ in people)
-        expected_region = lens_region(np.array([p.theta for _, _, _, p in people]))
+        expected_region = region_index(np.degrees([p.theta for _, _, _, p in people]))
         by_key = {(f, c, w): r for (f, c, w, _), r in zip(people, expected_region)}
         assert all(by_key[(f, c, w)] == r for f, c, w, r in zip(rows.frame, rows.camera, rows.worker, rows.region))
     # Found means: the pose flag and the hips close enough; errors only for found people.
