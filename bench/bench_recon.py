@@ -13,6 +13,8 @@
   ours (association, DLT in virtual views, tracking, Kalman/RTS) against aniposelib's
   CameraGroup.triangulate and triangulate_optim (given the true correspondences), 3D error and
   time.
+- recon_oracle_10min: the simulator's workers, room and visibility with its ORACLE 2D source
+  (2 px noise), at 2592 x 1944 and at the simulator's default 1024 x 768.
 
 Usage: python bench/bench_recon.py [--hours H] [names...]
 """
@@ -260,6 +262,7 @@ def recon_synthetic(minutes: float = 10.0) -> None:
             err_filled = round(1000 * float(np.nanmean(e[filled])), 2)
             err_measured = round(1000 * float(np.nanmean(e[measured])), 2)
         emit(f"recon_synthetic_{minutes:g}min_{name}", 1000 * reg["all"].mean_m, "mm",
+             identity_switches_sustained_1s=D.identity_switches(tf, truth, min_frames=int(FPS)),
              mpjpe_gap_filled_mm=err_filled, mpjpe_where_triangulated_mm=err_measured,
              gap_filled_share=round(float(tf.gap_filled.mean()), 4),
              identity_switches=D.identity_switches(tf, truth), workers=len(tf.workers),
@@ -281,6 +284,64 @@ def recon_synthetic(minutes: float = 10.0) -> None:
                                     raw_cv_pct=round(100 * r.get(limb, g).cv, 2),
                                     frequency=round(r.get(limb, g).frequency, 3), frames=r.get(limb, g).frames)
                             for g in D.REGIONS})
+
+
+def recon_oracle(minutes: float = 10.0, size: tuple[int, int] = (2592, 1944), noise_px: float = 2.0,
+                 seed: int = 3) -> None:
+    """The simulator's scripted workers, room and visibility (no video), ORACLE 2D with
+    ``noise_px`` (hidden joints reported with 6 px noise and confidence 0.1-0.4, 2 % person and
+    joint dropouts): the whole reconstruction against the simulation's truth."""
+    from ergopose.recon.synthetic import frames_from_oracle, simulated_ground_truth
+    from ergopose.recon.triangulate import reconstruct_frames
+    from ergopose.sim.oracle import OracleSource
+
+    t0 = time.perf_counter()
+    gt, cameras = simulated_ground_truth(4, minutes * 60.0, seed=seed, size=size)
+    obs = OracleSource(gt, noise_px=noise_px, seed=seed).observe()
+    frames, _ = frames_from_oracle(obs, cameras)
+    t_gen = time.perf_counter() - t0
+    truth = gt.joints_world
+    n = len(frames)
+    statures = {w["id"]: w["stature_m"] for w in gt.scene["workers"]}
+    tag = f"recon_oracle_{minutes:g}min_{size[0]}x{size[1]}"
+    variants = {
+        "raw": ReconSettings(smoothing=False),
+        "smoothed": ReconSettings(),
+        "smoothed_fill_0.25s": ReconSettings(max_fill_gap_s=0.25),
+        "smoothed_no_gate": ReconSettings(outlier_gate_chi2=0.0),
+        "smoothed_constant_acceleration": ReconSettings(motion_model="constant_acceleration"),
+        "smoothed_bone_constraint": ReconSettings(bone_length_constraint=True),
+        "min_confidence_0.3": ReconSettings(min_confidence=0.3),
+    }
+    cache = {}
+    for name, settings in variants.items():
+        t0 = time.perf_counter()
+        key = settings.min_confidence
+        if key not in cache:
+            cache[key] = reconstruct_frames(frames, settings)
+        people = cache[key]
+        t_tri = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        sr = ShiftReconstruction(settings, gt.fps, cameras)
+        tf = TrackFrames.concat([sr.push(people, 0, n), sr.finish()])
+        dt = time.perf_counter() - t0
+        mapping = D.match_workers(tf, truth)
+        gtw = D.truth_for_workers(tf, truth, mapping)
+        reg = D.region_errors(tf, gtw, settings)
+        raw = D.region_errors(tf, gtw, settings, source="raw")
+        est = sr.stature_estimates()
+        emit(f"{tag}_{name}", 1000 * reg["all"].mean_m, "mm", identity_switches=D.identity_switches(tf, truth),
+             identity_switches_sustained_1s=D.identity_switches(tf, truth, min_frames=int(gt.fps)),
+             workers=len(tf.workers), raw_mpjpe_mm=round(1000 * raw["all"].mean_m, 2),
+             mpjpe_by_region_mm={k: round(1000 * v.mean_m, 1) for k, v in reg.items()},
+             points_by_region={k: v.points for k, v in reg.items()},
+             coverage=round(float(np.isfinite(tf.points_world).all(axis=-1).mean()), 4),
+             raw_coverage=round(float(np.isfinite(tf.raw_points_world).all(axis=-1).mean()), 4),
+             limb_cv_major_pct=round(100 * _cv(tf, "final"), 2), raw_limb_cv_major_pct=round(100 * _cv(tf, "raw"), 2),
+             stature_error_cm={f"worker_{w}": round(100 * (est[f"worker_{w}"] - statures[gt.worker_ids[p]]), 1)
+                               for w, p in mapping.items()},
+             triangulation_s=round(t_tri, 2), track_smooth_s=round(dt, 2), noise_px=noise_px)
+    emit(f"{tag}_generation", t_gen, "s", frames=n, note="motion, visibility ray casts, oracle, Detections2D")
 
 
 def recon_vs_aniposelib(seconds: float = 60.0) -> None:
@@ -372,11 +433,14 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--no-write", action="store_true")
     ap.add_argument("names", nargs="*")
     args = ap.parse_args(argv)
-    names = args.names or ["track_smooth", "synthetic", "aniposelib"]
+    names = args.names or ["track_smooth", "synthetic", "oracle", "aniposelib"]
     if "track_smooth" in names:
         track_smooth_8h(args.hours, write=not args.no_write)
     if "synthetic" in names:
         recon_synthetic(args.minutes)
+    if "oracle" in names:
+        recon_oracle(args.minutes)
+        recon_oracle(args.minutes, size=(1024, 768))
     if "aniposelib" in names:
         recon_vs_aniposelib()
     return 0

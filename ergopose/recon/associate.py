@@ -51,7 +51,7 @@ class Association:
     cost_matrix_m: np.ndarray
 
 
-def gated_assignment(cost: np.ndarray, gate) -> tuple[np.ndarray, np.ndarray]:
+def gated_assignment(cost: np.ndarray, gate, gain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Optimal pairs among candidates with cost <= gate (gate: scalar, or per row (R, 1)).
 
     Maximises the total relative margin sum(1 - cost / gate) over the chosen pairs, where
@@ -60,6 +60,8 @@ def gated_assignment(cost: np.ndarray, gate) -> tuple[np.ndarray, np.ndarray]:
     A plain assignment on the costs must pair as many as it can and would trade one good pair
     for two poor ones (two wrong pairs when one person's partner is missing); dividing by the
     gate keeps rows with wide gates (tracks unseen for a while) from outbidding close ones.
+    ``gain`` (same shape as cost, > 0) replaces the relative margin as what is maximised over
+    the candidates within the gates (the tracker passes a log-likelihood gain).
     Returns (rows, cols) of the chosen pairs.
     """
     cost = np.asarray(cost, dtype=np.float64)
@@ -70,7 +72,7 @@ def gated_assignment(cost: np.ndarray, gate) -> tuple[np.ndarray, np.ndarray]:
     if not ok.any():
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.where(ok, cost / gate - 1.0, 0.0)
+        w = np.where(ok, cost / gate - 1.0 if gain is None else -np.asarray(gain, dtype=np.float64), 0.0)
     rows, cols = linear_sum_assignment(w)
     keep = ok[rows, cols]
     return rows[keep].astype(np.int64), cols[keep].astype(np.int64)

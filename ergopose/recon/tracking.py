@@ -8,9 +8,10 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    and triangulated centre (the height of the centre jumps when the torso is hidden and the
    centre falls back to other joints; the floor position hardly does); a pair is possible
    within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per second the track has gone
-   unseen; globally optimal assignment among the candidates within the gates
-   (associate.gated_assignment, scipy.optimize.linear_sum_assignment). A matched track
-   updates its centre and velocity with an alpha-beta filter (gains ALPHA, BETA).
+   unseen; globally optimal assignment among the candidates within the gates, maximising a
+   log-likelihood gain in which a track's uncertainty grows with its gate (:func:`_match_gain`;
+   associate.gated_assignment, scipy.optimize.linear_sum_assignment). A matched track updates
+   its centre and velocity with an alpha-beta filter (gains ALPHA, BETA).
 3. Matching people seen by one camera only. Tracks still unmatched are compared with the torso
    rays of single-view people: cost = horizontal distance between the predicted centre and the
    point where the ray reaches the track's height (in front of the camera), gated by
@@ -33,11 +34,12 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
 7. Contacts. Confirmed tracks whose centres come closer than ``contact_distance_m`` (people
    passing each other, standing together) can swap people without any geometric sign. Their
    tracks end and continuations carry on with the same identities, provisionally (their rows
-   wait); once each live continuation has ``relink_window_s`` of 3D data and a limb is
-   comparable (at most GROUP_MAX_WAIT windows), the identities are confirmed or crossed over by
-   optimal assignment on the signatures -- crossed only if that beats keeping them by
-   ``relink_margin_m`` per changed identity (:meth:`Tracker._resolve_group`). A continuation
-   that ends first keeps its identity.
+   wait); once the people have separated again and each live continuation has
+   ``relink_window_s`` of 3D data since, with a comparable limb (at most GROUP_MAX_WAIT
+   windows after the separation, GROUP_MAX_WAIT_S after the contact), the identities are
+   confirmed or crossed over by optimal assignment on the signatures -- crossed only if that
+   beats keeping them by ``relink_margin_m`` per changed identity
+   (:meth:`Tracker._resolve_group`). A continuation that ends first keeps its identity.
 
 Single-view people never start tracks and are never triangulated. Frame times are frame / fps.
 """
@@ -68,8 +70,10 @@ MAX_SPEED_M_S = 3.0
 #: birth (the centre of a person jumped out of its track's gate for a frame) must not linger and
 #: later take over the person from its real track.
 TENTATIVE_MAX_COAST_S = 0.25
-#: A contact group waits at most this many relink windows for comparable limb data.
+#: A contact group waits at most this many relink windows for comparable limb data after the
+#: people separated, and at most GROUP_MAX_WAIT_S in all (people working side by side).
 GROUP_MAX_WAIT = 4
+GROUP_MAX_WAIT_S = 60.0
 #: Limb-length histogram: bin width and number of bins (0 .. 1.5 m in millimetres).
 HIST_BIN_M = 0.001
 HIST_BINS = 1500
@@ -93,6 +97,25 @@ def limb_lengths(points_world: np.ndarray) -> np.ndarray:
     """(..., 33, 3) -> (..., L) length of every limb of keypoints.LIMBS, NaN where a joint is NaN."""
     X = np.asarray(points_world, dtype=np.float64)
     return np.linalg.norm(X[..., LIMB_INDEX[:, 0], :] - X[..., LIMB_INDEX[:, 1], :], axis=-1)
+
+
+def _match_gain(cost: np.ndarray, gate: np.ndarray, fresh_gate: float) -> np.ndarray:
+    """Log-likelihood gain of matching track t (rows) with person o (columns).
+
+    Each track's predicted centre is taken as a 2D Gaussian with sigma = gate / 3 (its gate is 3
+    sigma; the gate, and so sigma, grow while the track goes unseen). The gain is the negative
+    log-likelihood at the edge of a fresh track's gate minus that of the match,
+    (4.5 + 2 ln(fresh_gate / 3)) - (0.5 (d / sigma)^2 + 2 ln sigma), at least 1e-3 inside the
+    gate. A track unseen for a while, with a wide gate, pays for its uncertainty: it does not
+    take a person from a track that has just seen him close by (dividing the distance by the
+    gate alone let a track unseen for 2 s win a person 0.5 m away over his own track 0.12 m
+    away).
+    """
+    sigma = np.asarray(gate, dtype=np.float64)[:, None] / 3.0
+    ref = 4.5 + 2.0 * np.log(fresh_gate / 3.0)
+    with np.errstate(invalid="ignore"):
+        nll = 0.5 * (cost / sigma) ** 2 + 2.0 * np.log(sigma)
+    return np.maximum(ref - nll, 1e-3)
 
 
 def _ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray):
@@ -327,7 +350,7 @@ class Tracker:
             unmatched3 = rows3
             if tracks and len(rows3):
                 cost = np.linalg.norm(pred[:, None, :2] - centre[rows3][None, :, :2], axis=-1)
-                ti, ri = gated_assignment(cost, gate[:, None])
+                ti, ri = gated_assignment(cost, gate[:, None], _match_gain(cost, gate, gate0))
                 if len(ti):
                     used = np.zeros(len(rows3), bool)
                     for a, b in zip(ti, ri):
@@ -347,7 +370,8 @@ class Tracker:
                 diff = hit - pred[free][:, None, :]
                 cost = np.linalg.norm(diff[..., :2], axis=-1)
                 cost = np.where(along > 0, cost, np.inf)
-                ti, ri = gated_assignment(cost, (s.single_view_gate_m + gate[free] - gate0)[:, None])
+                sv_gate = s.single_view_gate_m + gate[free] - gate0
+                ti, ri = gated_assignment(cost, sv_gate[:, None], _match_gain(cost, sv_gate, s.single_view_gate_m))
                 if len(ti):
                     for a, b in zip(ti, ri):
                         t = tracks[free[a]]
@@ -378,8 +402,10 @@ class Tracker:
             for t in list(self.tracks):
                 if t.identity is None and t.frames_3d >= self._window_frames:
                     self._resolve(t, resolved, ended)
+            if self.groups:
+                self._watch_separation(f)
             for gid in list(self.groups):
-                if self._group_ready(gid):
+                if self._group_ready(gid, f):
                     self._resolve_group(gid, resolved)
             for t in self.tracks:
                 cent_f.append(f)
@@ -573,7 +599,7 @@ class Tracker:
                 self.next_track += 1
                 self.identities[t.identity].track = c.id
                 conts.append(c)
-            self.groups[gid] = {"members": conts, "settled": set()}
+            self.groups[gid] = {"members": conts, "settled": set(), "start": f + 1, "separated": None}
             new_tracks += conts
         self.tracks = [t for t in self.tracks if t.id not in gone] + new_tracks
 
@@ -582,14 +608,41 @@ class Tracker:
         alive = {t.id for t in self.tracks}
         return [m for m in g["members"] if m.id in alive and m.id not in g["settled"]]
 
-    def _group_ready(self, gid: int) -> bool:
-        """Decide a contact group once every live continuation has relink_window_s of 3D data
-        and the signatures can be compared (a limb known in the continuation and in every
-        identity of the group), after GROUP_MAX_WAIT windows whatever the data, or when fewer
-        than two continuations are left."""
+    def _watch_separation(self, f: int) -> None:
+        """Note when the live continuations of each pending group are all apart (1.5 x
+        contact_distance_m): from then on their limb lengths are collected afresh -- what was
+        measured while they were together may belong to either."""
+        far = 1.5 * self.settings.contact_distance_m
+        for gid, g in self.groups.items():
+            if g["separated"] is not None:
+                continue
+            live = self._live_members(gid)
+            pos = np.array([m.pos[:2] for m in live])
+            if len(live) >= 2:
+                d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
+                np.fill_diagonal(d, np.inf)
+                if d.min() < far:
+                    continue
+            g["separated"] = f
+            for m in live:
+                m.pending_rows = []
+                m.hist = LimbHistogram()
+                m.frames_3d = 0
+
+    def _group_ready(self, gid: int, f: int) -> bool:
+        """Decide a contact group once its people have separated and every live continuation
+        has relink_window_s of 3D data since, with signatures that can be compared (a limb known
+        in the continuation and in every identity of the group); or after GROUP_MAX_WAIT windows
+        since the separation, GROUP_MAX_WAIT_S since the contact, or when fewer than two
+        continuations are left."""
+        g = self.groups[gid]
         live = self._live_members(gid)
         if len(live) < 2:
             return True
+        if (f - g["start"]) >= GROUP_MAX_WAIT_S * self.fps:
+            return True
+        if g["separated"] is None:
+            return False
         if any(m.frames_3d < self._window_frames for m in live):
             return False
         if any(m.frames_3d >= GROUP_MAX_WAIT * self._window_frames for m in live):

@@ -36,6 +36,7 @@ def test_chunked_processing_gives_the_same_table(shift):
     whole = _run_chunks(people, n, [0, n], settings, shift.cameras)
     chunked = _run_chunks(people, n, [0, 1, 7, 300, 301, 555, 900, n], settings, shift.cameras, pickle_between=True)
     assert len(whole) == len(chunked) > 3000
+    assert len(np.unique(whole.frame * 1000 + whole.worker)) == len(whole)  # one row per worker and frame
     for name in ("worker", "frame", "time_s", "points_world", "raw_points_world", "confidence",
                  "reprojection_error_px", "views", "gap_filled", "gated", "lens_angle_deg"):
         assert np.array_equal(getattr(whole, name), getattr(chunked, name), equal_nan=True), name
