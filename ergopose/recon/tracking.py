@@ -28,9 +28,11 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    where the new track began (``relink_max_speed_m_s``), and its body-measurement signature --
    the medians of its limb lengths (keypoints.LIMBS) over everything seen so far -- must
    differ from the new track's by at most ``relink_max_signature_m`` (RMS over limbs), and by
-   ``relink_margin_m`` less than the second best candidate. The best such candidate gives the
-   track its identity (a coasting track of that identity ends); otherwise the track gets a new
-   identity. Identities are numbered in order of appearance: worker_1, worker_2, ...
+   ``relink_margin_m`` less than the second best candidate -- unless it is the only fitting
+   identity lost within RECENT_GAP_S before the track began (a worker re-appearing after a
+   short occlusion). The chosen candidate gives the track its identity (a coasting track of
+   that identity ends); otherwise the track gets a new identity. While an identity the track
+   could be is waiting for a contact decision (7.), the decision waits. Identities are numbered in order of appearance: worker_1, worker_2, ...
 7. Contacts. Confirmed tracks whose centres come closer than ``contact_distance_m`` (people
    passing each other, standing together) can swap people without any geometric sign. Their
    tracks end and continuations carry on with the same identities, provisionally (their rows
@@ -70,6 +72,11 @@ MAX_SPEED_M_S = 3.0
 #: birth (the centre of a person jumped out of its track's gate for a frame) must not linger and
 #: later take over the person from its real track.
 TENTATIVE_MAX_COAST_S = 0.25
+#: A new track fitting (signature within relink_max_signature_m) exactly one identity lost at
+#: most this long before it began takes that identity without the margin test: a worker
+#: re-appearing after a short occlusion is the worker who just vanished there, even when an
+#: older identity happens to have a similar signature.
+RECENT_GAP_S = 10.0
 #: A contact group waits at most this many relink windows for comparable limb data after the
 #: people separated, and at most GROUP_MAX_WAIT_S in all (people working side by side).
 GROUP_MAX_WAIT = 4
@@ -222,6 +229,7 @@ class _Track:
     hist: LimbHistogram = field(default_factory=LimbHistogram)
     pending_rows: list = field(default_factory=list)   # chunk rows not yet in hist
     group: int | None = None            # contact group whose decision is pending (provisional identity)
+    hist_before: LimbHistogram | None = None  # a continuation's limb lengths before the separation
     no_split_with: set = field(default_factory=set)  # identities it was resolved with, still close
 
 
@@ -400,7 +408,7 @@ class Tracker:
                 gone = {e.track for e in ended}
                 self.tracks = [t for t in self.tracks if t.id not in gone]
             for t in list(self.tracks):
-                if t.identity is None and t.frames_3d >= self._window_frames:
+                if t.identity is None and t.group is None and t.frames_3d >= self._window_frames:
                     self._resolve(t, resolved, ended)
             if self.groups:
                 self._watch_separation(f)
@@ -428,7 +436,14 @@ class Tracker:
         """End every live track (end of the session) and resolve the tentative ones."""
         resolved: dict[int, int | None] = {}
         ended: list[TrackEnd] = []
-        for t in self.tracks:
+        members = [t for t in self.tracks if t.group is not None]
+        others = [t for t in self.tracks if t.group is None]
+        for t in members:
+            self._end(t, resolved, ended)
+        self.tracks = others
+        for gid in list(self.groups):
+            self._resolve_group(gid, resolved)
+        for t in others:
             self._end(t, resolved, ended)
         self.tracks = []
         return TrackingResult(track=np.zeros(0, np.int64), centres=np.zeros((0, 5)), resolved=resolved,
@@ -467,12 +482,19 @@ class Tracker:
 
     def _end(self, t: _Track, resolved: dict, ended: list) -> None:
         if t.group is not None:
-            # A provisional continuation ends before its contact group is decided: it keeps its
-            # identity (only live continuations can be crossed over).
-            self._settle(t, resolved)
+            # A provisional continuation ends before its contact group is decided: it stays in
+            # the decision; its identity is lost but reserved for the group meanwhile.
+            self._flush(t)
+            ident = self.identities[t.identity]
+            if ident.track == t.id:
+                ident.track = None
+                ident.last_frame = t.last_frame
+                ident.last_pos = t.pos.copy()
+            ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
+            return
         if t.identity is None:
             if t.frames_3d >= max(self._min_frames, 1):
-                self._resolve(t, resolved, ended)
+                self._resolve(t, resolved, ended, final=True)
             else:
                 resolved[t.id] = None
         self._flush(t)
@@ -484,13 +506,25 @@ class Tracker:
                 ident.last_pos = t.pos.copy()
         ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
 
-    def _resolve(self, t: _Track, resolved: dict, ended: list) -> None:
+    def _reserved(self) -> set[int]:
+        """Identities of pending contact groups."""
+        return {m.identity for g in self.groups.values() for m in g["members"]}
+
+    def _resolve(self, t: _Track, resolved: dict, ended: list, final: bool = False) -> bool:
+        """Give a tentative track its identity (see the module docstring). Returns False (and
+        leaves it tentative) while an identity it could be is waiting for a contact group's
+        decision, unless ``final`` (the track ends): then those identities are left out."""
         s = self.settings
         self._flush(t)
         mine = t.hist.medians()
         live = {x.id: x for x in self.tracks}
+        reserved = self._reserved()
         cands = []
         for ident in self.identities.values():
+            if ident.number in reserved:
+                if not final and ident.track is None and ident.last_frame < t.first_frame:
+                    return False
+                continue
             if ident.track is not None:
                 other = live.get(ident.track)
                 if other is None or other.last_frame >= t.first_frame:
@@ -505,13 +539,16 @@ class Tracker:
             reach = s.relink_max_speed_m_s * gap_s + s.track_gate_m
             if np.linalg.norm((t.first_pos - last_pos)[:2]) > reach:
                 continue
-            cands.append((signature_distance(mine, ident.hist.medians()), ident))
+            cands.append((signature_distance(mine, ident.hist.medians()), ident, gap_s))
         choice = None
+        valid = sorted([c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
+                       key=lambda c: (c[0], c[1].number))
+        recent = [c for c in valid if c[2] <= RECENT_GAP_S]
         if len(cands) == 1 and not np.isfinite(cands[0][0]):
             choice = cands[0][1]  # the only identity that could be here; too little data to compare
+        elif len(recent) == 1:
+            choice = recent[0][1]  # the only fitting identity lost moments ago: the same person
         else:
-            valid = sorted([c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
-                           key=lambda c: (c[0], c[1].number))
             if valid:
                 others = [c[0] for c in cands if c[1] is not valid[0][1] and np.isfinite(c[0])]
                 if not others or min(others) - valid[0][0] >= s.relink_margin_m:
@@ -524,8 +561,6 @@ class Tracker:
             # The identity's coasting track ends here: the new track is the same person.
             old = live[choice.track]
             self.tracks = [x for x in self.tracks if x.id != old.id]
-            if old.group is not None:
-                self._settle(old, resolved)
             self._flush(old)
             ended.append(TrackEnd(old.id, old.first_frame, old.last_frame, old.identity))
         choice.hist.merge(t.hist)
@@ -533,6 +568,7 @@ class Tracker:
         choice.track = t.id
         t.identity = choice.number
         resolved[t.id] = choice.number
+        return True
 
     # --- contacts -----------------------------------------------------------------------------------
 
@@ -599,47 +635,58 @@ class Tracker:
                 self.next_track += 1
                 self.identities[t.identity].track = c.id
                 conts.append(c)
-            self.groups[gid] = {"members": conts, "settled": set(), "start": f + 1, "separated": None}
+            self.groups[gid] = {"members": conts, "start": f + 1, "separated": None}
             new_tracks += conts
         self.tracks = [t for t in self.tracks if t.id not in gone] + new_tracks
 
     def _live_members(self, gid: int) -> list[_Track]:
         g = self.groups[gid]
         alive = {t.id for t in self.tracks}
-        return [m for m in g["members"] if m.id in alive and m.id not in g["settled"]]
+        return [m for m in g["members"] if m.id in alive]
 
     def _watch_separation(self, f: int) -> None:
         """Note when the live continuations of each pending group are all apart (1.5 x
-        contact_distance_m): from then on their limb lengths are collected afresh -- what was
-        measured while they were together may belong to either."""
+        contact_distance_m): from then on their limb lengths are collected apart from what was
+        measured while they were together (that may belong to either)."""
         far = 1.5 * self.settings.contact_distance_m
         for gid, g in self.groups.items():
             if g["separated"] is not None:
                 continue
             live = self._live_members(gid)
-            pos = np.array([m.pos[:2] for m in live])
             if len(live) >= 2:
+                pos = np.array([m.pos[:2] for m in live])
                 d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
                 np.fill_diagonal(d, np.inf)
                 if d.min() < far:
                     continue
             g["separated"] = f
-            for m in live:
-                m.pending_rows = []
+            for m in g["members"]:
+                self._flush(m)
+                m.hist_before = m.hist
                 m.hist = LimbHistogram()
                 m.frames_3d = 0
+
+    def _member_medians(self, m: _Track) -> np.ndarray:
+        """Limb medians of a continuation: since the separation, or (when that has no
+        comparable data yet) everything since the contact."""
+        self._flush(m)
+        med = m.hist.medians()
+        if np.isfinite(med).any() or m.hist_before is None:
+            return med
+        both = LimbHistogram()
+        both.merge(m.hist)
+        both.merge(m.hist_before)
+        return both.medians()
 
     def _group_ready(self, gid: int, f: int) -> bool:
         """Decide a contact group once its people have separated and every live continuation
         has relink_window_s of 3D data since, with signatures that can be compared (a limb known
         in the continuation and in every identity of the group); or after GROUP_MAX_WAIT windows
-        since the separation, GROUP_MAX_WAIT_S since the contact, or when fewer than two
-        continuations are left."""
+        since the separation, GROUP_MAX_WAIT_S since the contact, or when no continuation is
+        alive any more."""
         g = self.groups[gid]
         live = self._live_members(gid)
-        if len(live) < 2:
-            return True
-        if (f - g["start"]) >= GROUP_MAX_WAIT_S * self.fps:
+        if not live or (f - g["start"]) >= GROUP_MAX_WAIT_S * self.fps:
             return True
         if g["separated"] is None:
             return False
@@ -647,51 +694,45 @@ class Tracker:
             return False
         if any(m.frames_3d >= GROUP_MAX_WAIT * self._window_frames for m in live):
             return True
-        for m in live:
-            self._flush(m)
-        cost = _group_costs([m.hist.medians() for m in live], [self.identities[m.identity].hist.medians() for m in live])
-        return bool(np.isfinite(cost).all(axis=1).sum() >= 2)
-
-    def _settle(self, m: _Track, resolved: dict) -> None:
-        """Make a continuation's (current) identity final and merge its limb lengths into it."""
-        self._flush(m)
-        g = self.groups.get(m.group)
-        ident = self.identities[m.identity]
-        ident.hist.merge(m.hist)
-        m.hist = ident.hist
-        resolved[m.id] = m.identity
-        if g is not None:
-            g["settled"].add(m.id)
-            if all(x.id in g["settled"] for x in g["members"]):
-                del self.groups[m.group]
-        m.group = None
+        members = g["members"]
+        cost = _group_costs([self._member_medians(m) for m in members],
+                            [self.identities[m.identity].hist.medians() for m in members])
+        return bool(np.isfinite(cost[[members.index(m) for m in live]]).all(axis=1).all())
 
     def _resolve_group(self, gid: int, resolved: dict) -> None:
-        """Confirm or cross over the identities of a contact group's live continuations."""
+        """Confirm or cross over the identities of a contact group's continuations (live or
+        ended), then make them final."""
         s = self.settings
-        live = self._live_members(gid)
-        if len(live) >= 2:
-            for m in live:
-                self._flush(m)
-            idents = [m.identity for m in live]
-            cost = _group_costs([m.hist.medians() for m in live], [self.identities[k].hist.medians() for k in idents])
-            comparable = np.flatnonzero(np.isfinite(cost).all(axis=1))
-            if len(comparable) >= 2:
-                sub = cost[np.ix_(comparable, comparable)]
-                r, c = linear_sum_assignment(sub)
-                now = float(np.trace(sub))
-                new = float(sub[r, c].sum())
-                changed = int(np.sum(r != c))
-                if changed and new + s.relink_margin_m * changed <= now:
-                    new_ids = {int(comparable[i]): idents[comparable[j]] for i, j in zip(r, c)}
-                    for k, ident in new_ids.items():
-                        live[k].identity = ident
-                        self.identities[ident].track = live[k].id
-            for m in live:
-                m.no_split_with = set(idents) - {m.identity}
-        for m in list(live):
-            self._settle(m, resolved)
-        if gid in self.groups:  # members that ended were settled already; nothing else waits
-            for m in list(self.groups[gid]["members"]):
-                if m.id not in self.groups[gid]["settled"]:
-                    self._settle(m, resolved)
+        g = self.groups.pop(gid)
+        members: list[_Track] = g["members"]
+        idents = [m.identity for m in members]
+        cost = _group_costs([self._member_medians(m) for m in members],
+                            [self.identities[k].hist.medians() for k in idents])
+        comparable = np.flatnonzero(np.isfinite(cost).all(axis=1))
+        final = list(idents)
+        if len(comparable) >= 2:
+            sub = cost[np.ix_(comparable, comparable)]
+            r, c = linear_sum_assignment(sub)
+            now = float(np.trace(sub))
+            new = float(sub[r, c].sum())
+            changed = int(np.sum(r != c))
+            if changed and new + s.relink_margin_m * changed <= now:
+                for i, j in zip(r, c):
+                    final[comparable[i]] = idents[comparable[j]]
+        alive = {t.id for t in self.tracks}
+        for m, ident_no in zip(members, final):
+            m.identity = ident_no
+            ident = self.identities[ident_no]
+            if m.id in alive:
+                ident.track = m.id
+            elif ident.track is None or ident.track in {x.id for x in members}:
+                ident.track = None
+                ident.last_frame, ident.last_pos = m.last_frame, m.pos.copy()
+            m.no_split_with = set(idents) - {ident_no}
+            if m.hist_before is not None:
+                m.hist.merge(m.hist_before)
+                m.hist_before = None
+            ident.hist.merge(m.hist)
+            m.hist = ident.hist
+            m.group = None
+            resolved[m.id] = ident_no
