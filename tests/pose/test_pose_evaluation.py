@@ -83,6 +83,9 @@ def test_settings_follow_the_stage():
     assert SETTINGS.margin == stage.body_margin
     assert SETTINGS.min_half_fov == stage.min_half_fov and SETTINGS.max_half_fov == stage.max_half_fov
     assert SETTINGS.min_presence == stage.min_presence
+    plain = EvaluationSettings()  # the plain defaults are the stage's too
+    assert (plain.margin, plain.min_half_fov, plain.max_half_fov, plain.min_presence) == (
+        stage.body_margin, stage.min_half_fov, stage.max_half_fov, stage.min_presence)
     assert len(EVAL_JOINTS) == 12 and set(EVAL_JOINTS) <= set(FIT_JOINTS)
 
 
