@@ -211,12 +211,17 @@ def synthetic_scenario(minutes: float, seed: int = 10):
 
 
 def _cv(tf: TrackFrames, source: str) -> float:
+    """Mean coefficient of variation of the major limbs' lengths over workers and the limbs that
+    have at least 20 lengths (legs may never be seen by both cameras)."""
     cvs = []
     for w in tf.workers:
         r = tf.worker_rows(w)
         L = limb_lengths(r.points_world if source == "final" else r.raw_points_world)[:, MAJOR]
-        cvs.append(np.nanstd(L, axis=0) / np.nanmean(L, axis=0))
-    return float(np.mean(cvs))
+        for col in L.T:
+            v = col[np.isfinite(col)]
+            if len(v) >= 20:
+                cvs.append(v.std() / v.mean())
+    return float(np.mean(cvs)) if cvs else float("nan")
 
 
 def recon_synthetic(minutes: float = 10.0) -> None:

@@ -400,10 +400,10 @@ def constrain_bone_lengths(points: np.ndarray, variance: np.ndarray, targets: np
             if not ok.any():
                 continue
             with np.errstate(invalid="ignore", divide="ignore"):
-                corr = np.where(ok, (length - L) / length, 0.0)[:, None] * d
+                corr = np.where(ok[:, None], ((length - L) / length)[:, None] * d, 0.0)
                 fa = np.where(ok, wa / (wa + wb), 0.0)[:, None]
             X[:, a] += fa * corr
-            X[:, b] -= (1.0 - fa) * np.where(ok[:, None], corr, 0.0)
+            X[:, b] -= (1.0 - fa) * corr
     return X
 
 

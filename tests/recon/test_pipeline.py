@@ -80,6 +80,11 @@ def test_bone_constraint_reaches_target_lengths(rng):
     out = constrain_bone_lengths(noisy, np.full(X.shape[:2], 1e-4), target, iterations=50)
     assert np.nanmax(np.abs(limb_lengths(out) - target)) < 1e-3
     assert np.linalg.norm(out - X, axis=-1).mean() < np.linalg.norm(noisy - X, axis=-1).mean()
+    # A missing joint stays missing and does not spread: the left wrist is NaN, the elbow is kept.
+    holes = noisy.copy()
+    holes[:, 15] = np.nan
+    out3 = constrain_bone_lengths(holes, np.full(X.shape[:2], 1e-4), target)
+    assert np.isnan(out3[:, 15]).all() and np.isfinite(np.delete(out3, 15, axis=1)).all()
     # A joint with a tiny variance (the left elbow) does not move; its neighbours do.
     var = np.full(X.shape[:2], 1e-4)
     var[:, 13] = 1e-12
