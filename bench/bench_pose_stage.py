@@ -12,14 +12,15 @@ pose_frames_per_s: FisheyePoseEstimator on both cameras of a 2-worker session, v
     how the assess command uses both cores. Goal: at least 12 frame pairs per second.
 
 The machine may be shared: every figure is the best of several repeats, and the load average
-at the time is in the context. Measured when written (docs/pose-in-fisheye.md, 2 cores shared
-with other jobs, load 1.7-3.7): 16.1 ms per view with 1 thread (14.7 ms with a cached map),
-8.7 frame pairs/s in one process, 9.2 in two.
+at the time is in the context. Measured when written (docs/pose-in-fisheye.md), quiet machine:
+16.1 ms per view with 1 thread, 9.7 ms with 2; 16.0 frame pairs/s in one process, 18.4 in two.
+With other jobs on both cores (load 3-4): 17.7 ms per view, 8.7 and 9.2 frame pairs/s.
 """
 
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import os
 import sys
 import tempfile
@@ -157,7 +158,9 @@ def bench_stage(session_dir: Path) -> None:
          size="1024x768", goal=12.0, load=_load())
     half = n // 2
     best = None
-    with ProcessPoolExecutor(max_workers=2) as pool:
+    # Spawned, not forked: this process already runs LiteRT and OpenCV thread pools, and a fork
+    # of a process with running threads can deadlock in the child (it did here once).
+    with ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("spawn")) as pool:
         list(pool.map(_warm, [0, 1]))
         for _ in range(REPEATS):
             t0 = time.perf_counter()

@@ -63,6 +63,7 @@ under the first.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -665,7 +666,9 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
                               field="processes")
         jobs = [(session_dir, ci, frames, conditions, settings, model_dir, num_threads) for ci in range(n_cam)]
         results = []
-        with ProcessPoolExecutor(max_workers=2) as pool:
+        # Spawned workers: forking a process whose LiteRT or OpenCV thread pools are running
+        # (a caller that already ran a network) can deadlock the child.
+        with ProcessPoolExecutor(max_workers=2, mp_context=multiprocessing.get_context("spawn")) as pool:
             for k, r in enumerate(pool.map(_camera_worker, jobs)):
                 results.append(r)
                 report(progress, "pose evaluation", (k + 1) * per_camera, n_cam * per_camera, unit="frame")

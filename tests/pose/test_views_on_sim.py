@@ -203,3 +203,18 @@ def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_pa
     assert "6 scored frames per camera" in text
     assert main([str(tmp_path / "missing"), "--conditions", "view"]) == 2
     assert "ergopose: error:" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_two_processes_give_the_one_process_result(sim_session, fetched_model_dir, landmarker):
+    """One spawned process per camera (this test process already runs LiteRT: a forked child
+    could deadlock) gives the same trials as one process."""
+    model_dir = fetched_model_dir[0]
+    kwargs = dict(conditions=("view", "crop"), step=12, model_dir=model_dir, num_threads=1)
+    one = evaluate_session(sim_session, processes=1, **kwargs)
+    two = evaluate_session(sim_session, processes=2, **kwargs)
+    assert len(one.trials) == len(two.trials) > 0
+    for name in ("condition", "frame", "camera", "worker", "region", "found"):
+        assert np.array_equal(getattr(one.trials, name), getattr(two.trials, name)), name
+    assert np.allclose(one.trials.presence, two.trials.presence, atol=1e-6)
+    assert np.allclose(one.trials.joint_error_px, two.trials.joint_error_px, atol=1e-4, equal_nan=True)
