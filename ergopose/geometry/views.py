@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 
 from ergopose.geometry.camera import look_at_rotation
-from ergopose.geometry.lenses.base import LensModel
+from ergopose.geometry.lenses.base import BlockwiseLens, LensModel
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 
 if TYPE_CHECKING:
@@ -168,9 +168,9 @@ def build_map(dst_lens: LensModel, dst_size: tuple[int, int], src_lens: LensMode
 
 def _project_into(lens: LensModel, rays: np.ndarray, out: np.ndarray) -> None:
     """lens.project(rays) written into ``out``, without a new array where the lens accepts out=."""
-    try:
-        lens.project(rays, out=out)  # BlockwiseLens models take out=
-    except TypeError:
+    if isinstance(lens, BlockwiseLens):
+        lens.project(rays, out=out)
+    else:
         out[...] = lens.project(rays)
 
 
