@@ -88,3 +88,39 @@ def atomic_dir(final: str | os.PathLike) -> Iterator[Path]:
     os.replace(tmp, final)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def _made_here(name: str) -> bool:
+    """Whether a file or folder name is one this module makes (".<name>.<random>.tmp<suffix>")."""
+    return name.startswith(".") and ".tmp" in name
+
+
+def clean_up(folder: str | os.PathLike) -> list[Path]:
+    """Tidy what a killed process left in ``folder`` and below; return what was removed.
+
+    A process killed while writing (SIGKILL, a power cut) cannot remove its temporary files and
+    folders. This removes them, and puts back a folder that :func:`atomic_dir` had moved aside
+    (``.<name>.old``) but not yet replaced. Call it only while no other process writes there.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    removed = []
+    for path in sorted(folder.rglob(".*"), key=lambda p: len(p.parts)):
+        if not os.path.lexists(path):
+            continue  # inside a folder removed a moment ago
+        name = path.name
+        if name.endswith(".old") and path.is_dir():
+            final = path.with_name(name[1:-len(".old")])
+            if not final.exists():
+                os.replace(path, final)
+                continue
+        elif not _made_here(name):
+            continue
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+        removed.append(path)
+    return removed

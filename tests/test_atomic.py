@@ -44,3 +44,55 @@ def test_outputs_get_ordinary_permissions(tmp_path):
         os.umask(old)
     assert path.stat().st_mode & 0o777 == 0o644
     assert (tmp_path / "folder").stat().st_mode & 0o777 == 0o755
+
+
+def _run_and_die(code: str) -> None:
+    """Run ``code`` in a fresh interpreter that dies (os._exit, no clean-up) where the code says."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 9, done.stderr
+
+
+def test_clean_up_removes_what_a_killed_writer_left(tmp_path):
+    from ergopose.atomic import clean_up
+
+    write_text(tmp_path / "keep.csv", "old\n")
+    (tmp_path / ".hidden_user_file").write_text("not ours")
+    _run_and_die(
+        "import os\nfrom ergopose.atomic import atomic_path, atomic_dir\n"
+        f"with atomic_dir({str(tmp_path / 'results')!r}) as d:\n"
+        "    (d / 'a.txt').write_text('half')\n"
+        f"    with atomic_path({str(tmp_path / 'keep.csv')!r}) as t:\n"
+        "        t.write_text('half')\n"
+        "        os._exit(9)\n")
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert any(n.startswith(".keep.") for n in left) and any(n.startswith(".results.") for n in left)
+    removed = clean_up(tmp_path)
+    assert len(removed) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".hidden_user_file", "keep.csv"]
+    assert (tmp_path / "keep.csv").read_text() == "old\n"
+
+
+def test_clean_up_puts_back_a_folder_moved_aside_by_a_killed_swap(tmp_path):
+    from ergopose.atomic import clean_up
+
+    with atomic_dir(tmp_path / "results") as d:
+        (d / "a.txt").write_text("v1")
+    # die between moving the old folder aside and moving the new one in
+    _run_and_die(
+        "import os\nimport ergopose.atomic as atomic\n"
+        "real = os.replace\ncalls = []\n"
+        "def replace(a, b):\n"
+        "    calls.append(a)\n"
+        "    real(a, b)\n"
+        "    if len(calls) == 1:\n"
+        "        os._exit(9)\n"
+        "atomic.os.replace = replace\n"
+        f"with atomic.atomic_dir({str(tmp_path / 'results')!r}) as d:\n"
+        "    (d / 'a.txt').write_text('v2')\n")
+    assert not (tmp_path / "results").exists()
+    clean_up(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
+    assert (tmp_path / "results" / "a.txt").read_text() == "v1"

@@ -113,6 +113,15 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
                            fps=session.fps, model_dir=options.model_dir,
                            num_threads=1)  # one thread per process: the same numbers whatever the process count
     store = ResultStore(out_dir)
+    with store.lock():
+        return _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes,
+                              progress, t_start, timings)
+
+
+def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes, progress,
+                   t_start, timings) -> AssessResult:
+    from ergopose.pipeline import detect, stages
+
     store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
     ranges = detect.chunk_ranges(session.frame_count, chunk_frames)
     done = store.finished(ranges)

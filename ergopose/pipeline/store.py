@@ -5,6 +5,7 @@ Layout under the output folder::
     pipeline/manifest.json           what the results were computed from (the input fingerprint)
     pipeline/chunks/chunk_*.npz      one file per finished chunk of frames (2D -> 3D people)
     pipeline/tracks.parquet          the tracks table (written by the tracking stage)
+    pipeline/lock                    held (flock) by the one run writing to this folder
 
 Every file is written under a temporary name and renamed when complete, so a killed process
 leaves either a whole chunk file or none. A chunk file that cannot be read is computed again.
@@ -14,17 +15,19 @@ the fingerprint changes and the earlier chunks are not reused.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import zipfile
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 
 from ergopose import __version__
-from ergopose.atomic import atomic_path, write_text
+from ergopose.atomic import atomic_path, clean_up, write_text
+from ergopose.errors import InputError
 from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
 
 FORMAT_VERSION = 1
@@ -64,6 +67,33 @@ class ResultStore:
     def at(cls, root: str | os.PathLike) -> "ResultStore":
         """The store whose root folder is ``root`` (as passed to worker processes)."""
         return cls(Path(root).parent)
+
+    @contextlib.contextmanager
+    def lock(self) -> Iterator[None]:
+        """Hold the output folder for one run; a second run on the same folder fails at once.
+
+        The lock (an advisory ``flock`` on ``pipeline/lock``) dies with its process, so a killed
+        run never leaves the folder locked. While holding it, the temporary files a killed run
+        left anywhere under the output folder are removed (:func:`ergopose.atomic.clean_up`).
+        """
+        self.root.mkdir(parents=True, exist_ok=True)
+        with open(self.root / "lock", "a+b") as f:
+            try:
+                import fcntl
+            except ImportError:  # not a POSIX system: no lock, the rest works the same
+                fcntl = None
+            if fcntl is not None:
+                try:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except OSError:
+                    raise InputError("another 'ergopose assess' is writing to this output folder; wait for it "
+                                     "to finish or give another folder with --out", path=self.root.parent) from None
+            clean_up(self.root.parent)
+            try:
+                yield
+            finally:
+                if fcntl is not None:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_UN)
 
     def open(self, inputs: dict[str, Any]) -> bool:
         """Prepare the store for inputs; True when earlier chunks of the same inputs are reused.
