@@ -23,6 +23,7 @@ lens region, :func:`match_workers` pairs workers with ground-truth people and
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -84,42 +85,160 @@ class WorkerLimbDiagnostics:
         return self.stats[(limb, region)]
 
 
-def _length_stats(limb: str, region: str, lengths: np.ndarray) -> LengthStats:
-    n = len(lengths)
-    v = lengths[np.isfinite(lengths)]
-    k = len(v)
+#: Width (metres) and number of the histogram bins the percentiles are read from; lengths beyond
+#: the last bin go to an overflow bin that spans up to the longest length seen.
+LENGTH_BIN_M = 0.001
+LENGTH_BINS = 2000
+
+
+def histogram_percentiles(counts: np.ndarray, q: Sequence[float], bin_m: float = LENGTH_BIN_M,
+                          overflow_max_m: np.ndarray | float = np.nan) -> np.ndarray:
+    """Percentiles q (0-100) of values counted in bins of width ``bin_m`` from 0 (last axis of
+    ``counts``; its last bin is the overflow bin, spanning up to ``overflow_max_m``).
+
+    Each counted value is placed evenly within its bin (the i-th of m values in a bin at
+    (i + 0.5) / m of its width), then numpy's "linear" rule interpolates between the items of
+    rank floor and ceil of q/100 x (n - 1); every placed value is within one bin of the true one,
+    so the result is within one bin of np.percentile of the values. NaN where
+    nothing was counted. Returns counts.shape[:-1] + (len(q),).
+    """
+    counts = np.asarray(counts)
+    lead = counts.shape[:-1]
+    c = counts.reshape(-1, counts.shape[-1]).astype(np.float64)
+    n = c.sum(axis=1)
+    cum = np.cumsum(c, axis=1)
+    rank = (np.asarray(q, dtype=np.float64)[None, :] / 100.0) * np.maximum(n[:, None] - 1, 0)  # (m, Q)
+    out = np.full(rank.shape, np.nan)
+    rows = np.flatnonzero(n > 0)
+    nb = c.shape[1]
+    top = np.broadcast_to(np.asarray(overflow_max_m, dtype=np.float64), lead).reshape(-1)
+    def value_at(j: np.ndarray) -> np.ndarray:
+        """Estimated value of the sorted item of index j (per row of ``rows``): placed evenly in its bin."""
+        k = np.minimum(np.argmax(cum[rows] > j[:, None], axis=1), nb - 1)  # the bin holding item j
+        below = np.where(k > 0, cum[rows, np.maximum(k - 1, 0)], 0.0)
+        inbin = np.maximum(c[rows, k], 1.0)
+        lo = k * bin_m
+        width = np.where(k == nb - 1, np.fmax(top[rows] - lo, 0.0), bin_m)
+        return lo + np.clip((j - below + 0.5) / inbin, 0.0, 1.0) * width
+
+    for qi in range(rank.shape[1]):  # five percentiles: a loop over q, vectorised over limbs and regions
+        r = rank[rows, qi]
+        j0 = np.floor(r)
+        j1 = np.minimum(j0 + 1, np.maximum(n[rows] - 1, 0))
+        v0, v1 = value_at(j0), value_at(j1)
+        out[rows, qi] = v0 + (r - j0) * (v1 - v0)  # numpy's "linear" rule between neighbouring items
+    return out.reshape(*lead, rank.shape[1])
+
+
+class LimbStatsAccumulator:
+    """The limb-length statistics of :func:`limb_diagnostics`, built chunk by chunk.
+
+    Memory does not grow with the shift: per worker, limb and region it keeps counts, sums
+    (exact mean and standard deviation) and a histogram of lengths in LENGTH_BIN_M bins
+    (percentiles within one bin, 1 mm, of the exact values). Feed :meth:`add` the rows of a
+    tracks table in any chunks; :meth:`result` gives the same diagnostics whatever the chunking.
+    """
+
+    def __init__(self, settings: ReconSettings | None = None, source: str = "final") -> None:
+        if source not in ("final", "raw"):
+            raise ValueError(f"source must be 'final' or 'raw', got {source!r}")
+        self.settings = settings or ReconSettings()
+        self.source = source
+        self._w: dict[int, dict[str, np.ndarray]] = {}
+
+    def _state(self, worker: int) -> dict[str, np.ndarray]:
+        if worker not in self._w:
+            L, R = len(LIMBS), len(REGIONS) + 1  # region 0 = all, 1.. = REGIONS
+            self._w[worker] = {"rows": np.zeros(1, np.int64), "frames": np.zeros((L, R), np.int64),
+                               "known": np.zeros((L, R), np.int64), "sum": np.zeros((L, R)),
+                               "sumsq": np.zeros((L, R)), "max": np.full((L, R), np.nan),
+                               "hist": np.zeros((L, R, LENGTH_BINS + 1), np.int64)}
+        return self._w[worker]
+
+    def add(self, tracks: TrackFrames) -> None:
+        if len(tracks) == 0:
+            return
+        X = tracks.points_world if self.source == "final" else tracks.raw_points_world
+        lengths = limb_lengths(X)  # (n, L)
+        ang = np.fmax(tracks.lens_angle_deg[:, LIMB_INDEX[:, 0]], tracks.lens_angle_deg[:, LIMB_INDEX[:, 1]])
+        region = lens_region(ang, self.settings.lens_region_limits_deg).astype(np.int64) + 1  # 0 = no region
+        L, R = len(LIMBS), len(REGIONS) + 1
+        for w in np.unique(tracks.worker):
+            sel = tracks.worker == w
+            st = self._state(int(w))
+            st["rows"] += int(sel.sum())
+            x = lengths[sel]
+            known = np.isfinite(x)
+            limb = np.broadcast_to(np.arange(L), x.shape)
+            region_w = region[sel]
+            for whole in (True, False):  # "all", then each frame's lens region (none where unknown)
+                reg = np.zeros_like(region_w) if whole else region_w
+                use = np.ones(x.shape, bool) if whole else reg > 0
+                cell = limb * R + reg
+                st["frames"] += np.bincount(cell[use], minlength=L * R).reshape(L, R)
+                ku = known & use
+                kc, v = cell[ku], x[ku]
+                st["known"] += np.bincount(kc, minlength=L * R).reshape(L, R)
+                st["sum"] += np.bincount(kc, weights=v - _SHIFT_M, minlength=L * R).reshape(L, R)
+                st["sumsq"] += np.bincount(kc, weights=(v - _SHIFT_M) ** 2, minlength=L * R).reshape(L, R)
+                b = np.minimum(np.floor(v / LENGTH_BIN_M), LENGTH_BINS).astype(np.int64)
+                st["hist"] += np.bincount(kc * (LENGTH_BINS + 1) + b,
+                                          minlength=L * R * (LENGTH_BINS + 1)).reshape(L, R, LENGTH_BINS + 1)
+                m = np.full(L * R, -np.inf)
+                np.maximum.at(m, kc, v)
+                st["max"] = np.fmax(st["max"], np.where(np.isfinite(m), m, np.nan).reshape(L, R))
+
+    def workers(self) -> list[int]:
+        return sorted(self._w)
+
+    def medians(self, worker: int) -> np.ndarray:
+        """(L,) median length per limb (all regions), NaN for a limb never reconstructed."""
+        st = self._w[worker]
+        return histogram_percentiles(st["hist"][:, 0], (50,), overflow_max_m=st["max"][:, 0])[:, 0]
+
+    def result(self) -> list[WorkerLimbDiagnostics]:
+        out = []
+        for w in self.workers():
+            st = self._w[w]
+            pct = histogram_percentiles(st["hist"], PERCENTILES, overflow_max_m=st["max"])
+            stats = {}
+            for li, (name, _, _) in enumerate(LIMBS):
+                for r, region in enumerate(("all",) + REGIONS):
+                    stats[(name, region)] = _length_stats(name, region, int(st["frames"][li, r]),
+                                                          int(st["known"][li, r]), st["sum"][li, r],
+                                                          st["sumsq"][li, r], pct[li, r])
+            out.append(WorkerLimbDiagnostics(worker=identity_name(w), source=self.source, frames=int(st["rows"][0]),
+                                             stats=stats))
+        return out
+
+
+#: Lengths are summed relative to this (metres), so the variance does not lose digits.
+_SHIFT_M = 0.4
+
+
+def _length_stats(limb: str, region: str, n: int, k: int, s: float, ss: float, pct: np.ndarray) -> LengthStats:
     if k:
-        mean = float(v.mean())
-        std = float(v.std()) if k > 1 else float("nan")
-        pct = tuple(float(x) for x in np.percentile(v, PERCENTILES))
+        mean_off = s / k
+        mean = _SHIFT_M + mean_off
+        std = float(np.sqrt(max(ss / k - mean_off ** 2, 0.0))) if k > 1 else float("nan")
+        percentiles = tuple(float(x) for x in pct)
     else:
         mean = std = float("nan")
-        pct = tuple(float("nan") for _ in PERCENTILES)
+        percentiles = tuple(float("nan") for _ in PERCENTILES)
     return LengthStats(limb=limb, region=region, frames=n, reconstructed=k,
-                       frequency=k / n if n else float("nan"), mean_m=mean, std_m=std,
-                       cv=std / mean if k > 1 and mean > 0 else float("nan"), percentiles_m=pct)
+                       frequency=k / n if n else float("nan"), mean_m=float(mean), std_m=std,
+                       cv=std / mean if k > 1 and mean > 0 else float("nan"), percentiles_m=percentiles)
 
 
 def limb_diagnostics(tracks: TrackFrames, settings: ReconSettings | None = None,
                      source: str = "final") -> list[WorkerLimbDiagnostics]:
-    """Limb-length statistics per worker (see module docstring); source "final" or "raw"."""
-    settings = settings or ReconSettings()
-    if source not in ("final", "raw"):
-        raise ValueError(f"source must be 'final' or 'raw', got {source!r}")
-    out = []
-    for w in tracks.workers:
-        r = tracks.worker_rows(w)
-        X = r.points_world if source == "final" else r.raw_points_world
-        L = limb_lengths(X)  # (n, limbs)
-        ang = np.fmax(r.lens_angle_deg[:, LIMB_INDEX[:, 0]], r.lens_angle_deg[:, LIMB_INDEX[:, 1]])
-        reg = lens_region(ang, settings.lens_region_limits_deg)
-        stats = {}
-        for li, (name, _, _) in enumerate(LIMBS):
-            stats[(name, "all")] = _length_stats(name, "all", L[:, li])
-            for k, region in enumerate(REGIONS):
-                stats[(name, region)] = _length_stats(name, region, L[reg[:, li] == k, li])
-        out.append(WorkerLimbDiagnostics(worker=identity_name(w), source=source, frames=len(r), stats=stats))
-    return out
+    """Limb-length statistics per worker (see module docstring); source "final" or "raw".
+
+    One piece of :class:`LimbStatsAccumulator`: percentiles within 1 mm of the exact values.
+    """
+    acc = LimbStatsAccumulator(settings, source)
+    acc.add(tracks)
+    return acc.result()
 
 
 @dataclass(frozen=True)

@@ -147,11 +147,13 @@ def reliable_rule(tolerance: float = RELIABLE_LENGTH_TOLERANCE) -> str:
             f"shanks) reconstructed in 3D and within {100 * tolerance:.0f} % of the worker's median length")
 
 
-def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE):
+def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE, limb_medians_m=None):
     """Per frame of one worker, whether the skeleton is reliable (the rule of :func:`reliable_rule`).
 
-    points_world: (F, 33, 3) joints in metres, NaN = missing. Returns a bool array (F,). The median
-    length of each limb is taken over the frames given (the worker's whole shift).
+    points_world: (F, 33, 3) joints in metres, NaN = missing. Returns a bool array (F,).
+    limb_medians_m: (len(keypoints.LIMBS),) the worker's median limb lengths over the whole shift
+    (e.g. :meth:`ergopose.recon.diagnostics.LimbStatsAccumulator.medians`), so a shift can be
+    judged piece by piece; None takes the medians over the frames given.
     """
     import numpy as np
 
@@ -159,15 +161,19 @@ def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE):
 
     pts = np.asarray(points_world, dtype=np.float64)
     names = [n for n, _, _ in LIMBS]
-    idx = LIMB_INDEX[[names.index(n) for n in SCORED_LIMBS]]
+    cols = [names.index(n) for n in SCORED_LIMBS]
+    idx = LIMB_INDEX[cols]
     lengths = np.linalg.norm(pts[:, idx[:, 0]] - pts[:, idx[:, 1]], axis=-1)  # (F, limbs)
     if lengths.shape[0] == 0:
         return np.zeros(0, dtype=bool)
     known = np.isfinite(lengths)
-    counts = known.sum(axis=0)
-    median = np.full(lengths.shape[1], np.nan)
-    for k in np.flatnonzero(counts):  # one column per limb (10): a limb never seen has no median
-        median[k] = np.median(lengths[known[:, k], k])
+    if limb_medians_m is not None:
+        median = np.asarray(limb_medians_m, dtype=np.float64)[cols]
+    else:
+        counts = known.sum(axis=0)
+        median = np.full(lengths.shape[1], np.nan)
+        for k in np.flatnonzero(counts):  # one column per limb (10): a limb never seen has no median
+            median[k] = np.median(lengths[known[:, k], k])
     with np.errstate(invalid="ignore"):
         ok = known & (np.abs(lengths - median) <= tolerance * median)
     return np.all(ok, axis=1)

@@ -41,7 +41,7 @@ def test_limb_statistics_known_answers():
     v = lengths[np.isfinite(lengths)]
     assert s.frames == 10 and s.reconstructed == 8 and np.isclose(s.frequency, 0.8)
     assert np.isclose(s.mean_m, v.mean()) and np.isclose(s.std_m, v.std()) and np.isclose(s.cv, v.std() / v.mean())
-    assert np.allclose(s.percentiles_m, np.percentile(v, D.PERCENTILES))
+    assert np.allclose(s.percentiles_m, np.percentile(v, D.PERCENTILES), rtol=0, atol=D.LENGTH_BIN_M)
     c = diag[0].get("left_upper_arm", "central")
     e = diag[0].get("left_upper_arm", "edge")
     assert c.frames == 5 and c.reconstructed == 5 and np.isclose(c.mean_m, lengths[:5].mean())
@@ -96,3 +96,46 @@ def test_identity_switch_flicker_vs_sustained():
     tf = TrackFrames(**{**tf.__dict__, "frame": np.r_[np.arange(n), np.arange(n)]})
     assert D.identity_switches(tf, truth) == 4  # CLEAR-MOT: away and back, for both people
     assert D.identity_switches(tf, truth, min_frames=3) == 0
+
+
+def test_statistics_in_chunks_equal_one_piece_and_percentiles_are_within_a_bin(rng):
+    """A long shift fed in uneven chunks gives the diagnostics of one piece; percentiles stay within
+    one 1 mm bin of numpy's, also for lengths beyond the histogram (a bad triangulation of 2.4 m)."""
+    n = 5000
+    X = np.full((n, 33, 3), np.nan)
+    X[:, LS] = [0.0, 0.0, 1.5]
+    lengths = rng.normal(0.30, 0.02, n)
+    lengths[rng.random(n) < 0.1] = np.nan
+    lengths[[7, 99]] = [2.4, 2.2]
+    X[:, LE] = X[:, LS] - np.c_[np.zeros(n), np.zeros(n), lengths]
+    angle = rng.uniform(0, 89, (n, 33))
+    worker = np.where(np.arange(n) % 3 == 0, 2, 1).astype(np.int64)
+    tracks = _tracks(X, angle, worker)
+    whole = D.limb_diagnostics(tracks)
+    acc = D.LimbStatsAccumulator()
+    for a, b in [(0, 1), (1, 1000), (1000, 1001), (1001, 4321), (4321, n)]:
+        sel = np.arange(a, b)
+        acc.add(TrackFrames(**{k: (v[sel] if isinstance(v, np.ndarray) else v) for k, v in tracks.__dict__.items()}))
+    pieces = acc.result()
+    for d1, d2 in zip(whole, pieces):
+        for key, s1 in d1.stats.items():
+            s2 = d2.stats[key]
+            assert (s1.frames, s1.reconstructed) == (s2.frames, s2.reconstructed)
+            np.testing.assert_allclose([s1.mean_m, s1.std_m, *s1.percentiles_m], [s2.mean_m, s2.std_m, *s2.percentiles_m],
+                                       rtol=1e-9, atol=1e-12)
+    for d, w in zip(whole, (1, 2)):
+        v = lengths[(worker == w) & np.isfinite(lengths)]
+        s = d.get("left_upper_arm")
+        assert s.reconstructed == v.size
+        assert abs(s.mean_m - v.mean()) < 1e-12 and abs(s.std_m - v.std()) < 1e-12
+        np.testing.assert_allclose(s.percentiles_m, np.percentile(v, D.PERCENTILES), rtol=0, atol=D.LENGTH_BIN_M)
+        region = D.lens_region(np.fmax(angle[:, LS], angle[:, LE]))
+        for k, name in enumerate(D.REGIONS):
+            sel = (worker == w) & (region == k)
+            vr = lengths[sel & np.isfinite(lengths)]
+            sr = d.get("left_upper_arm", name)
+            assert sr.frames == sel.sum() and sr.reconstructed == vr.size
+            np.testing.assert_allclose(sr.percentiles_m, np.percentile(vr, D.PERCENTILES), rtol=0, atol=D.LENGTH_BIN_M)
+    hist = np.zeros(D.LENGTH_BINS + 1, np.int64)
+    hist[D.LENGTH_BINS] = 1  # one value in the overflow bin, the longest seen: 2.4 m
+    assert np.isclose(D.histogram_percentiles(hist, (50,), overflow_max_m=2.4)[0], 2.2)  # placed mid-bin: 2.0-2.4
