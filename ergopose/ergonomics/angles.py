@@ -334,6 +334,23 @@ def joint_angles(points_world: np.ndarray, time_s: np.ndarray | None = None,
     return JointAngles(**out)
 
 
+def _shoulder_heights(pts: np.ndarray, mid_hip: np.ndarray, trunk_z: np.ndarray) -> list[np.ndarray]:
+    """Each shoulder's height (metres) above mid-hip along the trunk axis, in SIDES order."""
+    return [_dot(_p(pts, f"{side}_shoulder") - mid_hip, trunk_z) for side in SIDES]
+
+
+def shoulder_heights(points_world: np.ndarray) -> np.ndarray:
+    """(F, 2) both shoulders' heights along the trunk axis (SIDES order; NaN where unknown): the
+    values whose median is the reference of shoulder elevation when ``trunk_length_m`` is None.
+    A whole shift scored in pieces passes that median, taken over the whole shift, as
+    ``trunk_length_m`` so every piece uses the same reference."""
+    pts = np.asarray(points_world, dtype=float)
+    l_hip, r_hip = _p(pts, "left_hip"), _p(pts, "right_hip")
+    mid_hip = 0.5 * (l_hip + r_hip)
+    trunk_z = _unit(0.5 * (_p(pts, "left_shoulder") + _p(pts, "right_shoulder")) - mid_hip)
+    return np.stack(_shoulder_heights(pts, mid_hip, trunk_z), axis=1)
+
+
 def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
     """Everything that depends on one frame only, for a block of frames (C, 33, 3)."""
     n = pts.shape[0]
@@ -377,8 +394,8 @@ def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
     half_width = 0.5 * _norm(shoulder_line - _dot(shoulder_line, trunk_z)[:, None] * trunk_z)
     half_width = np.where(half_width > _EPS, half_width, np.nan)
     out["_half_shoulder_width"] = half_width
-    for side in SIDES:
-        out[f"_{side}_shoulder_height"] = _dot(_p(pts, f"{side}_shoulder") - mid_hip, trunk_z)
+    for side, height in zip(SIDES, _shoulder_heights(pts, mid_hip, trunk_z)):
+        out[f"_{side}_shoulder_height"] = height
 
     with np.errstate(invalid="ignore"):
         for side in SIDES:

@@ -138,21 +138,37 @@ class ScoredWorker:
     points_world: np.ndarray  # (n, 33, 3)
 
 
-def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -> ScoredWorker:
-    """Joint angles -> posture table with the task factors -> RULA and REBA -> shift summary."""
-    from ergopose.ergonomics.aggregate import aggregate_shift
-    from ergopose.ergonomics.angles import joint_angles
-    from ergopose.ergonomics.scoring import score_posture
-    from ergopose.report.quality import reliable_frames
+def score_rows(session: Session, rows, worker_id: str, scoring,
+               shoulder_reference_m: float | None = None) -> pd.DataFrame:
+    """One worker's consecutive rows -> joint angles, the task factors of the settings, RULA and
+    REBA: one row per row of ``rows`` (worker, frame, posture in radians, every score column).
 
-    angles = joint_angles(rows.points_world, rows.time_s)
+    shoulder_reference_m: the reference of shoulder elevation (the median shoulder height along
+    the trunk over the worker's whole shift, :class:`ergopose.pipeline.scoring.ShiftReferences`);
+    None takes the median over ``rows``.
+    """
+    from ergopose.ergonomics.angles import AngleSettings, joint_angles
+    from ergopose.ergonomics.scoring import score_posture
+
+    ref = shoulder_reference_m
+    settings = AngleSettings(trunk_length_m=float(ref)) if ref is not None and np.isfinite(ref) and ref > 0 else None
+    angles = joint_angles(rows.points_world, rows.time_s, settings)
     posture = angles.to_frame().reset_index(drop=True)
     factors = session.factor_table(worker_id, rows.time_s)
     posture = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])],
                         axis=1)
     scores = score_posture(posture, settings=scoring, with_events=True)
     ident = pd.DataFrame({"worker": worker_id, "frame": np.asarray(rows.frame, dtype=np.int64)})
-    frames = pd.concat([ident, posture, scores], axis=1)
+    return pd.concat([ident, posture, scores], axis=1)
+
+
+def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -> ScoredWorker:
+    """A worker's rows scored in one piece (:func:`score_rows`) and the shift summary; for
+    evaluations of short sessions. ``ergopose assess`` scores in blocks (:func:`score_tracks`)."""
+    from ergopose.ergonomics.aggregate import aggregate_shift
+    from ergopose.report.quality import reliable_frames
+
+    frames = score_rows(session, rows, worker_id, scoring)
     summary = aggregate_shift(frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps)
     return ScoredWorker(worker_id=worker_id, frames=frames, summary=summary, diagnostics=diagnostics,
                         reliable=reliable_frames(rows.points_world), points_world=rows.points_world)
