@@ -68,6 +68,10 @@ class Keypoints2D:
     landmark_presence: (33,) likelihood that each landmark lies inside the image, or None.
     world_m: (33, 3) metres, origin between the hips, axes of the input image (x right, y down,
         z away from the camera), as regressed by the network; None unless asked for.
+    alignment: (2, 2) pixels of the network's two alignment points, or None when the model
+        gives none: the hip centre and a point on the circle around the whole body along the
+        body axis (the same two points as :class:`PersonDetection`'s first two keypoints;
+        BlazePose's landmarks 33 and 34, which MediaPipe uses to place the next frame's crop).
     """
 
     pixels: np.ndarray
@@ -76,6 +80,7 @@ class Keypoints2D:
     depth: np.ndarray | None = None
     landmark_presence: np.ndarray | None = None
     world_m: np.ndarray | None = None
+    alignment: np.ndarray | None = None
 
     def transformed(self, matrix: np.ndarray) -> "Keypoints2D":
         """The same keypoints with pixels mapped by a 2x3 affine matrix (e.g. crop -> image).
@@ -86,7 +91,9 @@ class Keypoints2D:
         pixels = self.pixels @ m[:, :2].T + m[:, 2]
         scale = float(np.sqrt(abs(np.linalg.det(m[:, :2]))))
         depth = None if self.depth is None else self.depth * scale
-        return Keypoints2D(pixels, self.confidence, self.presence, depth, self.landmark_presence, self.world_m)
+        alignment = None if self.alignment is None else self.alignment @ m[:, :2].T + m[:, 2]
+        return Keypoints2D(pixels, self.confidence, self.presence, depth, self.landmark_presence, self.world_m,
+                           alignment)
 
 
 @dataclass(frozen=True)
@@ -467,4 +474,5 @@ class BlazePoseLandmarker:
             depth=raw[:NUM_JOINTS, 2].copy(),
             landmark_presence=_sigmoid(raw[:NUM_JOINTS, 4]),
             world_m=world,
+            alignment=raw[NUM_JOINTS:NUM_JOINTS + 2, 0:2] - 0.5 if raw.shape[0] >= NUM_JOINTS + 2 else None,
         )

@@ -29,10 +29,12 @@ import cv2
 import numpy as np
 
 from ergopose.geometry.camera import Camera
-from ergopose.geometry.views import ViewMap, VirtualView
+from ergopose.geometry.lenses.rectilinear import Rectilinear
+from ergopose.geometry.views import ViewMap, VirtualView, upright_rotation
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D, PersonDetection
 
+_WORLD_UP = np.array([0.0, 0.0, 1.0])
 _LEFT_HIP, _RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
 _LEFT_SHOULDER, _RIGHT_SHOULDER = JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]
 _BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
@@ -81,7 +83,23 @@ class PoseSettings:
     motion_warmup: frames the background model learns before its blobs count.
     same_person_angle: two detections whose hip-centre rays are closer than this fraction of
         their angular radius are one person.
-    bearing_step: quantisation of view directions and sizes (radians) for the map cache.
+    align_views: roll each person view about its axis so the body axis points up in it (the
+        previous pose's hip-to-shoulder direction when re-focusing, the detector's body axis
+        for a search cue); False: every view upright (the paper's construction: the image of
+        the world's vertical points up). Search views and motion cues are always upright.
+    refocus_on_alignment: re-focus on the network's own alignment points when it gives them
+        (BlazePose: the hip centre and a point on the circle around the whole body, along the body
+        axis; MediaPipe places its next crop with them): the view is aimed at that hip centre, its
+        half field of view is the circle's angular radius times ``body_margin``, and (with
+        ``align_views``) it is rolled so the body axis points up. False, or a network without
+        them: aimed at the mean of the confident hip keypoints, fitted to the confident body
+        keypoints, rolled to the hip-to-shoulder direction.
+    min_axis_fraction: the hip-to-shoulder angle must be at least this fraction of the body's
+        angular radius for its direction to roll the next view (a torso seen end-on from
+        above has no reliable direction); otherwise the view is upright.
+    view_cache_px: the map cache hands out a view that differs from the requested one by at
+        most this many view pixels anywhere in the view (direction, roll and field of view
+        are quantised to steps that keep each pixel within this distance).
     max_people: most people tracked per camera.
     """
 
@@ -101,18 +119,27 @@ class PoseSettings:
     motion_min_area: float = 0.0004
     motion_warmup: int = 10
     same_person_angle: float = 0.5
-    bearing_step: float = np.radians(0.25)
+    align_views: bool = True
+    refocus_on_alignment: bool = True
+    min_axis_fraction: float = 0.15
+    view_cache_px: float = 0.5
     max_people: int = 8
 
 
 @dataclass(frozen=True)
 class Target:
-    """Where to look for a person: a unit direction in the camera frame and an angular radius."""
+    """Where to look for a person: a unit direction in the camera frame and an angular radius.
+
+    up_cam: (3,) a direction in the camera frame whose image should point up in the view (its
+    component across the view's axis is used), e.g. the ray to the shoulders of a person whose
+    hips the view is aimed at; None: the view is upright (world vertical up).
+    """
 
     direction_cam: np.ndarray
     half_fov: float
     source: int
     missed: int = 0
+    up_cam: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -175,35 +202,110 @@ def _angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
 
 
-class ViewCache:
-    """Lookup maps of one camera's person views, keyed by quantised direction and size (LRU)."""
+def view_rotation(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None = None) -> np.ndarray:
+    """rotation_cam_from_view (3, 3) of a view looking along ``direction_cam``.
 
-    def __init__(self, camera: Camera, view_size: tuple[int, int], step: float, capacity: int = 96):
+    up_cam None: upright (the image of the world's vertical points up, as
+    ``VirtualView.aimed_along``). Otherwise the view is rolled about its axis so that the image
+    of ``up_cam`` (its component across the axis) points straight up; when that component
+    vanishes (up along the axis) the view stays upright.
+    """
+    return _rolled(camera, direction_cam, _roll_of(camera, direction_cam, up_cam))
+
+
+def _upright(camera: Camera, direction_cam: np.ndarray) -> np.ndarray:
+    up_world_cam = np.asarray(camera.rotation_world_from_cam, dtype=np.float64).T @ _WORLD_UP
+    return upright_rotation(direction_cam, up_world_cam)
+
+
+def _roll_of(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None) -> float:
+    """Roll (radians, clockwise on screen) that turns the upright view's up onto ``up_cam``."""
+    if up_cam is None:
+        return 0.0
+    u = _upright(camera, direction_cam).T @ np.asarray(up_cam, dtype=np.float64)
+    if not (np.all(np.isfinite(u)) and np.hypot(u[0], u[1]) > 1e-12 * max(np.linalg.norm(u), 1e-300)):
+        return 0.0
+    # Rolling by r turns the view's up (0, -1) into (sin r, -cos r) in the upright view.
+    return float(np.arctan2(u[0], -u[1]))
+
+
+def _rolled(camera: Camera, direction_cam: np.ndarray, roll: float) -> np.ndarray:
+    c, s = np.cos(roll), np.sin(roll)
+    rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return _upright(camera, direction_cam) @ rz
+
+
+class ViewCache:
+    """Lookup maps of one camera's person views (LRU), keyed by quantised field of view,
+    direction and roll.
+
+    The steps are chosen so that the view handed out differs from the one requested by at most
+    about ``tolerance_px`` view pixels anywhere in the view: each of the three quantisations
+    (field of view: scale at the view's border; direction: shift at the view's corner; roll:
+    turn at the corner) moves no pixel by more than a third of it. The view handed out is an
+    exact view (its map, projection and back-mapping agree); only its aim differs from the
+    request. ``tolerance_px`` 0 disables the cache (every call builds a fresh map).
+    """
+
+    def __init__(self, camera: Camera, view_size: tuple[int, int], tolerance_px: float = 0.5,
+                 capacity: int = 96):
         self.camera = camera
-        self.view_size = view_size
-        self.step = float(step)
+        self.view_size = (int(view_size[0]), int(view_size[1]))
+        self.tolerance_px = float(tolerance_px)
         self.capacity = int(capacity)
-        self._maps: OrderedDict[tuple[int, int, int], tuple[VirtualView, ViewMap]] = OrderedDict()
+        self._maps: OrderedDict[tuple[int, int, int, int], tuple[VirtualView, ViewMap]] = OrderedDict()
         self.hits = 0
         self.misses = 0
 
-    def get(self, direction_cam: np.ndarray, half_fov: float) -> tuple[VirtualView, ViewMap]:
+    def _build(self, direction_cam: np.ndarray, half_fov: float, roll: float) -> tuple[VirtualView, ViewMap]:
+        lens = Rectilinear.from_fov(self.view_size[0], self.view_size[1], 2.0 * half_fov)
+        view = VirtualView(source=self.camera, lens=lens, width=self.view_size[0], height=self.view_size[1],
+                           rotation_cam_from_view=_rolled(self.camera, direction_cam, roll))
+        return view, view.build_map()
+
+    def get(self, direction_cam: np.ndarray, half_fov: float,
+            up_cam: np.ndarray | None = None) -> tuple[VirtualView, ViewMap]:
+        """The view (and its map) looking along ``direction_cam`` with half field of view
+        ``half_fov`` (horizontal), rolled so ``up_cam`` points up (None: upright)."""
         d = _unit(np.asarray(direction_cam, dtype=np.float64))
-        polar = np.arccos(np.clip(d[2], -1.0, 1.0))
-        azimuth = np.arctan2(d[1], d[0])
-        # Azimuth steps shrink with sin(polar) so the grid is roughly uniform on the sphere.
-        az_step = self.step / max(np.sin(polar), self.step)
-        key = (int(round(polar / self.step)), int(round(azimuth / az_step)), int(round(half_fov / self.step)))
+        if self.tolerance_px <= 0:
+            self.misses += 1
+            return self._build(d, float(half_fov), _roll_of(self.camera, d, up_cam))
+        # The requested view's up, kept when the direction is quantised (the upright frame turns
+        # fast with the direction near the lens axis, so a roll relative to it would not).
+        up_req = -view_rotation(self.camera, d, up_cam)[:, 1]
+        third = self.tolerance_px / 3.0
+        half_w = 0.5 * self.view_size[0]
+        corner_px = np.hypot(half_w, 0.5 * self.view_size[1])
+        # Field of view: a relative change e of tan(half_fov) moves a pixel r from the centre by r e.
+        log_step = 2.0 * third / corner_px
+        i_fov = int(round(np.log(np.tan(half_fov)) / log_step))
+        tan_q = float(np.exp(i_fov * log_step))
+        # Direction: a turn by a moves a pixel at angle t off the axis by f a / cos^2 t, most at the corner.
+        focal = half_w / tan_q
+        tan_corner = corner_px / focal
+        dir_step = 2.0 * third / (focal * (1.0 + tan_corner ** 2)) / np.sqrt(2.0)  # two axes
+        polar = float(np.arccos(np.clip(d[2], -1.0, 1.0)))
+        azimuth = float(np.arctan2(d[1], d[0]))
+        i_polar = int(round(polar / dir_step))
+        polar_q = i_polar * dir_step
+        # Azimuth steps grow as 1/sin(polar) so the grid is roughly uniform on the sphere.
+        az_step = dir_step / max(np.sin(polar_q), dir_step)
+        i_az = int(round(azimuth / az_step))
+        az_q = i_az * az_step
+        direction_q = np.array([np.sin(polar_q) * np.cos(az_q), np.sin(polar_q) * np.sin(az_q), np.cos(polar_q)])
+        roll = _roll_of(self.camera, direction_q, up_req)
+        # Roll: a turn by r moves the corner pixels by corner_px * r.
+        roll_step = 2.0 * third / corner_px
+        i_roll = int(round(roll / roll_step))
+        key = (i_fov, i_polar, i_az, i_roll)
         hit = self._maps.get(key)
         if hit is not None:
             self._maps.move_to_end(key)
             self.hits += 1
             return hit
         self.misses += 1
-        polar_q, az_q, half_q = key[0] * self.step, key[1] * az_step, max(key[2], 1) * self.step
-        direction_q = np.array([np.sin(polar_q) * np.cos(az_q), np.sin(polar_q) * np.sin(az_q), np.cos(polar_q)])
-        view = VirtualView.aimed_along(self.camera, direction_q, hfov=2.0 * half_q, size=self.view_size)
-        entry = (view, view.build_map())
+        entry = self._build(direction_q, float(np.arctan(tan_q)), i_roll * roll_step)
         self._maps[key] = entry
         if len(self._maps) > self.capacity:
             self._maps.popitem(last=False)
@@ -226,7 +328,7 @@ class FisheyePoseEstimator:
         self.detector = detector
         self.settings = settings
         size = tuple(int(s) for s in landmarker.input_size)
-        self.views = ViewCache(camera, size, settings.bearing_step)
+        self.views = ViewCache(camera, size, settings.view_cache_px)
         self._search_views = self._make_search_views() if detector is not None else []
         self._background = cv2.createBackgroundSubtractorMOG2(history=300, varThreshold=25, detectShadows=False)
         self._frames_seen = 0
@@ -261,7 +363,9 @@ class FisheyePoseEstimator:
                 if not np.isfinite(rays).all():
                     continue
                 radius = float(_angle_between(rays[0], rays[1]))
-                cues.append(Target(rays[0], self._half_fov(radius), SOURCE_SEARCH))
+                # The detector's second point lies along the body axis from the hips (beyond the head).
+                up = rays[1] if self.settings.align_views else None
+                cues.append(Target(rays[0], self._half_fov(radius), SOURCE_SEARCH, up_cam=up))
         return cues
 
     def _motion_cues(self, frame_bgr: np.ndarray) -> list[Target]:
@@ -316,7 +420,7 @@ class FisheyePoseEstimator:
         found = [self._refocus(p) for p in people]
         # Views that found nobody this time keep looking for a few frames (brief occlusions),
         # unless a person found elsewhere now covers them.
-        coasting = [Target(t.direction_cam, t.half_fov, t.source, t.missed + 1)
+        coasting = [Target(t.direction_cam, t.half_fov, t.source, t.missed + 1, t.up_cam)
                     for t, r in zip(targets, results)
                     if r is None and t.source == SOURCE_REFOCUS and t.missed < s.coast_frames]
         self._targets = found + [t for t in coasting if not self._covered(t, found)]
@@ -329,17 +433,21 @@ class FisheyePoseEstimator:
         return False
 
     def _run_view(self, frame_bgr: np.ndarray, target: Target) -> dict | None:
-        view, view_map = self.views.get(target.direction_cam, target.half_fov)
+        view, view_map = self.views.get(target.direction_cam, target.half_fov, target.up_cam)
         image = view_map.apply(frame_bgr)
         kp = self.landmarker(image)
         if not kp.presence >= self.settings.min_presence:
             return None
         rays_cam = view.view_pixels_to_rays_cam(kp.pixels)
+        alignment = getattr(kp, "alignment", None)
+        if alignment is not None:
+            alignment = view.view_pixels_to_rays_cam(alignment)
         return {"kp": kp, "view": view, "rays_cam": rays_cam, "source": target.source,
-                "half_fov": target.half_fov}
+                "half_fov": target.half_fov, "alignment_rays": alignment}
 
-    def _body_bearing(self, person: dict) -> tuple[np.ndarray, float] | None:
-        """Hip-centre ray and angular radius of the confident body keypoints."""
+    def _body_bearing(self, person: dict) -> tuple[np.ndarray, float, np.ndarray | None] | None:
+        """Hip-centre ray, angular radius of the confident body keypoints, and the shoulder-centre
+        ray when both the hips and the shoulders are confident (else None)."""
         rays, conf = person["rays_cam"], person["kp"].confidence
         good = (conf >= self.settings.min_keypoint_confidence) & np.isfinite(rays).all(axis=1)
         hips = [j for j in (_LEFT_HIP, _RIGHT_HIP) if good[j]]
@@ -350,7 +458,11 @@ class FisheyePoseEstimator:
             return None
         centre = _unit(rays[hips].mean(axis=0))
         radius = float(_angle_between(rays[body], centre[None]).max())
-        return centre, radius
+        shoulders = [j for j in (_LEFT_SHOULDER, _RIGHT_SHOULDER) if good[j]]
+        axis = None
+        if len(hips) == 2 and shoulders:
+            axis = _unit(rays[shoulders].mean(axis=0))
+        return centre, radius, axis
 
     def _merge(self, people: list[dict]) -> list[dict]:
         """One detection per person: drop a detection whose body centre lies inside a better one."""
@@ -360,7 +472,7 @@ class FisheyePoseEstimator:
         for i in order:
             if bearings[i] is None:
                 continue
-            ci, ri = bearings[i]
+            ci, ri = bearings[i][:2]
             duplicate = any(
                 _angle_between(ci, bearings[j][0]) < self.settings.same_person_angle * max(ri, bearings[j][1])
                 for j in kept
@@ -371,9 +483,23 @@ class FisheyePoseEstimator:
             people[i]["bearing"] = bearings[i]
         return [people[i] for i in kept]
 
-    def _refocus(self, person: dict) -> Target | None:
-        centre, radius = person["bearing"]
-        return Target(centre, self._half_fov(radius), SOURCE_REFOCUS)
+    def _refocus(self, person: dict) -> Target:
+        """The next frame's view of a person: aimed at the hips, fitted to the body, rolled so
+        the hip-to-shoulder direction points up (when it is known well enough)."""
+        s = self.settings
+        centre, radius, shoulder = person["bearing"]
+        aux = person["alignment_rays"]
+        if s.refocus_on_alignment and aux is not None and np.isfinite(aux).all():
+            centre, extent = _unit(aux[0]), _unit(aux[1])
+            radius = float(_angle_between(centre, extent))
+            if radius > 0:
+                return Target(centre, self._half_fov(radius), SOURCE_REFOCUS,
+                              up_cam=extent if s.align_views else None)
+        up = None
+        if s.align_views and shoulder is not None and \
+                _angle_between(shoulder, centre) >= s.min_axis_fraction * radius:
+            up = shoulder
+        return Target(centre, self._half_fov(radius), SOURCE_REFOCUS, up_cam=up)
 
     def _record(self, people: list[dict], frame_index: int) -> FrameDetections:
         if not people:
