@@ -67,6 +67,8 @@ class PoseSettings:
 
     search_every: frames between searches for new people while someone is being followed.
     idle_search_every: frames between searches while nobody is being followed.
+    search_where_lost: when a followed person's view finds nobody for the last time (after
+        coasting), run the detector on the next frame on the search views around that place.
     coast_frames: a person not found in their view is looked for in the same view for this
         many more frames (a brief occlusion) before the view is dropped.
     min_presence: a view whose pose flag is below this holds no person.
@@ -119,6 +121,7 @@ class PoseSettings:
     motion_min_area: float = 0.0004
     motion_warmup: int = 10
     same_person_angle: float = 0.5
+    search_where_lost: bool = True
     align_views: bool = True
     refocus_on_alignment: bool = True
     min_axis_fraction: float = 0.15
@@ -333,6 +336,7 @@ class FisheyePoseEstimator:
         self._background = cv2.createBackgroundSubtractorMOG2(history=300, varThreshold=25, detectShadows=False)
         self._frames_seen = 0
         self._targets: list[Target] = []
+        self._lost: list[Target] = []
 
     # -- search views ------------------------------------------------------------------------
     def _make_search_views(self) -> list[tuple[VirtualView, ViewMap]]:
@@ -350,9 +354,17 @@ class FisheyePoseEstimator:
                 views.append((view, view.build_map()))
         return views
 
-    def _search_cues(self, frame_bgr: np.ndarray) -> list[Target]:
+    def _search_cues(self, frame_bgr: np.ndarray, near: Sequence[np.ndarray] | None = None) -> list[Target]:
+        """Detector cues from the search views (near: only the views whose field holds one of
+        these directions)."""
         cues = []
-        for view, view_map in self._search_views:
+        views = self._search_views
+        if near is not None:
+            axes = np.stack([v.rotation_cam_from_view[:, 2] for v, _ in views])
+            dirs = np.stack([_unit(np.asarray(d, dtype=np.float64)) for d in near])
+            inside = _angle_between(axes[:, None], dirs[None]) < self.settings.search_half_fov
+            views = [views[i] for i in np.nonzero(inside.any(axis=1))[0]]
+        for view, view_map in views:
             image = view_map.apply(frame_bgr)
             for det in self.detector(image):
                 if det.score < self.settings.min_detector_score:
@@ -411,8 +423,13 @@ class FisheyePoseEstimator:
         search_now = seen % (s.search_every if targets else s.idle_search_every) == 0
         motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
         self._frames_seen += 1
+        lost, self._lost = self._lost, []
         if search_now:
             cues = motion + (self._search_cues(frame_bgr) if self.detector is not None else [])
+            targets += [c for c in cues if not self._covered(c, targets)]
+        elif lost and s.search_where_lost and self.detector is not None:
+            # A view lost its person: the detector looks again around there at once.
+            cues = self._search_cues(frame_bgr, near=[t.direction_cam for t in lost])
             targets += [c for c in cues if not self._covered(c, targets)]
         targets = targets[: 4 * s.max_people]
         results = [self._run_view(frame_bgr, t) for t in targets]
@@ -424,6 +441,9 @@ class FisheyePoseEstimator:
                     for t, r in zip(targets, results)
                     if r is None and t.source == SOURCE_REFOCUS and t.missed < s.coast_frames]
         self._targets = found + [t for t in coasting if not self._covered(t, found)]
+        self._lost = [t for t, r in zip(targets, results)
+                      if r is None and t.source == SOURCE_REFOCUS and t.missed >= s.coast_frames
+                      and not self._covered(t, found)]
         return self._record(people, frame_index)
 
     def _covered(self, cue: Target, targets: Sequence[Target]) -> bool:
