@@ -485,9 +485,13 @@ class FisheyePoseEstimator:
         return centre, radius, axis
 
     def _merge(self, people: list[dict]) -> list[dict]:
-        """One detection per person: drop a detection whose body centre lies inside a better one."""
+        """One detection per person: drop a detection whose body centre lies inside a better one
+        (better: higher pose flag times mean body-keypoint confidence)."""
         bearings = [self._body_bearing(p) for p in people]
-        order = sorted(range(len(people)), key=lambda i: -people[i]["kp"].presence)
+        # The better detection of one person: the pose flag times the mean confidence of the body
+        # keypoints (two views of one person often both have a flag near 1).
+        score = [float(p["kp"].presence) * float(np.mean(p["kp"].confidence[_BODY_JOINTS])) for p in people]
+        order = sorted(range(len(people)), key=lambda i: -score[i])
         kept: list[int] = []
         for i in order:
             if bearings[i] is None:
