@@ -78,7 +78,56 @@ def write_scores_csv(path: str | os.PathLike, frames: pd.DataFrame, *, include_p
 
 def write_worker_frames_csv(path: str | os.PathLike, frames: pd.DataFrame) -> Path:
     """One worker's frames: identity, time_s, the posture (degrees) and every score."""
-    return _write(path, scores_table(frames, include_posture=True))
+    with FramesCsvWriter(path) as w:
+        w.write(frames)
+    return Path(path)
+
+
+class FramesCsvWriter:
+    """:func:`write_worker_frames_csv` piece by piece, for a whole shift in bounded memory::
+
+        with FramesCsvWriter(path) as w:
+            w.write(frames_of_block)    # consecutive pieces of one worker's frames
+
+    The file appears under ``path`` complete when the block ends, or not at all; the pieces give
+    the bytes of one write of all the frames (the first piece fixes the columns).
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = Path(path)
+        self.columns: list[str] | None = None
+        self.rows = 0
+        self._ctx = None
+        self._file = None
+
+    def __enter__(self) -> "FramesCsvWriter":
+        self._ctx = atomic_path(self.path)
+        tmp = self._ctx.__enter__()
+        self._file = open(tmp, "w", encoding="utf-8", newline="")
+        return self
+
+    def write(self, frames: pd.DataFrame) -> None:
+        table = scores_table(frames, include_posture=True)
+        if self.columns is None:
+            self.columns = list(table.columns)
+            header = True
+        else:
+            missing = [c for c in self.columns if c not in table.columns]
+            if missing or len(table.columns) != len(self.columns):
+                raise ValueError(f"every piece needs the columns of the first; this one differs in {missing}")
+            table = table[self.columns]
+            header = False
+        table.to_csv(self._file, index=False, header=header, na_rep="", lineterminator="\n")
+        self.rows += len(table)
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        self._file.close()
+        if exc_type is None and self.columns is None:  # no frames: the header of an empty table
+            with open(self._file.name, "w", encoding="utf-8", newline="") as f:
+                scores_table(pd.DataFrame({"time_s": []}), include_posture=True).to_csv(
+                    f, index=False, na_rep="", lineterminator="\n")
+        self._ctx.__exit__(exc_type, exc, tb)
+        return False
 
 
 # ------------------------------------------------------------------------- worker summary

@@ -86,22 +86,27 @@ def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequenc
 
 @dataclass(frozen=True)
 class Tracks:
-    """The reconstructed workers of a session: path of the tracks table and its rows in memory."""
+    """The reconstructed workers of a session: the tracks table (Parquet, read back in pieces),
+    the per-worker summary stored in it, and the whole-shift references scoring needs
+    (:class:`ergopose.pipeline.scoring.ShiftReferences`). Nothing per frame stays in memory."""
 
     path: Path
-    frames: Any  # ergopose.recon.pipeline.TrackFrames
     worker_summary: dict
+    references: Any  # ShiftReferences
+    workers: tuple[int, ...]
+    rows: int
 
 
 def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon,
                   progress: ProgressCallback | None) -> Tracks:
     """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet)."""
-    from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
+    from ergopose.pipeline.scoring import ShiftReferences
+    from ergopose.recon.pipeline import ShiftReconstruction
     from ergopose.recon.session import worker_summary
     from ergopose.recon.table import TracksWriter
 
     shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras)
-    parts = []
+    refs = ShiftReferences(recon)
     with TracksWriter(store.tracks_path, fps=session.fps, cameras=session.camera_names,
                       settings=recon.as_dict()) as writer:
         for k, (start, stop) in enumerate(ranges):
@@ -111,15 +116,43 @@ def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], re
                                  "run the assessment again", path=store.chunk_path(start))
             part = shift.push(chunk.people, start, stop)
             writer.write(part)
-            parts.append(part)
+            refs.add(part)
             report(progress, "tracking", k + 1, len(ranges) + 1, unit="chunk")
         part = shift.finish()
         writer.write(part)
-        parts.append(part)
+        refs.add(part)
         summary = worker_summary(shift)
         writer.set_workers(summary)
+        rows = writer.rows
     report(progress, "tracking", len(ranges) + 1, len(ranges) + 1, unit="chunk")
-    return Tracks(path=store.tracks_path, frames=TrackFrames.concat(parts), worker_summary=summary)
+    return Tracks(path=store.tracks_path, worker_summary=summary, references=refs,
+                  workers=tuple(refs.limbs.workers()), rows=rows)
+
+
+def read_track_parts(path: Path):
+    """The tracks table again, piece by piece in frame order: TrackFrames of whole frames (all
+    joints of every worker in a frame), one row group at a time."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from ergopose.recon.table import table_to_frames
+
+    f = pq.ParquetFile(path)
+    carry = None
+    for g in range(f.num_row_groups):
+        table = f.read_row_group(g)
+        if carry is not None:
+            table = pa.concat_tables([carry, table])
+        frames = table.column("frame").to_numpy()
+        if not len(frames):
+            continue
+        last = frames[-1]
+        cut = int(np.searchsorted(frames, last, side="left"))  # the last frame may go on in the next group
+        carry = table.slice(cut)
+        if cut:
+            yield table_to_frames(table.slice(0, cut).to_pandas())
+    if carry is not None and carry.num_rows:
+        yield table_to_frames(carry.to_pandas())
 
 
 # ---------------------------------------------------------------------------------- scoring
@@ -176,6 +209,8 @@ def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -
 
 # ----------------------------------------------------------------------------------- output
 
+SCORED_DIR = "scored"
+
 
 @dataclass(frozen=True)
 class Outputs:
@@ -184,41 +219,229 @@ class Outputs:
     workers: tuple
 
 
+class _WorkerSink:
+    """Where one worker's scored blocks go: the frames CSV, the scored-frames Parquet file (read
+    back for the report's worst moments), the shift aggregation and the report's timeline
+    (eight numbers per frame, the only per-frame data kept in memory)."""
+
+    def __init__(self, stack, worker_id: str, csv_path: Path, scored_path: Path, scoring, fps: float,
+                 limb_medians_m: np.ndarray) -> None:
+        from ergopose.ergonomics.aggregate import ShiftAccumulator
+        from ergopose.ergonomics.export import FramesCsvWriter
+
+        self.worker_id = worker_id
+        self.csv = stack.enter_context(FramesCsvWriter(csv_path))
+        self.scored_path = scored_path
+        self._scored_tmp = stack.enter_context(_atomic(scored_path))
+        self._stack = stack
+        self._parquet = None
+        self._schema = None
+        self.acc = ShiftAccumulator(worker_id, settings=scoring, frame_period_s=1.0 / fps)
+        self.medians = limb_medians_m
+        self.timeline: dict[str, list[np.ndarray]] = {k: [] for k in (
+            "time_s", "frame", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level", "floor_x_m",
+            "floor_y_m", "reliable")}
+
+    def write(self, frames: pd.DataFrame, rows) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        from ergopose.report.quality import reliable_frames
+
+        self.csv.write(frames)
+        self.acc.add(frames)
+        if self._schema is None:
+            self._schema = pa.Schema.from_pandas(frames, preserve_index=False)
+            self._parquet = self._stack.enter_context(pq.ParquetWriter(self._scored_tmp, self._schema,
+                                                                       compression="zstd"))
+        self._parquet.write_table(pa.Table.from_pandas(frames, schema=self._schema, preserve_index=False))
+        mid_hip = rows.points_world[:, _HIPS, :].mean(axis=1)  # NaN unless both hips are known
+        tl = self.timeline
+        tl["time_s"].append(frames["time_s"].to_numpy(np.float64))
+        tl["frame"].append(frames["frame"].to_numpy(np.int64))
+        for c in ("rula_grand", "rula_action_level", "reba_score", "reba_risk_level"):
+            tl[c].append(frames[c].to_numpy(np.float32, na_value=np.nan))
+        tl["floor_x_m"].append(mid_hip[:, 0].astype(np.float32))
+        tl["floor_y_m"].append(mid_hip[:, 1].astype(np.float32))
+        tl["reliable"].append(reliable_frames(rows.points_world, limb_medians_m=self.medians))
+
+    def column(self, name: str) -> np.ndarray:
+        parts = self.timeline[name]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+
+def _atomic(path: Path):
+    from ergopose.atomic import atomic_path
+
+    return atomic_path(path)
+
+
+@dataclass(frozen=True)
+class ReportWorker:
+    """What the report needs of one scored worker: id, shift summary, limb diagnostics, the
+    timeline (report.results.frames_table), the scored frames at the peaks of the worst episodes
+    and their joints (seconds -> (33, 3) metres), and the count of reliable frames."""
+
+    worker_id: str
+    summary: Any
+    diagnostics: Any
+    timeline: pd.DataFrame
+    peak_frames: pd.DataFrame
+    joints_at: Any
+    reliable_frames: int
+
+
+def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident,
+                 progress: ProgressCallback | None) -> list[ReportWorker]:
+    """Every tracked worker scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
+    from one pass over the tracks table: the per-frame CSV files are written as it goes; returns
+    what the report needs."""
+    import contextlib
+
+    from ergopose.pipeline.scoring import WorkerScorer, block_sizes
+    from ergopose.recon.tracking import identity_name
+
+    block, context = block_sizes(scoring, session.fps)
+    diagnostics = {d.worker: d for d in tracks.references.limbs.result()}
+    csv_dir = out_dir / CSV_DIR
+    scored_dir = out_dir / "pipeline" / SCORED_DIR
+    total = max(int(session.frame_count), 1)
+    sinks: dict[int, _WorkerSink] = {}
+    with contextlib.ExitStack() as stack:
+        scorers = {}
+        for w in tracks.workers:
+            tracked = identity_name(w)
+            wid = ident.rename(tracked)
+            ref = tracks.references.shoulder_reference_m(w)
+            sink = _WorkerSink(stack, wid, csv_dir / f"{wid}_frames.csv", scored_dir / f"{tracked}.parquet",
+                               scoring, session.fps, tracks.references.limb_medians_m(w))
+            sinks[w] = sink
+
+            def score(rows, wid=wid, ref=ref):
+                return score_rows(session, rows, wid, scoring, ref)
+
+            scorers[w] = WorkerScorer(score, sink, block, context)
+        report(progress, "scoring", 0, total, unit="frame")
+        if tracks.workers:
+            for part in read_track_parts(tracks.path):
+                for w in np.unique(part.worker):
+                    scorers[int(w)].add(part.worker_rows(int(w)))
+                frontier = int(part.frame[-1])  # frames before the last one of a part are complete
+                for sc in scorers.values():
+                    sc.advance(frontier)
+                report(progress, "scoring", min(frontier, total), total, unit="frame")
+        for sc in scorers.values():
+            sc.finish()
+    report(progress, "scoring", total, total, unit="frame")
+
+    out = []
+    for w, sink in sinks.items():
+        tracked = identity_name(w)
+        summary = sink.acc.result()
+        peaks = _peak_frames(sink, summary)
+        out.append(ReportWorker(worker_id=sink.worker_id, summary=summary, diagnostics=diagnostics[tracked],
+                                timeline=_timeline(sink), peak_frames=peaks,
+                                joints_at=_joints_at(tracks.path, tracked, peaks, session.fps),
+                                reliable_frames=int(sink.column("reliable").sum())))
+    return out
+
+
+def _timeline(sink: _WorkerSink) -> pd.DataFrame:
+    from ergopose.report.results import frames_table
+
+    c = sink.column
+    return frames_table(c("time_s"), rula_grand=c("rula_grand"), rula_action_level=c("rula_action_level"),
+                        reba_score=c("reba_score"), reba_risk_level=c("reba_risk_level"),
+                        floor_x_m=c("floor_x_m").astype(np.float64), floor_y_m=c("floor_y_m").astype(np.float64),
+                        reliable=c("reliable").astype(bool))
+
+
+def _peak_frames(sink: _WorkerSink, summary) -> pd.DataFrame:
+    """The scored frames at the highest score of each episode the report may show (read back from
+    the scored-frames file): enough for the worst moments to be chosen as from all frames."""
+    import pyarrow.parquet as pq
+
+    t = sink.column("time_s")
+    frame = sink.column("frame")
+    wanted = set()
+    for col, score_col in (("rula_action_level", "rula_grand"), ("reba_risk_level", "reba_score")):
+        sc = sink.column(score_col)
+        for e in summary.episodes.get(col, ()):
+            sel = np.flatnonzero((t >= e.start_s) & (t <= e.end_s))
+            if sel.size:
+                i = int(sel[np.nanargmax(sc[sel])]) if np.isfinite(sc[sel]).any() else int(sel[0])
+                wanted.add(int(frame[i]))
+    if not wanted or not sink.scored_path.exists():
+        return pd.DataFrame()
+    table = _rows_of_frames(pq.ParquetFile(sink.scored_path), np.array(sorted(wanted), dtype=np.int64))
+    return table.to_pandas().sort_values("time_s", kind="stable").reset_index(drop=True)
+
+
+def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, str] | None = None):
+    """The rows of a Parquet file (ordered by frame) whose frame is in ``frames`` (and whose column
+    where[0] equals where[1]), reading only the row groups whose frame range holds one of them."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    col = f.schema_arrow.get_field_index("frame")
+    found = [f.schema_arrow.empty_table()]
+    for g in range(f.num_row_groups):  # one row group in memory at a time
+        st = f.metadata.row_group(g).column(col).statistics
+        if st is not None and st.has_min_max:
+            k = np.searchsorted(frames, st.min)
+            if k >= len(frames) or frames[k] > st.max:
+                continue
+        table = f.read_row_group(g)
+        mask = pc.is_in(table.column("frame"), value_set=pa.array(frames))
+        if where is not None:
+            mask = pc.and_(mask, pc.equal(table.column(where[0]), where[1]))
+        found.append(table.filter(mask))
+    return pa.concat_tables(found)
+
+
+def _joints_at(tracks_path: Path, tracked: str, peaks: pd.DataFrame, fps: float):
+    """callable(seconds) -> (33, 3) joints (metres) at the nearest peak frame, from the tracks table."""
+    import pyarrow.parquet as pq
+
+    from ergopose.recon.table import table_to_frames
+
+    if not len(peaks):
+        return None
+    frames = np.array(sorted(int(f) for f in peaks["frame"]), dtype=np.int64)
+    tf = table_to_frames(_rows_of_frames(pq.ParquetFile(tracks_path), frames, ("worker", tracked)).to_pandas())
+    times, points = tf.time_s, tf.points_world
+
+    def joints_at(t: float):
+        i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
+        return points[i] if len(times) else None
+
+    return joints_at
+
+
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
                      progress: ProgressCallback | None) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report."""
-    from ergopose.ergonomics.export import (write_session_summary_csv, write_worker_frames_csv,
-                                            write_worker_summary_csv)
+    from ergopose.ergonomics.export import write_session_summary_csv, write_worker_summary_csv
     from ergopose.pipeline.assess import WorkerOutput
-    from ergopose.recon.diagnostics import limb_diagnostics
     from ergopose.pipeline.identify import identify_by_stature
     from ergopose.recon.tracking import identity_name
 
-    tf = tracks.frames
-    workers = tf.workers
-    diagnostics = {d.worker: d for d in limb_diagnostics(tf, recon)} if workers else {}
     measured = {name: info.get("stature_estimate_m") for name, info in tracks.worker_summary.items()}
-    ident = identify_by_stature({identity_name(w): measured.get(identity_name(w)) for w in workers}, session)
-    scored: list[ScoredWorker] = []
-    for k, w in enumerate(workers):
-        tracked = identity_name(w)
-        wid = ident.rename(tracked)
-        report(progress, "scoring", k, len(workers), unit="worker", message=wid)
-        scored.append(score_worker(session, tf.worker_rows(w), wid, scoring, diagnostics[tracked]))
-    report(progress, "scoring", len(workers), len(workers), unit="worker")
+    ident = identify_by_stature({identity_name(w): measured.get(identity_name(w)) for w in tracks.workers}, session)
+    scored = score_tracks(session, tracks, out_dir, scoring, ident, progress)
 
     csv_dir = out_dir / CSV_DIR
     csv_files: dict[str, list[tuple[str, str]]] = {}
     outputs = []
     for s in scored:
-        frames_csv = write_worker_frames_csv(csv_dir / f"{s.worker_id}_frames.csv", s.frames)
+        frames_csv = csv_dir / f"{s.worker_id}_frames.csv"
         summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}_summary.csv", s.summary)
         csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
                                   ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
         outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
                                     observed_s=float(s.summary.observed_s),
-                                    rula_high_share=_high_share(s.frames, "rula_action_level", 3),
-                                    reba_high_share=_high_share(s.frames, "reba_risk_level", 3),
+                                    rula_high_share=_high_share(s.timeline, "rula_action_level", 3),
+                                    reba_high_share=_high_share(s.timeline, "reba_risk_level", 3),
                                     csv_files=(frames_csv, summary_csv)))
     session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
     index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress)
@@ -232,33 +455,22 @@ def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
     return float((levels[scored] >= threshold).sum() / n) if n else float("nan")
 
 
-def write_report(session: Session, scored: Sequence[ScoredWorker], out_dir: Path, scoring,
+def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
                  models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None) -> Path:
     """Store the report results (ergopose.report.results) and render the pages."""
     from ergopose.report import adapters
     from ergopose.report.context import DataFile, SessionInfo
     from ergopose.report.quality import reliable_rule
     from ergopose.report.render import render_report
-    from ergopose.report.results import frames_table, save_results
+    from ergopose.report.results import save_results
 
     worker_records = []
     for s in scored:
-        f = s.frames
-        mid_hip = s.points_world[:, _HIPS, :].mean(axis=1)  # NaN unless both hips are known
-        table = frames_table(f["time_s"].to_numpy(), rula_grand=f["rula_grand"], rula_action_level=f["rula_action_level"],
-                             reba_score=f["reba_score"], reba_risk_level=f["reba_risk_level"],
-                             floor_x_m=mid_hip[:, 0], floor_y_m=mid_hip[:, 1], reliable=s.reliable)
-        times = f["time_s"].to_numpy()
-        points = s.points_world
-
-        def joints_at(t: float, times=times, points=points):
-            i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
-            return points[i] if len(times) else None
-
-        summary = adapters.worker_summary(s.summary, frames=f, joints_at=joints_at)
-        diag = adapters.worker_diagnostics(s.diagnostics, frames_reliable=int(s.reliable.sum()),
+        summary = adapters.worker_summary(s.summary, frames=s.peak_frames if len(s.peak_frames) else None,
+                                          joints_at=s.joints_at)
+        diag = adapters.worker_diagnostics(s.diagnostics, frames_reliable=s.reliable_frames,
                                            reliable_rule=reliable_rule())
-        worker_records.append((summary, diag, table))
+        worker_records.append((summary, diag, s.timeline))
     floor = _floor_plan(session)
     info = SessionInfo(
         session_id=session.path.resolve().name, title=session.description or "", site="",

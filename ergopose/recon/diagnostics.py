@@ -152,7 +152,7 @@ class LimbStatsAccumulator:
             self._w[worker] = {"rows": np.zeros(1, np.int64), "frames": np.zeros((L, R), np.int64),
                                "known": np.zeros((L, R), np.int64), "sum": np.zeros((L, R)),
                                "sumsq": np.zeros((L, R)), "max": np.full((L, R), np.nan),
-                               "hist": np.zeros((L, R, LENGTH_BINS + 1), np.int64)}
+                               "hist": np.zeros((L, R, LENGTH_BINS + 1), np.int32)}
         return self._w[worker]
 
     def add(self, tracks: TrackFrames) -> None:

@@ -187,7 +187,9 @@ class ShiftReconstruction:
         self.pending_cent = _Rows()
         self.obs = _Rows()
         self.cent = _Rows()
-        self.slots: dict[int, int] = {}  # identity number -> slot
+        self.slots: dict[int, int] = {}  # identity number -> slot (series of the smoother)
+        self.n_slots = 0
+        self.free_slots: list[int] = []  # slots of identities gone for good (ascending)
         self.kalman = KalmanRTS(0, self.fps, self.settings, first_frame=first_frame) if self.settings.smoothing else None
         self.filtered_until = int(first_frame)  # frames before this went into the smoother
         self.block_start = int(first_frame)
@@ -232,11 +234,18 @@ class ShiftReconstruction:
             self.track_last[e.track] = e.last_frame
         self.track_identity.update(res.resolved)
         for ident in res.resolved.values():
-            if ident is not None and ident not in self.slots:
-                self.slots[ident] = len(self.slots)
+            if ident is None:
+                continue
+            if ident not in self.hists:
                 self.hists[ident] = LimbHistogram()
-                if self.kalman is not None:
-                    self.kalman.add_series(_SER)
+            if ident not in self.slots:
+                if self.free_slots:  # a slot whose series have all expired: they restart at the next measurement
+                    self.slots[ident] = self.free_slots.pop(0)
+                else:
+                    self.slots[ident] = self.n_slots
+                    self.n_slots += 1
+                    if self.kalman is not None:
+                        self.kalman.add_series(_SER)
         if people is not None and len(people):
             sel = res.track >= 0
             self.pending_obs.add({
@@ -327,7 +336,32 @@ class ShiftReconstruction:
                 self.kalman.forward(z.reshape(f1 - f0, S), var.reshape(f1 - f0, S))
         self.filtered_until = f1
 
+    def _free_idle_slots(self) -> None:
+        """Give back the smoother slots of identities that have no rows left and whose series have
+        all expired (no accepted measurement for longer than the fill gap before the filtered
+        frames): their filter state restarts at the next measurement anyway, so a later identity,
+        or the same one re-linked after a long gap, can take the slot with identical results.
+        Without this the smoother would carry every identity of the shift to the end: memory and
+        time per frame would grow with the shift."""
+        if self.kalman is None or not self.slots:
+            return
+        live = set()
+        for rows in (self.obs.all(), self.cent.all()):
+            if rows is not None:
+                live.update(np.unique(rows["identity"]).tolist())
+        limit = self.filtered_until - self.kalman.max_gap - 1
+        last = self.kalman.last_meas.reshape(-1, _SER).max(axis=1)  # per slot
+        idle = [i for i, sl in self.slots.items() if i not in live and last[sl] < limit]
+        for ident in idle:
+            self.free_slots.append(self.slots.pop(ident))
+        self.free_slots.sort()
+
     def _emit(self, b0: int, b1: int) -> TrackFrames:
+        out = self._emit_rows(b0, b1)
+        self._free_idle_slots()
+        return out
+
+    def _emit_rows(self, b0: int, b1: int) -> TrackFrames:
         smoothing = self.kalman is not None
         cent = self.cent.range(b0, b1)
         obs = self.obs.range(b0, b1)

@@ -39,7 +39,7 @@ def _shift_rows(seconds: float, seed: int, long_gap: bool) -> TrackFrames:
     pts += rng.normal(0, 0.003, pts.shape)
     n = len(pts)
     keep = np.ones(n, bool)
-    for start in rng.integers(4700, n - 100, 12):  # the track lost for 1-8 s
+    for start in rng.integers(min(4700, n // 2), n - 100, 12):  # the track lost for 1-8 s
         keep[start:start + rng.integers(12, 96)] = False
     for start in rng.integers(0, n - 400, 20):  # an arm unseen for up to 30 s
         pts[start:start + rng.integers(10, 360), 13:16] = np.nan
@@ -117,3 +117,20 @@ def test_an_angle_missing_longer_than_the_context_changes_at_most_a_few_frames(s
     blocks, _ = _blockwise(session, rows, scoring, [0, 18000], block, context)
     differ = ~((blocks == whole) | (blocks.isna() & whole.isna())).all(axis=1)
     assert differ.sum() <= 0.01 * len(whole)
+
+
+def test_the_frames_csv_written_block_by_block_has_the_bytes_of_one_write(session, tmp_path):
+    from ergopose.ergonomics.export import FramesCsvWriter, write_worker_frames_csv
+    from ergopose.pipeline.stages import score_rows, scoring_settings
+
+    scoring = scoring_settings(session)
+    rows = _shift_rows(8 * 60, seed=5, long_gap=False)
+    whole = score_rows(session, rows, "worker_1", scoring, _reference(rows))
+    block, context = block_sizes(scoring, FPS, block_seconds=120.0)
+    blocks, scorer = _blockwise(session, rows, scoring, [0, 3000, len(rows) + 10_000], block, context)
+    assert scorer.blocks >= 4
+    write_worker_frames_csv(tmp_path / "one.csv", whole)
+    with FramesCsvWriter(tmp_path / "blocks.csv") as w:
+        for k in range(0, len(blocks), 1000):
+            w.write(blocks.iloc[k:k + 1000])
+    assert (tmp_path / "blocks.csv").read_bytes() == (tmp_path / "one.csv").read_bytes()
