@@ -5,6 +5,9 @@ Layout under the output folder::
     pipeline/manifest.json           what the results were computed from (the input fingerprint)
     pipeline/chunks/chunk_*.npz      one file per finished chunk of frames (2D -> 3D people)
     pipeline/tracks.parquet          the tracks table (written by the tracking stage)
+    pipeline/scored/<worker>.parquet every scored frame of a tracked worker (posture in radians and
+                                     every score column; written by the scoring stage, read back
+                                     for the report's worst moments)
     pipeline/lock                    held (flock) by the one run writing to this folder
 
 Every file is written under a temporary name and renamed when complete, so a killed process

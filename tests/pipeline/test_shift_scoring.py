@@ -134,3 +134,30 @@ def test_the_frames_csv_written_block_by_block_has_the_bytes_of_one_write(sessio
         for k in range(0, len(blocks), 1000):
             w.write(blocks.iloc[k:k + 1000])
     assert (tmp_path / "blocks.csv").read_bytes() == (tmp_path / "one.csv").read_bytes()
+
+
+def test_worst_moments_from_the_peak_frames_equal_those_from_every_frame(session, tmp_path):
+    """The report reads back only each episode's peak frame; the worst moments (time, scores,
+    levels, what drove them) are those chosen from every frame of the shift."""
+    import contextlib
+
+    from ergopose.pipeline import stages
+    from ergopose.report import adapters
+
+    scoring = stages.scoring_settings(session)
+    rows = _shift_rows(25 * 60, seed=3, long_gap=False)
+    ref = _reference(rows)
+    block, context = block_sizes(scoring, FPS, block_seconds=240.0)
+    with contextlib.ExitStack() as stack:
+        sink = stages._WorkerSink(stack, "worker_1", tmp_path / "w_frames.csv", tmp_path / "w.parquet", scoring, FPS,
+                                  np.full(16, np.nan))
+        scorer = WorkerScorer(lambda r: stages.score_rows(session, r, "worker_1", scoring, ref), sink, block, context)
+        scorer.add(rows)
+        scorer.finish()
+    summary = sink.acc.result()
+    peaks = stages._peak_frames(sink, summary)
+    whole = stages.score_rows(session, rows, "worker_1", scoring, ref)
+    assert 0 < len(peaks) <= 20
+    a = adapters.worker_summary(summary, frames=whole).worst
+    b = adapters.worker_summary(summary, frames=peaks).worst
+    assert len(a) >= 3 and a == b
