@@ -10,10 +10,11 @@ Conditions (``CONDITIONS``), each per ground-truth person whose torso the camera
 
 ``view``
     An upright virtual pinhole view (the network's input size, 256 x 256) aimed at the true
-    hip centre, its field of view fitted to the true body exactly as the 2D stage fits it to a
-    detected body: half field of view = the largest angle between the hip-centre ray and the
-    rays of the body keypoints, times ``PoseSettings.body_margin``, clipped to the stage's
-    limits. Keypoints go back to fisheye pixels through the view.
+    hip centre, its field of view fitted to the true body as the 2D stage fits it to detected
+    body keypoints (when the network gives no alignment points): half field of view = the
+    largest angle between the hip-centre ray and the rays of the body keypoints, times
+    ``PoseSettings.body_margin``, clipped to the stage's limits. Keypoints go back to fisheye
+    pixels through the view.
 ``crop``
     The raw fisheye image, cut as an axis-aligned square around the bounding box of the true
     body keypoints in fisheye pixels (side = margin x the box's longer side, centred on the
@@ -31,8 +32,9 @@ Conditions (``CONDITIONS``), each per ground-truth person whose torso the camera
     table leans in an upright view and stands straight in an aligned one).
 ``stage``
     The full 2D stage, :class:`ergopose.pose.fisheye.FisheyePoseEstimator`, run end to end on
-    every frame (search views with the detector, motion cues, re-focusing, coasting); nothing
-    from the ground truth is given to it. Its detections are matched one to one to the people.
+    every frame (search views with the detector, motion cues, re-focusing on the network's
+    alignment points with views rolled to the body axis, coasting, searching where a person was
+    lost); nothing from the ground truth is given to it. Its detections are matched one to one to the people.
 
 The four oracle conditions (all but ``stage``) give the network the true
 position and size of the person, so they measure only the effect of what the network sees;
