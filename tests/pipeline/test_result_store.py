@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -15,7 +17,8 @@ def test_a_second_run_on_the_same_folder_is_refused_while_the_first_holds_it(tmp
     code = ("import sys, time\nfrom ergopose.pipeline.store import ResultStore\n"
             f"with ResultStore({str(tmp_path)!r}).lock():\n"
             "    print('locked', flush=True)\n    time.sleep(30)\n")
-    holder = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}  # this checkout's ergopose
+    holder = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True, env=env)
     try:
         assert holder.stdout.readline().strip() == "locked"
         with pytest.raises(InputError, match="another 'ergopose assess' is writing"):
