@@ -257,8 +257,9 @@ class _WorkerSink:
         self._parquet.write_table(pa.Table.from_pandas(frames, schema=self._schema, preserve_index=False))
         mid_hip = rows.points_world[:, _HIPS, :].mean(axis=1)  # NaN unless both hips are known
         tl = self.timeline
-        tl["time_s"].append(frames["time_s"].to_numpy(np.float64))
-        tl["frame"].append(frames["frame"].to_numpy(np.int64))
+        # copies: a view of a column would keep the block's whole table of scores alive
+        tl["time_s"].append(frames["time_s"].to_numpy(np.float64, copy=True))
+        tl["frame"].append(frames["frame"].to_numpy(np.int64, copy=True))
         for c in ("rula_grand", "rula_action_level", "reba_score", "reba_risk_level"):
             tl[c].append(frames[c].to_numpy(np.float32, na_value=np.nan))
         tl["floor_x_m"].append(mid_hip[:, 0].astype(np.float32))
