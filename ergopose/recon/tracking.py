@@ -485,11 +485,7 @@ class Tracker:
             # A provisional continuation ends before its contact group is decided: it stays in
             # the decision; its identity is lost but reserved for the group meanwhile.
             self._flush(t)
-            ident = self.identities[t.identity]
-            if ident.track == t.id:
-                ident.track = None
-                ident.last_frame = t.last_frame
-                ident.last_pos = t.pos.copy()
+            self._release(t)
             ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
             return
         if t.identity is None:
@@ -499,12 +495,16 @@ class Tracker:
                 resolved[t.id] = None
         self._flush(t)
         if t.identity is not None:
-            ident = self.identities[t.identity]
-            if ident.track == t.id:
-                ident.track = None
-                ident.last_frame = t.last_frame
-                ident.last_pos = t.pos.copy()
+            self._release(t)
         ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
+
+    def _release(self, t: _Track) -> None:
+        """An ending track lets go of its identity (if it still holds it): lost since its last frame."""
+        ident = self.identities[t.identity]
+        if ident.track == t.id:
+            ident.track = None
+            ident.last_frame = t.last_frame
+            ident.last_pos = t.pos.copy()
 
     def _reserved(self) -> set[int]:
         """Identities of pending contact groups."""
