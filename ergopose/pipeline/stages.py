@@ -226,13 +226,14 @@ class _WorkerSink:
 
     def __init__(self, stack, worker_id: str, csv_path: Path, scored_path: Path, scoring, fps: float,
                  limb_medians_m: np.ndarray) -> None:
+        from ergopose.atomic import atomic_path
         from ergopose.ergonomics.aggregate import ShiftAccumulator
         from ergopose.ergonomics.export import FramesCsvWriter
 
         self.worker_id = worker_id
         self.csv = stack.enter_context(FramesCsvWriter(csv_path))
         self.scored_path = scored_path
-        self._scored_tmp = stack.enter_context(_atomic(scored_path))
+        self._scored_tmp = stack.enter_context(atomic_path(scored_path))
         self._stack = stack
         self._parquet = None
         self._schema = None
@@ -269,12 +270,6 @@ class _WorkerSink:
     def column(self, name: str) -> np.ndarray:
         parts = self.timeline[name]
         return np.concatenate(parts) if parts else np.zeros(0)
-
-
-def _atomic(path: Path):
-    from ergopose.atomic import atomic_path
-
-    return atomic_path(path)
 
 
 @dataclass(frozen=True)
