@@ -117,4 +117,7 @@ def people_to_arrays(people: People3D) -> dict[str, np.ndarray]:
 
 
 def people_from_arrays(arrays) -> People3D:
+    missing = [f for f in _FIELDS if f not in arrays]
+    if missing:
+        raise KeyError(f"stored chunk lacks {', '.join(missing)}")
     return People3D(tuple(str(c) for c in arrays["cameras"]), *(np.asarray(arrays[f]) for f in _FIELDS))

@@ -33,7 +33,7 @@ from ergopose.atomic import atomic_path, clean_up, write_text
 from ergopose.errors import InputError
 from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: People3D chunks carry every camera's 2D observations (the body fit)
 
 
 def file_fingerprint(path: str | os.PathLike, sample_bytes: int = 1 << 20) -> str:

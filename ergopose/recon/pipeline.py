@@ -26,6 +26,7 @@ import numpy as np
 
 from ergopose.errors import InputError
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
+from ergopose.recon.bodyfit import ShiftBodies
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
@@ -60,6 +61,10 @@ class TrackFrames:
     lens_angle_deg: (n, J) the larger angle (degrees) between the two cameras' axes and the
         direction to the joint's final position; where that is NaN, to the worker's body centre
         (tracker estimate), so every row has a lens region. NaN without cameras.
+    inferred: (n, J) bool, the position was placed by the body model (fewer than two cameras
+        saw the joint with min_confidence: segment lengths, previous pose, one camera's ray).
+    std_world: (n, J, 3) standard deviation (metres) of each coordinate of points_world (the
+        smoother's, else the body fit's or the triangulation's); NaN where points_world is NaN.
     """
 
     worker: np.ndarray
@@ -74,6 +79,15 @@ class TrackFrames:
     gated: np.ndarray
     smoothed: bool
     lens_angle_deg: np.ndarray
+    inferred: np.ndarray | None = None
+    std_world: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.frame)
+        if self.inferred is None:
+            object.__setattr__(self, "inferred", np.zeros((n, NUM_JOINTS), bool))
+        if self.std_world is None:
+            object.__setattr__(self, "std_world", np.full((n, NUM_JOINTS, 3), np.nan))
 
     def __len__(self) -> int:
         return int(self.frame.shape[0])
@@ -84,7 +98,7 @@ class TrackFrames:
         if not parts:
             return _empty_frames(True)
         names = ("worker", "frame", "time_s", "points_world", "raw_points_world", "confidence",
-                 "reprojection_error_px", "views", "gap_filled", "gated")
+                 "reprojection_error_px", "views", "gap_filled", "gated", "inferred", "std_world")
         kw = {n: np.concatenate([getattr(p, n) for p in parts]) for n in names}
         kw["lens_angle_deg"] = np.concatenate([p.lens_angle_deg for p in parts])
         return cls(smoothed=parts[0].smoothed, **kw)
@@ -194,6 +208,7 @@ class ShiftReconstruction:
         self.filtered_until = int(first_frame)  # frames before this went into the smoother
         self.block_start = int(first_frame)
         self.hists: dict[int, LimbHistogram] = {}
+        self.bodies = ShiftBodies(self.settings, self.fps) if self.settings.body_model else None
         self.finished = False
 
     # --- public -----------------------------------------------------------------------------------
@@ -248,11 +263,16 @@ class ShiftReconstruction:
                         self.kalman.add_series(_SER)
         if people is not None and len(people):
             sel = res.track >= 0
+            m = int(sel.sum())
             self.pending_obs.add({
                 "frame": people.frame[sel], "track": res.track[sel],
                 "points": people.points_world[sel], "conf": people.confidence[sel],
                 "err": people.reprojection_error_px[sel], "views": people.views[sel],
-                "var": people.variance_world[sel]})
+                "var": people.variance_world[sel],
+                "P": people.obs_projection[sel], "px": people.obs_pixels_view[sel],
+                "oc": people.obs_confidence[sel],
+                "fit": np.full((m, NUM_JOINTS, 3), np.nan), "fit_var": np.full((m, NUM_JOINTS, 3), np.nan),
+                "inferred": np.zeros((m, NUM_JOINTS), bool), "fit_err": np.full((m, NUM_JOINTS), np.nan)})
         if len(res.centres):
             c = res.centres
             self.pending_cent.add({"frame": c[:, 0].astype(np.int64), "track": c[:, 1].astype(np.int64),
@@ -320,6 +340,12 @@ class ShiftReconstruction:
     def _forward(self, f0: int, f1: int) -> None:
         rows = self.obs.range(f0, f1)
         if rows is not None and len(rows["frame"]):
+            if self.bodies is not None:
+                self.bodies.fit_range(rows, f0, f1)
+            else:
+                rows["fit"][...] = rows["points"]
+                rows["fit_var"][...] = rows["var"]
+                rows["inferred"][...] = rows["views"] < 2
             lengths = limb_lengths(rows["points"])
             for ident in np.unique(rows["identity"]):
                 self.hists[int(ident)].add(lengths[rows["identity"] == ident])
@@ -330,8 +356,8 @@ class ShiftReconstruction:
             if rows is not None and len(rows["frame"]):
                 slot = np.array([self.slots[int(i)] for i in rows["identity"]], dtype=np.int64)
                 t = rows["frame"] - f0
-                z[t, slot] = rows["points"]
-                var[t, slot] = rows["var"]
+                z[t, slot] = rows["fit"]
+                var[t, slot] = rows["fit_var"]
             with np.errstate(invalid="ignore"):
                 self.kalman.forward(z.reshape(f1 - f0, S), var.reshape(f1 - f0, S))
         self.filtered_until = f1
@@ -383,6 +409,9 @@ class ShiftReconstruction:
         conf = np.zeros((n, J))
         err = np.full((n, J), np.nan)
         views = np.zeros((n, J), np.int8)
+        fit = np.full((n, J, 3), np.nan)
+        fit_var = np.full((n, J, 3), np.nan)
+        inferred = np.zeros((n, J), bool)
         if obs is not None and len(obs["frame"]):
             key_rows = frame * (1 << 20) + worker
             key_obs = obs["frame"] * (1 << 20) + obs["identity"]
@@ -393,6 +422,9 @@ class ShiftReconstruction:
             conf[p] = obs["conf"][ok]
             err[p] = obs["err"][ok]
             views[p] = obs["views"][ok]
+            fit[p] = obs["fit"][ok]
+            fit_var[p] = obs["fit_var"][ok]
+            inferred[p] = obs["inferred"][ok]
         gap = np.zeros((n, J), bool)
         gated = np.zeros((n, J), bool)
         if smoothing:
@@ -400,6 +432,7 @@ class ShiftReconstruction:
             t = frame - b0
             val = sm.value.reshape(len(sm.frame), -1, J, 3)
             pts = val[t, slot]
+            std = np.sqrt(sm.variance.reshape(len(sm.frame), -1, J, 3)[t, slot])
             gap = sm.gap_filled.reshape(len(sm.frame), -1, J, 3)[t, slot].all(axis=-1)
             gated = sm.gated.reshape(len(sm.frame), -1, J, 3)[t, slot].any(axis=-1)
             if self.settings.bone_length_constraint:
@@ -407,11 +440,14 @@ class ShiftReconstruction:
                 targets = np.stack([self.hists[int(w)].medians() for w in worker]) if n else np.zeros((0, len(LIMB_INDEX)))
                 pts = constrain_bone_lengths(pts, varj, targets)
         else:
-            pts = raw.copy()
+            pts = fit.copy()
+            std = np.sqrt(fit_var)
+        inferred |= gap
         angle = lens_angles_deg(self.cameras, pts, centre)
         return TrackFrames(worker=worker, frame=frame, time_s=frame / self.fps, points_world=pts,
                            raw_points_world=raw, confidence=conf, reprojection_error_px=err, views=views,
-                           gap_filled=gap, gated=gated, smoothed=smoothing, lens_angle_deg=angle)
+                           gap_filled=gap, gated=gated, smoothed=smoothing, lens_angle_deg=angle,
+                           inferred=inferred & np.isfinite(pts).all(axis=-1), std_world=std)
 
 
 def constrain_bone_lengths(points: np.ndarray, variance: np.ndarray, targets: np.ndarray,

@@ -237,6 +237,11 @@ class People3D:
     ray_origin_world, ray_world: (M, 3) for single-view rows the camera centre and the unit
         ray towards the torso (mean of the torso joints' rays, else of all found joints); NaN
         for pairs.
+    obs_projection: (M, C, 3, 4) the projection matrix of the view in which each camera saw the
+        person (zeros where it did not); obs_pixels_view: (M, C, 33, 2) that camera's keypoints
+        in its view (NaN where not seen); obs_confidence: (M, C, 33) their confidences, without
+        any gate (0 where not seen). The body model (recon.bodyfit) is fitted to these. None
+        (rows made from 3D points only) gives zeros / NaN.
     """
 
     cameras: tuple[str, ...]
@@ -253,6 +258,18 @@ class People3D:
     centre_world: np.ndarray
     ray_origin_world: np.ndarray
     ray_world: np.ndarray
+    obs_projection: np.ndarray | None = None
+    obs_pixels_view: np.ndarray | None = None
+    obs_confidence: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        m, c = len(self.frame), len(self.cameras)
+        if self.obs_projection is None:
+            object.__setattr__(self, "obs_projection", np.zeros((m, c, 3, 4)))
+        if self.obs_pixels_view is None:
+            object.__setattr__(self, "obs_pixels_view", np.full((m, c, NUM_JOINTS, 2), np.nan))
+        if self.obs_confidence is None:
+            object.__setattr__(self, "obs_confidence", np.zeros((m, c, NUM_JOINTS)))
 
     def __len__(self) -> int:
         return int(self.frame.shape[0])
@@ -298,7 +315,8 @@ class People3D:
 
 
 _ROW_FIELDS = ("frame", "time_s", "n_cameras", "detection", "points_world", "reprojection_error_px", "views",
-               "confidence", "rejected", "variance_world", "centre_world", "ray_origin_world", "ray_world")
+               "confidence", "rejected", "variance_world", "centre_world", "ray_origin_world", "ray_world",
+               "obs_projection", "obs_pixels_view", "obs_confidence")
 
 
 def body_centres(points_world: np.ndarray) -> np.ndarray:

@@ -70,6 +70,25 @@ class ReconSettings:
             (body-measurement signature) for a re-link.
         relink_margin_m: 0.005 -- the best candidate must beat the second best by this much;
             otherwise the new track gets a new identity (no guess).
+    Body model (ergopose.recon.bodyfit: every worker-frame fitted to every camera at once)
+        body_model: true -- fit the worker's body model (constant segment lengths, previous
+            pose, pose prior) to all cameras' keypoints of every tracked worker-frame, with no
+            confidence gate; false keeps the joint-by-joint triangulation (joints seen by two
+            cameras above min_confidence only).
+        fit_huber_k: 3.0 -- Huber loss corner of the reprojection error, in keypoint sigmas
+            (keypoint_sigma_px / confidence): larger errors count linearly (a network's
+            occasional wrong keypoint does not drag the body).
+        fit_temporal_sigma_m: 0.03, fit_speed_m_s: 1.5 -- a joint may move
+            fit_temporal_sigma_m + fit_speed_m_s x (time since the worker's previous fit)
+            (one standard deviation) from its previous fitted position.
+        fit_pose_prior_sigma_m: 0.35 -- standard deviation of the neutral standing pose prior
+            (decides only what nothing else decides).
+        fit_turn_rate_rad_s: 4.0 -- each segment's vector may change by fit_temporal_sigma_m +
+            this x its length x the time since the previous fit (one standard deviation): a
+            small rigid part (a hand, the head) keeps its orientation from frame to frame instead
+            of flipping to its mirror image when one camera sees it poorly.
+        fit_iterations: 10 -- Levenberg-Marquardt iterations per worker-frame.
+
     Smoothing (Kalman filter + Rauch-Tung-Striebel smoother per joint and coordinate)
         smoothing: true -- false writes the raw triangulations.
         motion_model: "constant_velocity" or "constant_acceleration".
@@ -121,6 +140,14 @@ class ReconSettings:
     relink_max_signature_m: float = 0.03
     relink_margin_m: float = 0.005
 
+    body_model: bool = True
+    fit_huber_k: float = 3.0
+    fit_temporal_sigma_m: float = 0.03
+    fit_speed_m_s: float = 1.5
+    fit_pose_prior_sigma_m: float = 0.35
+    fit_turn_rate_rad_s: float = 4.0
+    fit_iterations: int = 10
+
     smoothing: bool = True
     motion_model: str = "constant_velocity"
     process_noise_m_s2: float = 2.0
@@ -147,8 +174,8 @@ class ReconSettings:
         return d
 
 
-_BOOLS = {"smoothing", "bone_length_constraint"}
-_INTS = {"association_min_joints", "max_gated_run"}
+_BOOLS = {"smoothing", "bone_length_constraint", "body_model"}
+_INTS = {"association_min_joints", "max_gated_run", "fit_iterations"}
 #: Numbers that may be zero or negative (everything else must be > 0).
 _ANY_SIGN = {"torso_min_z_m", "torso_max_z_m"}
 _MAY_BE_ZERO = {"outlier_gate_chi2", "relink_margin_m", "min_confidence", "min_track_s", "contact_distance_m"}

@@ -19,6 +19,9 @@ gated                  bool       the raw point was ignored by the smoother as a
 raw_x, raw_y, raw_z    float32    the triangulation before smoothing (NaN = not triangulated)
 lens_angle_deg         float32    larger angle off the two cameras' axes of the joint's final
                                   position (or of the worker's body centre where that is NaN)
+inferred               bool       the position was placed by the body model: fewer than two
+                                  cameras saw the joint with min_confidence
+std_x, std_y, std_z    float32    standard deviation of x, y, z (metres; NaN where unknown)
 =====================  =========  ==========================================================
 
 Rows exist for every frame a worker's track is alive (first to last observation of each track;
@@ -53,7 +56,7 @@ from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.tracking import identity_name
 
 FORMAT = "ergopose.tracks"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: inferred, std_x/y/z (the body model); version 1 files read with defaults
 METADATA_KEY = b"ergopose.tracks"
 
 SCHEMA = pa.schema([
@@ -70,8 +73,12 @@ SCHEMA = pa.schema([
     ("gated", pa.bool_()),
     ("raw_x", pa.float32()), ("raw_y", pa.float32()), ("raw_z", pa.float32()),
     ("lens_angle_deg", pa.float32()),
+    ("inferred", pa.bool_()),
+    ("std_x", pa.float32()), ("std_y", pa.float32()), ("std_z", pa.float32()),
 ])
 COLUMNS = tuple(SCHEMA.names)
+#: Columns a version 1 table lacks (read as not inferred, unknown deviation).
+_ADDED_IN_V2 = ("inferred", "std_x", "std_y", "std_z")
 
 
 def frames_to_arrow(tf: TrackFrames) -> pa.Table:
@@ -85,6 +92,7 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
                                            pa.array(BLAZEPOSE33, pa.string()))
     P = tf.points_world.reshape(-1, 3).astype(np.float32)
     R = tf.raw_points_world.reshape(-1, 3).astype(np.float32)
+    S = tf.std_world.reshape(-1, 3).astype(np.float32)
     cols = {
         "worker": worker.cast(pa.string()) if n else worker,
         "frame": pa.array(np.repeat(tf.frame, J)),
@@ -99,6 +107,8 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
         "gated": pa.array(tf.gated.reshape(-1)),
         "raw_x": pa.array(R[:, 0]), "raw_y": pa.array(R[:, 1]), "raw_z": pa.array(R[:, 2]),
         "lens_angle_deg": pa.array(tf.lens_angle_deg.reshape(-1).astype(np.float32)),
+        "inferred": pa.array(tf.inferred.reshape(-1)),
+        "std_x": pa.array(S[:, 0]), "std_y": pa.array(S[:, 1]), "std_z": pa.array(S[:, 2]),
     }
     return pa.Table.from_pydict(cols, schema=SCHEMA)
 
@@ -203,7 +213,7 @@ def read_metadata(path: str | os.PathLike) -> dict:
     if meta.get("format") != FORMAT or int(meta.get("version", 0)) > FORMAT_VERSION:
         raise InputError(f"unsupported tracks table format {meta.get('format')!r} version {meta.get('version')!r}",
                          path=p)
-    missing = [c for c in COLUMNS if c not in schema.names]
+    missing = [c for c in COLUMNS if c not in schema.names and c not in _ADDED_IN_V2]
     if missing:
         raise InputError(f"columns missing: {', '.join(missing)}", path=p)
     return meta
@@ -218,8 +228,12 @@ def read_tracks(path: str | os.PathLike, *, workers: Sequence[str] | None = None
     if unknown:
         raise InputError(f"unknown column(s) {', '.join(unknown)}; known: {', '.join(COLUMNS)}", field="columns")
     filters = [("worker", "in", list(workers))] if workers else None
-    table = pq.read_table(path, columns=cols, filters=filters)
+    present = set(pq.read_schema(path).names)
+    absent = [c for c in cols if c not in present]
+    table = pq.read_table(path, columns=[c for c in cols if c in present], filters=filters)
     df = table.to_pandas()
+    for c in absent:  # a version 1 table
+        df[c] = False if c == "inferred" else np.float32(np.nan)
     for c in ("worker", "joint"):
         if c in df:
             df[c] = df[c].astype("category")
@@ -229,7 +243,7 @@ def read_tracks(path: str | os.PathLike, *, workers: Sequence[str] | None = None
 def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     """The wide TrackFrames form of a (full-column) tracks table, for downstream arrays."""
     df = table.data if isinstance(table, TracksTable) else table
-    missing = [c for c in COLUMNS if c not in df.columns]
+    missing = [c for c in COLUMNS if c not in df.columns and c not in _ADDED_IN_V2]
     if missing:
         raise InputError(f"columns missing: {', '.join(missing)}", field="tracks")
     worker_num = np.array([int(str(w).rpartition("_")[2]) for w in df["worker"].astype(str)], dtype=np.int64)
@@ -260,12 +274,19 @@ def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     gated[inv, joint] = df["gated"].to_numpy(bool)
     ang = grid(None, np.nan)
     ang[inv, joint] = df["lens_angle_deg"].to_numpy(np.float64)
+    inferred = grid(None, False, bool)
+    std = grid(None, np.nan, k=3)
+    if "inferred" in df:
+        inferred[inv, joint] = df["inferred"].to_numpy(bool)
+    if "std_x" in df:
+        std[inv, joint] = df[["std_x", "std_y", "std_z"]].to_numpy(np.float64)
     time_s = np.zeros(n)
     time_s[inv] = df["time_s"].to_numpy(np.float64)
     smoothed = bool(df["smoothed"].any()) if len(df) else True
     return TrackFrames(worker=uniq % (1 << 20), frame=uniq // (1 << 20), time_s=time_s, points_world=pts,
                        raw_points_world=raw, confidence=conf, reprojection_error_px=err, views=views,
-                       gap_filled=gap, gated=gated, smoothed=smoothed, lens_angle_deg=ang)
+                       gap_filled=gap, gated=gated, smoothed=smoothed, lens_angle_deg=ang,
+                       inferred=inferred, std_world=std)
 
 
 def display_names(workers: Sequence[str], names: Mapping[str, str] | None = None) -> dict[str, str]:

@@ -138,18 +138,19 @@ def _ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray):
 class LimbHistogram:
     """Counts of limb lengths in 1 mm bins (bounded memory, exact robust medians to 1 mm)."""
 
-    def __init__(self) -> None:
-        self.counts = np.zeros((len(LIMBS), HIST_BINS), dtype=np.int64)
+    def __init__(self, n_limbs: int = len(LIMBS)) -> None:
+        self.counts = np.zeros((n_limbs, HIST_BINS), dtype=np.int64)
 
     def add(self, lengths: np.ndarray) -> None:
         """lengths: (n, L) metres; NaN and lengths beyond the histogram are ignored."""
-        lengths = np.asarray(lengths, dtype=np.float64).reshape(-1, len(LIMBS))
+        n_limbs = self.counts.shape[0]
+        lengths = np.asarray(lengths, dtype=np.float64).reshape(-1, n_limbs)
         if lengths.size == 0:
             return
         with np.errstate(invalid="ignore"):
             b = np.floor(lengths / HIST_BIN_M)
             ok = np.isfinite(b) & (b >= 0) & (b < HIST_BINS)
-        limb = np.broadcast_to(np.arange(len(LIMBS)), lengths.shape)[ok]
+        limb = np.broadcast_to(np.arange(n_limbs), lengths.shape)[ok]
         flat = limb * HIST_BINS + b[ok].astype(np.int64)
         self.counts += np.bincount(flat, minlength=self.counts.size).reshape(self.counts.shape)
 

@@ -84,11 +84,16 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     variance = np.full((m, NUM_JOINTS, 3), np.nan)
     origin = np.full((m, 3), np.nan)
     ray = np.full((m, 3), np.nan)
+    obs_P = np.zeros((m, 2, 3, 4))
+    obs_px = np.full((m, 2, NUM_JOINTS, 2), np.nan)
+    obs_conf = np.zeros((m, 2, NUM_JOINTS))
     is_pair = n_cameras == 2
     if pair_P:
+        obs_P[is_pair], obs_px[is_pair], obs_conf[is_pair] = np.stack(pair_P), np.stack(pair_px), np.stack(pair_w)
         tri = triangulate_pairs(np.stack(pair_P), np.stack(pair_px), np.stack(pair_w), settings)
         points[is_pair], err[is_pair], views[is_pair], conf[is_pair], rejected[is_pair], variance[is_pair] = tri
     for row, cam, det, i in single_rows:
+        obs_P[row, cam], obs_px[row, cam], obs_conf[row, cam] = det.projection[i], det.pixels_view[i], det.confidence[i]
         c = det.confidence[i]
         used = c >= max(settings.min_confidence, 1e-12)
         views[row] = used
@@ -100,7 +105,8 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
         cameras=cameras, frame=np.array(rows_frame, np.int64), time_s=np.array(rows_time, np.float64),
         n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, 2), points_world=points,
         reprojection_error_px=err, views=views, confidence=conf, rejected=rejected, variance_world=variance,
-        centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray)
+        centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray,
+        obs_projection=obs_P, obs_pixels_view=obs_px, obs_confidence=obs_conf)
 
 
 def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:

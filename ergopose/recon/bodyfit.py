@@ -1,0 +1,503 @@
+"""A body model per worker, fitted to every camera's keypoints at once.
+
+Each worker-frame is fitted as a whole body, not as a cloud of independent points: the 33
+keypoints' world positions X (33, 3) minimise
+
+    sum over cameras c, joints j   rho(|pi(P_c, X_j) - u_cj| / sigma_cj)        reprojection
+  + sum over segments s            ((|D_s X| - L_s) / sigma_s)^2                  segment lengths
+  + sum over joints j              |X_j - X_prev_j|^2 / sigma_t^2                 previous pose
+  + sum over joints j              |X_j - T_j(X)|^2 / sigma_p^2                   pose prior
+  + sum over foot points           (min(z, 0) / 0.02 m)^2                          floor
+
+- pi(P, X): the view's pinhole projection (the projection matrix each person's view comes
+  with); sigma_cj = keypoint_sigma_px / max(confidence, 0.05) view pixels; rho is Huber's
+  loss with its corner at ``fit_huber_k`` sigmas (iteratively reweighted). Every keypoint of
+  every camera counts, weighted by its confidence: there is no hard confidence gate.
+- Segments (:data:`SEGMENTS`): the limbs, the hands and feet, the face and a neck (mid-ears to
+  mid-shoulders). L_s is the worker's own length: the median of its best-seen raw
+  triangulations (keypoints above ``min_confidence`` in two cameras, reprojection-checked),
+  refreshed once a second as the shift goes; sigma_s is the segment's natural play
+  (:data:`SEGMENT_PLAY`). Before a segment has been seen, its length is a population
+  proportion (:data:`PRIOR_LENGTH_VECTOR`) scaled to the worker's known segments, with 15 % play.
+- The previous pose: the worker's fit of the previous frame it was seen in, with
+  sigma_t = ``fit_temporal_sigma_m`` + ``fit_speed_m_s`` x the time between them.
+  It carries joints that no camera sees and, with the segment lengths, lets one camera fix a
+  body's depth.
+- The pose prior T(X): a neutral standing pose (:data:`TEMPLATE_BODY`) placed at the current
+  estimate of the pelvis, facing the way the hips face, with a wide sigma_p
+  (``fit_pose_prior_sigma_m``); it only decides joints nothing else decides (a new track's
+  hidden legs).
+
+Solved by a Levenberg-Marquardt iteration on the 99 unknowns of every row at once (the rows of a
+frame are independent problems; numpy's batched solve). Why not scipy.optimize.least_squares:
+each problem is small and dense (99 unknowns, a few hundred residuals) and there are hundreds of
+thousands of them in a shift, one after the other (each frame starts from the previous one);
+scipy's per-call overhead (~1 ms, Python-level residual callbacks) would dominate, while one
+batched normal-equation solve per iteration handles all workers of a frame in ~50 microseconds.
+
+The covariance of each joint is the 3 x 3 diagonal block of the inverse of the Gauss-Newton
+normal matrix at the solution (residuals are in units of their sigmas), so a joint seen sharply
+by two cameras has a few millimetres and a joint carried by the previous pose has decimetres.
+A joint is *inferred* when fewer than two cameras saw it with ``min_confidence``: its position
+comes from the model (segment lengths, previous pose, one camera's ray) rather than from
+triangulation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ergopose.keypoints import JOINT_INDEX, LIMBS, NUM_JOINTS
+from ergopose.recon.tracking import LimbHistogram
+
+J = NUM_JOINTS
+
+# --- the body model ------------------------------------------------------------------------------
+
+
+def _pt(*names: str) -> dict[int, float]:
+    """A point of the model: one keypoint, or the mean of several."""
+    return {JOINT_INDEX[n]: 1.0 / len(names) for n in names}
+
+
+#: Segments of the body model: (name, point a, point b, kind). Kinds set the play of the length
+#: (SEGMENT_PLAY). The limbs of keypoints.LIMBS come first, under the same names; then the neck
+#: (mid-ears to mid-shoulders); then every pair of points within a rigid part -- the head's 11
+#: face points, each hand's wrist, pinky, index and thumb, each foot's ankle, heel and toe -- so
+#: that each rigid part keeps its shape (all its distances) and only moves as a whole.
+_LIMB_KIND = {"left_trunk_side": "flexible", "right_trunk_side": "flexible", "left_foot": "rigid",
+              "right_foot": "rigid", "left_hand": "hand", "right_hand": "hand"}
+_RIGID_PARTS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("face", ("nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye",
+              "right_eye_outer", "left_ear", "right_ear", "mouth_left", "mouth_right")),
+    ("hand", ("left_wrist", "left_pinky", "left_index", "left_thumb")),
+    ("hand", ("right_wrist", "right_pinky", "right_index", "right_thumb")),
+    ("rigid", ("left_ankle", "left_heel", "left_foot_index")),
+    ("rigid", ("right_ankle", "right_heel", "right_foot_index")),
+)
+
+
+def _segment_defs() -> tuple[tuple[str, dict[int, float], dict[int, float], str], ...]:
+    defs = [(name, _pt(a), _pt(b), _LIMB_KIND.get(name, "limb")) for name, a, b in LIMBS]
+    defs.append(("neck", _pt("left_ear", "right_ear"), _pt("left_shoulder", "right_shoulder"), "flexible"))
+    pairs = {frozenset((a, b)) for _, a, b in LIMBS}
+    for kind, names in _RIGID_PARTS:
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                if frozenset((a, b)) not in pairs:
+                    defs.append((f"{a}-{b}", _pt(a), _pt(b), kind))
+    return tuple(defs)
+
+
+_SEGMENT_DEFS = _segment_defs()
+SEGMENTS: tuple[str, ...] = tuple(s[0] for s in _SEGMENT_DEFS)
+NUM_SEGMENTS = len(SEGMENTS)
+#: (S, 33) point b minus point a: segment vectors are SEGMENT_MATRIX @ X.
+SEGMENT_MATRIX = np.zeros((NUM_SEGMENTS, J))
+for _s, (_n, _a, _b, _k) in enumerate(_SEGMENT_DEFS):
+    for _j, _w in _a.items():
+        SEGMENT_MATRIX[_s, _j] -= _w
+    for _j, _w in _b.items():
+        SEGMENT_MATRIX[_s, _j] += _w
+SEGMENT_MATRIX.setflags(write=False)
+#: (S, 33 * 33) outer products of the segment rows (the segment terms of the normal matrix).
+_DD = (SEGMENT_MATRIX[:, :, None] * SEGMENT_MATRIX[:, None, :]).reshape(len(SEGMENT_MATRIX), -1)
+SEGMENT_KIND = tuple(s[3] for s in _SEGMENT_DEFS)
+
+#: Play of a segment's length around the worker's median (metres + fraction of the length):
+#: limbs carry keypoints that slide over the joint as it turns (BlazePose's shoulder and hip
+#: points are not joint centres), the trunk sides and the neck bend; the face is rigid.
+SEGMENT_PLAY = {"limb": (0.01, 0.04), "flexible": (0.015, 0.08), "rigid": (0.005, 0.05), "hand": (0.005, 0.10),
+                "face": (0.003, 0.05)}
+_PLAY_ABS = np.array([SEGMENT_PLAY[k][0] for k in SEGMENT_KIND])
+_PLAY_REL = np.array([SEGMENT_PLAY[k][1] for k in SEGMENT_KIND])
+
+#: Play (fraction of the length) of a population length.
+PRIOR_PLAY = 0.15
+
+#: Neutral standing pose of a 1.75 m adult, body frame: origin mid-hip, x towards the left hip,
+#: y forward, z up (metres). Only a weak prior for joints nothing else determines.
+TEMPLATE_BODY = np.zeros((J, 3))
+_TEMPLATE = {
+    "nose": (0.0, 0.10, 0.66), "left_eye_inner": (0.015, 0.085, 0.69), "left_eye": (0.03, 0.08, 0.69),
+    "left_eye_outer": (0.045, 0.075, 0.69), "right_eye_inner": (-0.015, 0.085, 0.69),
+    "right_eye": (-0.03, 0.08, 0.69), "right_eye_outer": (-0.045, 0.075, 0.69),
+    "left_ear": (0.075, 0.0, 0.67), "right_ear": (-0.075, 0.0, 0.67),
+    "mouth_left": (0.025, 0.09, 0.62), "mouth_right": (-0.025, 0.09, 0.62),
+    "left_shoulder": (0.18, 0.0, 0.50), "right_shoulder": (-0.18, 0.0, 0.50),
+    "left_elbow": (0.20, 0.0, 0.18), "right_elbow": (-0.20, 0.0, 0.18),
+    "left_wrist": (0.21, 0.03, -0.07), "right_wrist": (-0.21, 0.03, -0.07),
+    "left_pinky": (0.22, 0.03, -0.15), "right_pinky": (-0.22, 0.03, -0.15),
+    "left_index": (0.21, 0.06, -0.16), "right_index": (-0.21, 0.06, -0.16),
+    "left_thumb": (0.20, 0.07, -0.11), "right_thumb": (-0.20, 0.07, -0.11),
+    "left_hip": (0.11, 0.0, 0.0), "right_hip": (-0.11, 0.0, 0.0),
+    "left_knee": (0.11, 0.02, -0.43), "right_knee": (-0.11, 0.02, -0.43),
+    "left_ankle": (0.11, 0.0, -0.86), "right_ankle": (-0.11, 0.0, -0.86),
+    "left_heel": (0.11, -0.05, -0.91), "right_heel": (-0.11, -0.05, -0.91),
+    "left_foot_index": (0.12, 0.14, -0.93), "right_foot_index": (-0.12, 0.14, -0.93),
+}
+for _name, _p in _TEMPLATE.items():
+    TEMPLATE_BODY[JOINT_INDEX[_name]] = _p
+TEMPLATE_BODY.setflags(write=False)
+
+#: Population segment lengths (metres): those of TEMPLATE_BODY, whose long segments follow Winter
+#: (2009, Biomechanics and Motor Control of Human Movement, Fig. 4.1) fractions of a 1.75 m
+#: stature (upper arm 0.186, forearm 0.146, thigh 0.245, shank 0.246, hip to shoulder 0.288); the
+#: face, hand and foot layout are rounded estimates. Used only until the worker's own segment has
+#: been measured, scaled to the worker by its measured segments, with PRIOR_PLAY.
+PRIOR_LENGTH_VECTOR = np.linalg.norm(SEGMENT_MATRIX @ TEMPLATE_BODY, axis=-1)
+PRIOR_LENGTH_VECTOR.setflags(write=False)
+_TRUNK_SIDE = SEGMENTS.index("left_trunk_side")
+
+_LHIP, _RHIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
+_FOOT = np.array([JOINT_INDEX[n] for n in ("left_ankle", "right_ankle", "left_heel", "right_heel",
+                                           "left_foot_index", "right_foot_index")])
+_FLOOR_SIGMA_M = 0.02
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """The body fit's weights (all in ReconSettings; see docs/reconstruction.md)."""
+
+    keypoint_sigma_px: float = 1.5
+    min_confidence: float = 0.5
+    huber_k: float = 3.0
+    temporal_sigma_m: float = 0.03
+    speed_m_s: float = 1.5
+    pose_prior_sigma_m: float = 0.35
+    turn_rate_rad_s: float = 4.0
+    iterations: int = 10
+    max_prior_gap_s: float = 2.0
+
+    @classmethod
+    def from_settings(cls, settings) -> "FitOptions":
+        return cls(keypoint_sigma_px=settings.keypoint_sigma_px, min_confidence=settings.min_confidence,
+                   huber_k=settings.fit_huber_k, temporal_sigma_m=settings.fit_temporal_sigma_m,
+                   speed_m_s=settings.fit_speed_m_s, pose_prior_sigma_m=settings.fit_pose_prior_sigma_m,
+                   turn_rate_rad_s=settings.fit_turn_rate_rad_s,
+                   iterations=settings.fit_iterations, max_prior_gap_s=settings.max_coast_s)
+
+
+@dataclass(frozen=True, eq=False)
+class BodyFit:
+    """Result of fitting R worker-frames.
+
+    points_world: (R, 33, 3) fitted positions (metres).
+    variance_world: (R, 33, 3) variance of each coordinate (m^2), from the fit's covariance.
+    inferred: (R, 33) bool, fewer than two cameras saw the joint with min_confidence: the model
+        (segment lengths, previous pose, one camera's ray, pose prior) placed it.
+    reprojection_error_px: (R, 33) RMS reprojection error over the cameras that saw the joint
+        (view pixels); NaN where none saw it.
+    cost: (R,) final cost (sum of squared normalised residuals, robust).
+    """
+
+    points_world: np.ndarray
+    variance_world: np.ndarray
+    inferred: np.ndarray
+    reprojection_error_px: np.ndarray
+    cost: np.ndarray
+
+
+def segment_lengths(points_world: np.ndarray) -> np.ndarray:
+    """(..., 33, 3) -> (..., S) length of every segment of the body model (NaN where a point is NaN)."""
+    X = np.asarray(points_world, dtype=np.float64)
+    d = np.einsum("sj,...jk->...sk", SEGMENT_MATRIX, np.where(np.isfinite(X), X, 0.0))
+    bad = np.einsum("sj,...j->...s", SEGMENT_MATRIX != 0, ~np.isfinite(X).all(axis=-1)) > 0
+    return np.where(bad, np.nan, np.linalg.norm(d, axis=-1))
+
+
+def worker_lengths(measured: np.ndarray, samples: np.ndarray, min_samples: int = 12) -> tuple[np.ndarray, np.ndarray]:
+    """Segment lengths and their play (both (S,), metres) for a worker.
+
+    measured: (S,) medians of the worker's best-seen raw segment lengths (NaN = none);
+    samples: (S,) how many raw lengths each median has. A segment with at least ``min_samples``
+    takes its median and SEGMENT_PLAY; the others take the population length scaled by the median
+    ratio of the measured segments to the population (1 when none) with PRIOR_PLAY.
+    """
+    measured = np.asarray(measured, dtype=np.float64)
+    known = np.isfinite(measured) & (np.asarray(samples) >= min_samples)
+    scale = float(np.median(measured[known] / PRIOR_LENGTH_VECTOR[known])) if known.any() else 1.0
+    scale = float(np.clip(scale, 0.75, 1.25))
+    prior = PRIOR_LENGTH_VECTOR * scale
+    length = np.where(known, measured, prior)
+    play = np.where(known, _PLAY_ABS + _PLAY_REL * length, PRIOR_PLAY * prior)
+    return length, play
+
+
+def _yaw_frames(X: np.ndarray) -> np.ndarray:
+    """(R, 33, 3) -> (R, 3, 3) world-from-body map (columns: towards the left hip, forward, up; a
+    reflection, as the body frame of TEMPLATE_BODY is left-handed)."""
+    x = X[:, _LHIP] - X[:, _RHIP]
+    x[:, 2] = 0.0
+    n = np.linalg.norm(x, axis=-1, keepdims=True)
+    x = np.where(n > 1e-6, x / np.maximum(n, 1e-12), np.array([1.0, 0.0, 0.0]))
+    z = np.broadcast_to(np.array([0.0, 0.0, 1.0]), x.shape)
+    y = np.cross(x, z)  # forward = left x up (as ergonomics.angles' pelvis frame)
+    return np.stack([x, y, z], axis=-1)
+
+
+def template_pose(pelvis_world: np.ndarray, rotation: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
+    """(R, 3), (R, 3, 3) -> (R, 33, 3) the neutral pose placed at the pelvis, rotated and scaled."""
+    scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (len(pelvis_world),))
+    return pelvis_world[:, None, :] + scale[:, None, None] * np.einsum("rab,jb->rja", rotation, TEMPLATE_BODY)
+
+
+def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
+               initial_world: np.ndarray, lengths: np.ndarray, play: np.ndarray,
+               previous_world: np.ndarray | None = None, previous_sigma_m: np.ndarray | None = None,
+               previous_dt_s: np.ndarray | None = None, options: FitOptions | None = None) -> BodyFit:
+    """Fit the body model to R worker-frames at once.
+
+    projections: (R, C, 3, 4) each camera's view projection (world -> view pixels; any finite
+        matrix where the camera did not see the person: its confidences are 0).
+    pixels_view: (R, C, 33, 2) keypoints (NaN = not found); confidence: (R, C, 33) in [0, 1].
+    initial_world: (R, 33, 3) starting positions (finite).
+    lengths, play: (R, S) segment lengths and their standard deviation (metres).
+    previous_world: (R, 33, 3) the previous pose (NaN rows = none); previous_sigma_m: (R,) the
+        sigma of each joint's position about it; previous_dt_s: (R,) the time since it (each
+        segment's direction may turn by ``turn_rate_rad_s`` x that, one sigma).
+    """
+    opt = options or FitOptions()
+    P = np.asarray(projections, dtype=np.float64)
+    u_obs = np.asarray(pixels_view, dtype=np.float64)
+    conf = np.nan_to_num(np.asarray(confidence, dtype=np.float64))
+    seen = np.isfinite(u_obs).all(axis=-1) & (conf > 0)
+    conf = np.where(seen, conf, 0.0)
+    u_obs = np.where(seen[..., None], u_obs, 0.0)
+    R = P.shape[0]
+    sigma_px = opt.keypoint_sigma_px / np.maximum(conf, 0.05)
+    w_obs = np.where(seen, 1.0 / (sigma_px * sigma_px), 0.0)  # (R, C, J)
+    L = np.asarray(lengths, dtype=np.float64)
+    w_seg = 1.0 / np.asarray(play, dtype=np.float64) ** 2  # (R, S)
+    if previous_world is None:
+        prev = np.full((R, J, 3), np.nan)
+        w_prev = np.zeros(R)
+    else:
+        prev = np.asarray(previous_world, dtype=np.float64)
+        ps = np.asarray(previous_sigma_m, dtype=np.float64)
+        w_prev = np.where(np.isfinite(prev).all(axis=(1, 2)) & np.isfinite(ps), 1.0 / ps ** 2, 0.0)
+    prev0 = np.where(np.isfinite(prev), prev, 0.0)
+    # Segment turning: the segment vectors D X stay near those of the previous pose.
+    if previous_dt_s is None:
+        w_turn = np.zeros((R, NUM_SEGMENTS))
+    else:
+        sig_turn = opt.temporal_sigma_m + opt.turn_rate_rad_s * L * np.asarray(previous_dt_s, dtype=np.float64)[:, None]
+        w_turn = np.where((w_prev > 0)[:, None] & np.isfinite(sig_turn), 1.0 / sig_turn ** 2, 0.0)
+    d_prev = np.einsum("sj,rjk->rsk", SEGMENT_MATRIX, prev0)
+    turn_H = np.einsum("rs,sj,sk->rjk", w_turn, SEGMENT_MATRIX, SEGMENT_MATRIX)  # (R, J, J)
+    w_pose = 1.0 / opt.pose_prior_sigma_m ** 2
+    scale = L[:, _TRUNK_SIDE] / PRIOR_LENGTH_VECTOR[_TRUNK_SIDE]
+
+    X = np.array(initial_world, dtype=np.float64)
+    lam = np.full(R, 1e-3)
+    D = SEGMENT_MATRIX
+    k = opt.huber_k
+
+    def residuals(X):
+        """Parts of the cost and what the normal equations need."""
+        Xh = np.concatenate([X, np.ones((R, J, 1))], axis=-1)
+        xp = np.einsum("rcab,rjb->rcja", P, Xh)  # (R, C, J, 3)
+        depth = xp[..., 2]
+        front = depth > 1e-6
+        dsafe = np.where(front, depth, 1.0)
+        u = xp[..., :2] / dsafe[..., None]
+        e = u - u_obs  # (R, C, J, 2)
+        s = np.sqrt(np.einsum("rcjk,rcjk->rcj", e, e) * w_obs)  # normalised error
+        use = seen & front
+        hub = np.where(s <= k, 1.0, k / np.maximum(s, 1e-12))
+        wr = np.where(use, w_obs * hub, 0.0)
+        rho = np.where(use, np.where(s <= k, s * s, 2 * k * s - k * k), 0.0)
+        d = np.einsum("sj,rjk->rsk", D, X)
+        ln = np.linalg.norm(d, axis=-1)
+        rs = ln - L
+        cost_seg = w_seg * rs * rs
+        tmpl = template_pose(0.5 * (X[:, _LHIP] + X[:, _RHIP]), _yaw_frames(X), scale)
+        dp = X - tmpl
+        dt = X - prev0
+        zf = np.minimum(X[:, _FOOT, 2], 0.0)
+        dturn = d - d_prev
+        cost = (rho.sum(axis=(1, 2)) + cost_seg.sum(axis=1) + w_pose * np.einsum("rjk,rjk->r", dp, dp)
+                + np.einsum("rs,rsk,rsk->r", w_turn, dturn, dturn)
+                + w_prev * np.einsum("rjk,rjk->r", dt, dt) + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M ** 2)
+        return dict(xp=xp, dsafe=dsafe, u=u, e=e, wr=wr, d=d, ln=ln, rs=rs, dp=dp, dt=dt, zf=zf,
+                    dturn=dturn, cost=cost, use=use)
+
+    def normal_equations(X, r):
+        n = 3 * J
+        H = np.zeros((R, J, 3, J, 3))
+        g = np.zeros((R, J, 3))
+        # reprojection: du/dX = (P[:2, :3] - u P[2, :3]) / depth
+        Jp = (P[:, :, None, :2, :3] - r["u"][..., :, None] * P[:, :, None, 2:3, :3]) / r["dsafe"][..., None, None]
+        Hjj = np.einsum("rcj,rcjai,rcjak->rjik", r["wr"], Jp, Jp)
+        gj = np.einsum("rcj,rcjai,rcja->rji", r["wr"], Jp, r["e"])
+        idx = np.arange(J)
+        H[:, idx, :, idx, :] += np.moveaxis(Hjj, 1, 0)
+        g += gj
+        # segments: d(|d|)/dX_j = D[s, j] n^T
+        nvec = r["d"] / np.maximum(r["ln"], 1e-9)[..., None]
+        M = (w_seg[..., None, None] * nvec[..., :, None] * nvec[..., None, :]).reshape(R, NUM_SEGMENTS, 9)
+        Hs = np.matmul(np.swapaxes(M, 1, 2), _DD).reshape(R, 3, 3, J, J)
+        H += Hs.transpose(0, 3, 1, 4, 2)
+        g += np.einsum("rs,si,rsa->ria", w_seg * r["rs"], D, nvec)
+        # segment turning (linear in X)
+        H += turn_H[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]
+        g += np.einsum("rs,sj,rsk->rjk", w_turn, D, r["dturn"])
+        # priors (diagonal; the template's dependence on X is not differentiated)
+        diag = w_pose + w_prev
+        H[:, idx, :, idx, :] += (diag[None, :, None, None] * np.eye(3))
+        g += w_pose * r["dp"] + w_prev[:, None, None] * r["dt"]
+        # floor
+        fl = np.where(X[:, _FOOT, 2] < 0.0, 1.0 / _FLOOR_SIGMA_M ** 2, 0.0)
+        H[:, _FOOT, 2, _FOOT, 2] += fl
+        g[:, _FOOT, 2] += fl * r["zf"]
+        return H.reshape(R, n, n), g.reshape(R, n)
+
+    r = residuals(X)
+    for _ in range(opt.iterations):
+        H, g = normal_equations(X, r)
+        dgn = np.einsum("rii->ri", H)
+        A = H + lam[:, None, None] * np.eye(3 * J) * np.maximum(dgn, 1e-9)[:, :, None]
+        step = -np.linalg.solve(A, g[..., None])[..., 0]
+        Xn = X + step.reshape(R, J, 3)
+        rn = residuals(Xn)
+        better = rn["cost"] <= r["cost"]
+        X = np.where(better[:, None, None], Xn, X)
+        r = {key: (np.where(better.reshape((R,) + (1,) * (val.ndim - 1)), rn[key], val)) for key, val in r.items()}
+        lam = np.where(better, np.maximum(lam / 3.0, 1e-7), lam * 4.0)
+
+    H, _ = normal_equations(X, r)
+    cov = np.linalg.inv(H + 1e-9 * np.eye(3 * J))
+    var = np.diagonal(cov, axis1=-2, axis2=-1).reshape(R, J, 3).copy()
+    strong = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)
+    used = r["use"]
+    e2 = np.einsum("rcjk,rcjk->rcj", r["e"], r["e"])
+    n_used = used.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rms = np.where(n_used > 0, np.sqrt(np.where(used, e2, 0.0).sum(axis=1) / n_used), np.nan)
+    return BodyFit(points_world=X, variance_world=var, inferred=strong < 2, reprojection_error_px=rms,
+                   cost=r["cost"])
+
+
+def _pelvis_guess(points_world: np.ndarray, projections: np.ndarray, pixels_view: np.ndarray,
+                  confidence: np.ndarray, height_m: float = 0.95) -> np.ndarray:
+    """(R, 3) where to put a body nothing is known about yet: the mid-hip of the triangulation,
+    else 0.3 m below its other torso joints, else on the mean ray of the first camera that saw
+    the person, at ``height_m`` above the floor. NaN when none of these exists."""
+    X = points_world
+    out = 0.5 * (X[:, _LHIP] + X[:, _RHIP])
+    torso = np.array([JOINT_INDEX[n] for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")])
+    ok = np.isfinite(X[:, torso]).all(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(ok[..., None], X[:, torso], 0.0).sum(axis=1) / ok.sum(axis=1)[:, None]
+    out = np.where(np.isfinite(out).all(axis=-1, keepdims=True), out, mean - np.array([0.0, 0.0, 0.3]))
+    need = ~np.isfinite(out).all(axis=-1)
+    for r in np.flatnonzero(need):
+        for c in range(projections.shape[1]):
+            seen = (confidence[r, c] > 0) & np.isfinite(pixels_view[r, c]).all(axis=-1)
+            if not seen.any():
+                continue
+            M = projections[r, c, :, :3]
+            centre = -np.linalg.solve(M, projections[r, c, :, 3])
+            uv = np.concatenate([pixels_view[r, c, seen], np.ones((int(seen.sum()), 1))], axis=-1)
+            d = np.linalg.solve(M, uv.T).T
+            d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).mean(axis=0)
+            if d[2] < -1e-6:
+                out[r] = centre + d * (height_m - centre[2]) / d[2]
+                break
+    return out
+
+
+class ShiftBodies:
+    """The body model of every worker over a shift, fitted frame after frame (see module docstring).
+
+    Per worker: a histogram of its best-seen raw segment lengths (1 mm bins), the segment lengths
+    in use (refreshed on a fixed grid of frames, once a second, from everything before the grid
+    point -- so the result does not depend on how the shift is cut into chunks), and its last
+    fitted pose. Picklable with the rest of the reconstruction's state.
+    """
+
+    def __init__(self, settings, fps: float) -> None:
+        self.options = FitOptions.from_settings(settings)
+        self.fps = float(fps)
+        self.refresh = max(1, int(round(self.fps)))
+        self.max_gap = int(np.ceil(self.options.max_prior_gap_s * self.fps))
+        self.hists: dict[int, LimbHistogram] = {}
+        self.lengths: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.last: dict[int, tuple[int, np.ndarray]] = {}
+
+    def _refresh(self) -> None:
+        for ident, h in self.hists.items():
+            self.lengths[ident] = worker_lengths(h.medians(min_samples=1), h.samples)
+
+    def _lengths_of(self, ident: int) -> tuple[np.ndarray, np.ndarray]:
+        if ident not in self.lengths:
+            return worker_lengths(np.full(NUM_SEGMENTS, np.nan), np.zeros(NUM_SEGMENTS))
+        return self.lengths[ident]
+
+    def fit_range(self, rows: dict[str, np.ndarray], f0: int, f1: int) -> None:
+        """Fit the rows of frames f0 <= f < f1, in frame order (rows sorted by frame).
+
+        rows: "frame", "identity", "points" (gated raw triangulation), "var", "views", "P", "px",
+        "oc"; writes "fit", "fit_var", "inferred", "fit_err" in place.
+        """
+        frames = rows["frame"]
+        b = int(f0)
+        while b < f1:
+            if b % self.refresh == 0:
+                self._refresh()
+            e = min(int(f1), (b // self.refresh + 1) * self.refresh)
+            i0, i1 = (int(i) for i in np.searchsorted(frames, [b, e]))
+            if i1 > i0:
+                starts = np.flatnonzero(np.r_[True, frames[i0 + 1:i1] != frames[i0:i1 - 1]]) + i0
+                for s, t in zip(starts, np.r_[starts[1:], i1]):
+                    self._fit_frame(rows, np.arange(s, t))
+                lengths = segment_lengths(rows["points"][i0:i1])
+                ids = rows["identity"][i0:i1]
+                for ident in np.unique(ids):
+                    h = self.hists.setdefault(int(ident), LimbHistogram(NUM_SEGMENTS))
+                    h.add(lengths[ids == ident])
+            b = e
+
+    def _fit_frame(self, rows: dict[str, np.ndarray], idx: np.ndarray) -> None:
+        f = int(rows["frame"][idx[0]])
+        ids = rows["identity"][idx]
+        oc = rows["oc"][idx]
+        has = oc.reshape(len(idx), -1).max(axis=1) > 0
+        # Rows without 2D observations (made from 3D points): the triangulation passes through.
+        for k in np.flatnonzero(~has):
+            r = idx[k]
+            rows["fit"][r] = rows["points"][r]
+            rows["fit_var"][r] = rows["var"][r]
+            rows["inferred"][r] = rows["views"][r] < 2
+        if not has.any():
+            return
+        idx, ids = idx[has], ids[has]
+        n = len(idx)
+        Ls, plays = zip(*(self._lengths_of(int(i)) for i in ids))
+        prev = np.full((n, J, 3), np.nan)
+        prev_sigma = np.full(n, np.nan)
+        prev_dt = np.full(n, np.nan)
+        for k, ident in enumerate(ids):
+            last = self.last.get(int(ident))
+            if last is not None and 0 < f - last[0] <= self.max_gap:
+                prev[k] = last[1]
+                prev_dt[k] = (f - last[0]) / self.fps
+                prev_sigma[k] = self.options.temporal_sigma_m + self.options.speed_m_s * prev_dt[k]
+        tri = rows["points"][idx]
+        P, px = rows["P"][idx], rows["px"][idx]
+        oc = rows["oc"][idx]
+        have_prev = np.isfinite(prev_sigma)
+        pelvis = _pelvis_guess(tri, P, px, oc)
+        pelvis = np.where(np.isfinite(pelvis), pelvis, np.array([0.0, 0.0, 0.95]))
+        facing = _yaw_frames(np.where(np.isfinite(tri), tri, 0.0))
+        start = np.where(have_prev[:, None, None], prev, template_pose(pelvis, facing))
+        start = np.where(np.isfinite(tri), tri, start)
+        fit = fit_bodies(P, px, oc, start, np.stack(Ls), np.stack(plays), prev, prev_sigma, prev_dt, self.options)
+        rows["fit"][idx] = fit.points_world
+        rows["fit_var"][idx] = fit.variance_world
+        rows["inferred"][idx] = fit.inferred
+        rows["fit_err"][idx] = fit.reprojection_error_px
+        for k, ident in enumerate(ids):
+            self.last[int(ident)] = (f, fit.points_world[k].copy())
