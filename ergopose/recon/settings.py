@@ -98,7 +98,8 @@ class ReconSettings:
         process_noise_jerk_factor: 10.0 -- see above (1/s).
         reprojection_scale_px: 5.0 -- the variance of a triangulated point grows by the factor
             1 + (reprojection_error / reprojection_scale_px)^2.
-        outlier_gate_chi2: 16.27 -- a joint's measurement whose Mahalanobis distance squared
+        outlier_gate_chi2: 16.27 -- (raw triangulations only, body_model = false; the body
+            fit's output is not gated) a joint's measurement whose Mahalanobis distance squared
             (3 coordinates) from the prediction exceeds this is ignored (chi-square, 3 degrees
             of freedom, p = 0.999); 0 disables the gate.
         max_gated_run: 3 -- after this many ignored measurements in a row the filter restarts
