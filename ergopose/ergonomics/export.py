@@ -21,6 +21,8 @@ from ergopose.ergonomics.aggregate import REPETITION_PREFIX, ShiftSummary
 from ergopose.ergonomics.posture import (ANGLE_COLUMNS, DISTANCE_COLUMNS, FLAG_COLUMNS, IDENTITY, POSTURE_COLUMNS,
                                          expand_sides, to_csv_units)
 from ergopose.ergonomics.scoring import reba_columns, rula_columns
+from ergopose.ergonomics.uncertainty import SCORE_COLUMNS as UNCERTAINTY_SCORE_COLUMNS
+from ergopose.ergonomics.uncertainty import SD_COLUMNS
 
 #: digits after the decimal point per kind of column
 _DECIMALS = {"angle": 2, "distance": 3, "time": 3, "load": 2, "percent": 2, "rate": 3}
@@ -67,8 +69,13 @@ def scores_table(frames: pd.DataFrame, *, include_posture: bool = False) -> pd.D
     ident = [c for c in (*IDENTITY, "time_s") if c in frames.columns]
     posture = [c for c in POSTURE_COLUMNS if include_posture and c in frames.columns and c not in ident]
     scores = _score_columns(frames.columns)
-    table = frames[ident + posture + scores]
-    return _rounded(to_csv_units(table))
+    spread = [c for c in (*SD_COLUMNS, *UNCERTAINTY_SCORE_COLUMNS) if include_posture and c in frames.columns]
+    table = frames[ident + posture + scores + spread]
+    out = _rounded(to_csv_units(table))
+    for c in spread:
+        if c in SD_COLUMNS:
+            out[c] = np.rad2deg(out[c].to_numpy(np.float64)).round(_DECIMALS["angle"])
+    return out
 
 
 def write_scores_csv(path: str | os.PathLike, frames: pd.DataFrame, *, include_posture: bool = False) -> Path:

@@ -192,7 +192,41 @@ def score_rows(session: Session, rows, worker_id: str, scoring,
                         axis=1)
     scores = score_posture(posture, settings=scoring, with_events=True)
     ident = pd.DataFrame({"worker": worker_id, "frame": np.asarray(rows.frame, dtype=np.int64)})
-    return pd.concat([ident, posture, scores], axis=1)
+    spread = score_uncertainty(rows, posture, scores, factors, settings, scoring)
+    return pd.concat([ident, posture, scores, spread], axis=1)
+
+
+def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors: pd.DataFrame,
+                      angle_settings, scoring) -> pd.DataFrame:
+    """Angle deviations, score probabilities and ranges, confidence and its cause per frame
+    (:mod:`ergopose.ergonomics.uncertainty`): the joints resampled within the reconstruction's
+    deviations and scored again with the same task inputs."""
+    from ergopose.ergonomics import uncertainty as U
+    from ergopose.ergonomics.angles import joint_angles
+    from ergopose.ergonomics.scoring import score_posture
+
+    n = len(rows)
+    draws_world = U.sample_points(rows.points_world, rows.std_world, rows.frame)
+    extra = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
+    angle_draws, rula, reba = [], [], []
+    for pts in draws_world:
+        a = joint_angles(pts, rows.time_s, angle_settings).to_frame().reset_index(drop=True)
+        angle_draws.append(a)
+        s = score_posture(pd.concat([a, extra], axis=1), settings=scoring)
+        rula.append(s["rula_grand"])
+        reba.append(s["reba_score"])
+    out = U.angle_sd(posture, angle_draws)
+    for name, reported, draws in (("rula_grand", scores["rula_grand"], rula), ("reba_score", scores["reba_score"], reba)):
+        p, low, high = U.score_spread(reported, draws)
+        out[f"{name}_p"] = np.round(p, 4)
+        out[f"{name}_low"] = pd.array(np.where(np.isfinite(low), low, np.nan), dtype="Float64").round().astype("Int16")
+        out[f"{name}_high"] = pd.array(np.where(np.isfinite(high), high, np.nan), dtype="Float64").round().astype("Int16")
+    seen = rows.views.max(axis=1) if n else np.zeros(0, np.int8)
+    conf, cause = U.frame_confidence(out["rula_grand_p"].to_numpy(np.float64), out["reba_score_p"].to_numpy(np.float64),
+                                     rows.views, rows.inferred, seen)
+    out["confidence"] = pd.array(conf, dtype="string")
+    out["cause"] = pd.array(cause, dtype="string")
+    return out
 
 
 def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -> ScoredWorker:

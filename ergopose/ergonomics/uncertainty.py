@@ -1,0 +1,127 @@
+"""How sure each frame's angles and scores are: resampling the 3D joints within their uncertainty.
+
+The reconstruction gives every joint of every frame a standard deviation per world coordinate
+(the body fit's covariance, smoothed; the tracks table's ``std_x/y/z``). Here the joints are
+drawn ``SAMPLES`` times from independent normal distributions with those deviations; the joint
+angles and the RULA and REBA scores are computed for every draw exactly as for the estimate
+(the same angle and scoring code, task inputs and time windows). From the draws:
+
+- ``<angle>_sd``: the standard deviation of each angle over the draws (radians inside; degrees
+  in the CSV), measured from the estimate's angle;
+- ``rula_grand_p`` / ``reba_score_p``: the share of draws that give the reported score -- the
+  probability that the reported score is the one the true posture would give, under the joints'
+  uncertainty;
+- ``rula_grand_low`` / ``rula_grand_high``, ``reba_score_low`` / ``reba_score_high``: the lowest
+  and highest score of the middle 80 % of the draws (10th and 90th percentile);
+- ``confidence``: ``confident`` when both reported scores have a probability of at least
+  ``CONFIDENT_P``, ``low`` when scored with less, ``unscored`` when a score is missing;
+- ``cause``: why a frame is not confident: ``not seen`` (no camera saw the worker in this
+  frame), ``one camera`` (only one camera saw the worker), ``occluded limbs`` (joints the scores
+  need were placed by the body model, not seen by two cameras), ``uncertain angles`` (seen, but
+  the angles are too uncertain for the score), empty when confident.
+
+The draws come from a fixed table of standard normal numbers indexed by frame number (seeded),
+so a frame gets the same draws however the shift is cut into blocks: results do not depend on
+chunking, and the same input gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+
+#: Draws per frame.
+SAMPLES = 16
+#: A score is "confident" when at least this share of the draws gives the reported score.
+CONFIDENT_P = 0.6
+_TABLE_FRAMES = 1024
+_SEED = 20181001
+_TABLE: np.ndarray | None = None
+
+#: Angles that get a standard deviation column (the posture's angles, radians).
+SD_ANGLES = (
+    "trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "neck_side_bend", "neck_twist",
+    "left_upper_arm_flexion", "right_upper_arm_flexion", "left_upper_arm_abduction", "right_upper_arm_abduction",
+    "left_elbow_flexion", "right_elbow_flexion", "left_wrist_flexion", "right_wrist_flexion",
+    "left_wrist_deviation", "right_wrist_deviation", "left_knee_flexion", "right_knee_flexion",
+)
+SD_COLUMNS = tuple(f"{a}_sd" for a in SD_ANGLES)
+SCORE_COLUMNS = ("rula_grand_p", "rula_grand_low", "rula_grand_high", "reba_score_p", "reba_score_low",
+                 "reba_score_high", "confidence", "cause")
+CONFIDENCE_LEVELS = ("confident", "low", "unscored")
+
+#: Joints the scores need (both methods): a frame whose needed joints were placed by the body
+#: model rather than seen by two cameras is "occluded limbs" when not confident.
+SCORED_JOINTS = np.array([JOINT_INDEX[n] for n in (
+    "nose", "left_ear", "right_ear", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
+    "left_wrist", "right_wrist", "left_index", "right_index", "left_pinky", "right_pinky", "left_hip",
+    "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")])
+
+
+def _normals() -> np.ndarray:
+    global _TABLE
+    if _TABLE is None:
+        rng = np.random.default_rng(_SEED)
+        _TABLE = rng.standard_normal((SAMPLES, _TABLE_FRAMES, NUM_JOINTS, 3)).astype(np.float32)
+        _TABLE.setflags(write=False)
+    return _TABLE
+
+
+def sample_points(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    """(n, 33, 3) estimate and deviations -> (SAMPLES, n, 33, 3) draws (a NaN deviation counts as 0)."""
+    z = _normals()[:, np.asarray(frames, dtype=np.int64) % _TABLE_FRAMES]
+    sd = np.where(np.isfinite(std_world), std_world, 0.0)
+    return points_world[None] + sd[None] * z
+
+
+def angle_sd(estimate: pd.DataFrame, draws: list[pd.DataFrame]) -> pd.DataFrame:
+    """Standard deviation (radians) of each SD_ANGLES angle over the draws, about the estimate
+    (wrapped to [-pi, pi)); NaN where the estimate is NaN."""
+    out = {}
+    for a in SD_ANGLES:
+        if a not in estimate:
+            continue
+        est = estimate[a].to_numpy(np.float64)
+        d = np.stack([dr[a].to_numpy(np.float64) for dr in draws]) - est
+        d = (d + np.pi) % (2 * np.pi) - np.pi
+        with np.errstate(invalid="ignore"):
+            out[f"{a}_sd"] = np.sqrt(np.nanmean(d * d, axis=0)) if len(draws) else np.full(len(est), np.nan)
+        out[f"{a}_sd"] = np.where(np.isfinite(est), out[f"{a}_sd"], np.nan)
+    return pd.DataFrame(out, index=estimate.index)
+
+
+def score_spread(reported: pd.Series, draws: list[pd.Series]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(probability of the reported score, 10th, 90th percentile) over the draws; NaN where not scored."""
+    rep = pd.to_numeric(reported, errors="coerce").to_numpy(np.float64)
+    D = np.stack([pd.to_numeric(d, errors="coerce").to_numpy(np.float64) for d in draws])
+    with np.errstate(invalid="ignore"):
+        p = np.where(np.isfinite(rep), (D == rep).mean(axis=0), np.nan)
+        ok = np.isfinite(D)
+        low = np.where(ok.any(axis=0), np.nanpercentile(np.where(ok, D, np.nan), 10, axis=0, method="lower"), np.nan)
+        high = np.where(ok.any(axis=0), np.nanpercentile(np.where(ok, D, np.nan), 90, axis=0, method="higher"), np.nan)
+    bad = ~np.isfinite(rep)
+    return p, np.where(bad, np.nan, low), np.where(bad, np.nan, high)
+
+
+def frame_confidence(rula_p: np.ndarray, reba_p: np.ndarray, views: np.ndarray | None,
+                     inferred: np.ndarray | None, seen_cameras: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(confidence, cause) per frame (object arrays of strings; see the module docstring).
+
+    views: (n, 33) cameras that saw each joint with the reconstruction's min_confidence;
+    inferred: (n, 33) joints placed by the body model; seen_cameras: (n,) the most cameras that saw
+    any joint of the worker in the frame (0 = not seen). None = unknown (no cause given)."""
+    n = len(rula_p)
+    scored = np.isfinite(rula_p) & np.isfinite(reba_p)
+    with np.errstate(invalid="ignore"):
+        confident = scored & (rula_p >= CONFIDENT_P) & (reba_p >= CONFIDENT_P)
+    conf = np.where(confident, "confident", np.where(scored, "low", "unscored")).astype(object)
+    cause = np.full(n, "", dtype=object)
+    if seen_cameras is not None:
+        occluded = (inferred[:, SCORED_JOINTS].any(axis=1) if inferred is not None else np.zeros(n, bool))
+        cause = np.where(seen_cameras == 0, "not seen",
+                         np.where(seen_cameras == 1, "one camera",
+                                  np.where(occluded, "occluded limbs", "uncertain angles"))).astype(object)
+        cause[confident] = ""
+    return conf, cause

@@ -1,0 +1,175 @@
+"""The body model fit against simulated ground truth: bodies posed with the anthropometric model of
+ergopose.ergonomics.body (an independent forward kinematics), seen by pinhole views with known
+noise."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, pose_skeleton
+from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.recon import bodyfit as B
+
+
+def _look_at(centre_world, target_world, f_px=300.0, size=256):
+    """A pinhole view's projection matrix (world -> view pixels), looking from centre at target."""
+    z = target_world - centre_world
+    z = z / np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    if np.linalg.norm(x) < 1e-6:
+        x = np.array([1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    K = np.array([[f_px, 0.0, size / 2], [0.0, f_px, size / 2], [0.0, 0.0, 1.0]])
+    return K @ np.concatenate([R, -(R @ centre_world)[:, None]], axis=1)
+
+
+def _project(P, X):
+    Xh = np.concatenate([X, np.ones(X.shape[:-1] + (1,))], axis=-1)
+    x = np.einsum("rcab,rjb->rcja", P, Xh)
+    return x[..., :2] / x[..., 2:]
+
+
+CAMERAS = (np.array([0.0, 0.0, 3.0]), np.array([1.5, 0.0, 3.0]))
+
+
+def _bodies(n, rng, stature=1.75):
+    """n postures (reaching, bending, twisting) on the floor and their 33 points."""
+    m = BodyMeasurements.from_stature(stature)
+    posture = Posture(
+        trunk_flexion=rng.uniform(0.0, 0.8, n), trunk_twist=rng.uniform(-0.3, 0.3, n),
+        neck_flexion=rng.uniform(-0.2, 0.5, n),
+        left_upper_arm_flexion=rng.uniform(0.0, 1.8, n), right_upper_arm_flexion=rng.uniform(0.0, 1.8, n),
+        left_elbow_flexion=rng.uniform(0.2, 1.8, n), right_elbow_flexion=rng.uniform(0.2, 1.8, n),
+        left_knee_flexion=rng.uniform(0.0, 0.6, n), right_knee_flexion=rng.uniform(0.0, 0.6, n),
+        left_hip_flexion=rng.uniform(0.0, 0.5, n), right_hip_flexion=rng.uniform(0.0, 0.5, n),
+        heading=rng.uniform(-np.pi, np.pi, n),
+        root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], axis=-1))
+    posture = place_on_floor(m, posture)
+    return pose_skeleton(m, posture)
+
+
+def _views(truth, rng, noise_px=1.5, confidence=0.9):
+    n = len(truth)
+    P = np.stack([np.stack([_look_at(c, truth[r].mean(axis=0)) for c in CAMERAS]) for r in range(n)])
+    px = _project(P, truth) + rng.normal(0.0, noise_px, (n, 2, NUM_JOINTS, 2))
+    conf = np.full((n, 2, NUM_JOINTS), confidence)
+    return P, px, conf
+
+
+def _fit(P, px, conf, truth, start, **kw):
+    L = B.segment_lengths(truth)
+    play = B._PLAY_ABS + B._PLAY_REL * L
+    return B.fit_bodies(P, px, conf, start, L, play, **kw)
+
+
+def test_two_cameras_recover_the_body_and_its_uncertainty(rng):
+    truth = _bodies(40, rng)
+    P, px, conf = _views(truth, rng)
+    start = truth + rng.normal(0.0, 0.08, truth.shape)
+    fit = _fit(P, px, conf, truth, start)
+    err = np.linalg.norm(fit.points_world - truth, axis=-1)
+    # 1.5 px at f = 300 px and about 2.5 m is about 12 mm per view; two views, lengths known.
+    assert np.median(err) < 0.015
+    assert np.percentile(err, 95) < 0.04
+    assert not fit.inferred.any()
+    # The fit's deviations describe its errors: error / predicted deviation per coordinate.
+    z = (fit.points_world - truth) / np.sqrt(fit.variance_world)
+    assert 0.6 < np.sqrt(np.mean(z ** 2)) < 1.6
+
+
+def test_without_the_body_model_terms_two_views_are_independent_triangulations(rng):
+    """Zero-weight segments and priors: the fit is the (robust) two-view triangulation of each joint."""
+    from ergopose.geometry.triangulation import triangulate_dlt
+
+    truth = _bodies(5, rng)
+    P, px, conf = _views(truth, rng, noise_px=0.5)
+    L = B.segment_lengths(truth)
+    fit = B.fit_bodies(P, px, conf, truth + 0.03, L, np.full_like(L, 1e6),
+                       options=B.FitOptions(pose_prior_sigma_m=1e6, huber_k=1e6, iterations=15))
+    dlt = triangulate_dlt(P, px, conf)
+    assert np.max(np.abs(fit.points_world - dlt.points)) < 2e-3
+
+
+def test_one_camera_is_enough_with_the_segment_lengths_and_the_previous_pose(rng):
+    truth = _bodies(30, rng)
+    moved = truth + np.array([0.03, -0.02, 0.0])  # this frame: the body moved 3.6 cm
+    P, px, conf = _views(moved, rng)
+    conf[:, 1] = 0.0  # the second camera does not see the worker
+    fit = _fit(P, px, conf, moved, truth, previous_world=truth, previous_sigma_m=np.full(30, 0.155),
+               previous_dt_s=np.full(30, 1 / 12))
+    err = np.linalg.norm(fit.points_world - moved, axis=-1)
+    assert fit.inferred.all()
+    assert np.median(err) < 0.03
+    # Depth along the camera's rays is what one camera cannot see: larger deviations than with two.
+    both = _fit(*_views(moved, rng), moved, truth)
+    assert np.median(fit.variance_world) > 2 * np.median(both.variance_world)
+
+
+def test_a_limb_nobody_sees_is_carried_and_marked_inferred(rng):
+    truth = _bodies(20, rng)
+    P, px, conf = _views(truth, rng)
+    arm = [JOINT_INDEX[n] for n in ("left_wrist", "left_pinky", "left_index", "left_thumb")]
+    conf[:, :, arm] = 0.0
+    px[:, :, arm] = np.nan
+    fit = _fit(P, px, conf, truth, truth + 0.02, previous_world=truth, previous_sigma_m=np.full(20, 0.155),
+               previous_dt_s=np.full(20, 1 / 12))
+    assert fit.inferred[:, arm].all() and not fit.inferred[:, JOINT_INDEX["left_elbow"]].any()
+    err = np.linalg.norm(fit.points_world - truth, axis=-1)
+    assert np.median(err[:, arm]) < 0.05
+    assert np.median(fit.variance_world[:, arm]) > 10 * np.median(fit.variance_world[:, JOINT_INDEX["left_elbow"]])
+    assert np.isnan(fit.reprojection_error_px[:, arm]).all()
+
+
+def test_a_wrong_keypoint_does_not_drag_the_body(rng):
+    """Huber loss: one camera puts a confident elbow 60 px off (a network's mistake)."""
+    truth = _bodies(20, rng)
+    P, px, conf = _views(truth, rng)
+    e = JOINT_INDEX["right_elbow"]
+    px[:, 0, e] += 60.0
+    robust = _fit(P, px, conf, truth, truth + 0.02)
+    plain = B.fit_bodies(P, px, conf, truth + 0.02, B.segment_lengths(truth),
+                         B._PLAY_ABS + B._PLAY_REL * B.segment_lengths(truth),
+                         options=B.FitOptions(huber_k=1e6))  # squared loss
+    err_r = np.linalg.norm(robust.points_world[:, e] - truth[:, e], axis=-1)
+    err_p = np.linalg.norm(plain.points_world[:, e] - truth[:, e], axis=-1)
+    assert np.median(err_r) < 0.5 * np.median(err_p)
+    others = [j for j in range(NUM_JOINTS) if j != e]
+    assert np.median(np.linalg.norm(robust.points_world[:, others] - truth[:, others], axis=-1)) < 0.015
+
+
+def test_angles_from_the_fit_follow_the_posture(rng):
+    truth = _bodies(60, rng)
+    P, px, conf = _views(truth, rng)
+    fit = _fit(P, px, conf, truth, truth + rng.normal(0.0, 0.05, truth.shape))
+    t = np.arange(60) / 12.0
+    a, b = joint_angles(fit.points_world, t).to_frame(), joint_angles(truth, t).to_frame()
+    for name in ("trunk_flexion", "left_upper_arm_flexion", "right_elbow_flexion", "left_knee_flexion",
+                 "neck_flexion"):
+        d = np.degrees(np.abs(a[name] - b[name]))
+        assert np.median(d) < 4.0, name
+
+
+def test_worker_lengths_measured_or_scaled_population():
+    L = B.PRIOR_LENGTH_VECTOR * 1.1
+    measured = np.full(B.NUM_SEGMENTS, np.nan)
+    samples = np.zeros(B.NUM_SEGMENTS)
+    measured[:4], samples[:4] = L[:4], 100
+    length, play = B.worker_lengths(measured, samples)
+    assert np.allclose(length, L)  # measured ones as measured, the rest scaled by 1.1
+    assert np.all(play[4:] == pytest.approx(B.PRIOR_PLAY * L[4:]))
+    assert np.all(play[:4] < play[4:8])
+    length, _ = B.worker_lengths(np.full(B.NUM_SEGMENTS, np.nan), np.zeros(B.NUM_SEGMENTS))
+    assert np.allclose(length, B.PRIOR_LENGTH_VECTOR)
+
+
+def test_segments_cover_every_joint_and_the_limbs_come_first():
+    from ergopose.keypoints import LIMBS
+
+    assert B.SEGMENTS[:len(LIMBS)] == tuple(name for name, _, _ in LIMBS)
+    touched = (B.SEGMENT_MATRIX != 0).any(axis=0)
+    assert touched.all()
+    assert np.allclose(B.SEGMENT_MATRIX.sum(axis=1), 0.0)  # differences of points
