@@ -52,6 +52,8 @@ MATCH_DISTANCE_M = 0.5
 MIN_COMMON_JOINTS = 3
 #: Select-and-fit rounds at most (it stops when the selection no longer changes).
 MAX_ROUNDS = 5
+#: Distances below this (m) never make a pair an outlier of the rigid fit (see robust_kabsch).
+OUTLIER_FLOOR_M = 0.020
 
 #: Per-body-part score columns compared besides the totals, with their scales (docs/csv-columns.md;
 #: widened when the data hold values outside, e.g. the "separate" variants).
@@ -94,6 +96,26 @@ def parse_axes(text: str) -> tuple[np.ndarray, str]:
     if np.linalg.det(m) < 0:
         raise ConfigError(f"{text!r} is a mirror (left-handed); flip one axis's sign", field="--reference-axes")
     return m, ",".join(parts)
+
+
+def robust_kabsch(ref: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`kabsch` refitted without the outlying pairs: a pair is an outlier when its distance
+    after the fit exceeds median + 3 x 1.4826 x MAD of the distances (the normal-consistent robust
+    3-sigma) and 20 mm; refitted until the inliers no longer change (at most MAX_ROUNDS times).
+    Keypoint definitions differ by a few centimetres everywhere, so only grossly wrong points (a
+    joint on the wrong limb, a failed triangulation) are left out. Returns (R, t, inlier mask)."""
+    inliers = np.ones(len(ref), bool)
+    r, t = kabsch(ref, target)
+    for _ in range(MAX_ROUNDS):
+        d = np.linalg.norm(ref @ r.T + t - target, axis=-1)
+        med = float(np.median(d[inliers]))
+        limit = max(med + 3.0 * 1.4826 * float(np.median(np.abs(d[inliers] - med))), OUTLIER_FLOOR_M)
+        new = d <= limit
+        if new.sum() < MIN_COMMON_JOINTS or np.array_equal(new, inliers):
+            break
+        inliers = new
+        r, t = kabsch(ref[inliers], target[inliers])
+    return r, t, inliers
 
 
 def kabsch(ref: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -216,7 +238,7 @@ def _select_and_fit(pts, tracks, ref_at_rows, inside, rotation, translation, dis
             break
         selected = chosen
         if fit and len(selected):
-            rotation, translation = kabsch(*_pairs(pts[selected], ref_at_rows[selected]))
+            rotation, translation, _ = robust_kabsch(*_pairs(pts[selected], ref_at_rows[selected]))
     return rotation, translation, selected
 
 
@@ -297,7 +319,8 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
                                                          match_distance_m, fit=False)
     else:
         canonical = None
-        method = "rigid transform without scale (Kabsch) fitted over every matched joint of the compared frames"
+        method = ("rigid transform without scale (Kabsch) fitted over the matched joints of the compared frames, "
+                  "gross outliers left out (median + 3 robust sigma, at least 20 mm)")
         common = np.isfinite(ref_at_rows).all(-1) & np.isfinite(pts).all(-1)
         usable = (common.sum(-1) >= MIN_COMMON_JOINTS) & inside
         if not usable.any():
@@ -308,7 +331,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
         best = None
         for w in np.unique(tracks.worker[usable]):
             start = usable & (tracks.worker == w)
-            r0, t0 = kabsch(*_pairs(pts[start], ref_at_rows[start]))
+            r0, t0, _ = robust_kabsch(*_pairs(pts[start], ref_at_rows[start]))
             r, t, sel = _select_and_fit(pts, tracks, ref_at_rows, inside, r0, t0, match_distance_m, fit=True)
             if len(sel):
                 d = np.linalg.norm(pts[sel] - (ref_at_rows[sel] @ r.T + t), axis=-1)
@@ -344,8 +367,14 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
             "mean_offset_world_mm": [_r(1000 * x, 1) for x in diff[v, j].mean(axis=0)],
             "surface_marker": is_surface_marker(marker),
         }
+    if axes is None:
+        _, _, inl = robust_kabsch(*_pairs(pts[selected], ref_at_rows[selected]))
+        fit_pairs = int(inl.sum())
+    else:
+        fit_pairs = 0
     alignment = {
         "method": method,
+        "fit_pairs_used": fit_pairs,
         "rotation_world_from_reference": rotation.tolist(),
         "translation_m": translation.tolist(),
         "reference_up_in_world": (rotation @ np.array([0.0, 1.0, 0.0])).tolist(),
@@ -353,6 +382,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
         "residual_rms_mm": _r(1000 * np.sqrt(np.mean(dist[fin] ** 2)), 2),
         "residual_median_mm": _r(1000 * np.median(dist[fin]), 2),
         "residual_p95_mm": _r(1000 * np.percentile(dist[fin], 95), 2),
+        "residual_within_50mm_pct": _r(100.0 * float(np.mean(dist[fin] <= 0.05)), 2),
         "by_joint": per_joint,
     }
     up = alignment["reference_up_in_world"]
@@ -547,8 +577,9 @@ def format_reference(ev: Mapping[str, Any]) -> str:
              f"{len(ev['reference']['markers'])} markers mapped)",
              f"Frames compared: {fr['compared']}; left out: "
              + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in fr["left_out"].items()),
-             f"Alignment: {al['method']}; residual RMS {al['residual_rms_mm']} mm, median {al['residual_median_mm']} mm "
-             f"over {al['pairs']} joint pairs",
+             f"Alignment: {al['method']}; residual RMS {al['residual_rms_mm']} mm, median {al['residual_median_mm']} mm, "
+             f"{al['residual_within_50mm_pct']} % within 50 mm, over {al['pairs']} joint pairs"
+             + (f" ({al['fit_pairs_used']} used in the fit)" if al.get("fit_pairs_used") else ""),
              "Joint offsets after alignment (assessment - reference; mean x, y, z and RMS, mm):"]
     for j, r in al["by_joint"].items():
         x, y, z = (v + 0.0 if v is not None else float("nan") for v in r["mean_offset_world_mm"])
@@ -576,4 +607,4 @@ def format_reference(ev: Mapping[str, Any]) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["evaluate_reference", "format_reference", "kabsch", "parse_axes", "MATCH_DISTANCE_M"]
+__all__ = ["evaluate_reference", "format_reference", "kabsch", "robust_kabsch", "parse_axes", "MATCH_DISTANCE_M"]
