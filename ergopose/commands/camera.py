@@ -125,9 +125,15 @@ def describe(camera: Camera) -> str:
     axis = np.round(camera.axis_world, 3) + 0.0  # no "-0.000"
     from_down = math.degrees(math.acos(max(-1.0, min(1.0, -axis[2]))))
     x, y, z = camera.position_world
+    if camera.image_circle is not None:
+        fov_from = f"image circle r = {camera.image_circle[2]:.1f} px"
+    elif camera.max_theta_in_image() > math.pi / 2:
+        fov_from = "lens model; no image_circle given"
+    else:
+        fov_from = "image"
     line = (f"{camera.name}: {camera.lens.kind}, {camera.width}x{camera.height} px, "
             f"field of view {math.degrees(hfov):.1f} x {math.degrees(vfov):.1f} deg "
-            f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis), "
+            f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis; {fov_from}), "
             f"at ({x:.3f}, {y:.3f}, {z:.3f}) m, looking ({axis[0]:+.3f}, {axis[1]:+.3f}, {axis[2]:+.3f}), "
             f"{from_down:.1f} deg from straight down")
     if camera.calibration.rms_error_px is not None:

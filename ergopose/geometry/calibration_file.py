@@ -6,6 +6,7 @@
     name = "cam_1"
     width = 2592                # image size, pixels
     height = 1944
+    image_circle = [1295.5, 971.5, 960.0]   # optional: lit circle u, v, radius (pixels)
 
     [cameras.lens]              # kind + that model's parameters (ergopose.geometry.lenses)
     kind = "kannala_brandt"
@@ -54,7 +55,7 @@ FORMAT_VERSION = 1
 SUPPORTED_VERSIONS = (1,)
 
 _TOP_KEYS = {"format_version", "description", "cameras"}
-_CAMERA_KEYS = {"name", "width", "height", "lens", "pose", "calibration"}
+_CAMERA_KEYS = {"name", "width", "height", "lens", "pose", "calibration", "image_circle"}
 _POSE_KEYS = {"rotation_world_from_cam", "rodrigues_world_from_cam", "position_world"}
 _CALIBRATION_KEYS = {"rms_error_px", "date", "method", "notes"}
 
@@ -151,9 +152,16 @@ def _camera_from_table(table: dict[str, Any], where: str, path: Any) -> Camera:
         raise _relocated(exc, where, label, path) from None
     rotation, position = _pose_from_table(table["pose"], f"{where}.pose", label, path)
     calibration = _calibration_from_table(table.get("calibration", {}), where, label, path)
+    circle = None
+    if "image_circle" in table:
+        circle = _numbers(table["image_circle"], (3,), f"{where}.image_circle", label, path)
+        if not circle[2] > 0:
+            raise ConfigError(f"the radius (third number) must be positive, got {circle[2]!r}{label}", path=path,
+                              field=f"{where}.image_circle")
     try:
         return Camera(name=name, lens=lens, width=table["width"], height=table["height"],
-                      rotation_world_from_cam=rotation, position_world=position, calibration=calibration)
+                      rotation_world_from_cam=rotation, position_world=position, calibration=calibration,
+                      image_circle=None if circle is None else tuple(circle))
     except ErgoposeError as exc:
         raise _relocated(exc, where, label, path) from None
 
@@ -270,7 +278,10 @@ def calibration_to_toml(cameras: Sequence[Camera], description: str | None = Non
         lines.append(f"description = {_value(description)}")
     for camera in cameras:
         lines += ["", "[[cameras]]", f"name = {_value(camera.name)}",
-                  f"width = {camera.width}", f"height = {camera.height}", "", "[cameras.lens]"]
+                  f"width = {camera.width}", f"height = {camera.height}"]
+        if camera.image_circle is not None:
+            lines.append(f"image_circle = {_array(camera.image_circle)}   # u, v, radius (pixels)")
+        lines += ["", "[cameras.lens]"]
         lens = camera.lens.to_dict()
         lines.append(f"kind = {_value(lens.pop('kind'))}")
         lines += [f"{key} = {_value(float(v))}" for key, v in lens.items()]
