@@ -113,3 +113,11 @@ def test_existing_folder_is_refused(tmp_path, capsys):
     assert load_session(root).camera_names == tuple(c.name for c in rig_cameras(W, H))
     assert cli.main(["session", "new", str(root), "--calibration", str(calibration), a, b]) == 2
     assert "already exists" in capsys.readouterr().err
+
+
+def test_the_same_video_for_two_cameras(tmp_path, capsys):
+    calibration = save_calibration(tmp_path / "cal.toml", rig_cameras(W, H))
+    a = write_video(tmp_path / "a.mp4", 12)
+    assert cli.main(["session", "new", str(tmp_path / "s"), "--calibration", str(calibration), a, a]) == 2
+    err = capsys.readouterr().err
+    assert err.count("ergopose: error") == 1 and "same video" in err

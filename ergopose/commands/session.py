@@ -95,6 +95,10 @@ def run_new(args: argparse.Namespace) -> int:
         raise InputError(f"{len(cameras)} camera(s) ({listing}) but {len(args.videos)} video(s): give one video per "
                          "camera, in the calibration's order (or choose cameras with --cameras)",
                          path=args.calibration)
+    resolved = [v.resolve() for v in args.videos]
+    twice = next((v for k, v in enumerate(args.videos) if resolved[k] in resolved[:k]), None)
+    if twice is not None:
+        raise InputError("the same video is given for two cameras", path=twice)
     infos = [probe_video(v) for v in args.videos]
     rates = [i.fps for i in infos]
     if any(not (math.isfinite(r) and r > 0) for r in rates):
