@@ -27,7 +27,8 @@ Steps:
 
 The result is a JSON-ready dictionary in the layout of the simulated evaluation
 (``angles.by_angle.NAME.mae_deg``, ``scores.rula_grand.kappa_linear``, ...) with, in addition,
-``reference``, ``alignment``, ``frames`` (compared and left out, by reason) and ``definitions``.
+``reference``, ``alignment``, ``frame_selection`` (compared and left out, by reason; ``frames`` is
+the number compared) and ``definitions``.
 """
 
 from __future__ import annotations
@@ -536,7 +537,8 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
     report(progress, "evaluation", steps, steps, unit="step")
     out = {
         "format": "ergopose.evaluation", "version": 1, "source": "reference marker recording (TRC)",
-        "results": str(layout.root), "reference": ref_info, "fps": fps, "frames": frames,
+        "results": str(layout.root), "reference": ref_info, "fps": fps, "frames": frames["compared"],
+        "frame_selection": frames,
         "alignment": alignment, "definitions": definitions, "angles": angles, "scores": scores,
         "notes": notes,
     }
@@ -558,6 +560,7 @@ def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
         "within_one_pct": _r(100.0 * within_one(cm), 2),
         "kappa": _r(kappa_from_matrix(cm, "none"), 4),
         "kappa_linear": _r(kappa_from_matrix(cm, "linear"), 4),
+        "kappa_quadratic": _r(kappa_from_matrix(cm, "quadratic"), 4),
         "mean_difference": _r(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
         "confusion_matrix": {"rows": "assessment", "columns": "reference", "counts": cm.tolist()},
     }
@@ -571,7 +574,7 @@ def _take(rows, mask):
 
 def format_reference(ev: Mapping[str, Any]) -> str:
     """A short text summary for the terminal."""
-    fr, al, an, sc = ev["frames"], ev["alignment"], ev["angles"], ev["scores"]
+    fr, al, an, sc = ev["frame_selection"], ev["alignment"], ev["angles"], ev["scores"]
     lines = [f"Reference: {ev['reference']['path']} ({ev['reference']['samples']} samples at "
              f"{ev['reference']['rate_hz']:g} Hz; {len(ev['reference']['mapped'])} of "
              f"{len(ev['reference']['markers'])} markers mapped)",

@@ -43,7 +43,8 @@ def test_against_itself_everything_agrees(trc, world, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "Frames compared: 100" in printed
     ev = json.loads((out / "evaluation_reference.json").read_text())
-    assert ev["frames"]["compared"] == 100 and sum(ev["frames"]["left_out"].values()) == 0
+    assert ev["frames"] == ev["frame_selection"]["compared"] == 100
+    assert sum(ev["frame_selection"]["left_out"].values()) == 0
     assert ev["alignment"]["residual_rms_mm"] < 1e-6
     np.testing.assert_allclose(ev["alignment"]["rotation_world_from_reference"], TO_WORLD, atol=1e-6)
     by_angle = ev["angles"]["by_angle"]
@@ -101,19 +102,19 @@ def test_identity_switch_and_a_second_person(trc, world, tmp_path):
     people = [(1, np.arange(50), world[:50]), (2, np.arange(50, 100), world[50:]), (3, np.arange(100), other)]
     out = make_results(tmp_path / "out", people, fps=60.0, names={1: "anna"})  # worker_1 renamed in its CSV
     ev = evaluate_reference(out, trc)
-    assert ev["frames"]["compared"] == 100
-    assert ev["frames"]["tracked_ids_used"] == ["worker_1", "worker_2"]
+    assert ev["frame_selection"]["compared"] == 100
+    assert ev["frame_selection"]["tracked_ids_used"] == ["worker_1", "worker_2"]
     assert ev["alignment"]["residual_rms_mm"] < 1e-6
     only3 = evaluate_reference(out, trc, worker="worker_3", match_distance_m=10.0)
-    assert only3["frames"]["tracked_ids_used"] == ["worker_3"]
+    assert only3["frame_selection"]["tracked_ids_used"] == ["worker_3"]
 
 
 def test_time_offset_and_no_overlap(trc, world, tmp_path, capsys):
     out = make_results(tmp_path / "out", [(1, np.arange(100), world)], fps=60.0)
     ev = evaluate_reference(out, trc, offset_s=1.0, axes="z,x,y", match_distance_m=2.0)
     # Frames 0-59 come before the reference's first sample (1.0 s minus half a period).
-    assert ev["frames"]["left_out"]["assessment_outside_reference_time"] == 60
-    assert ev["frames"]["compared"] == 40
+    assert ev["frame_selection"]["left_out"]["assessment_outside_reference_time"] == 60
+    assert ev["frame_selection"]["compared"] == 40
     code = cli.main(["evaluate", "--results", str(out), "--reference", str(trc), "--reference-offset", "100"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("ergopose: error") == 1 and "does not overlap" in err and "Traceback" not in err
@@ -187,7 +188,7 @@ def test_our_triangulation_of_pose2sims_keypoints_against_its_trc(shared_data, t
     out = make_results(tmp_path / "out", [(1, np.arange(100), points)], fps=60.0)
     ev = evaluate_reference(out, trc)
     al = ev["alignment"]
-    assert ev["frames"]["compared"] == 100
+    assert ev["frame_selection"]["compared"] == 100
     assert al["residual_median_mm"] < 2.0, al["residual_median_mm"]
     assert al["residual_within_50mm_pct"] > 75.0, al["residual_within_50mm_pct"]
     cos = (np.trace(np.array(al["rotation_world_from_reference"]).T @ TO_WORLD) - 1) / 2
