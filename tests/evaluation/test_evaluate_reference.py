@@ -75,7 +75,7 @@ def test_rigidly_moved_copy_is_aligned_exactly(trc, world, tmp_path):
 
 
 def test_known_definition_offset_is_reported_exactly(trc, world, tmp_path):
-    """Both hips 40 mm higher in the 'assessment' (as BlazePose's hips sit higher than OpenPose's):
+    """Both hips 40 mm higher in the 'assessment' (a keypoint definition difference of that size):
     with the axis order given (no fit) the hips' mean offset is (0, 0, +40) mm, every other joint 0,
     and the residual RMS is 40 mm x sqrt(hip pairs / all pairs)."""
     moved = world.copy()
