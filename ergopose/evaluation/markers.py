@@ -8,8 +8,8 @@ mean offset after alignment and the segment lengths of both sides):
 - OpenPose BODY_25 / BODY_25B, COCO and HALPE hips are the hip points as their annotators placed
   them; BlazePose's hips follow its own annotation. Measured on the Pose2Sim recording (our
   assessment of each camera pair against Pose2Sim's BODY_25B triangulation, docs/evaluation.md):
-  our hips lie 10-68 mm lower, the hip width is 0.83-0.97 and the thighs 0.88-0.93 of Pose2Sim's,
-  with the same sign in all six camera pairs.
+  our hips lie 10-68 mm lower (11 of the 12 hip-and-pair figures; one is 19 mm higher), the hip
+  width is 0.83-0.97 and the left thigh 0.88-0.93 of Pose2Sim's in all six camera pairs.
 - BODY_25B / HALPE big toe maps to ``foot_index`` (BlazePose's foot index is the tip of the foot);
   the small toe has no counterpart.
 - ``Neck``, ``Head``, ``MidHip``/``Hip`` have no BlazePose landmark and are not used.
