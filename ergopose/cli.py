@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.assess",
     "ergopose.commands.demo",
     "ergopose.commands.models",
+    "ergopose.commands.session",
     "ergopose.commands.camera",
     "ergopose.commands.calibrate",
     "ergopose.commands.score",
@@ -30,10 +31,12 @@ COMMAND_MODULES: tuple[str, ...] = (
 )
 
 DESCRIPTION = """\
-Markerless ergonomic risk assessment (RULA, REBA) from two ceiling-mounted fisheye cameras.
+Markerless ergonomic risk assessment (RULA, REBA) from calibrated cameras (the rig: two
+ceiling-mounted fisheye cameras).
 
-Start with 'ergopose assess --session DIR' on a session folder (two videos, a calibration
-and a settings file); each subcommand has its own --help."""
+Make a session folder with 'ergopose session new DIR --calibration FILE VIDEO...' (one video
+per camera, a calibration and a settings file), then run 'ergopose assess --session DIR'; each
+subcommand has its own --help."""
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -333,8 +333,8 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
     cams = r.require(data, "cameras", "")
     if not isinstance(cams, list) or not all(isinstance(c, dict) for c in cams):
         raise r.fail("cameras", "expected [[cameras]] tables, each with a name and a video")
-    if len(cams) < 2:
-        raise r.fail("cameras", f"expected at least 2 cameras (3D needs two views), got {len(cams)}")
+    if len(cams) < 1:
+        raise r.fail("cameras", "expected at least one [[cameras]] table (name and video)")
     entries: list[tuple[str, Path]] = []
     for i, c in enumerate(cams):
         where = f"cameras[{i}]"

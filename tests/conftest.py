@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED = REPO.parent / "shared"
+#: ../shared next to the checkout; ERGOPOSE_SHARED overrides it (a git worktree elsewhere).
+SHARED = Path(os.environ.get("ERGOPOSE_SHARED") or REPO.parent / "shared")
 DATA = SHARED / "data"
 
 

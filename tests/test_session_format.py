@@ -208,9 +208,17 @@ def test_period_problems(tmp_path):
 def test_version_and_structure(tmp_path):
     msg = _error(tmp_path / "a", ConfigError, settings=SETTINGS.replace("format_version = 1", "format_version = 2"))
     assert "format_version" in msg and "unsupported" in msg
-    one_camera = SETTINGS.replace('[[cameras]]\nname = "cam_1"\nvideo = "a.mp4"\n', "")
-    assert "at least 2 cameras" in _error(tmp_path / "b", ConfigError, settings=one_camera)
+    no_camera = SETTINGS.replace('[[cameras]]\nname = "cam_1"\nvideo = "a.mp4"\n', "").replace(
+        '[[cameras]]\nname = "cam_2"\nvideo = "b.mp4"\n', "").replace('description = "test"', 'description = "test"\ncameras = []')
+    assert "at least one [[cameras]]" in _error(tmp_path / "b", ConfigError, settings=no_camera)
     assert "not valid TOML" in _error(tmp_path / "c", ConfigError, settings=SETTINGS + "\n[[oops\n")
+
+
+def test_one_camera_is_a_session(tmp_path):
+    """1 to N calibrated cameras: a session with one of the two calibrated cameras loads."""
+    one_camera = SETTINGS.replace('[[cameras]]\nname = "cam_1"\nvideo = "a.mp4"\n', "")
+    session = load_session(make_session(tmp_path / "one", settings=one_camera))
+    assert session.camera_names == ("cam_2",)
 
 
 def test_scoring_table_is_checked(tmp_path):

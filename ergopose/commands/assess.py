@@ -13,7 +13,7 @@ def register(subparsers) -> argparse.ArgumentParser:
         "assess",
         help="assess a session: videos in, RULA/REBA per worker, CSV files and an HTML report out",
         description=(
-            "Assess a recording session: find the workers in both fisheye videos, estimate their 3D\n"
+            "Assess a recording session: find the workers in every camera's video, estimate their 3D\n"
             "posture over the whole shift, score RULA and REBA per frame, aggregate per worker, and\n"
             "write per-worker CSV files and an HTML report.\n\n"
             "An interrupted run (Ctrl-C, a killed process, a power cut) continues where it stopped\n"

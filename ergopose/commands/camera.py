@@ -1,4 +1,4 @@
-"""``ergopose camera show | import-opencv``: look at and create calibration files."""
+"""``ergopose camera show | import | import-opencv``: look at and create calibration files."""
 
 from __future__ import annotations
 
@@ -11,9 +11,12 @@ import numpy as np
 from ergopose.errors import ConfigError
 from ergopose.geometry.calibration_file import (
     camera_from_opencv_fisheye,
+    LENGTH_UNITS,
     load_calibration,
     read_opencv_fisheye_file,
+    read_pose2sim_calibration,
     save_calibration,
+    world_frame_warnings,
 )
 from ergopose.geometry.camera import CalibrationInfo, Camera, ceiling_rotation
 
@@ -32,10 +35,22 @@ direction of the image's x axis in the floor plane (degrees from world +x toward
 If --out exists, the camera is appended (cameras keep their order); an existing camera of
 the same name is an error unless --replace."""
 
+IMPORT_TOML_HELP = """\
+Convert the calibration TOML written by Pose2Sim or anipose (one [cam_xx] table per camera with
+name, size, matrix, distortions, rotation, translation and fisheye) into an ergopose calibration
+file. Pinhole cameras get the brown_conrady lens (OpenCV k1, k2, p1, p2, k3), fisheye = true ones
+the kannala_brandt lens (cv2.fisheye). The file's rotation and translation map world to camera
+(OpenCV rvec/tvec); they are inverted into ergopose's camera-to-world pose. Cameras keep the
+file's order and names.
+
+The world frame is kept as it is: ergopose needs the floor at z = 0 and z up (Pose2Sim with a
+Qualisys or floor-board calibration usually is; anipose's world is its first camera's frame and
+is not). The command warns when the cameras' poses do not look like that."""
+
 
 def register(subparsers) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
-        "camera", help="show calibration files, import OpenCV fisheye calibrations",
+        "camera", help="show calibration files, import Pose2Sim/anipose and OpenCV calibrations",
         description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = parser.add_subparsers(dest="camera_action", metavar="ACTION", title="actions")
@@ -45,6 +60,17 @@ def register(subparsers) -> argparse.ArgumentParser:
         description="Check a calibration file and print one line per camera, in file order.")
     show.add_argument("file", metavar="FILE", help="calibration file (.toml)")
     show.set_defaults(func=run_show)
+
+    toml = actions.add_parser(
+        "import", help="convert a Pose2Sim or anipose calibration TOML into a calibration file",
+        description=IMPORT_TOML_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    toml.add_argument("file", metavar="FILE", help="Pose2Sim/anipose calibration (.toml)")
+    toml.add_argument("--out", metavar="FILE", required=True, help="ergopose calibration file to write (.toml)")
+    toml.add_argument("--units", choices=tuple(LENGTH_UNITS), default="m",
+                      help="length unit of the file's translations (default m, as Pose2Sim; anipose uses the "
+                           "board's unit, often mm)")
+    toml.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    toml.set_defaults(func=run_import_toml)
 
     imp = actions.add_parser(
         "import-opencv", help="add an OpenCV fisheye K/D calibration to a calibration file",
@@ -99,9 +125,15 @@ def describe(camera: Camera) -> str:
     axis = np.round(camera.axis_world, 3) + 0.0  # no "-0.000"
     from_down = math.degrees(math.acos(max(-1.0, min(1.0, -axis[2]))))
     x, y, z = camera.position_world
+    if camera.image_circle is not None:
+        fov_from = f"image circle r = {camera.image_circle[2]:.1f} px"
+    elif camera.max_theta_in_image() > math.pi / 2:
+        fov_from = "lens model; no image_circle given"
+    else:
+        fov_from = "image"
     line = (f"{camera.name}: {camera.lens.kind}, {camera.width}x{camera.height} px, "
             f"field of view {math.degrees(hfov):.1f} x {math.degrees(vfov):.1f} deg "
-            f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis), "
+            f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis; {fov_from}), "
             f"at ({x:.3f}, {y:.3f}, {z:.3f}) m, looking ({axis[0]:+.3f}, {axis[1]:+.3f}, {axis[2]:+.3f}), "
             f"{from_down:.1f} deg from straight down")
     if camera.calibration.rms_error_px is not None:
@@ -112,6 +144,21 @@ def describe(camera: Camera) -> str:
 def run_show(args: argparse.Namespace) -> int:
     for camera in load_calibration(args.file):
         print(describe(camera))
+    return 0
+
+
+def run_import_toml(args: argparse.Namespace) -> int:
+    cameras = read_pose2sim_calibration(args.file, units=args.units)
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise ConfigError("already exists: choose another --out or add --force", path=out)
+    save_calibration(out, cameras, description=f"imported from {Path(args.file).name}")
+    for camera in cameras:
+        print(describe(camera))
+    for warning in world_frame_warnings(cameras):
+        print(f"warning: {warning}")
+    print(f"wrote {out} ({len(cameras)} camera{'s' if len(cameras) != 1 else ''}; world frame as in "
+          f"{Path(args.file).name})")
     return 0
 
 

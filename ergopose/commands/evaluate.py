@@ -1,5 +1,6 @@
 """ergopose evaluate --session DIR --results OUT [--json FILE] [--oracle ...]: an assessed
-simulated session against its ground truth (docs/evaluation.md)."""
+simulated session against its ground truth; ergopose evaluate --results OUT --reference FILE.trc:
+an assessment against a reference 3D marker recording (docs/evaluation.md)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from ergopose.cli_progress import ProgressBars
 def register(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "evaluate",
-        help="compare an assessed SIMULATED session with its ground truth (3D error, identities, angles, scores)",
+        help="compare an assessment with a simulation's ground truth or with a reference marker recording (TRC)",
         description=(
             "Compare what 'ergopose assess' wrote for a simulated session (made by 'ergopose simulate')\n"
             "with the simulation's ground truth: 3D joint error per lens region, limb lengths, detection\n"
@@ -20,16 +21,34 @@ def register(subparsers) -> argparse.ArgumentParser:
             "true angles (Cohen's kappa), and the reference-bar table. Prints a summary and writes JSON.\n\n"
             "--oracle runs the reconstruction on the simulator's ORACLE 2D keypoints (true joints with\n"
             "pixel noise) instead of the pose network's, writes it to OUT/oracle/ and evaluates that:\n"
-            "geometry, tracking and smoothing measured apart from the network."),
+            "geometry, tracking and smoothing measured apart from the network.\n\n"
+            "--reference FILE.trc compares any assessment with a reference 3D marker recording (Pose2Sim,\n"
+            "OpenSim or motion-capture TRC; Y up): the reference is aligned to the assessment's world by a rigid\n"
+            "transform fitted over the matched markers (or by --reference-axes), its angles and RULA/REBA come\n"
+            "from the same code as the product's, and the differences per angle, body part and score are\n"
+            "printed and written as JSON (default OUT/evaluation_reference.json)."),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--session", required=True, type=Path, metavar="DIR",
-                   help="the simulated session folder (with ground_truth/)")
+    p.add_argument("--session", type=Path, metavar="DIR", default=None,
+                   help="the session folder (simulated, with ground_truth/; with --reference optional: its "
+                        "scoring settings and worker names are used)")
     p.add_argument("--results", required=True, type=Path, metavar="OUT",
                    help="the folder 'ergopose assess --out OUT' wrote (with --oracle: where OUT/oracle/ goes)")
     p.add_argument("--json", type=Path, metavar="FILE", default=None,
                    help="where to write the evaluation as JSON (default OUT/evaluation.json, "
                         "with --oracle OUT/oracle/evaluation.json)")
+    r = p.add_argument_group("against a reference marker recording")
+    r.add_argument("--reference", type=Path, metavar="FILE.trc", default=None,
+                   help="reference 3D markers (TRC); replaces the simulation's ground truth")
+    r.add_argument("--reference-axes", metavar="X,Y,Z", default=None,
+                   help="world x, y, z as the reference's axes instead of a fitted rigid transform, e.g. z,x,y "
+                        "(a leading - flips one)")
+    r.add_argument("--reference-offset", type=float, default=0.0, metavar="S",
+                   help="time of the reference's first sample in the assessment, seconds (default 0: the "
+                        "first video frame)")
+    r.add_argument("--worker", default=None, metavar="ID",
+                   help="compare only this tracked worker (default: in each frame the tracked row nearest the "
+                        "reference)")
     o = p.add_argument_group("ORACLE run (evaluation only)")
     o.add_argument("--oracle", action="store_true",
                    help="reconstruct from the simulator's ORACLE 2D keypoints instead of evaluating assess's output")
@@ -59,6 +78,10 @@ def run(args: argparse.Namespace) -> int:
     from ergopose.evaluation.text import format_evaluation
 
     progress = ProgressBars()
+    if args.reference is not None:
+        return run_reference(args, progress)
+    if args.session is None:
+        raise ConfigError("give --session DIR (a simulated session) or --reference FILE.trc", field="--session")
     oracle = None
     if args.oracle:
         for name in ("noise_px", "occluded_noise_px"):
@@ -85,5 +108,23 @@ def run(args: argparse.Namespace) -> int:
                                   bar_draws=args.bar_draws, seed=args.seed, progress=progress)
     path = write_json(evaluation, args.json or default_json)
     print(format_evaluation(evaluation.to_dict()))
+    print(f"\nJSON: {path}")
+    return 0
+
+
+def run_reference(args: argparse.Namespace, progress) -> int:
+    import json
+
+    from ergopose.atomic import write_text
+    from ergopose.errors import ConfigError
+    from ergopose.evaluation.reference import evaluate_reference, format_reference
+
+    if args.oracle:
+        raise ConfigError("--oracle needs a simulated session, not --reference", field="--oracle")
+    ev = evaluate_reference(args.results, args.reference, session_dir=args.session, axes=args.reference_axes,
+                            offset_s=args.reference_offset, worker=args.worker, progress=progress)
+    path = write_text(args.json or Path(args.results) / "evaluation_reference.json",
+                      json.dumps(ev, indent=1, allow_nan=False) + "\n")
+    print(format_reference(ev))
     print(f"\nJSON: {path}")
     return 0

@@ -6,6 +6,7 @@
     name = "cam_1"
     width = 2592                # image size, pixels
     height = 1944
+    image_circle = [1295.5, 971.5, 960.0]   # optional: lit circle u, v, radius (pixels)
 
     [cameras.lens]              # kind + that model's parameters (ergopose.geometry.lenses)
     kind = "kannala_brandt"
@@ -26,7 +27,8 @@ naming the file and the field (``cameras[1].lens.fx``) and saying what is wrong;
 are errors too, so a typo never silently falls back to a default.
 
 Importers: :func:`camera_from_opencv_fisheye` (K, D and optionally OpenCV's world -> camera
-R, t) and :func:`read_opencv_fisheye_file` (K and D from a cv2.FileStorage YAML/XML file).
+R, t), :func:`read_opencv_fisheye_file` (K and D from a cv2.FileStorage YAML/XML file) and
+:func:`read_pose2sim_calibration` (the calibration TOML of Pose2Sim and anipose).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, ErgoposeError
 from ergopose.geometry.camera import CalibrationInfo, Camera, check_rotation
 from ergopose.geometry.lenses import lens_from_dict
+from ergopose.geometry.lenses.brown_conrady import BrownConrady
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 
 #: The version this code writes; it reads exactly the versions in SUPPORTED_VERSIONS.
@@ -52,7 +55,7 @@ FORMAT_VERSION = 1
 SUPPORTED_VERSIONS = (1,)
 
 _TOP_KEYS = {"format_version", "description", "cameras"}
-_CAMERA_KEYS = {"name", "width", "height", "lens", "pose", "calibration"}
+_CAMERA_KEYS = {"name", "width", "height", "lens", "pose", "calibration", "image_circle"}
 _POSE_KEYS = {"rotation_world_from_cam", "rodrigues_world_from_cam", "position_world"}
 _CALIBRATION_KEYS = {"rms_error_px", "date", "method", "notes"}
 
@@ -149,9 +152,16 @@ def _camera_from_table(table: dict[str, Any], where: str, path: Any) -> Camera:
         raise _relocated(exc, where, label, path) from None
     rotation, position = _pose_from_table(table["pose"], f"{where}.pose", label, path)
     calibration = _calibration_from_table(table.get("calibration", {}), where, label, path)
+    circle = None
+    if "image_circle" in table:
+        circle = _numbers(table["image_circle"], (3,), f"{where}.image_circle", label, path)
+        if not circle[2] > 0:
+            raise ConfigError(f"the radius (third number) must be positive, got {circle[2]!r}{label}", path=path,
+                              field=f"{where}.image_circle")
     try:
         return Camera(name=name, lens=lens, width=table["width"], height=table["height"],
-                      rotation_world_from_cam=rotation, position_world=position, calibration=calibration)
+                      rotation_world_from_cam=rotation, position_world=position, calibration=calibration,
+                      image_circle=None if circle is None else tuple(circle))
     except ErgoposeError as exc:
         raise _relocated(exc, where, label, path) from None
 
@@ -268,7 +278,10 @@ def calibration_to_toml(cameras: Sequence[Camera], description: str | None = Non
         lines.append(f"description = {_value(description)}")
     for camera in cameras:
         lines += ["", "[[cameras]]", f"name = {_value(camera.name)}",
-                  f"width = {camera.width}", f"height = {camera.height}", "", "[cameras.lens]"]
+                  f"width = {camera.width}", f"height = {camera.height}"]
+        if camera.image_circle is not None:
+            lines.append(f"image_circle = {_array(camera.image_circle)}   # u, v, radius (pixels)")
+        lines += ["", "[cameras.lens]"]
         lens = camera.lens.to_dict()
         lines.append(f"kind = {_value(lens.pop('kind'))}")
         lines += [f"{key} = {_value(float(v))}" for key, v in lens.items()]
@@ -410,6 +423,137 @@ def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.nd
     return K, D.reshape(4), extras
 
 
+# --- Pose2Sim / anipose calibration TOML -----------------------------------------------------------
+
+#: Length units a Pose2Sim/anipose translation may be in, and their size in metres.
+LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+_TOML_CAMERA_KEYS = {"name", "size", "matrix", "distortions", "rotation", "translation", "fisheye"}
+
+
+def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tuple[Camera, ...]:
+    """The cameras of a calibration TOML written by Pose2Sim or anipose (aniposelib), in file order.
+
+    Layout: one table per camera (``[cam_01]``, ``[cam_0]``, ...) with ``name``, ``size`` = [width,
+    height] in pixels, ``matrix`` (3x3 K), ``distortions`` (OpenCV's k1, k2, p1, p2[, k3], or the
+    four cv2.fisheye k1..k4 when ``fisheye = true``), ``rotation`` (Rodrigues vector) and
+    ``translation``: the extrinsics map world to camera, x_cam = R x_world + t, as OpenCV's rvec and
+    tvec (checked on the Pose2Sim demo: its own 3D output reprojects onto its 2D keypoints with a
+    median of 10.7 px this way and over 2,000 px the other way). Other tables (``[metadata]``) are
+    ignored. ``units``: the length unit of ``translation`` (Pose2Sim writes metres; anipose writes the
+    unit of the board's square size, often millimetres).
+
+    The world frame is kept as the file has it: ergopose needs floor z = 0 and z up; Pose2Sim's
+    Qualisys or board-defined worlds usually are, anipose's (the first camera's frame) are not --
+    see :func:`world_frame_warnings`.
+    """
+    path = Path(path)
+    if units not in LENGTH_UNITS:
+        raise ConfigError(f"unknown length unit {units!r} (known: {', '.join(LENGTH_UNITS)})", field="units")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError("calibration file not found", path=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the calibration file ({exc})", path=path) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML: {exc}", path=path) from None
+    if "format_version" in data and "cameras" in data:
+        raise ConfigError("this is already an ergopose calibration file: use it as it is", path=path)
+    tables = [(k, v) for k, v in data.items() if isinstance(v, dict) and k != "metadata"]
+    if not tables:
+        raise ConfigError("no camera tables: expected [cam_01] (Pose2Sim) or [cam_0] (anipose) tables with "
+                          "name, size, matrix, distortions, rotation and translation", path=path)
+    scale = LENGTH_UNITS[units]
+    cameras: list[Camera] = []
+    seen: dict[str, str] = {}
+    for key, table in tables:
+        where = key
+        unknown = [k for k in table if k not in _TOML_CAMERA_KEYS]
+        if unknown:
+            raise ConfigError(f"unknown key {unknown[0]!r} (a Pose2Sim/anipose camera table has "
+                              f"{', '.join(sorted(_TOML_CAMERA_KEYS))})", path=path, field=f"{where}.{unknown[0]}")
+        for field in ("size", "matrix", "distortions", "rotation", "translation"):
+            if field not in table:
+                raise ConfigError("missing", path=path, field=f"{where}.{field}")
+        name = table.get("name", key)
+        if not isinstance(name, str) or not name.strip():
+            raise ConfigError(f"expected a non-empty text, got {name!r}", path=path, field=f"{where}.name")
+        if name in seen:
+            raise ConfigError(f"duplicate camera name {name!r} (also [{seen[name]}])", path=path, field=f"{where}.name")
+        seen[name] = key
+        size = _toml_numbers(table["size"], (2,), f"{where}.size", path)
+        if not all(v > 0 and float(v).is_integer() for v in size):
+            raise ConfigError(f"expected [width, height] in whole pixels, got {table['size']!r}", path=path,
+                              field=f"{where}.size")
+        K = _toml_numbers(table["matrix"], (3, 3), f"{where}.matrix", path)
+        dist = np.asarray(table["distortions"], dtype=object)
+        dist = _toml_numbers(table["distortions"], (dist.size,), f"{where}.distortions", path)
+        rvec = _toml_numbers(table["rotation"], (3,), f"{where}.rotation", path)
+        tvec = _toml_numbers(table["translation"], (3,), f"{where}.translation", path) * scale
+        fisheye = table.get("fisheye", False)
+        if not isinstance(fisheye, bool):
+            raise ConfigError(f"expected true or false, got {fisheye!r}", path=path, field=f"{where}.fisheye")
+        info = CalibrationInfo(method=f"imported from {path.name} ({'fisheye' if fisheye else 'pinhole'} "
+                                      "model, Pose2Sim/anipose layout)")
+        try:
+            if fisheye:
+                if dist.size != 4:
+                    raise ConfigError(f"a fisheye camera has 4 coefficients k1..k4, got {dist.size}",
+                                      field="distortions")
+                lens = KannalaBrandt.from_opencv(K, dist)
+            else:
+                lens = BrownConrady.from_opencv(K, dist)
+            r_cam_from_world = rotation_from_rodrigues(rvec)
+            rotation = r_cam_from_world.T
+            cameras.append(Camera(name=name, lens=lens, width=int(size[0]), height=int(size[1]),
+                                  rotation_world_from_cam=rotation, position_world=-rotation @ tvec,
+                                  calibration=info))
+        except ErgoposeError as exc:
+            sub = f"{where}.{exc.field}" if exc.field and not exc.field.startswith("lens.") else where
+            raise ConfigError(_message(exc), path=path, field=sub) from None
+    return tuple(cameras)
+
+
+def _toml_numbers(value: Any, shape: tuple[int, ...], field: str, path: Any) -> np.ndarray:
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != shape or not np.isfinite(arr).all() or _has_bool(value):
+        what = {(2,): "[width, height]", (3,): "3 numbers", (3, 3): "3 rows of 3 numbers"}.get(shape, "numbers")
+        raise ConfigError(f"expected {what}, got {value!r}", path=path, field=field)
+    return arr
+
+
+def _has_bool(value: Any) -> bool:
+    if isinstance(value, list):
+        return any(_has_bool(v) for v in value)
+    return isinstance(value, bool)
+
+
+def world_frame_warnings(cameras: Sequence[Camera]) -> list[str]:
+    """Sentences for a user whose imported world frame does not look like floor z = 0, z up:
+    a camera below the floor or looking more than 30 degrees upwards (with z up, cameras in a work
+    area hang above the floor and look down or level), or most cameras' distances from the world
+    origin above 100 (a translation in millimetres read as metres)."""
+    out = []
+    low = [c.name for c in cameras if c.position_world[2] <= 0.0]
+    up = [c.name for c in cameras if c.axis_world[2] > 0.5]
+    if low or up:
+        out.append("the world frame does not look like floor z = 0, z up ("
+                   + "; ".join(x for x in (f"camera(s) at or below z = 0: {', '.join(low)}" if low else "",
+                                          f"camera(s) looking upwards: {', '.join(up)}" if up else "") if x)
+                   + "); anipose's world is its first camera's frame: set the poses against the floor "
+                     "before assessing")
+    far = float(np.median([np.linalg.norm(c.position_world) for c in cameras]))
+    if far > 100.0:
+        out.append(f"the cameras are a median {far:.0f} m from the world origin: are the translations in "
+                   "millimetres (give the unit)?")
+    return out
+
+
 __all__ = [
     "FORMAT_VERSION",
     "SUPPORTED_VERSIONS",
@@ -420,4 +564,7 @@ __all__ = [
     "camera_from_opencv_fisheye",
     "read_opencv_fisheye_file",
     "rotation_from_rodrigues",
+    "read_pose2sim_calibration",
+    "world_frame_warnings",
+    "LENGTH_UNITS",
 ]

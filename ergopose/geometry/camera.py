@@ -72,6 +72,10 @@ class Camera:
     rotation_world_from_cam: (3, 3) rotation R, det +1 (stored read-only, float64).
     position_world: (3,) centre of projection in metres (stored read-only, float64).
     calibration: provenance of the numbers (optional, see :class:`CalibrationInfo`).
+    image_circle: optional (u, v, radius) in pixels: the circle where light falls on a fisheye
+        sensor. Pixels outside it see nothing whatever the lens model says (a Kannala-Brandt
+        polynomial fitted inside the circle keeps going far beyond it); None when unknown or when
+        the whole image is lit (pinhole cameras).
     """
 
     name: str
@@ -81,6 +85,7 @@ class Camera:
     rotation_world_from_cam: np.ndarray
     position_world: np.ndarray
     calibration: CalibrationInfo = CalibrationInfo()
+    image_circle: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -97,6 +102,11 @@ class Camera:
         object.__setattr__(self, "position_world", position)
         if not isinstance(self.calibration, CalibrationInfo):
             raise ConfigError(f"expected CalibrationInfo, got {type(self.calibration).__name__}", field="calibration")
+        if self.image_circle is not None:
+            circle = _finite_array(self.image_circle, (3,), "image_circle")
+            if not circle[2] > 0:
+                raise ConfigError(f"the radius must be positive, got {circle[2]!r}", field="image_circle")
+            object.__setattr__(self, "image_circle", tuple(float(x) for x in circle))
 
     # --- identity ------------------------------------------------------------------------------
 
@@ -111,16 +121,18 @@ class Camera:
             and np.array_equal(self.rotation_world_from_cam, other.rotation_world_from_cam)
             and np.array_equal(self.position_world, other.position_world)
             and self.calibration == other.calibration
+            and self.image_circle == other.image_circle
         )
 
     def __hash__(self) -> int:
         return hash((self.name, self.lens, self.width, self.height,
-                     self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration))
+                     self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration,
+                     self.image_circle))
 
     def __reduce__(self):
         # Rebuild through __init__ (checks, read-only arrays) when unpickled in a worker process.
         return (Camera, (self.name, self.lens, self.width, self.height,
-                         self.rotation_world_from_cam, self.position_world, self.calibration))
+                         self.rotation_world_from_cam, self.position_world, self.calibration, self.image_circle))
 
     # --- pose ----------------------------------------------------------------------------------
 
@@ -184,33 +196,63 @@ class Camera:
         theta = np.arctan2(r, p[..., 2])
         return np.where((r == 0) & (p[..., 2] == 0), np.nan, theta)
 
+    def lit(self, pixels: np.ndarray) -> np.ndarray:
+        """(..., 2) pixels -> (...) bool: inside the image and inside ``image_circle`` (when given)."""
+        inside = self.in_image(pixels)
+        if self.image_circle is not None:
+            q = np.asarray(pixels, dtype=np.float64)
+            u, v, r = self.image_circle
+            with np.errstate(invalid="ignore"):
+                inside &= np.hypot(q[..., 0] - u, q[..., 1] - v) <= r
+        return inside
+
     def field_of_view(self) -> tuple[float, float]:
         """(horizontal, vertical) field of view in radians through the principal point: the
-        angles from the lens axis to the outermost image pixels (or to the lens's image circle,
-        where that comes first) on both sides, added, along the row and column of the principal
-        point.
+        angles from the lens axis to the outermost lit pixels on both sides, added, along the row
+        and the column of the principal point. Lit: inside the image and inside ``image_circle``
+        when it is given; where the lens model's own domain ends first (NaN rays), its
+        ``max_theta`` is the edge.
 
         Lenses without a principal point (none yet) are sampled through the image centre.
         """
         cx = float(getattr(self.lens, "cx", (self.width - 1) / 2))
         cy = float(getattr(self.lens, "cy", (self.height - 1) / 2))
-        u = np.linspace(-0.5, self.width - 0.5, 4001)
-        v = np.linspace(-0.5, self.height - 0.5, 4001)
-        row = self.theta_of_pixels(np.stack([u, np.full_like(u, cy)], axis=-1))
-        col = self.theta_of_pixels(np.stack([np.full_like(v, cx), v], axis=-1))
         edge = self.lens.max_theta
-        return (_span(row, u < cx, edge), _span(col, v < cy, edge))
+        spans = []
+        for horizontal in (True, False):
+            lo, hi = -0.5, (self.width if horizontal else self.height) - 0.5
+            centre = cx if horizontal else cy
+            if self.image_circle is not None:
+                u, v, r = self.image_circle
+                off = (cy - v) if horizontal else (cx - u)
+                half = math.sqrt(max(r * r - off * off, 0.0))
+                mid = u if horizontal else v
+                lo, hi = max(lo, mid - half), min(hi, mid + half)
+            t = np.linspace(lo, hi, 4001)
+            if horizontal:
+                line = np.stack([t, np.full_like(t, cy)], axis=-1)
+            else:
+                line = np.stack([np.full_like(t, cx), t], axis=-1)
+            spans.append(_span(self.theta_of_pixels(line), t < centre, edge))
+        return spans[0], spans[1]
 
     def max_theta_in_image(self) -> float:
-        """The largest angle from the lens axis seen anywhere in the image (radians).
+        """The largest angle from the lens axis seen anywhere in the lit image (radians).
 
-        If part of the image lies outside the lens's image circle, the circle's edge is in the
+        If part of the lit image lies outside the lens model's domain, the domain's edge is in the
         image and the answer is the lens's ``max_theta``; otherwise the largest angle on a
-        256 x 256 grid over the image (border included).
+        256 x 256 grid over the image (border included) and, with ``image_circle``, 1440 points
+        on the circle, over the lit points.
         """
         u = np.linspace(-0.5, self.width - 0.5, 256)
         v = np.linspace(-0.5, self.height - 0.5, 256)
         grid = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
+        if self.image_circle is not None:
+            cu, cv, r = self.image_circle
+            a = np.linspace(0.0, 2.0 * math.pi, 1440, endpoint=False)
+            ring = np.stack([cu + r * (1 - 1e-12) * np.cos(a), cv + r * (1 - 1e-12) * np.sin(a)], axis=-1)
+            grid = np.concatenate([grid, ring])
+            grid = grid[self.lit(grid)]
         theta = self.theta_of_pixels(grid)
         if not np.isfinite(theta).any():
             return math.nan
@@ -219,7 +261,8 @@ class Camera:
     def __repr__(self) -> str:
         return (f"Camera(name={self.name!r}, lens={self.lens!r}, width={self.width}, height={self.height}, "
                 f"rotation_world_from_cam={self.rotation_world_from_cam.tolist()!r}, "
-                f"position_world={self.position_world.tolist()!r}, calibration={self.calibration!r})")
+                f"position_world={self.position_world.tolist()!r}, calibration={self.calibration!r}"
+                + (f", image_circle={self.image_circle!r})" if self.image_circle is not None else ")"))
 
 
 def _span(theta: np.ndarray, left: np.ndarray, edge: float) -> float:

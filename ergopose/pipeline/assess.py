@@ -4,7 +4,7 @@ Stages, each reporting progress:
 
 1. *Session*: read and check the session (videos, calibration, settings).
 2. *Models*: make sure the pose networks are in the cache (fetched on first use).
-3. *Pose*: chunks of frames (10 s by default) go through the 2D stage of both cameras and are
+3. *Pose*: chunks of frames (10 s by default) go through the 2D stage of every camera and are
    associated and triangulated (:mod:`ergopose.pipeline.detect`), in as many processes as there
    are cores. Each finished chunk is stored at once (:mod:`ergopose.pipeline.store`); a run that
    was interrupted continues with the chunks it had not finished.

@@ -1,6 +1,6 @@
 """The per-chunk work of an assessment: video frames -> 2D poses -> people in 3D.
 
-One chunk is a run of consecutive frames of both cameras. Its work depends only on the chunk
+One chunk is a run of consecutive frames of every camera of the session. Its work depends only on the chunk
 (every chunk starts its 2D stage afresh with a search for people), so chunks can run in any
 order and in any process, and an interrupted assessment recomputes only the chunks it had not
 finished, with the same result as an uninterrupted run.
@@ -73,7 +73,7 @@ def _networks(job: DetectJob):
 
 
 def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None) -> ChunkResult:
-    """2D poses in both cameras for frames start .. stop-1, associated and triangulated."""
+    """2D poses in every camera for frames start .. stop-1, associated and triangulated."""
     landmarker, detector = _networks(job)
     stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose) for i, cam in enumerate(job.cameras)]
     readers = [read_frames(path, start, stop) for path in job.videos]

@@ -556,9 +556,12 @@ def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
 
 
 def methods_section(s: SessionInfo) -> MethodsSection:
+    n_cams = len(s.calibration.cameras) if s.calibration is not None else 0
+    filmed = (f"{n_cams} calibrated camera{'s' if n_cams != 1 else ''} filmed" if n_cams
+              else "Calibrated cameras filmed")
     measured = (
-        "Two ceiling-mounted fisheye cameras filmed the work area; each worker's 33 body landmarks were found "
-        "in upright virtual views of both cameras and triangulated to 3D (metres), then tracked and smoothed.",
+        f"{filmed} the work area; each worker's 33 body landmarks were found in upright virtual views of "
+        "every camera and reconstructed in 3D (metres), then tracked and smoothed.",
         "Joint angles (trunk, neck, upper and lower arms, wrists, knees) were computed from the 3D skeleton in "
         f"every frame ({s.fps:g} per second) and scored with RULA and REBA frame by frame.",
         "Shares of the shift are shares of the time the worker was tracked; scores are ordinal, so the report "

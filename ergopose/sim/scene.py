@@ -252,9 +252,21 @@ def _rig_rotation(yaw_deg: float, tilt_x_deg: float, tilt_y_deg: float) -> np.nd
 
 
 def rig_cameras(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1]) -> tuple[Camera, Camera]:
-    """The two ceiling cameras (cam_1, cam_2) at the given image size."""
+    """The two ceiling cameras (cam_1, cam_2) at the given image size, each with its image circle
+    (where IMAGE_CIRCLE_THETA lands; the simulator leaves the pixels beyond it dark)."""
     return tuple(
-        Camera(name=name, lens=rig_lens(width, height, k), width=width, height=height,
-               rotation_world_from_cam=_rig_rotation(*orient), position_world=np.array(pos))
+        Camera(name=name, lens=lens, width=width, height=height,
+               rotation_world_from_cam=_rig_rotation(*orient), position_world=np.array(pos),
+               image_circle=_image_circle(lens))
         for k, (name, pos, orient) in enumerate(zip(CAMERA_NAMES, RIG_POSITIONS, RIG_ORIENTATIONS_DEG))
+        for lens in (rig_lens(width, height, k),)
     )
+
+
+def _image_circle(lens: KannalaBrandt) -> tuple[float, float, float]:
+    """(u, v, radius) of the circle where IMAGE_CIRCLE_THETA lands (the larger of fx, fy: the lit
+    region is the ellipse inside it when fx != fy; the circle errs on the side of keeping pixels)."""
+    k1, k2, k3, k4 = lens.coefficients
+    t = IMAGE_CIRCLE_THETA
+    rd = t * (1 + k1 * t**2 + k2 * t**4 + k3 * t**6 + k4 * t**8)
+    return (lens.cx, lens.cy, rd * max(lens.fx, lens.fy))

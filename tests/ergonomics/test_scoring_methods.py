@@ -8,6 +8,7 @@ method data and with the scoring's table lookup.
 from __future__ import annotations
 
 import re
+import os
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,8 @@ from ergopose.errors import ConfigError
 from ergopose.resources import resource_dir
 
 REPO = Path(__file__).resolve().parents[2]
-REFERENCE = REPO.parent / "shared" / "ergonomics" / "rula-reba-reference.md"
+REFERENCE = (Path(os.environ.get("ERGOPOSE_SHARED") or REPO.parent / "shared")
+             / "ergonomics" / "rula-reba-reference.md")
 
 
 def _markdown_tables(text: str) -> dict[str, list[list[str]]]:

@@ -154,3 +154,39 @@ def test_frozen_equal_and_read_only():
     # Worker processes get an equal, still read-only copy.
     copy = pickle.loads(pickle.dumps(camera))
     assert copy == camera and not copy.rotation_world_from_cam.flags.writeable
+
+
+def test_field_of_view_follows_the_image_circle():
+    """Issue 14: the simulated 190-degree rig was shown as 297.8 x 192.2 deg (the Kannala-Brandt
+    polynomial reaches 171 deg in the image corners). With its image circle (95 deg) it is 190 x 190."""
+    import math
+
+    from ergopose.errors import ConfigError
+    from ergopose.sim.scene import IMAGE_CIRCLE_THETA, rig_cameras
+
+    for camera in rig_cameras(1024, 768):
+        hfov, vfov = camera.field_of_view()
+        # The principal point is a pixel or two off the circle's centre: both spans ~ 2 x 95 deg.
+        assert abs(math.degrees(hfov) - 190.0) < 0.5 and abs(math.degrees(vfov) - 190.0) < 0.5
+        assert camera.max_theta_in_image() == pytest.approx(IMAGE_CIRCLE_THETA, abs=2e-3)
+        bare = Camera(camera.name, camera.lens, camera.width, camera.height, camera.rotation_world_from_cam,
+                      camera.position_world)
+        assert math.degrees(bare.field_of_view()[0]) > 290.0  # the old figure, from the model alone
+        assert camera != bare
+        u, v, r = camera.image_circle
+        assert camera.lit(np.array([[u, v], [u + r * 0.99, v]])).all()
+        assert not camera.lit(np.array([[u + r * 1.01, v], [0.0, 0.0]])).any()
+    with pytest.raises(ConfigError, match="radius"):
+        Camera("c", camera.lens, 100, 100, np.eye(3), np.zeros(3), image_circle=(50.0, 50.0, 0.0))
+
+
+def test_field_of_view_of_a_pinhole_with_distortion():
+    import math
+
+    from ergopose.geometry.lenses import BrownConrady
+
+    lens = BrownConrady(1000.0, 1000.0, 639.5, 359.5, 0.0, 0.0, 0.0, 0.0, 0.0)
+    camera = Camera("p", lens, 1280, 720, np.eye(3), np.zeros(3))
+    hfov, vfov = camera.field_of_view()
+    assert hfov == pytest.approx(2 * math.atan(640 / 1000), abs=1e-6)
+    assert vfov == pytest.approx(2 * math.atan(360 / 1000), abs=1e-6)

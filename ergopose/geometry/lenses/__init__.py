@@ -10,6 +10,7 @@ from typing import Any
 
 from ergopose.errors import ConfigError
 from ergopose.geometry.lenses.base import LensModel
+from ergopose.geometry.lenses.brown_conrady import BrownConrady
 from ergopose.geometry.lenses.double_sphere import DoubleSphere
 from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.equisolid import Equisolid
@@ -31,6 +32,7 @@ LENS_KINDS: dict[str, type[LensModel]] = {
         KannalaBrandt,
         DoubleSphere,
         EUCM,
+        BrownConrady,
     )
 }
 
@@ -64,4 +66,5 @@ __all__ = [
     "KannalaBrandt",
     "DoubleSphere",
     "EUCM",
+    "BrownConrady",
 ]
