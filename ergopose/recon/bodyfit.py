@@ -162,6 +162,8 @@ _FLOOR_SIGMA_M = 0.02
 LENGTH_SAMPLE_MAX_PX = 15.0
 #: A segment takes the median of its best-seen samples once it has this many (else of all).
 BEST_SAMPLES = 30
+#: Weight of each frame in a worker's running keypoint-noise estimate (about 5 frames' memory).
+NOISE_RATE = 0.2
 
 
 @dataclass(frozen=True)
@@ -198,6 +200,10 @@ class BodyFit:
     reprojection_error_px: (R, 33) RMS reprojection error over the cameras that saw the joint
         (view pixels); NaN where none saw it.
     cost: (R,) final cost (sum of squared normalised residuals, robust).
+    noise_scale: (R,) the keypoints' error measured by this fit, in units of the keypoint sigma
+        used: the mean squared normalised reprojection residual of the joints two or more cameras
+        saw, times n / (n - 3 m) for n residual coordinates of m joints (the triangulation's own
+        degrees of freedom), square-rooted; NaN where no joint had two cameras.
     """
 
     points_world: np.ndarray
@@ -205,6 +211,7 @@ class BodyFit:
     inferred: np.ndarray
     reprojection_error_px: np.ndarray
     cost: np.ndarray
+    noise_scale: np.ndarray
 
 
 def segment_lengths(points_world: np.ndarray) -> np.ndarray:
@@ -256,7 +263,8 @@ def template_pose(pelvis_world: np.ndarray, rotation: np.ndarray, scale: np.ndar
 def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
                initial_world: np.ndarray, lengths: np.ndarray, play: np.ndarray,
                previous_world: np.ndarray | None = None, previous_sigma_m: np.ndarray | None = None,
-               previous_dt_s: np.ndarray | None = None, options: FitOptions | None = None) -> BodyFit:
+               previous_dt_s: np.ndarray | None = None, options: FitOptions | None = None,
+               sigma_scale: np.ndarray | None = None) -> BodyFit:
     """Fit the body model to R worker-frames at once.
 
     projections: (R, C, 3, 4) each camera's view projection (world -> view pixels; any finite
@@ -267,6 +275,8 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     previous_world: (R, 33, 3) the previous pose (NaN rows = none); previous_sigma_m: (R,) the
         sigma of each joint's position about it; previous_dt_s: (R,) the time since it (each
         segment's direction may turn by ``turn_rate_rad_s`` x that, one sigma).
+    sigma_scale: (R,) multiplies keypoint_sigma_px per row (the keypoint noise measured for the
+        worker so far, :attr:`BodyFit.noise_scale`); None = 1.
     """
     opt = options or FitOptions()
     P = np.asarray(projections, dtype=np.float64)
@@ -276,7 +286,8 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     conf = np.where(seen, conf, 0.0)
     u_obs = np.where(seen[..., None], u_obs, 0.0)
     R = P.shape[0]
-    sigma_px = opt.keypoint_sigma_px / np.maximum(conf, 0.05)
+    scale_px = opt.keypoint_sigma_px * (np.ones(len(P)) if sigma_scale is None else np.asarray(sigma_scale, float))
+    sigma_px = scale_px[:, None, None] / np.maximum(conf, 0.05)
     w_obs = np.where(seen, 1.0 / (sigma_px * sigma_px), 0.0)  # (R, C, J)
     L = np.asarray(lengths, dtype=np.float64)
     w_seg = 1.0 / np.asarray(play, dtype=np.float64) ** 2  # (R, S)
@@ -379,14 +390,92 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     H, _ = normal_equations(X, r)
     cov = np.linalg.inv(H + 1e-9 * np.eye(3 * J))
     var = np.diagonal(cov, axis1=-2, axis2=-1).reshape(R, J, 3).copy()
-    strong = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)
     used = r["use"]
+    strong = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)
+    # The keypoint noise this frame shows, from the joints two or more cameras saw.
+    multi = used.sum(axis=1) >= 2  # (R, J)
+    z2 = np.minimum(np.einsum("rcjk,rcjk->rcj", r["e"], r["e"]) * w_obs, 16.0)  # clipped at 4 sigma
+    chi = np.where(used & multi[:, None, :], z2, 0.0).sum(axis=(1, 2))
+    n_res = 2.0 * np.where(multi[:, None, :], used, False).sum(axis=(1, 2))
+    dof = n_res - 3.0 * multi.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        noise = np.where(dof > 0, np.sqrt(chi / np.maximum(dof, 1e-9)), np.nan)
     e2 = np.einsum("rcjk,rcjk->rcj", r["e"], r["e"])
     n_used = used.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         rms = np.where(n_used > 0, np.sqrt(np.where(used, e2, 0.0).sum(axis=1) / n_used), np.nan)
     return BodyFit(points_world=X, variance_world=var, inferred=strong < 2, reprojection_error_px=rms,
-                   cost=r["cost"])
+                   cost=r["cost"], noise_scale=noise)
+
+
+def _mirror_index() -> np.ndarray:
+    out = np.arange(J)
+    for name, j in JOINT_INDEX.items():
+        for a, b in (("left_", "right_"), ("right_", "left_")):
+            if name.startswith(a):
+                out[j] = JOINT_INDEX[b + name[len(a):]]
+        if name in ("mouth_left", "mouth_right"):
+            out[j] = JOINT_INDEX["mouth_right" if name == "mouth_left" else "mouth_left"]
+    return out
+
+
+#: Each keypoint's mirror partner (left <-> right); the nose is its own.
+MIRROR = _mirror_index()
+_LATERAL = MIRROR != np.arange(J)
+#: Largest distance (view pixels) one keypoint counts with when choosing left/right.
+SWAP_CAP_PX = 60.0
+
+
+def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
+                       reference_world: np.ndarray, margin: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Undo a 2D network's left/right swap, camera by camera, against a reference pose.
+
+    The reference (R, 33, 3) -- the worker's previous fitted pose -- is projected into each
+    camera's view; a camera's keypoints are exchanged left for right when the exchanged set lies
+    closer to the projection, by the cost sum_j confidence_j min(|u_j - pi_j|, SWAP_CAP_PX)^2 over
+    the sided keypoints, than ``margin`` x the cost as reported. A network that swaps sides in one
+    camera makes the two cameras contradict each other on every limb; a triangulation can only
+    reject those joints, the body model would be pulled between two bodies.
+    Returns (pixels, confidence, swapped (R, C) bool). Rows whose reference is NaN are left as they are.
+    """
+    P = np.asarray(projections, dtype=np.float64)
+    Xh = np.concatenate([reference_world, np.ones(reference_world.shape[:-1] + (1,))], axis=-1)
+    x = np.einsum("rcab,rjb->rcja", P, Xh)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        proj = x[..., :2] / x[..., 2:3]
+        ok_ref = (x[..., 2] > 0) & np.isfinite(proj).all(axis=-1)
+
+        def cost(px, conf):
+            d = np.minimum(np.linalg.norm(px - proj, axis=-1), SWAP_CAP_PX)
+            use = ok_ref & _LATERAL & (conf > 0) & np.isfinite(d)
+            return np.where(use, conf * d * d, 0.0).sum(axis=-1), use.sum(axis=-1)
+
+        c_as, n_as = cost(pixels_view, confidence)
+        px_sw, conf_sw = pixels_view[:, :, MIRROR], confidence[:, :, MIRROR]
+        c_sw, _ = cost(px_sw, conf_sw)
+    swap = (n_as >= 4) & (c_sw < margin * c_as)
+    px = np.where(swap[..., None, None], px_sw, pixels_view)
+    conf = np.where(swap[..., None], conf_sw, confidence)
+    return px, conf, swap
+
+
+def raw_noise_scale(reprojection_error_px: np.ndarray, confidence: np.ndarray, views: np.ndarray) -> np.ndarray:
+    """(R, 33) RMS reprojection errors of the plain two-or-more-camera triangulation (view pixels),
+    the mean confidence of the views used and their number -> (R,) the keypoint sigma at
+    confidence 1 those residuals show (view pixels; NaN without a triangulated joint).
+
+    V views of a point give 2V residual coordinates for 3 unknowns: the expected sum of squared
+    residuals is sigma^2 (2V - 3) (sigma at the observation's confidence = sigma_1 / confidence),
+    and reprojection_error_px^2 = that sum / V. The median over the joints keeps a wrong keypoint
+    out."""
+    V = np.asarray(views, dtype=np.float64)
+    e = np.asarray(reprojection_error_px, dtype=np.float64)
+    c = np.asarray(confidence, dtype=np.float64)
+    ok = (V >= 2) & np.isfinite(e) & (c > 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s2 = np.where(ok, V * e * e * c * c / np.maximum(2 * V - 3, 1), np.nan)
+        out = np.sqrt(np.nanmedian(np.where(ok.any(axis=1, keepdims=True), s2, 0.0), axis=1))
+    return np.where(ok.any(axis=1), out, np.nan)
 
 
 def _pelvis_guess(points_world: np.ndarray, projections: np.ndarray, pixels_view: np.ndarray,
@@ -437,6 +526,8 @@ class ShiftBodies:
         self.hists_all: dict[int, LimbHistogram] = {}
         self.lengths: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.last: dict[int, tuple[int, np.ndarray]] = {}
+        self.swaps = 0  # camera-frames whose left and right were exchanged (correct_left_right)
+        self.noise: dict[int, float] = {}  # keypoint noise measured per worker, x keypoint_sigma_px
 
     def _refresh(self) -> None:
         """Segment lengths of every worker: the median of the best-seen samples (the gated
@@ -533,14 +624,34 @@ class ShiftBodies:
         P, px = rows["P"][idx], rows["px"][idx]
         oc = rows["oc"][idx]
         have_prev = np.isfinite(prev_sigma)
+        if have_prev.any():
+            px, oc, swapped = correct_left_right(P, px, oc, np.where(have_prev[:, None, None], prev, np.nan))
+            self.swaps += int(swapped.sum())
+            # The plain triangulation paired the cameras' keypoints as reported: not a start there.
+            tri = np.where(swapped.any(axis=1)[:, None, None] & _LATERAL[None, :, None], np.nan, tri)
         pelvis = _pelvis_guess(tri, P, px, oc)
         pelvis = np.where(np.isfinite(pelvis), pelvis, np.array([0.0, 0.0, 0.95]))
         facing = _yaw_frames(np.where(np.isfinite(tri), tri, 0.0))
         start = np.where(have_prev[:, None, None], prev, template_pose(pelvis, facing))
         start = np.where(np.isfinite(tri), tri, start)
-        fit = fit_bodies(P, px, oc, start, np.stack(Ls), np.stack(plays), prev, prev_sigma, prev_dt, self.options)
+        used_scale = np.array([self.noise.get(int(i), 1.0) for i in ids])
+        fit = fit_bodies(P, px, oc, start, np.stack(Ls), np.stack(plays), prev, prev_sigma, prev_dt, self.options,
+                         sigma_scale=used_scale)
+        # The worker's keypoint noise: a running mean (log domain, NOISE_RATE per frame) of what the
+        # cameras' disagreement shows (raw_noise_scale: from the plain triangulation, so the
+        # estimate cannot feed on the fit's own priors -- measured from the fit's residuals it ran
+        # away on a real recording, 38 x in 70 frames, and the body drifted 30 cm), never below
+        # keypoint_sigma_px; this frame's variance grows with it at once.
+        measured = raw_noise_scale(rows["err"][idx], rows["conf"][idx], rows["views"][idx]) / self.options.keypoint_sigma_px
+        new_scale = np.where(np.isfinite(measured),
+                             np.exp(np.log(used_scale) + NOISE_RATE * (np.log(np.maximum(measured, 1e-6))
+                                                                       - np.log(used_scale))), used_scale)
+        new_scale = np.maximum(new_scale, 1.0)
+        for k, ident in enumerate(ids):
+            self.noise[int(ident)] = float(new_scale[k])
+        var = fit.variance_world * np.maximum(new_scale / used_scale, 1.0)[:, None, None] ** 2
         rows["fit"][idx] = fit.points_world
-        rows["fit_var"][idx] = fit.variance_world
+        rows["fit_var"][idx] = var
         rows["inferred"][idx] = fit.inferred
         rows["fit_err"][idx] = fit.reprojection_error_px
         for k, ident in enumerate(ids):
