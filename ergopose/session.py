@@ -5,6 +5,7 @@
       calibration.toml    the cameras (docs/calibration-file.md)
       cam_1.mp4           one video per camera, file names listed in settings.toml
       cam_2.mp4
+      floor.toml          optional: the monitored area and its furniture, for the report's floor map
       ground_truth/       only in simulated sessions (ergopose.sim.ground_truth)
 
 docs/session-format.md is the user's description of the format; this module is its reference
@@ -77,6 +78,8 @@ SUPPORTED_VERSIONS = (1,)
 SETTINGS_FILE = "settings.toml"
 CALIBRATION_FILE = "calibration.toml"
 GROUND_TRUTH_DIR = "ground_truth"
+#: Optional plan of the monitored area (area and furniture) for the report's floor map.
+FLOOR_PLAN_FILE = "floor.toml"
 
 LOAD_MODES = ("intermittent", "static", "repeated")
 COUPLINGS = ("good", "fair", "poor", "unacceptable")
@@ -221,6 +224,13 @@ class Session:
     @property
     def duration_s(self) -> float:
         return self.frame_count / self.fps
+
+    @property
+    def floor_plan_path(self) -> Path | None:
+        """The session's floor.toml (the monitored area and its furniture, for the report's floor
+        map; docs/session-format.md), or None when the folder has none."""
+        p = self.path / FLOOR_PLAN_FILE
+        return p if p.is_file() else None
 
     @property
     def camera_names(self) -> tuple[str, ...]:

@@ -3,7 +3,7 @@
 The ORACLE (:class:`ergopose.sim.oracle.OracleSource`) reports the simulated workers' true fisheye
 pixels with seeded noise and dropouts instead of running the pose network. Feeding it to the same
 reconstruction the assessment uses (per-person upright virtual views,
-:func:`ergopose.recon.synthetic.frames_from_oracle`; association, triangulation, tracking and
+:func:`ergopose.sim.synthetic.frames_from_oracle`; association, triangulation, tracking and
 smoothing with :func:`ergopose.recon.session.reconstruct_session`, then joint angles, task factors
 and RULA/REBA with :func:`ergopose.pipeline.stages.score_worker`) measures geometry, tracking and
 smoothing apart from the network.
@@ -70,8 +70,8 @@ def oracle_layout(out_dir: str | Path):
 
 def oracle_frames(session, gt, options: OracleOptions, progress: ProgressCallback | None = None) -> Iterator[tuple]:
     """Per frame, one Detections2D per camera (session order) made from the ORACLE's keypoints
-    (:func:`ergopose.recon.synthetic.frames_from_oracle`, in pieces of CHUNK_FRAMES frames)."""
-    from ergopose.recon.synthetic import frames_from_oracle
+    (:func:`ergopose.sim.synthetic.frames_from_oracle`, in pieces of CHUNK_FRAMES frames)."""
+    from ergopose.sim.synthetic import frames_from_oracle
     from ergopose.sim.oracle import OracleSource
 
     source = OracleSource(gt, noise_px=options.noise_px, occluded_noise_px=options.occluded_noise_px,

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ergopose.errors import ConfigError
+from ergopose.pipeline.stages import WorkerOutput
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import Session, load_session
 
@@ -50,19 +51,6 @@ class AssessOptions:
     processes: int | None = None
     chunk_seconds: float = CHUNK_SECONDS
     model_dir: str | None = None
-
-
-@dataclass(frozen=True)
-class WorkerOutput:
-    """One worker's results: id, shown name, tracked seconds, share of tracked time at RULA
-    action level 3-4 and REBA risk level 3-4, and the CSV files written."""
-
-    worker_id: str
-    name: str
-    observed_s: float
-    rula_high_share: float
-    reba_high_share: float
-    csv_files: tuple[Path, ...]
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,19 @@ CSV_DIR = "csv"
 SESSION_CSV = "session_summary.csv"
 
 
+@dataclass(frozen=True)
+class WorkerOutput:
+    """One worker's results: id, shown name, tracked seconds, share of tracked time at RULA
+    action level 3-4 and REBA risk level 3-4, and the CSV files written."""
+
+    worker_id: str
+    name: str
+    observed_s: float
+    rula_high_share: float
+    reba_high_share: float
+    csv_files: tuple[Path, ...]
+
+
 # ----------------------------------------------------------------------------------- inputs
 
 
@@ -418,7 +431,6 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
                      progress: ProgressCallback | None) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report."""
     from ergopose.ergonomics.export import write_session_summary_csv, write_worker_summary_csv
-    from ergopose.pipeline.assess import WorkerOutput
     from ergopose.pipeline.identify import identify_by_stature
     from ergopose.recon.tracking import identity_name
 
@@ -522,19 +534,10 @@ def _with_identities(infos, ident, session: Session):
 
 
 def _floor_plan(session: Session):
-    """The monitored area for the floor map: the simulated scene's layout when known, else 6 x 6 m."""
-    import dataclasses
-    import tomllib
-
-    from ergopose.report.adapters import floor_plan_from_boxes, floor_plan_from_mapping
-    from ergopose.report.context import FloorCamera
+    """The monitored area for the floor map: the session's floor.toml when it has one, else 6 x 6 m."""
+    from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
 
     cams = [(c.name, float(c.position_world[0]), float(c.position_world[1])) for c in session.calibrated_cameras]
-    if session.ground_truth_dir is not None:
-        from ergopose.sim.ground_truth import SCENE_FILE
-
-        scene_path = Path(session.ground_truth_dir) / SCENE_FILE
-        if scene_path.exists():
-            plan = floor_plan_from_mapping(tomllib.loads(scene_path.read_text()))
-            return dataclasses.replace(plan, cameras=tuple(FloorCamera(name=n, x=x, y=y) for n, x, y in cams))
+    if session.floor_plan_path is not None:
+        return load_floor_plan(session.floor_plan_path, cameras=cams)
     return floor_plan_from_boxes([], cameras=cams)

@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS, Detections2D
+from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS
+from ergopose.records import Detections2D
 from ergopose.recon.settings import ReconSettings
 
 

@@ -8,11 +8,16 @@ metres; text for people), it computes no new numbers.
 from __future__ import annotations
 
 import hashlib
+import math
+import os
+import tomllib
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Iterable, Mapping, Sequence
 
 from ergopose.ergonomics.methods import Method, load_method
 from ergopose.ergonomics.settings import ScoringSettings
+from ergopose.errors import ConfigError
 from ergopose.report.context import (ActionLevelInfo, FloorCamera, FloorItem, FloorPlan, MethodInfo, ModelInfo,
                                      Setting)
 
@@ -82,13 +87,46 @@ def floor_plan_from_scene(scene: Any, cameras: Iterable[Any] = (), cell_m: float
     return floor_plan_from_boxes(scene.boxes, scene.area, cams, cell_m)
 
 
-def floor_plan_from_mapping(data: Mapping[str, Any], cell_m: float = 0.25) -> FloorPlan:
-    """A floor plan from a scene's ``to_dict()`` (area_m, boxes with name/kind/lo/hi)."""
-    class _B:
-        def __init__(self, d: Mapping[str, Any]):
-            self.name, self.kind, self.lo, self.hi = d["name"], d["kind"], d["lo"], d["hi"]
-    return floor_plan_from_boxes([_B(b) for b in data.get("boxes", ())], data.get("area_m", (-3, 3, -3, 3)),
-                                 cell_m=cell_m)
+def load_floor_plan(path: str | os.PathLike, cameras: Iterable[tuple[str, float, float]] = (),
+                    cell_m: float = 0.25) -> FloorPlan:
+    """The floor plan of a session's floor.toml (docs/session-format.md) with the cameras (name, x, y).
+
+    ``area_m = [x_min, x_max, y_min, y_max]`` (metres, optional, default 6 x 6 m around the
+    origin) and ``[[boxes]]`` with ``name``, ``kind``, ``lo = [x, y, z]`` and ``hi = [x, y, z]``
+    (other keys, e.g. the simulator's colours, are ignored). Kinds outside FLOOR_KINDS are not
+    drawn. A wrong file raises one ConfigError naming the file and the key.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read the floor plan ({exc})", path=path) from None
+    area = data.get("area_m", (-3.0, 3.0, -3.0, 3.0))
+    if not (isinstance(area, (list, tuple)) and len(area) == 4 and all(_is_number(v) for v in area)
+            and area[1] > area[0] and area[3] > area[2]):
+        raise ConfigError(f"expected [x_min, x_max, y_min, y_max] in metres with x_max > x_min and y_max > y_min, "
+                          f"got {area!r}", path=path, field="area_m")
+    boxes = data.get("boxes", [])
+    if not isinstance(boxes, list):
+        raise ConfigError("expected [[boxes]] tables", path=path, field="boxes")
+    parsed = []
+    for k, b in enumerate(boxes):
+        where = f"boxes[{k}]"
+        if not isinstance(b, dict):
+            raise ConfigError("expected a table with name, kind, lo, hi", path=path, field=where)
+        for key in ("name", "kind"):
+            if not isinstance(b.get(key), str):
+                raise ConfigError(f"expected a text {key}, got {b.get(key)!r}", path=path, field=f"{where}.{key}")
+        for key in ("lo", "hi"):
+            v = b.get(key)
+            if not (isinstance(v, list) and len(v) in (2, 3) and all(_is_number(x) for x in v)):
+                raise ConfigError(f"expected [x, y, z] in metres, got {v!r}", path=path, field=f"{where}.{key}")
+        parsed.append(SimpleNamespace(name=b["name"], kind=b["kind"], lo=b["lo"], hi=b["hi"]))
+    return floor_plan_from_boxes(parsed, area, cameras, cell_m)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 # ------------------------------------------------------------------- shift aggregation

@@ -29,7 +29,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from ergopose.atomic import atomic_dir
+from ergopose.atomic import atomic_dir, readable
 from ergopose.errors import InputError
 from ergopose.report._codec import from_jsonable, to_jsonable
 from ergopose.report.context import (SessionInfo, WorkerDiagnostics, WorkerInfo, WorkerResults, WorkerSummary,
@@ -123,8 +123,6 @@ def save_results(report_dir: str | os.PathLike, session: SessionInfo,
             (wdir / SUMMARY_FILE).write_text(_dump("summary", summary), encoding="utf-8")
             (wdir / DIAGNOSTICS_FILE).write_text(_dump("diagnostics", diagnostics), encoding="utf-8")
             frames.loc[:, list(FRAME_COLUMNS)].to_parquet(wdir / FRAMES_FILE, index=False)
-        from ergopose.report.render import readable
-
         for p in (tmp, *tmp.rglob("*")):
             readable(p)
     return final

@@ -23,13 +23,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomli_w
 
 from ergopose import __version__
 from ergopose.atomic import atomic_dir
 from ergopose.errors import ConfigError
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import FactorPeriod as SessionPeriod
-from ergopose.session import TaskFactors, WorkerInfo, settings_to_toml
+from ergopose.session import FLOOR_PLAN_FILE, TaskFactors, WorkerInfo, settings_to_toml
 from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, write_ground_truth
 from ergopose.sim.motion import TASKS, Motion, simulate_motion
 from ergopose.sim.render import (VISIBILITY_CODES, BodyPrimitives, RenderOptions, all_body_primitives,
@@ -95,6 +96,7 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
         videos = [f"{c.name}.mp4" for c in cameras]
         bars = write_bar_observations_for(tmp / BARS_FILE, scene, cameras, config.seed)
         (tmp / "settings.toml").write_text(_settings_text(config, motion, cameras, videos, bars), encoding="utf-8")
+        (tmp / FLOOR_PLAN_FILE).write_text(floor_plan_text(scene), encoding="utf-8")
         per_camera = render_cameras(tmp, scene, cameras, motion, bodies, videos, config, progress)
         gt = tmp / "ground_truth"
         gt.mkdir()
@@ -173,6 +175,14 @@ def _merge_periods(periods) -> list:
                     continue
         out.append(p)
     return out
+
+
+def floor_plan_text(scene: Scene) -> str:
+    """The session's floor.toml (docs/session-format.md): the scene's area and furniture boxes."""
+    plan = {"area_m": list(scene.area),
+            "boxes": [{"name": b.name, "kind": b.kind, "lo": list(b.lo), "hi": list(b.hi)} for b in scene.boxes]}
+    return ("# The monitored area and its furniture (world metres), for the report's floor map.\n"
+            "# Written by ergopose simulate from its scene.\n" + tomli_w.dumps(plan))
 
 
 def _scene_info(config: SimulationConfig, scene: Scene, cameras, motion: Motion) -> dict[str, Any]:

@@ -14,7 +14,7 @@ import pytest
 from ergopose.geometry.camera import ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.geometry.views import VirtualView, build_map
-from ergopose.recon.records import Detections2D
+from ergopose.records import Detections2D
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.fisheye import SOURCE_REFOCUS, SOURCE_SEARCH, FisheyePoseEstimator, ViewCache, view_rotation

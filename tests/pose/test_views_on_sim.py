@@ -12,7 +12,7 @@ import pytest
 from ergopose.cli import main as cli_main
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pose.evaluation import (
+from ergopose.evaluation.pose import (
     CONDITIONS,
     EVAL_JOINTS,
     FIT_JOINTS,
@@ -192,7 +192,7 @@ def test_session_without_ground_truth_is_refused(sim_session, tmp_path):
 
 
 def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_path, capsys):
-    from ergopose.pose.evaluation import main
+    from ergopose.evaluation.pose import main
 
     out = tmp_path / "tables.md"
     code = main([str(sim_session), "--conditions", "view,crop", "--step", "6", "--processes", "1",

@@ -97,7 +97,7 @@ def test_chunks_without_anybody(rng):
     """Frames where nobody is seen (an empty chunk, then people again) are handled and the
     rows stop while nobody is there."""
     from ergopose.recon.records import People3D
-    from ergopose.recon.synthetic import WorkerScript, walk_workers
+    from ergopose.sim.synthetic import WorkerScript, walk_workers
 
     n = int(20 * FPS)
     truth = walk_workers([WorkerScript(1.7, np.array([[0.0, 0.0], [1.0, 1.0]]), pause_s=3.0)], n, FPS)
@@ -119,7 +119,7 @@ def test_slots_of_departed_workers_are_reused_with_identical_results(monkeypatch
     """Workers leave and others come over a shift: the smoother reuses the slots of identities gone
     for good (memory and time per frame stay flat), and the table equals one without reuse."""
     from ergopose.recon.records import People3D
-    from ergopose.recon.synthetic import WorkerScript, walk_workers
+    from ergopose.sim.synthetic import WorkerScript, walk_workers
 
     n = 4000
     scripts = [WorkerScript(stature=1.62, waypoints=np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0]]), pause_s=20.0),

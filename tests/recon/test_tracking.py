@@ -12,7 +12,7 @@ from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
 from ergopose.recon.records import People3D
 from ergopose.recon.session import reconstruct_session
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.synthetic import WorkerScript, walk_workers
+from ergopose.sim.synthetic import WorkerScript, walk_workers
 from ergopose.recon.tracking import HIST_BIN_M, LimbHistogram, Tracker, limb_lengths, signature_distance
 from tests.recon.conftest import FPS
 

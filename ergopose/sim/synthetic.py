@@ -24,7 +24,7 @@ from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, 
 from ergopose.geometry.camera import Camera, ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import NUM_JOINTS
-from ergopose.recon.records import Detections2D, detections_from_fisheye
+from ergopose.records import Detections2D, detections_from_fisheye
 
 #: Distortion of a real 195-degree fisheye (TUM VI cam0, Kannala-Brandt k1..k4; Schubert et al. 2018).
 LENS_COEFFICIENTS = (0.0034823894, 0.0007150348, -0.0020532361, 0.0002029367)

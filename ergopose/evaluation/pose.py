@@ -776,7 +776,7 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
 
 
 # --------------------------------------------------------------------------------------------
-# Command line: python -m ergopose.pose.evaluation SESSION [options]
+# Command line: python -m ergopose.evaluation.pose SESSION [options]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -787,7 +787,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from ergopose.errors import ErgoposeError
 
     parser = argparse.ArgumentParser(
-        prog="python -m ergopose.pose.evaluation",
+        prog="python -m ergopose.evaluation.pose",
         description="Detection rate and keypoint error of the BlazePose landmark model on upright views, "
                     "raw fisheye crops, rotated crops and the full 2D stage, per lens region, "
                     "on a session written by 'ergopose simulate' (docs/pose-in-fisheye.md).")
