@@ -26,11 +26,17 @@ from typing import Sequence
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from ergopose.calibration._so3 import rotation_matrices, rotation_vectors
 from ergopose.calibration.boards import Board, Detection
-from ergopose.calibration.opencv_fisheye import (FISHEYE_CRITERIA, FISHEYE_FLAGS, ILL_CONDITIONED, DroppedImage,
-                                                 too_few_message)
+from ergopose.calibration.opencv_fisheye import (
+    FISHEYE_CRITERIA,
+    FISHEYE_FLAGS,
+    ILL_CONDITIONED,
+    DroppedImage,
+    too_few_message,
+)
 from ergopose.errors import InputError
 
 #: Rays further than this from the optical axis are not used for the pinhole start.
@@ -153,8 +159,6 @@ def solve_pose(lens, points_world: np.ndarray, pixels: np.ndarray, *, names: Seq
     points_world: (N, 3) metres; pixels: (N, 2) observed pixels of those points.
     initial: optional (rotation_world_from_cam, position_world) start; otherwise cv2.solvePnP.
     """
-    from scipy.optimize import least_squares
-
     points_world, pixels = _check_points(points_world, pixels)
     if initial is None:
         rvec, tvec = initial_pose(lens, points_world, pixels)

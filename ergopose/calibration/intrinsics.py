@@ -21,13 +21,21 @@ from typing import Sequence
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from ergopose.calibration._so3 import rotation_matrices, rotation_vectors
 from ergopose.calibration.boards import Board, Detection, detect_board
 from ergopose.calibration.extrinsics import solve_pose
-from ergopose.calibration.opencv_fisheye import (FISHEYE_CRITERIA, FISHEYE_FLAGS, ILL_CONDITIONED, DroppedImage,
-                                                 too_few_message)
+from ergopose.calibration.opencv_fisheye import (
+    FISHEYE_CRITERIA,
+    FISHEYE_FLAGS,
+    ILL_CONDITIONED,
+    DroppedImage,
+    too_few_message,
+)
 from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.lenses.double_sphere import DoubleSphere
+from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.progress import ProgressCallback, report
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".pgm", ".ppm")
@@ -153,8 +161,6 @@ def image_coverage(detections: Sequence[Detection], image_size: tuple[int, int],
 
 # ------------------------------------------------------------------- Kannala-Brandt
 def _kb_lens(K: np.ndarray, D: np.ndarray):
-    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
-
     return KannalaBrandt.from_opencv(K, D)
 
 
@@ -508,8 +514,6 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
 
 
 def _kb_from_params(p: np.ndarray):
-    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
-
     return KannalaBrandt(*(float(v) for v in p))
 
 
@@ -575,8 +579,6 @@ def _recover_views(lens, kept, R, t, ill, detections, board, progress):
 
 # --------------------------------------------------------------------- Double Sphere
 def _ds_lens(params: np.ndarray):
-    from ergopose.geometry.lenses.double_sphere import DoubleSphere
-
     fx, fy, cx, cy, xi, alpha = (float(v) for v in params)
     return DoubleSphere(fx, fy, cx, cy, xi, alpha)
 
@@ -588,8 +590,6 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
     angle (plus 5 degrees). Step 2: joint least squares over all corners and per-view poses
     (scipy.optimize.least_squares, trf, sparse finite-difference Jacobian).
     """
-    from scipy.optimize import least_squares
-
     kept: tuple[Detection, ...] = kb.details["kept_detections"]
     K = kb.camera_matrix
     # step 1: match the KB projection over the observed field of view

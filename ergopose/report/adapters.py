@@ -7,6 +7,7 @@ metres; text for people), it computes no new numbers.
 
 from __future__ import annotations
 
+import datetime as _dt
 import hashlib
 import math
 import os
@@ -15,11 +16,38 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any, Iterable, Mapping, Sequence
 
+import numpy as np
+
 from ergopose.ergonomics.methods import Method, load_method
+from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError
-from ergopose.report.context import (ActionLevelInfo, FloorCamera, FloorItem, FloorPlan, MethodInfo, ModelInfo,
-                                     Setting)
+from ergopose.keypoints import LIMBS
+from ergopose.report.context import (
+    ActionLevelInfo,
+    Assumption,
+    BandTime,
+    CalibrationInfo,
+    DataFile,
+    FloorCamera,
+    FloorItem,
+    FloorPlan,
+    Hold,
+    HourLevels,
+    LevelTime,
+    LimbFrequency,
+    LimbStats,
+    MethodInfo,
+    ModelInfo,
+    RegionAccuracy,
+    Repetition,
+    Setting,
+    StandardFlag,
+    WorkerDiagnostics,
+    WorkerInfo,
+    WorkerSummary,
+    WorstMoment,
+)
 
 #: Furniture kinds drawn on the floor plan (table legs and brackets are left out: the top is drawn).
 FLOOR_KINDS = {"shelf": "shelf", "table_top": "table", "pallet": "pallet", "carton": "carton"}
@@ -174,8 +202,6 @@ _ANGLE_WORDS = {"trunk": "trunk flexion", "head": "head inclination", "upper arm
 
 
 def _flag_from_finding(f: Any) -> Any:
-    from ergopose.report.context import StandardFlag
-
     if not f.measured:
         return StandardFlag(standard=f.standard, body_part=f.body_part, condition="the angles needed were not measured",
                             verdict="not measured", seconds=0.0, longest_s=float("nan"), note="")
@@ -208,12 +234,6 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
     frame (or None) for the skeleton drawing. Without them the worst moments are drawn at the
     middle of the episode, without a skeleton.
     """
-    import numpy as np
-
-    from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
-    from ergopose.report.context import (BandTime, Hold, HourLevels, LevelTime, Repetition, WorkerSummary,
-                                         WorstMoment)
-
     methods = dict(methods or {n: load_method(n) for n in ("rula", "reba")})
     levels, unscored = [], {}
     for m, (_, level_col) in LEVEL_COLUMNS.items():
@@ -266,10 +286,6 @@ def _angle_body_part(angle: str) -> str:
 
 
 def _worst_moments(summary: Any, methods: Mapping[str, Method], frames: Any, joints_at: Any, limit: int) -> tuple:
-    import numpy as np
-
-    from ergopose.report.context import WorstMoment
-
     episodes = list(summary.episodes.get("rula_action_level", ())) + list(summary.episodes.get("reba_risk_level", ()))
     chosen: list[Any] = []
     for e in episodes:
@@ -315,7 +331,6 @@ def _reason(row: Any, methods: Mapping[str, Method]) -> str:
     drove the score ("trunk 20-60 flexion (band 3 of 4)"; angles in degrees)."""
     if row is None:
         return "the episode's level (no frame details stored)"
-    from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
 
     parts = []
     for col in BODY_PART_COLUMNS["rula"]:
@@ -344,9 +359,6 @@ def worker_diagnostics(diag: Any, *, frames_reliable: int, reliable_rule: str, e
     frames_reliable / reliable_rule: from :func:`ergopose.report.quality.reliable_frames`.
     region_frames are the frames per lens region of ``region_limb`` (the hips: where the body is).
     """
-    from ergopose.keypoints import LIMBS
-    from ergopose.report.context import LimbFrequency, LimbStats, WorkerDiagnostics
-
     stats, freq = [], []
     for limb, _, _ in LIMBS:
         for region in ("all", "central", "outer", "edge"):
@@ -371,8 +383,6 @@ def calibration_info(path: str | Path, cameras: Sequence[str], *, reprojection_r
                      check: Any = None) -> Any:
     """A CalibrationInfo from the calibration file and, when run, its bar check
     (ergopose.calibration.check.CheckReport)."""
-    from ergopose.report.context import CalibrationInfo, RegionAccuracy
-
     regions = ()
     if check is not None:
         regions = tuple(RegionAccuracy(region=r.region, target_m=float(r.target), measured_m=float(r.mean),
@@ -415,8 +425,6 @@ def _factor_value(name: str, value: Any) -> str:
 
 
 def _clock(shift_s: float, start: Any) -> str:
-    import datetime as _dt
-
     if start is not None:
         return (start + _dt.timedelta(seconds=float(shift_s))).strftime("%H:%M:%S")
     h, rem = divmod(int(round(shift_s)), 3600)
@@ -427,8 +435,6 @@ def worker_assumptions(session: Any, worker: Any | None, settings_name: str = "s
     """What was assumed for a worker (ergopose.session.WorkerInfo, or None for an unnamed worker):
     every task factor with the value in force for the whole session and where it was set, then
     every period that changes a factor."""
-    from ergopose.report.context import Assumption
-
     start = getattr(session, "recorded_at", None)
     out = []
     own = worker.factors if worker is not None else None
@@ -459,8 +465,6 @@ def worker_infos(session: Any, worker_ids: Sequence[str], csv_files: Mapping[str
     """WorkerInfo records for the workers found in a session (ids as in the results), with names
     and assumptions from the session settings (ergopose.session.Session) and their CSV files
     ({id: [(label, path relative to the report folder), ...]})."""
-    from ergopose.report.context import DataFile, WorkerInfo
-
     named = {w.worker_id: w for w in session.workers}
     out = []
     for wid in worker_ids:

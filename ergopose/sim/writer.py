@@ -22,20 +22,37 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import tomli_w
 
 from ergopose import __version__
 from ergopose.atomic import atomic_dir
+from ergopose.calibration.check import write_bar_observations
 from ergopose.errors import ConfigError
+from ergopose.geometry.calibration_file import save_calibration
 from ergopose.progress import ProgressCallback, report
-from ergopose.session import FactorPeriod as SessionPeriod
 from ergopose.session import FLOOR_PLAN_FILE, TaskFactors, WorkerInfo, settings_to_toml
+from ergopose.session import FactorPeriod as SessionPeriod
 from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, write_ground_truth
 from ergopose.sim.motion import TASKS, Motion, simulate_motion
-from ergopose.sim.render import (VISIBILITY_CODES, BodyPrimitives, RenderOptions, all_body_primitives,
-                                 joint_visibility, render_video)
-from ergopose.sim.scene import DEFAULT_FPS, DEFAULT_SIZE, LENS_REGIONS_DEG, Scene, default_scene, lens_region, rig_cameras
+from ergopose.sim.render import (
+    VISIBILITY_CODES,
+    BodyPrimitives,
+    RenderOptions,
+    all_body_primitives,
+    joint_visibility,
+    render_video,
+)
+from ergopose.sim.scene import (
+    DEFAULT_FPS,
+    DEFAULT_SIZE,
+    LENS_REGIONS_DEG,
+    Scene,
+    default_scene,
+    lens_region,
+    rig_cameras,
+)
 
 #: The recording start written into simulated sessions (fixed, so the same seed gives the same files).
 DEFAULT_START = dt.datetime(2024, 3, 4, 8, 0, 0, tzinfo=dt.timezone(dt.timedelta(hours=1)))
@@ -89,8 +106,6 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
     bodies = all_body_primitives(motion)
     report(progress, "motion", 1, 1, unit="step")
     with atomic_dir(out) as tmp:
-        from ergopose.geometry.calibration_file import save_calibration
-
         save_calibration(tmp / "calibration.toml", cameras,
                          description=f"SIMULATED rig of ergopose simulate (seed {config.seed}): exact values")
         videos = [f"{c.name}.mp4" for c in cameras]
@@ -122,8 +137,6 @@ def write_bar_observations_for(path: Path, scene, cameras, seed: int) -> float |
 
     Returns the bars' length (all have the same), or None when the scene has no bar.
     """
-    from ergopose.calibration.check import write_bar_observations
-
     bars = list(scene.bars)
     if not bars:
         return None
@@ -231,8 +244,6 @@ def _camera_options(config: SimulationConfig, index: int) -> RenderOptions:
 
 
 def _render_one(camera, scene, motion, bodies, path, fps, options, on_frame):
-    import cv2
-
     cv2.setNumThreads(1)
     render_video(camera, scene, bodies, path, fps, options, on_frame=on_frame)
     return joint_visibility(camera, scene, motion, bodies)
