@@ -41,7 +41,7 @@ import pandas as pd
 
 from ergopose.ergonomics.activity import check_time, frame_period
 from ergopose.ergonomics.posture import expand_sides
-from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS, REPETITION_ANGLES
+from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, REPETITION_ANGLES
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import InputError
 from ergopose.progress import ProgressCallback, report

@@ -83,7 +83,7 @@ from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError, ErgoposeError, InputError
 from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, REGION_NAMES, describe, region_index
 from ergopose.geometry.views import VirtualView
-from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker, Roi
 from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
 from ergopose.progress import ProgressCallback, report

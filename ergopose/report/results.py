@@ -32,7 +32,7 @@ import pandas as pd
 from ergopose.atomic import atomic_dir, readable
 from ergopose.errors import InputError
 from ergopose.report._codec import from_jsonable, to_jsonable
-from ergopose.report.context import (SessionInfo, WorkerDiagnostics, WorkerInfo, WorkerResults, WorkerSummary,
+from ergopose.report.context import (SessionInfo, WorkerDiagnostics, WorkerResults, WorkerSummary,
                                      check_worker)
 
 RESULTS_FORMAT = "ergopose-results/1"

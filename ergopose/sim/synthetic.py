@@ -24,7 +24,7 @@ from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, 
 from ergopose.geometry.camera import Camera, ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import NUM_JOINTS
-from ergopose.records import Detections2D, detections_from_fisheye
+from ergopose.records import detections_from_fisheye
 from ergopose.sim.ground_truth import GroundTruth
 from ergopose.sim.motion import TASKS, simulate_motion
 from ergopose.sim.render import all_body_primitives, joint_visibility

@@ -302,7 +302,7 @@ def render_cameras(folder: Path, scene: Scene, cameras, motion: Motion, bodies: 
             except queue.Empty:
                 for i, proc in list(running.items()):
                     if not proc.is_alive() and i not in results:
-                        raise RuntimeError(f"the render process of {cameras[i].name} died (exit code {proc.exitcode})")
+                        raise RuntimeError(f"the render process of {cameras[i].name} died (exit code {proc.exitcode})") from None
                 continue
             if kind == "progress":
                 done[i] = payload

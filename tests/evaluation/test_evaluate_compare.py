@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,7 +13,6 @@ import pytest
 
 from ergopose.errors import InputError
 from ergopose.evaluation.compare import ResultsLayout, evaluate_results
-from ergopose.keypoints import BLAZEPOSE33, LIMBS
 from ergopose.recon.diagnostics import REGIONS
 from ergopose.sim.ground_truth import load_ground_truth
 
