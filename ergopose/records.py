@@ -77,7 +77,7 @@ class Detections2D:
         conf = np.where(np.isfinite(conf), conf, 0.0)
         if np.any((conf < 0) | (conf > 1)):
             raise InputError("confidence must lie in [0, 1]", field=where)
-        seen = np.isfinite(px).all(axis=-1)
+        seen = np.asarray(np.isfinite(px).all(axis=-1))
         conf = np.where(seen, conf, 0.0)
         px = np.where(seen[..., None], px, np.nan)
         object.__setattr__(self, "frame", int(self.frame))
