@@ -25,6 +25,9 @@ from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.geometry.regions import REGION_NAMES, region_index
 
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
+
 HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
 SHOULDERS = [JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]
 REGIONS = REGION_NAMES
@@ -127,7 +130,6 @@ def evaluation(sim_session, landmarker, detector):
     return evaluate_session(sim_session, landmarker=landmarker, detector=detector, step=2)
 
 
-@pytest.mark.slow
 def test_evaluation_counts_every_visible_person_once_per_condition(evaluation, truth):
     session, gt = truth
     people = [x for x in counted_people(session, gt) if x[0] % 2 == 0]
@@ -155,7 +157,6 @@ def test_evaluation_counts_every_visible_person_once_per_condition(evaluation, t
     assert evaluation.stage_frames == gt.n_frames
 
 
-@pytest.mark.slow
 def test_upright_views_find_people_that_raw_crops_miss(evaluation):
     """The paper's claim on this short session: in the outer and edge regions, the network finds
     nearly everyone in upright views and far fewer in raw, unrotated fisheye crops (people under
@@ -205,7 +206,6 @@ def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_pa
     assert "ergopose: error:" in capsys.readouterr().err
 
 
-@pytest.mark.slow
 def test_two_processes_give_the_one_process_result(sim_session, fetched_model_dir, landmarker):
     """One spawned process per camera (this test process already runs LiteRT: a forked child
     could deadlock) gives the same trials as one process."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pytest
 
 from ergopose.keypoints import LIMBS
 from ergopose.recon import diagnostics as D
@@ -43,6 +44,7 @@ def _run(scenario, **kw):
     return summary, tf
 
 
+@pytest.mark.slow
 def test_shift_identities_survive_occlusion_and_leaving(shift):
     summary, tf = _run(shift, chunk_frames=240)
     assert summary.workers == ("worker_1", "worker_2", "worker_3", "worker_4")
@@ -111,6 +113,7 @@ def test_short_spurious_tracks_are_dropped(rng):
     assert len(tf) == n
 
 
+@pytest.mark.slow
 def test_tracker_state_carries_over_chunks_and_pickles(shift):
     from ergopose.recon.triangulate import reconstruct_frames
 
