@@ -43,7 +43,7 @@ from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
 from ergopose.report.context import Assumption, DataFile, SessionInfo
 from ergopose.report.quality import reliable_frames, reliable_rule
 from ergopose.report.render import render_report
-from ergopose.report.results import frames_table, save_results
+from ergopose.report.results import frames_table, save_results, session_results
 from ergopose.session import Session
 
 _HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
@@ -462,7 +462,7 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
                                               ident, session),
         csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),))
     save_results(out_dir, info, worker_records)
-    files = render_report(out_dir, progress=progress)
+    files = render_report(out_dir, session_results(info, worker_records), progress=progress)
     return files.index
 
 
