@@ -30,8 +30,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS
-from ergopose.records import Detections2D
 from ergopose.recon.settings import ReconSettings
+from ergopose.records import Detections2D
 
 
 

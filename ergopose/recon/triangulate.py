@@ -23,8 +23,8 @@ from ergopose.keypoints import NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.associate import associate
 from ergopose.recon.records import TORSO_JOINTS, People3D, body_centres
-from ergopose.records import Detections2D
 from ergopose.recon.settings import ReconSettings
+from ergopose.records import Detections2D
 
 
 def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: ReconSettings | None = None,

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from ergopose.recon.associate import associate, pair_costs, ray_closest_points
-from ergopose.records import Detections2D
 from ergopose.recon.settings import ReconSettings
-from ergopose.sim.synthetic import observe, walk_workers
 from ergopose.recon.triangulate import reconstruct_frames
+from ergopose.records import Detections2D
+from ergopose.sim.synthetic import observe, walk_workers
 from tests.recon.conftest import FPS
 
 
