@@ -27,14 +27,14 @@ import numpy as np
 import tomli_w
 
 from ergopose import __version__
-from ergopose.atomic import atomic_dir
+from ergopose.atomic import atomic_dir, write_text
 from ergopose.calibration.check import write_bar_observations
 from ergopose.errors import ConfigError
 from ergopose.geometry.calibration_file import save_calibration
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import FLOOR_PLAN_FILE, TaskFactors, WorkerInfo, settings_to_toml
 from ergopose.session import FactorPeriod as SessionPeriod
-from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, write_ground_truth
+from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, load_ground_truth, write_ground_truth
 from ergopose.sim.motion import TASKS, Motion, simulate_motion
 from ergopose.sim.render import (
     VISIBILITY_CODES,
@@ -192,10 +192,28 @@ def _merge_periods(periods) -> list:
 
 def floor_plan_text(scene: Scene) -> str:
     """The session's floor.toml (docs/session-format.md): the scene's area and furniture boxes."""
-    plan = {"area_m": list(scene.area),
-            "boxes": [{"name": b.name, "kind": b.kind, "lo": list(b.lo), "hi": list(b.hi)} for b in scene.boxes]}
+    return _floor_plan_toml(list(scene.area), [b.to_dict() for b in scene.boxes])
+
+
+def _floor_plan_toml(area: list, boxes: list[dict[str, Any]]) -> str:
+    plan = {"area_m": [float(v) for v in area],
+            "boxes": [{"name": b["name"], "kind": b["kind"], "lo": [float(v) for v in b["lo"]],
+                       "hi": [float(v) for v in b["hi"]]} for b in boxes]}
     return ("# The monitored area and its furniture (world metres), for the report's floor map.\n"
             "# Written by ergopose simulate from its scene.\n" + tomli_w.dumps(plan))
+
+
+def add_floor_plan(session_dir: str | os.PathLike) -> bool:
+    """Give a session simulated before sessions had a floor.toml the one simulate writes now,
+    from the scene of its ground truth (area and furniture boxes). Nothing is done when the
+    session has a floor.toml or no ground truth. Returns True when it wrote one."""
+    folder = Path(session_dir)
+    target = folder / FLOOR_PLAN_FILE
+    if target.exists() or not (folder / "ground_truth").is_dir():
+        return False
+    scene = load_ground_truth(folder / "ground_truth").scene
+    write_text(target, _floor_plan_toml(scene["area_m"], scene.get("boxes", [])))
+    return True
 
 
 def _scene_info(config: SimulationConfig, scene: Scene, cameras, motion: Motion) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.sim.oracle import OracleSource
 from ergopose.sim.render import CameraRenderer, RenderOptions, all_body_primitives
 from ergopose.sim.scene import default_scene
+from ergopose.sim.writer import add_floor_plan
 
 # End to end (simulated sessions, whole runs): left out by make test-fast.
 pytestmark = pytest.mark.slow
@@ -85,6 +86,19 @@ def test_simulated_session_has_the_scene_as_its_floor_plan(sessions):
     assert [c.name for c in plan.cameras] == ["cam_1"]
     gt_boxes = load_ground_truth(sessions[0]).scene["boxes"]
     assert [b["name"] for b in gt_boxes] == [b.name for b in scene.boxes]
+
+
+def test_a_session_simulated_without_floor_plan_gets_the_same_one(sessions, tmp_path):
+    """Sessions simulated before floor.toml existed get it from their ground truth's scene
+    (ergopose demo does this for its reused demo session): byte for byte what simulate writes."""
+    old = tmp_path / "old"
+    old.mkdir()
+    for p in sessions[0].iterdir():
+        if p.name != "floor.toml":
+            (old / p.name).symlink_to(p)
+    assert add_floor_plan(old) is True
+    assert (old / "floor.toml").read_bytes() == (sessions[0] / "floor.toml").read_bytes()
+    assert add_floor_plan(old) is False and add_floor_plan(tmp_path) is False
 
 
 def test_same_seed_same_session_other_seed_differs(sessions):
