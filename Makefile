@@ -1,10 +1,10 @@
-# ergopose: make test | make demo | make bench
+# ergopose: make test | make test-fast | make check | make demo | make bench
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.deps-installed
 
-.PHONY: test demo bench install clean
+.PHONY: test test-fast check demo bench install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -20,8 +20,18 @@ $(STAMP): pyproject.toml constraints.txt | $(PY)
 install: $(STAMP)
 	$(PY) -m pip install -q --no-deps --force-reinstall --no-build-isolation .
 
-test: install
+# Lint (ruff, no formatting) and type check (mypy, settings in pyproject.toml); tests/test_layers.py
+# holds the import layers and runs with the tests.
+check: $(STAMP)
+	$(PY) -m ruff check ergopose tests bench conftest.py
+	$(PY) -m mypy
+
+test: check install
 	$(PY) -m pytest -q
+
+# The edit-run loop: everything but the tests marked slow, browser or network (under a minute).
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m "not slow and not browser and not network"
 
 demo: install
 	$(PY) -m ergopose demo

@@ -62,7 +62,7 @@ def _simulate(folder: Path) -> Path:
 
 def bench_view(session_dir: Path) -> None:
     from ergopose.pose.blazepose import BlazePoseLandmarker
-    from ergopose.pose.evaluation import EvaluationSettings, PersonGeometry
+    from ergopose.evaluation.pose import EvaluationSettings, PersonGeometry
     from ergopose.session import load_session
     from ergopose.sim.ground_truth import load_ground_truth
     from ergopose.geometry.regions import region_index

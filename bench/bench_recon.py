@@ -38,7 +38,7 @@ from ergopose.recon import diagnostics as D  # noqa: E402
 from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames  # noqa: E402
 from ergopose.recon.records import People3D  # noqa: E402
 from ergopose.recon.settings import ReconSettings  # noqa: E402
-from ergopose.recon.synthetic import WorkerScript, observe, rig, walk_workers  # noqa: E402
+from ergopose.sim.synthetic import WorkerScript, observe, rig, walk_workers  # noqa: E402
 from ergopose.recon.tracking import limb_lengths  # noqa: E402
 
 FPS = 12.0
@@ -296,7 +296,7 @@ def recon_oracle(minutes: float = 10.0, size: tuple[int, int] = (2592, 1944), no
     """The simulator's scripted workers, room and visibility (no video), ORACLE 2D with
     ``noise_px`` (hidden joints reported with 6 px noise and confidence 0.1-0.4, 2 % person and
     joint dropouts): the whole reconstruction against the simulation's truth."""
-    from ergopose.recon.synthetic import frames_from_oracle, simulated_ground_truth
+    from ergopose.sim.synthetic import frames_from_oracle, simulated_ground_truth
     from ergopose.recon.triangulate import reconstruct_frames
     from ergopose.sim.oracle import OracleSource
 

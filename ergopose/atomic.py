@@ -29,6 +29,16 @@ def _ordinary_mode(path: Path, directory: bool) -> None:
     os.chmod(path, (0o777 if directory else 0o666) & ~_umask())
 
 
+def readable(path: str | os.PathLike) -> None:
+    """Give a written file (or folder) the permissions the user's umask allows for new files.
+
+    Atomic writing goes through temporary files that are private (0600, folders 0700); reports
+    are meant to be opened by others from a shared drive.
+    """
+    p = Path(path)
+    _ordinary_mode(p, p.is_dir())
+
+
 @contextlib.contextmanager
 def atomic_path(final: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside ``final``; rename it to ``final`` if the block succeeds.

@@ -5,6 +5,7 @@
       calibration.toml    the cameras (docs/calibration-file.md)
       cam_1.mp4           one video per camera, file names listed in settings.toml
       cam_2.mp4
+      floor.toml          optional: the monitored area and its furniture, for the report's floor map
       ground_truth/       only in simulated sessions (ergopose.sim.ground_truth)
 
 docs/session-format.md is the user's description of the format; this module is its reference
@@ -66,9 +67,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
+import cv2
 import numpy as np
+import pandas as pd
+import tomli_w
 
+from ergopose import video
+from ergopose.ergonomics.settings import from_mapping
 from ergopose.errors import ConfigError, ErgoposeError, InputError
+from ergopose.geometry.calibration_file import load_calibration
 from ergopose.geometry.camera import Camera
 
 #: The settings format this code writes; it reads exactly the versions in SUPPORTED_VERSIONS.
@@ -77,6 +84,8 @@ SUPPORTED_VERSIONS = (1,)
 SETTINGS_FILE = "settings.toml"
 CALIBRATION_FILE = "calibration.toml"
 GROUND_TRUTH_DIR = "ground_truth"
+#: Optional plan of the monitored area (area and furniture) for the report's floor map.
+FLOOR_PLAN_FILE = "floor.toml"
 
 LOAD_MODES = ("intermittent", "static", "repeated")
 COUPLINGS = ("good", "fair", "poor", "unacceptable")
@@ -223,6 +232,13 @@ class Session:
         return self.frame_count / self.fps
 
     @property
+    def floor_plan_path(self) -> Path | None:
+        """The session's floor.toml (the monitored area and its furniture, for the report's floor
+        map; docs/session-format.md), or None when the folder has none."""
+        p = self.path / FLOOR_PLAN_FILE
+        return p if p.is_file() else None
+
+    @property
     def camera_names(self) -> tuple[str, ...]:
         return tuple(c.name for c in self.cameras)
 
@@ -268,8 +284,6 @@ class Session:
         """A pandas DataFrame of the task factors at each time, in the posture-table conventions
         (docs/posture-table.md): load_kg float (NaN unknown), load_mode / coupling strings (<NA>
         unknown), flags 0.0 / 1.0 (NaN unknown). One row per time, index 0..n-1."""
-        import pandas as pd
-
         t = np.asarray(times_s, dtype=np.float64)
         n = t.size
         w = self.worker(worker_id)
@@ -356,8 +370,6 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
         _check_scoring(scoring, settings_path)
 
     # calibration and videos (the duration is needed to check the periods)
-    from ergopose.geometry.calibration_file import load_calibration
-
     if not calibration_path.is_file():
         raise ConfigError("the calibration file does not exist", path=calibration_path)
     calibrated = {cam.name: cam for cam in load_calibration(calibration_path)}
@@ -455,10 +467,6 @@ def _calibration_check(r: "_Reader", root: Path, table: Any) -> CalibrationCheck
 
 def _check_scoring(table: dict[str, Any], path: Path) -> None:
     """The [scoring] table must be valid scoring settings (checked by the scoring module)."""
-    try:
-        from ergopose.ergonomics.settings import from_mapping
-    except ImportError:  # pragma: no cover - the scoring module is part of the package
-        return
     try:
         from_mapping(table, source=path)
     except ConfigError as exc:
@@ -613,10 +621,6 @@ def probe_video(path: Path, *, full: bool = True) -> tuple[int, float, tuple[int
     full: prove the file readable with :func:`ergopose.video.probe_video` (it decodes the first and
     the last frame, so truncated and corrupt files are refused); False reads the header only.
     """
-    import cv2
-
-    from ergopose import video
-
     path = Path(path)
     if full:
         info = video.probe_video(path)
@@ -645,8 +649,6 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
                      scoring: Mapping[str, Any] | None = None, header: str = "",
                      calibration_check: tuple[str, float] | None = None) -> str:
     """The text of a settings.toml (format_version 1) for these values; load_session reads it back."""
-    import tomli_w
-
     data: dict[str, Any] = {"format_version": FORMAT_VERSION, "recorded_at": recorded_at}
     if fps is not None:
         data["fps"] = float(fps)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 
@@ -27,8 +28,6 @@ def rotation_matrices(rvecs: np.ndarray) -> np.ndarray:
 
 def rotation_vectors(matrices: np.ndarray) -> np.ndarray:
     """(..., 3, 3) rotation matrices -> (..., 3) rotation vectors (via OpenCV's Rodrigues)."""
-    import cv2
-
     m = np.asarray(matrices, dtype=np.float64)
     flat = m.reshape(-1, 3, 3)
     out = np.array([cv2.Rodrigues(x)[0].ravel() for x in flat]).reshape(m.shape[:-2] + (3,))

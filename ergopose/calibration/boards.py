@@ -29,7 +29,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ergopose.errors import ConfigError, InputError
+from ergopose.errors import ConfigError
 
 KINDS = ("checkerboard", "charuco")
 

@@ -31,8 +31,10 @@ from typing import Sequence
 
 import numpy as np
 
+from ergopose.atomic import write_text
 from ergopose.errors import InputError
 from ergopose.geometry.regions import DEFAULT_LIMITS_DEG
+from ergopose.geometry.triangulation import triangulate_midpoint
 
 REGIONS = ("central", "outer", "edge")
 #: The project's one definition of the lens regions (ergopose.geometry.regions).
@@ -119,8 +121,6 @@ def measure_bar(cameras: Sequence, pixels: np.ndarray, target_length: float, *,
     pixels: (M, V, 2, 2) observed pixels [measurement, camera, end a/b, (u, v)]; NaN where a
         camera did not see an end.
     """
-    from ergopose.geometry.triangulation import triangulate_midpoint
-
     px = np.asarray(pixels, np.float64)
     V = len(cameras)
     if px.ndim != 4 or px.shape[1:] != (V, 2, 2):
@@ -248,8 +248,6 @@ def read_bar_observations(path: str | Path, camera_names: Sequence[str]) -> tupl
 def write_bar_observations(path: str | Path, camera_names: Sequence[str], pixels: np.ndarray,
                            labels: Sequence[str] | None = None) -> Path:
     """Write (M, V, 2, 2) pixels as an observation CSV (atomically); NaN entries are skipped."""
-    from ergopose.atomic import write_text
-
     px = np.asarray(pixels, np.float64)
     labels = labels if labels is not None else [str(i + 1) for i in range(px.shape[0])]
     out = [",".join(OBSERVATION_COLUMNS)]

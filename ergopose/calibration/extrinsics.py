@@ -26,11 +26,17 @@ from typing import Sequence
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from ergopose.calibration._so3 import rotation_matrices, rotation_vectors
 from ergopose.calibration.boards import Board, Detection
-from ergopose.calibration.intrinsics import (FISHEYE_CRITERIA, FISHEYE_FLAGS, DroppedImage, _ILL_CONDITIONED,
-                                             _too_few_message)
+from ergopose.calibration.opencv_fisheye import (
+    FISHEYE_CRITERIA,
+    FISHEYE_FLAGS,
+    ILL_CONDITIONED,
+    DroppedImage,
+    too_few_message,
+)
 from ergopose.errors import InputError
 
 #: Rays further than this from the optical axis are not used for the pinhole start.
@@ -153,8 +159,6 @@ def solve_pose(lens, points_world: np.ndarray, pixels: np.ndarray, *, names: Seq
     points_world: (N, 3) metres; pixels: (N, 2) observed pixels of those points.
     initial: optional (rotation_world_from_cam, position_world) start; otherwise cv2.solvePnP.
     """
-    from scipy.optimize import least_squares
-
     points_world, pixels = _check_points(points_world, pixels)
     if initial is None:
         rvec, tvec = initial_pose(lens, points_world, pixels)
@@ -277,7 +281,7 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
     obj_all = board.object_points()
     while True:
         if len(pairs) < min_images:
-            raise InputError(_too_few_message(len(pairs), min_images, dropped))
+            raise InputError(too_few_message(len(pairs), min_images, dropped))
         obj = [obj_all[a.ids].reshape(-1, 1, 3) for _, a, _ in pairs]
         ia = [a.pixels.reshape(-1, 1, 2) for _, a, _ in pairs]
         ib = [b.pixels.reshape(-1, 1, 2) for _, _, b in pairs]
@@ -286,7 +290,7 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
                                               flags=FISHEYE_FLAGS, criteria=criteria)
         except cv2.error as exc:
             text = str(exc)
-            match = _ILL_CONDITIONED.search(text)
+            match = ILL_CONDITIONED.search(text)
             if "CALIB_CHECK_COND" in text and match and int(match.group(1)) < len(pairs):
                 label = pairs.pop(int(match.group(1)))[0]
                 dropped.append(DroppedImage(label, "ill-conditioned for OpenCV", "ill_conditioned"))

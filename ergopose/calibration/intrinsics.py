@@ -15,26 +15,30 @@ The core never prints; long work reports through ``progress``.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from ergopose.calibration._so3 import rotation_matrices, rotation_vectors
 from ergopose.calibration.boards import Board, Detection, detect_board
+from ergopose.calibration.extrinsics import solve_pose
+from ergopose.calibration.opencv_fisheye import (
+    FISHEYE_CRITERIA,
+    FISHEYE_FLAGS,
+    ILL_CONDITIONED,
+    DroppedImage,
+    too_few_message,
+)
 from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.lenses.double_sphere import DoubleSphere
+from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.progress import ProgressCallback, report
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".pgm", ".ppm")
-
-#: cv2.fisheye.calibrate flags (the pitfalls: recompute extrinsics every iteration, refuse
-#: ill-conditioned views, no skew).
-FISHEYE_FLAGS = cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_CHECK_COND | cv2.fisheye.CALIB_FIX_SKEW
-#: Termination: 100 iterations or a parameter change below 1e-10.
-FISHEYE_CRITERIA = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-10)
 
 DEFAULT_MIN_IMAGES = 8
 #: Views OpenCV must accept for the first fit when dropped views may be recovered afterwards.
@@ -44,23 +48,6 @@ DEFAULT_MIN_COVERAGE = 0.5
 COVERAGE_GRID = 4
 
 MODELS = ("kannala_brandt", "double_sphere")
-
-_ILL_CONDITIONED = re.compile(r"input array (\d+)")
-
-
-@dataclass(frozen=True)
-class DroppedImage:
-    """An image left out of the fit.
-
-    source: file name (or label) of the image.
-    reason: for a human.
-    code: for code: "no_board", "degenerate", "ill_conditioned", "opencv_failed", "outlier",
-        "not_in_both" or "partial" (stereo).
-    """
-
-    source: str
-    reason: str
-    code: str = ""
 
 
 @dataclass(frozen=True)
@@ -174,8 +161,6 @@ def image_coverage(detections: Sequence[Detection], image_size: tuple[int, int],
 
 # ------------------------------------------------------------------- Kannala-Brandt
 def _kb_lens(K: np.ndarray, D: np.ndarray):
-    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
-
     return KannalaBrandt.from_opencv(K, D)
 
 
@@ -252,14 +237,14 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
     attempt = 0
     while True:
         if len(kept) < min_images:
-            raise InputError(_too_few_message(len(kept), min_images, dropped))
+            raise InputError(too_few_message(len(kept), min_images, dropped))
         attempt += 1
         report(progress, "calibrate", attempt, None, unit="attempt", message=f"{len(kept)} boards")
         try:
             rms, K, D, rvecs, tvecs = _calibrate_once(kept, board, image_size, flags, criteria)
         except cv2.error as exc:
             text = str(exc)
-            match = _ILL_CONDITIONED.search(text)
+            match = ILL_CONDITIONED.search(text)
             if "CALIB_CHECK_COND" in text and match and int(match.group(1)) < len(kept):
                 bad = kept.pop(int(match.group(1)))
                 dropped.append(DroppedImage(bad.source, "ill-conditioned for OpenCV (board too small, too far, "
@@ -293,16 +278,6 @@ def _find_failing_view(kept, board, image_size, flags, criteria) -> int | None:
             continue
         return int(i)
     return None
-
-
-def _too_few_message(n: int, need: int, dropped: Sequence[DroppedImage]) -> str:
-    msg = f"only {n} usable board image(s), at least {need} are needed"
-    if dropped:
-        reasons: dict[str, int] = {}
-        for d in dropped:
-            reasons[d.reason] = reasons.get(d.reason, 0) + 1
-        msg += " (left out: " + ", ".join(f"{k}: {v}" for k, v in reasons.items()) + ")"
-    return msg + "; take more images with the whole board visible and sharp"
 
 
 def reprojection_errors(lens, detections: Sequence[Detection], board: Board,
@@ -349,7 +324,7 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
         raise InputError("the board was not found in any image; check the board spec (inner corners for a "
                          "checkerboard, squares for ChArUco) and that the whole board is visible")
     if len(detections) < min_images:
-        raise InputError(_too_few_message(len(detections), min_images, dropped))
+        raise InputError(too_few_message(len(detections), min_images, dropped))
     size = image_size if image_size is not None else image_size_of(detections)
     coverage = image_coverage(detections, size)
     if coverage < min_coverage:
@@ -382,7 +357,7 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
                                                                       progress)
         dropped = [d for d in dropped if d not in ill] + ill_left
     if len(kept) < min_images:
-        raise InputError(_too_few_message(len(kept), min_images, dropped))
+        raise InputError(too_few_message(len(kept), min_images, dropped))
     errors = reprojection_errors(lens, kept, board, R, tv)
     model_rms = _rms(errors)
     return IntrinsicsResult(
@@ -539,8 +514,6 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
 
 
 def _kb_from_params(p: np.ndarray):
-    from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
-
     return KannalaBrandt(*(float(v) for v in p))
 
 
@@ -553,8 +526,6 @@ def _recover_views(lens, kept, R, t, ill, detections, board, progress):
     joint refinement of KB parameters and all poses; views that then fit worse than
     max(1 px, OUTLIER_FACTOR x overall RMS) are dropped again and the joint fit repeated once.
     """
-    from ergopose.calibration.extrinsics import solve_pose
-
     by_source = {d.source: d for d in detections}
     obj_all = board.object_points()
     candidates, poses_R, poses_t, still = [], [], [], []
@@ -608,8 +579,6 @@ def _recover_views(lens, kept, R, t, ill, detections, board, progress):
 
 # --------------------------------------------------------------------- Double Sphere
 def _ds_lens(params: np.ndarray):
-    from ergopose.geometry.lenses.double_sphere import DoubleSphere
-
     fx, fy, cx, cy, xi, alpha = (float(v) for v in params)
     return DoubleSphere(fx, fy, cx, cy, xi, alpha)
 
@@ -621,8 +590,6 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
     angle (plus 5 degrees). Step 2: joint least squares over all corners and per-view poses
     (scipy.optimize.least_squares, trf, sparse finite-difference Jacobian).
     """
-    from scipy.optimize import least_squares
-
     kept: tuple[Detection, ...] = kb.details["kept_detections"]
     K = kb.camera_matrix
     # step 1: match the KB projection over the observed field of view

@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars
+from ergopose.errors import ConfigError
+from ergopose.pipeline.assess import AssessOptions, assess
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -35,9 +37,6 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ergopose.errors import ConfigError
-    from ergopose.pipeline.assess import AssessOptions, assess
-
     if args.chunk_seconds <= 0:
         raise ConfigError(f"expected a positive number of seconds, got {args.chunk_seconds}", field="--chunk-seconds")
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,

@@ -11,7 +11,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ergopose.atomic import write_text
+from ergopose.calibration import check
+from ergopose.calibration import extrinsics as ext
+from ergopose.calibration import intrinsics as intr
+from ergopose.calibration.boards import detect_board, parse_board
+from ergopose.calibration.intrinsics import read_gray
+from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.calibration_file import load_calibration, save_calibration
+from ergopose.geometry.camera import CalibrationInfo, Camera
+from ergopose.session import load_session
 
 HELP = "calibrate the fisheye cameras (intrinsics, extrinsics, accuracy check)"
 
@@ -118,8 +128,6 @@ def _no_step(parser: argparse.ArgumentParser) -> int:
 
 
 def _progress():
-    from ergopose.cli_progress import ProgressBars
-
     return ProgressBars()
 
 
@@ -135,11 +143,6 @@ def _floats(text: str, n: int, field: str) -> tuple[float, ...]:
 
 # ------------------------------------------------------------------------- intrinsics
 def run_intrinsics(args: argparse.Namespace) -> int:
-    from ergopose.calibration import intrinsics as intr
-    from ergopose.calibration.boards import parse_board
-    from ergopose.geometry.calibration_file import load_calibration, save_calibration
-    from ergopose.geometry.camera import CalibrationInfo, Camera
-
     board = parse_board(args.board)
     out = Path(args.out)
     existing = load_calibration(out) if out.exists() else ()
@@ -264,11 +267,6 @@ def _print_pose(camera, result) -> None:
 
 
 def run_extrinsics(args: argparse.Namespace) -> int:
-    from ergopose.calibration import extrinsics as ext
-    from ergopose.calibration.boards import detect_board, parse_board
-    from ergopose.calibration.intrinsics import read_gray
-    from ergopose.geometry.calibration_file import load_calibration, save_calibration
-
     cameras = list(load_calibration(args.calibration))
     by_name = {c.name: i for i, c in enumerate(cameras)}
     use_board = bool(args.board_image)
@@ -327,15 +325,10 @@ def run_extrinsics(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------ check
 def run_check(args: argparse.Namespace) -> int:
-    from ergopose.atomic import write_text
-    from ergopose.calibration import check
-    from ergopose.geometry.calibration_file import load_calibration
-
     if args.session is not None:
         if any(v is not None for v in (args.calibration, args.observations, args.length)):
             raise ConfigError("give either --session or --calibration, --observations and --length, not both",
                               field="--session")
-        from ergopose.session import load_session
 
         session = load_session(args.session, check_videos=False)
         if session.calibration_check is None:

@@ -6,6 +6,11 @@ import argparse
 from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars
+from ergopose.commands.assess import print_result
+from ergopose.errors import ErgoposeError
+from ergopose.pipeline.assess import AssessOptions, assess
+from ergopose.session import FLOOR_PLAN_FILE, load_session
+from ergopose.sim.writer import SimulationConfig, add_floor_plan, simulate_session
 
 DEMO_SESSION = Path(".demo") / "day1"
 DEMO_REPORT = Path("reports") / "day1"
@@ -34,9 +39,6 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 def _is_session(path: Path) -> bool:
-    from ergopose.errors import ErgoposeError
-    from ergopose.session import load_session
-
     if not (path / "settings.toml").exists():
         return False
     try:
@@ -47,13 +49,11 @@ def _is_session(path: Path) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ergopose.commands.assess import print_result
-    from ergopose.pipeline.assess import AssessOptions, assess
-    from ergopose.sim.writer import SimulationConfig, simulate_session
-
     bars = ProgressBars()
     if _is_session(args.session):
         print(f"demo session: {args.session} (already simulated)")
+        if add_floor_plan(args.session):  # a demo session simulated before sessions had a floor.toml
+            print(f"added {args.session / FLOOR_PLAN_FILE} (the floor map) from the simulated scene")
     else:
         print(f"simulating the demo session in {args.session} ({args.workers} workers, {args.minutes:g} min, "
               f"seed {args.seed})")

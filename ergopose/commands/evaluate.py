@@ -8,6 +8,10 @@ import argparse
 from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars
+from ergopose.errors import ConfigError
+from ergopose.evaluation.compare import ResultsLayout, evaluate_results, write_json
+from ergopose.evaluation.oracle import OracleOptions, run_oracle
+from ergopose.evaluation.text import format_evaluation
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -72,11 +76,6 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ergopose.errors import ConfigError
-    from ergopose.evaluation.compare import ResultsLayout, evaluate_results, write_json
-    from ergopose.evaluation.oracle import OracleOptions, run_oracle
-    from ergopose.evaluation.text import format_evaluation
-
     progress = ProgressBars()
     if args.reference is not None:
         return run_reference(args, progress)

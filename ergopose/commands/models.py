@@ -17,6 +17,7 @@ from ergopose.pose.models import (
     resolve_model_dir,
     sha256_file,
 )
+from ergopose.pose.onnx_models import load_onnx_card
 
 USER_ONNX_FOLDER = "onnx"
 
@@ -73,8 +74,6 @@ def run_fetch(args: argparse.Namespace) -> int:
 
 def _user_cards(model_dir: Path):
     """(card path, card or error) for every TOML card in the cache's onnx folder."""
-    from ergopose.pose.onnx_models import load_onnx_card
-
     folder = model_dir / USER_ONNX_FOLDER
     out = []
     for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:

@@ -30,6 +30,7 @@ Exposure (reference: rula-reba-reference.md, "Exposure over time"; docs/scoring.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -40,7 +41,7 @@ import pandas as pd
 
 from ergopose.ergonomics.activity import check_time, frame_period
 from ergopose.ergonomics.posture import expand_sides
-from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS, REPETITION_ANGLES
+from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, REPETITION_ANGLES
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import InputError
 from ergopose.progress import ProgressCallback, report
@@ -487,8 +488,6 @@ class ShiftAccumulator:
 
     def result(self) -> ShiftSummary:
         """The summary so far (the accumulator can keep taking chunks afterwards)."""
-        import copy
-
         runs = {c: copy.deepcopy(r) for c, r in self.runs.items()}
         exposure_runs = {k: copy.deepcopy(r) for k, r in self.exposure_runs.items()}
         for r in (*runs.values(), *exposure_runs.values()):

@@ -24,6 +24,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ergopose.ergonomics.settings import setting_names
 from ergopose.errors import ConfigError
 from ergopose.resources import resource_dir
 
@@ -370,8 +371,6 @@ def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Ba
     if "tolerance" in at_edge and tol is None:
         raise r.fail(f"{field}.tolerance_setting", "required when an edge is a 'tolerance' edge")
     if tol is not None:
-        from ergopose.ergonomics.settings import setting_names
-
         if tol not in setting_names() or not tol.endswith("_deg"):
             raise r.fail(f"{field}.tolerance_setting", f"{tol!r} is not an angle setting of the scoring settings")
     not_when = r.string(data, "not_when", f"{field}.not_when", optional=True)

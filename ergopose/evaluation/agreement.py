@@ -20,6 +20,7 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+import pandas as pd
 
 WEIGHTS = ("none", "linear", "quadratic")
 
@@ -49,8 +50,6 @@ def confusion_matrix(a, b, categories: Sequence[float]) -> np.ndarray:
 
 def _numbers(x) -> np.ndarray:
     """Ratings as a float array, NaN where missing (pandas NA included)."""
-    import pandas as pd
-
     return pd.to_numeric(pd.Series(np.asarray(x, dtype=object) if not hasattr(x, "dtype") else x),
                          errors="coerce").to_numpy(dtype=np.float64, na_value=np.nan)
 

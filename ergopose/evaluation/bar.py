@@ -25,7 +25,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ergopose.calibration.check import format_table, measure_bar
 from ergopose.errors import InputError
+from ergopose.sim.scene import rig_cameras
 
 DEFAULT_NOISE_PX = 0.5
 DEFAULT_DRAWS = 100
@@ -33,8 +35,6 @@ DEFAULT_DRAWS = 100
 
 def true_cameras(gt) -> tuple:
     """The simulated rig's cameras at the session's image size, in the ground truth's camera order."""
-    from ergopose.sim.scene import rig_cameras
-
     size = gt.scene.get("session", {})
     try:
         width, height = int(size["width"]), int(size["height"])
@@ -64,8 +64,6 @@ def bar_section(session, gt, limits_deg: Sequence[float], *, noise_px: float = D
                 draws: int = DEFAULT_DRAWS, seed: int = 0) -> dict[str, Any]:
     """The reference-bar table (module docstring) as a JSON-ready dictionary; ``table`` holds the
     text of :func:`ergopose.calibration.check.format_table` for each bar length."""
-    from ergopose.calibration.check import format_table, measure_bar
-
     if not (np.isfinite(noise_px) and noise_px >= 0):
         raise InputError(f"expected a pixel noise >= 0, got {noise_px}", field="--bar-noise-px")
     if draws < 1:

@@ -27,6 +27,7 @@ Units: metres and radians inside; the sections of the result give millimetres (`
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,11 +35,36 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from scipy.optimize import linear_sum_assignment
 
+from ergopose.atomic import write_text
+from ergopose.calibration.check import DEFAULT_RING_BOUNDS_DEG
+from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.posture import ANGLE_COLUMNS
+from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
-from ergopose.keypoints import BLAZEPOSE33, LIMB_INDEX, LIMBS, NUM_JOINTS
+from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
+from ergopose.evaluation.bar import bar_section
+from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMB_INDEX, LIMBS, NUM_JOINTS
+from ergopose.pipeline.identify import identify_by_stature
+from ergopose.pipeline.stages import scoring_settings
 from ergopose.progress import ProgressCallback, report
-from ergopose.recon.diagnostics import REGIONS
+from ergopose.recon.diagnostics import (
+    REGIONS,
+    identity_switches,
+    lens_region,
+    limb_diagnostics,
+    match_workers,
+    region_errors,
+    truth_for_workers,
+)
+from ergopose.recon.records import TORSO_JOINTS, body_centres
+from ergopose.recon.settings import ReconSettings, from_mapping
+from ergopose.recon.table import read_tracks, table_to_frames
+from ergopose.recon.tracking import identity_name, limb_lengths
+from ergopose.session import load_session
+from ergopose.sim.ground_truth import load_ground_truth
+from ergopose.sim.scene import LENS_REGIONS_DEG
 
 #: The score columns compared and their scales (docs/csv-columns.md).
 SCORE_SCALES: dict[str, tuple[int, ...]] = {
@@ -163,12 +189,6 @@ class _Inputs:
 
 def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> _Inputs:
     """The session (headers only), its ground truth, the tracks table and the settings used."""
-    from ergopose.pipeline.stages import scoring_settings
-    from ergopose.recon.settings import ReconSettings, from_mapping
-    from ergopose.recon.table import read_tracks, table_to_frames
-    from ergopose.session import load_session
-    from ergopose.sim.ground_truth import load_ground_truth
-
     session = load_session(session_dir, check_videos=False)
     if session.ground_truth_dir is None:
         raise InputError("not a simulated session: there is no ground_truth/ folder, and evaluate compares "
@@ -195,9 +215,6 @@ def reported_ids(session, tracks, metadata: Mapping) -> tuple[dict[str, str], tu
     settings' worker whose given stature matches its measured one
     (:func:`ergopose.pipeline.identify.identify_by_stature`, on the stature estimates stored in the
     tracks table) and keeps the pseudonym otherwise; the same decision is re-made here."""
-    from ergopose.pipeline.identify import identify_by_stature
-    from ergopose.recon.tracking import identity_name
-
     names = [identity_name(w) for w in tracks.workers]
     workers = metadata.get("workers") or {}
     measured = {n: (workers.get(n) or {}).get("stature_estimate_m") for n in names}
@@ -210,9 +227,6 @@ def reported_ids(session, tracks, metadata: Mapping) -> tuple[dict[str, str], tu
 
 def lens_region_info(recon) -> tuple[dict, list[str]]:
     """The lens-region definition used (the reconstruction settings') and the others in the project."""
-    from ergopose.calibration.check import DEFAULT_RING_BOUNDS_DEG
-    from ergopose.sim.scene import LENS_REGIONS_DEG
-
     used = [float(x) for x in recon.lens_region_limits_deg]
     sim = [float(LENS_REGIONS_DEG[0][2]), float(LENS_REGIONS_DEG[1][2])]
     cal = [float(x) for x in DEFAULT_RING_BOUNDS_DEG]
@@ -245,10 +259,6 @@ def _per_frame_matches(tracks, truth_points: np.ndarray, points: np.ndarray,
     Per frame, rows and people are paired by the optimal assignment of body-centre distances
     (only pairs within ``max_distance_m``); ``points`` (n, 33, 3) gives the rows' positions.
     """
-    from scipy.optimize import linear_sum_assignment
-
-    from ergopose.recon.records import body_centres
-
     n = len(tracks)
     out = np.full(n, -1, np.int64)
     if n == 0:
@@ -290,9 +300,6 @@ def row_people(inp: _Inputs) -> np.ndarray:
 
 
 def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, int]]:
-    from ergopose.recon.diagnostics import identity_switches, match_workers
-    from ergopose.recon.tracking import identity_name
-
     tf, gt = inp.tracks, inp.gt
     mapping = match_workers(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else {}
     switches = identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else 0
@@ -333,8 +340,6 @@ def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, 
 def _naming(inp: _Inputs, person: np.ndarray) -> dict:
     """How often a tracked person named after a settings worker (by stature) really is that worker:
     rows of the named ids matched, frame by frame, to the simulated worker of the same id."""
-    from ergopose.recon.tracking import identity_name
-
     tf, gt = inp.tracks, inp.gt
     named = {w: inp.reported[identity_name(w)] for w in tf.workers
              if inp.reported[identity_name(w)] != identity_name(w)}
@@ -359,9 +364,6 @@ def _worker_number(name: str) -> int:
 
 def _regions_of_people(gt, limits_deg) -> np.ndarray:
     """(F, P) lens region of each simulated worker's mid-hip point (larger angle of the cameras)."""
-    from ergopose.keypoints import JOINT_INDEX
-    from ergopose.recon.diagnostics import lens_region
-
     hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
     theta = np.degrees(gt.theta[..., hips].astype(np.float64).mean(axis=-1))  # (F, C, P)
     return lens_region(np.nanmax(theta, axis=1), limits_deg)
@@ -369,8 +371,6 @@ def _regions_of_people(gt, limits_deg) -> np.ndarray:
 
 def detection_section(inp: _Inputs) -> dict:
     """Detection rate and false rows (definitions in docs/evaluation.md)."""
-    from ergopose.recon.records import TORSO_JOINTS
-
     gt, tf = inp.gt, inp.tracks
     F, P = gt.n_frames, len(gt.worker_ids)
     torso_visible = (gt.visibility[..., TORSO_JOINTS] == 0).sum(axis=-1) >= MIN_VISIBLE_TORSO  # (F, C, P)
@@ -427,8 +427,6 @@ def _stats_mm(e: np.ndarray) -> dict:
 
 
 def errors_section(inp: _Inputs, person: np.ndarray, mapping: dict[int, int]) -> dict:
-    from ergopose.recon.diagnostics import lens_region, region_errors, truth_for_workers
-
     tf = inp.tracks
     truth = truth_rows(inp, person)
     regions = lens_region(tf.lens_angle_deg, inp.recon.lens_region_limits_deg)
@@ -468,9 +466,6 @@ def errors_section(inp: _Inputs, person: np.ndarray, mapping: dict[int, int]) ->
 def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
     """Limb lengths of the tracked workers (those matched to a simulated worker in at least one
     frame) against the true lengths of the matched worker in the same frames."""
-    from ergopose.recon.diagnostics import lens_region, limb_diagnostics
-    from ergopose.recon.tracking import identity_name, limb_lengths
-
     tf = inp.tracks
     T = truth_rows(inp, person)
     truth = {int(w): T[tf.worker == w] for w in np.unique(tf.worker[person >= 0])}
@@ -595,8 +590,6 @@ def _worker_frames(inp: _Inputs, layout: ResultsLayout,
                    person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
     """{worker: (frames CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
     every tracked worker matched to a simulated worker in at least one frame."""
-    from ergopose.recon.tracking import identity_name
-
     tf = inp.tracks
     out = {}
     for w in np.unique(tf.worker[person >= 0]):
@@ -612,9 +605,6 @@ def _worker_frames(inp: _Inputs, layout: ResultsLayout,
 
 def _region_of_rows(inp: _Inputs, w: int, frames: np.ndarray) -> np.ndarray:
     """Lens region of a tracked worker's rows at the given frames: the torso joints' largest angle."""
-    from ergopose.recon.diagnostics import lens_region
-    from ergopose.recon.records import TORSO_JOINTS
-
     r = inp.tracks.worker_rows(w)
     frames = np.asarray(frames, np.int64)
     if not len(r):
@@ -652,8 +642,6 @@ def _built_angles(gt, columns: Sequence[str]) -> dict[str, np.ndarray]:
 
 def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     """Tracked posture angles (frames CSV, degrees) against the angles the motion was built from."""
-    from ergopose.ergonomics.posture import ANGLE_COLUMNS
-
     gt = inp.gt
     columns = [c for c in ANGLE_COLUMNS if c in gt.postures.columns]
     built = _built_angles(gt, columns)
@@ -720,8 +708,6 @@ def ground_truth_posture(gt, worker_index: int) -> pd.DataFrame:
     position from the midline) come from the true joints through
     :func:`ergopose.ergonomics.angles.joint_angles`, the same code the pipeline uses.
     """
-    from ergopose.ergonomics.angles import joint_angles
-
     base = joint_angles(gt.joints_world[:, worker_index], gt.times_s).to_frame().reset_index(drop=True)
     gid = gt.worker_ids[worker_index]
     built = gt.postures[gt.postures["worker"] == gid].sort_values("frame").reset_index(drop=True)
@@ -738,8 +724,6 @@ def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scor
                         posture: pd.DataFrame | None = None) -> pd.DataFrame:
     """RULA and REBA of a simulated worker's true posture, one row per frame (all frames), with the
     task factors ``session.factor_table(factor_worker, times)`` and the session's scoring settings."""
-    from ergopose.ergonomics.scoring import score_posture
-
     posture = ground_truth_posture(gt, worker_index) if posture is None else posture
     factors = session.factor_table(factor_worker, gt.times_s)
     table = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])], axis=1)
@@ -747,10 +731,6 @@ def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scor
 
 
 def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
-    from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
-    from ergopose.ergonomics.posture import ANGLE_COLUMNS
-    from ergopose.recon.tracking import identity_name
-
     gt, session = inp.gt, inp.session
     postures: dict[int, pd.DataFrame] = {}
     scored: dict[tuple[int, int], tuple[pd.DataFrame, list[pd.DataFrame]]] = {}
@@ -849,8 +829,6 @@ def evaluate_results(session_dir: str | Path, layout: ResultsLayout, *, source: 
                      oracle: dict | None = None, bar_noise_px: float = 0.5, bar_draws: int = 100,
                      seed: int = 0, progress: ProgressCallback | None = None) -> Evaluation:
     """Compare the results in ``layout`` with the session's ground truth (module docstring)."""
-    from ergopose.evaluation.bar import bar_section
-
     steps = ("inputs", "matching", "detection", "3D errors", "limbs", "angles", "scores", "reference bar")
     done = 0
 
@@ -893,10 +871,6 @@ def evaluate_results(session_dir: str | Path, layout: ResultsLayout, *, source: 
 
 def write_json(evaluation: Evaluation, path: str | Path) -> Path:
     """The evaluation as strict JSON (NaN as null), written atomically."""
-    import json
-
-    from ergopose.atomic import write_text
-
     return write_text(path, json.dumps(evaluation.to_dict(), indent=1, allow_nan=False) + "\n")
 
 

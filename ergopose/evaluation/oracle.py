@@ -3,7 +3,7 @@
 The ORACLE (:class:`ergopose.sim.oracle.OracleSource`) reports the simulated workers' true fisheye
 pixels with seeded noise and dropouts instead of running the pose network. Feeding it to the same
 reconstruction the assessment uses (per-person upright virtual views,
-:func:`ergopose.recon.synthetic.frames_from_oracle`; association, triangulation, tracking and
+:func:`ergopose.sim.synthetic.frames_from_oracle`; association, triangulation, tracking and
 smoothing with :func:`ergopose.recon.session.reconstruct_session`, then joint angles, task factors
 and RULA/REBA with :func:`ergopose.pipeline.stages.score_worker`) measures geometry, tracking and
 smoothing apart from the network.
@@ -22,8 +22,22 @@ from typing import Iterator
 
 import numpy as np
 
+from ergopose.atomic import atomic_dir, write_text
+from ergopose.ergonomics.export import write_worker_frames_csv
 from ergopose.errors import InputError
+from ergopose.evaluation.compare import ResultsLayout
+from ergopose.pipeline.identify import identify_by_stature
+from ergopose.pipeline.stages import score_worker, scoring_settings
 from ergopose.progress import ProgressCallback, report
+from ergopose.recon.diagnostics import limb_diagnostics
+from ergopose.recon.session import reconstruct_session
+from ergopose.recon.settings import ReconSettings
+from ergopose.recon.table import TracksWriter
+from ergopose.recon.tracking import identity_name
+from ergopose.session import load_session
+from ergopose.sim.ground_truth import load_ground_truth
+from ergopose.sim.oracle import OracleSource
+from ergopose.sim.synthetic import frames_from_oracle
 
 ORACLE_DIR = "oracle"
 PREFIX = "ORACLE_"
@@ -61,8 +75,6 @@ class OracleOptions:
 
 def oracle_layout(out_dir: str | Path):
     """Where an ORACLE run under the results folder ``out_dir`` writes (OUT/oracle/...)."""
-    from ergopose.evaluation.compare import ResultsLayout
-
     root = Path(out_dir) / ORACLE_DIR
     return ResultsLayout(root=root, tracks=root / "pipeline" / f"{PREFIX}tracks.parquet", csv_dir=root / "csv",
                          csv_prefix=PREFIX)
@@ -70,10 +82,7 @@ def oracle_layout(out_dir: str | Path):
 
 def oracle_frames(session, gt, options: OracleOptions, progress: ProgressCallback | None = None) -> Iterator[tuple]:
     """Per frame, one Detections2D per camera (session order) made from the ORACLE's keypoints
-    (:func:`ergopose.recon.synthetic.frames_from_oracle`, in pieces of CHUNK_FRAMES frames)."""
-    from ergopose.recon.synthetic import frames_from_oracle
-    from ergopose.sim.oracle import OracleSource
-
+    (:func:`ergopose.sim.synthetic.frames_from_oracle`, in pieces of CHUNK_FRAMES frames)."""
     source = OracleSource(gt, noise_px=options.noise_px, occluded_noise_px=options.occluded_noise_px,
                           person_dropout=options.person_dropout, joint_dropout=options.joint_dropout,
                           seed=options.seed)
@@ -91,18 +100,6 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
 
     Returns the :class:`ergopose.evaluation.compare.ResultsLayout` of the written folder.
     """
-    from ergopose.atomic import atomic_dir, write_text
-    from ergopose.ergonomics.export import write_worker_frames_csv
-    from ergopose.pipeline.identify import identify_by_stature
-    from ergopose.pipeline.stages import score_worker, scoring_settings
-    from ergopose.recon.diagnostics import limb_diagnostics
-    from ergopose.recon.session import reconstruct_session
-    from ergopose.recon.settings import ReconSettings
-    from ergopose.recon.table import TracksWriter
-    from ergopose.recon.tracking import identity_name
-    from ergopose.session import load_session
-    from ergopose.sim.ground_truth import load_ground_truth
-
     session = load_session(session_dir, check_videos=False)
     if session.ground_truth_dir is None:
         raise InputError("not a simulated session: the ORACLE needs the ground_truth/ folder of a session made "

@@ -39,7 +39,7 @@ def format_evaluation(ev: dict) -> str:
                  f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}")
     nb = m["named_by_stature"]
     if nb["ids"]:
-        lines.append(f"  named after settings workers by stature: "
+        lines.append("  named after settings workers by stature: "
                      + ", ".join(f"{t} -> {w}" for t, w in nb["ids"].items())
                      + f"; right person in {_f(nb['correct_pct'], '.1f', ' %')} of their rows")
     for note in nb["notes"]:

@@ -40,6 +40,7 @@ import tomllib
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
+import cv2
 import numpy as np
 import tomli_w
 
@@ -361,8 +362,6 @@ def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.nd
     those names or an ``image_size`` pair) and ``rms_error_px`` (node ``rms`` or
     ``avg_reprojection_error``) where the file has them.
     """
-    import cv2
-
     path = Path(path)
     if not path.is_file():
         raise ConfigError("OpenCV calibration file not found", path=path)

@@ -19,17 +19,13 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from ergopose.geometry.camera import look_at_rotation
+from ergopose.geometry.camera import Camera, look_at_rotation
 from ergopose.geometry.lenses.base import BlockwiseLens, LensModel
 from ergopose.geometry.lenses.rectilinear import Rectilinear
-
-if TYPE_CHECKING:
-    from ergopose.geometry.camera import Camera
 
 _WORLD_UP = np.array([0.0, 0.0, 1.0])
 

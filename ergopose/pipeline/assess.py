@@ -29,6 +29,10 @@ from pathlib import Path
 from typing import Sequence
 
 from ergopose.errors import ConfigError
+from ergopose.pipeline import detect, stages
+from ergopose.pipeline.detect import detect_chunk
+from ergopose.pipeline.stages import WorkerOutput
+from ergopose.pipeline.store import ResultStore
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import Session, load_session
 
@@ -50,19 +54,6 @@ class AssessOptions:
     processes: int | None = None
     chunk_seconds: float = CHUNK_SECONDS
     model_dir: str | None = None
-
-
-@dataclass(frozen=True)
-class WorkerOutput:
-    """One worker's results: id, shown name, tracked seconds, share of tracked time at RULA
-    action level 3-4 and REBA risk level 3-4, and the CSV files written."""
-
-    worker_id: str
-    name: str
-    observed_s: float
-    rula_high_share: float
-    reba_high_share: float
-    csv_files: tuple[Path, ...]
 
 
 @dataclass(frozen=True)
@@ -89,9 +80,6 @@ def default_out_dir(session: Session) -> Path:
 def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
            progress: ProgressCallback | None = None) -> AssessResult:
     """Run the whole assessment of a session (see the module docstring)."""
-    from ergopose.pipeline import detect, stages
-    from ergopose.pipeline.store import ResultStore
-
     t_start = time.perf_counter()
     timings: dict[str, float] = {}
     report(progress, "session", 0, 1, unit="step", message="checking videos, calibration and settings")
@@ -120,8 +108,6 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
 
 def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes, progress,
                    t_start, timings) -> AssessResult:
-    from ergopose.pipeline import detect, stages
-
     store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
     ranges = detect.chunk_ranges(session.frame_count, chunk_frames)
     done = store.finished(ranges)
@@ -147,9 +133,6 @@ def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, 
 
 def _chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
     """Worker-process entry point: one chunk, stored before returning."""
-    from ergopose.pipeline.detect import detect_chunk
-    from ergopose.pipeline.store import ResultStore
-
     result = detect_chunk(job, start, stop)
     ResultStore.at(store_root).save_chunk(result)
     return start, stop

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ergopose.geometry.camera import Camera
+from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.records import People3D
@@ -61,8 +62,6 @@ _NETWORKS: dict[tuple, tuple] = {}
 
 def _networks(job: DetectJob):
     """The pose networks of this process, loaded once and reused for every chunk."""
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-
     key = (job.model_dir, job.num_threads)
     if key not in _NETWORKS:
         _NETWORKS[key] = (

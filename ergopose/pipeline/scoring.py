@@ -33,6 +33,10 @@ from typing import Callable, Protocol
 import numpy as np
 import pandas as pd
 
+from ergopose.ergonomics.angles import shoulder_heights
+from ergopose.recon.diagnostics import LimbStatsAccumulator, histogram_percentiles
+from ergopose.recon.pipeline import TrackFrames
+
 #: Frames per block = BLOCK_SECONDS x fps.
 BLOCK_SECONDS = 600.0
 
@@ -86,8 +90,6 @@ class WorkerScorer:
         self._parts = []
 
     def _rows(self):
-        from ergopose.recon.pipeline import TrackFrames
-
         if len(self._parts) > 1:
             self._parts = [TrackFrames.concat(self._parts)]
         return self._parts[0] if self._parts else None
@@ -116,8 +118,6 @@ class WorkerScorer:
 
 
 def _take(rows, mask):
-    from ergopose.recon.pipeline import TrackFrames
-
     return TrackFrames(**{n: (v[mask] if isinstance(v, np.ndarray) else v) for n, v in rows.__dict__.items()})
 
 
@@ -135,15 +135,11 @@ class ShiftReferences:
     BINS = 1500
 
     def __init__(self, recon_settings=None) -> None:
-        from ergopose.recon.diagnostics import LimbStatsAccumulator
-
         self.limbs = LimbStatsAccumulator(recon_settings, "final")
         self._shoulders: dict[int, np.ndarray] = {}
 
     def add(self, tracks) -> None:
         """Rows of the tracks table (TrackFrames, any workers, any chunk)."""
-        from ergopose.ergonomics.angles import shoulder_heights
-
         if len(tracks) == 0:
             return
         self.limbs.add(tracks)
@@ -161,8 +157,6 @@ class ShiftReferences:
 
     def shoulder_reference_m(self, worker: int) -> float:
         """Median shoulder height along the trunk over the shift (within 1 mm); NaN if never seen."""
-        from ergopose.recon.diagnostics import histogram_percentiles
-
         counts = self._shoulders.get(int(worker))
         if counts is None or counts.sum() == 0:
             return math.nan

@@ -6,6 +6,8 @@ assess` calls them in order. Nothing here looks at video.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,11 +15,35 @@ from typing import Any, Sequence
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
 
 from ergopose import __version__
+from ergopose.atomic import atomic_path
+from ergopose.calibration import check
+from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
+from ergopose.ergonomics.angles import AngleSettings, joint_angles
+from ergopose.ergonomics.export import FramesCsvWriter, write_session_summary_csv, write_worker_summary_csv
+from ergopose.ergonomics.scoring import score_posture
+from ergopose.ergonomics.settings import from_mapping
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX
+from ergopose.pipeline.identify import identify_by_stature
+from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, block_sizes
+from ergopose.pipeline.store import file_fingerprint
+from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, model_card
 from ergopose.progress import ProgressCallback, report
+from ergopose.recon.pipeline import ShiftReconstruction
+from ergopose.recon.session import worker_summary
+from ergopose.recon.table import TracksWriter, table_to_frames
+from ergopose.recon.tracking import identity_name
+from ergopose.report import adapters
+from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
+from ergopose.report.context import Assumption, DataFile, SessionInfo
+from ergopose.report.quality import reliable_frames, reliable_rule
+from ergopose.report.render import render_report
+from ergopose.report.results import frames_table, save_results, session_results
 from ergopose.session import Session
 
 _HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
@@ -25,13 +51,24 @@ CSV_DIR = "csv"
 SESSION_CSV = "session_summary.csv"
 
 
+@dataclass(frozen=True)
+class WorkerOutput:
+    """One worker's results: id, shown name, tracked seconds, share of tracked time at RULA
+    action level 3-4 and REBA risk level 3-4, and the CSV files written."""
+
+    worker_id: str
+    name: str
+    observed_s: float
+    rula_high_share: float
+    reba_high_share: float
+    csv_files: tuple[Path, ...]
+
+
 # ----------------------------------------------------------------------------------- inputs
 
 
 def scoring_settings(session: Session):
     """The scoring settings of the session's [scoring] table (defaults where not given)."""
-    from ergopose.ergonomics.settings import from_mapping
-
     return from_mapping(dict(session.scoring), source=session.settings_path)
 
 
@@ -46,8 +83,6 @@ class ModelUse:
 
 def ensure_models(model_dir: str | None, progress: ProgressCallback | None) -> tuple[ModelUse, ...]:
     """Both BlazePose networks in the cache (fetched with a progress bar on first use), verified."""
-    from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, model_card
-
     out = []
     names = (BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL)
     for k, name in enumerate(names):
@@ -65,8 +100,6 @@ def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequenc
     Task factors, worker names and scoring settings are not part of it: changing them re-runs
     only the stages after the 2D work.
     """
-    from ergopose.pipeline.store import file_fingerprint
-
     return {
         "ergopose": __version__,
         "videos": [file_fingerprint(c.video_path) for c in session.cameras],
@@ -100,11 +133,6 @@ class Tracks:
 def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon,
                   progress: ProgressCallback | None) -> Tracks:
     """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet)."""
-    from ergopose.pipeline.scoring import ShiftReferences
-    from ergopose.recon.pipeline import ShiftReconstruction
-    from ergopose.recon.session import worker_summary
-    from ergopose.recon.table import TracksWriter
-
     shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras)
     refs = ShiftReferences(recon)
     with TracksWriter(store.tracks_path, fps=session.fps, cameras=session.camera_names,
@@ -132,11 +160,6 @@ def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], re
 def read_track_parts(path: Path):
     """The tracks table again, piece by piece in frame order: TrackFrames of whole frames (all
     joints of every worker in a frame), one row group at a time."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    from ergopose.recon.table import table_to_frames
-
     f = pq.ParquetFile(path)
     carry = None
     for g in range(f.num_row_groups):
@@ -180,9 +203,6 @@ def score_rows(session: Session, rows, worker_id: str, scoring,
     the trunk over the worker's whole shift, :class:`ergopose.pipeline.scoring.ShiftReferences`);
     None takes the median over ``rows``.
     """
-    from ergopose.ergonomics.angles import AngleSettings, joint_angles
-    from ergopose.ergonomics.scoring import score_posture
-
     ref = shoulder_reference_m
     settings = AngleSettings(trunk_length_m=float(ref)) if ref is not None and np.isfinite(ref) and ref > 0 else None
     angles = joint_angles(rows.points_world, rows.time_s, settings)
@@ -232,9 +252,6 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
 def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -> ScoredWorker:
     """A worker's rows scored in one piece (:func:`score_rows`) and the shift summary; for
     evaluations of short sessions. ``ergopose assess`` scores in blocks (:func:`score_tracks`)."""
-    from ergopose.ergonomics.aggregate import aggregate_shift
-    from ergopose.report.quality import reliable_frames
-
     frames = score_rows(session, rows, worker_id, scoring)
     summary = aggregate_shift(frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps)
     return ScoredWorker(worker_id=worker_id, frames=frames, summary=summary, diagnostics=diagnostics,
@@ -260,10 +277,6 @@ class _WorkerSink:
 
     def __init__(self, stack, worker_id: str, csv_path: Path, scored_path: Path, scoring, fps: float,
                  limb_medians_m: np.ndarray) -> None:
-        from ergopose.atomic import atomic_path
-        from ergopose.ergonomics.aggregate import ShiftAccumulator
-        from ergopose.ergonomics.export import FramesCsvWriter
-
         self.worker_id = worker_id
         self.csv = stack.enter_context(FramesCsvWriter(csv_path))
         self.scored_path = scored_path
@@ -278,11 +291,6 @@ class _WorkerSink:
             "floor_y_m", "reliable")}
 
     def write(self, frames: pd.DataFrame, rows) -> None:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        from ergopose.report.quality import reliable_frames
-
         self.csv.write(frames)
         self.acc.add(frames)
         if self._schema is None:
@@ -326,11 +334,6 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
     """Every tracked worker scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
     from one pass over the tracks table: the per-frame CSV files are written as it goes; returns
     what the report needs."""
-    import contextlib
-
-    from ergopose.pipeline.scoring import WorkerScorer, block_sizes
-    from ergopose.recon.tracking import identity_name
-
     block, context = block_sizes(scoring, session.fps)
     diagnostics = {d.worker: d for d in tracks.references.limbs.result()}
     csv_dir = out_dir / CSV_DIR
@@ -377,8 +380,6 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
 
 
 def _timeline(sink: _WorkerSink) -> pd.DataFrame:
-    from ergopose.report.results import frames_table
-
     c = sink.column
     return frames_table(c("time_s"), rula_grand=c("rula_grand"), rula_action_level=c("rula_action_level"),
                         reba_score=c("reba_score"), reba_risk_level=c("reba_risk_level"),
@@ -389,8 +390,6 @@ def _timeline(sink: _WorkerSink) -> pd.DataFrame:
 def _peak_frames(sink: _WorkerSink, summary) -> pd.DataFrame:
     """The scored frames at the highest score of each episode the report may show (read back from
     the scored-frames file): enough for the worst moments to be chosen as from all frames."""
-    import pyarrow.parquet as pq
-
     t = sink.column("time_s")
     frame = sink.column("frame")
     wanted = set()
@@ -410,9 +409,6 @@ def _peak_frames(sink: _WorkerSink, summary) -> pd.DataFrame:
 def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, str] | None = None):
     """The rows of a Parquet file (ordered by frame) whose frame is in ``frames`` (and whose column
     where[0] equals where[1]), reading only the row groups whose frame range holds one of them."""
-    import pyarrow as pa
-    import pyarrow.compute as pc
-
     col = f.schema_arrow.get_field_index("frame")
     found = [f.schema_arrow.empty_table()]
     for g in range(f.num_row_groups):  # one row group in memory at a time
@@ -431,10 +427,6 @@ def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, str] | None = None)
 
 def _joints_at(tracks_path: Path, tracked: str, peaks: pd.DataFrame, fps: float):
     """callable(seconds) -> (33, 3) joints (metres) at the nearest peak frame, from the tracks table."""
-    import pyarrow.parquet as pq
-
-    from ergopose.recon.table import table_to_frames
-
     if not len(peaks):
         return None
     frames = np.array(sorted(int(f) for f in peaks["frame"]), dtype=np.int64)
@@ -451,11 +443,6 @@ def _joints_at(tracks_path: Path, tracked: str, peaks: pd.DataFrame, fps: float)
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
                      progress: ProgressCallback | None) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report."""
-    from ergopose.ergonomics.export import write_session_summary_csv, write_worker_summary_csv
-    from ergopose.pipeline.assess import WorkerOutput
-    from ergopose.pipeline.identify import identify_by_stature
-    from ergopose.recon.tracking import identity_name
-
     measured = {name: info.get("stature_estimate_m") for name, info in tracks.worker_summary.items()}
     ident = identify_by_stature({identity_name(w): measured.get(identity_name(w)) for w in tracks.workers}, session)
     scored = score_tracks(session, tracks, out_dir, scoring, ident, progress)
@@ -488,12 +475,6 @@ def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
 def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
                  models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None) -> Path:
     """Store the report results (ergopose.report.results) and render the pages."""
-    from ergopose.report import adapters
-    from ergopose.report.context import DataFile, SessionInfo
-    from ergopose.report.quality import reliable_rule
-    from ergopose.report.render import render_report
-    from ergopose.report.results import save_results
-
     worker_records = []
     for s in scored:
         summary = adapters.worker_summary(s.summary, frames=s.peak_frames if len(s.peak_frames) else None,
@@ -515,7 +496,7 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
                                               ident, session),
         csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),))
     save_results(out_dir, info, worker_records)
-    files = render_report(out_dir, progress=progress)
+    files = render_report(out_dir, session_results(info, worker_records), progress=progress)
     return files.index
 
 
@@ -523,7 +504,6 @@ def calibration_check(session: Session):
     """The reference-bar check of the session's calibration (None when the settings give no bar)."""
     if session.calibration_check is None:
         return None
-    from ergopose.calibration import check
 
     spec = session.calibration_check
     labels, pixels = check.read_bar_observations(spec.observations_path, session.camera_names)
@@ -532,10 +512,6 @@ def calibration_check(session: Session):
 
 def _with_identities(infos, ident, session: Session):
     """Each worker's assumptions, plus how the tracked person was matched to the settings' worker."""
-    import dataclasses
-
-    from ergopose.report.context import Assumption
-
     out = []
     for info in infos:
         m = ident.match_of(info.worker_id)
@@ -556,19 +532,8 @@ def _with_identities(infos, ident, session: Session):
 
 
 def _floor_plan(session: Session):
-    """The monitored area for the floor map: the simulated scene's layout when known, else 6 x 6 m."""
-    import dataclasses
-    import tomllib
-
-    from ergopose.report.adapters import floor_plan_from_boxes, floor_plan_from_mapping
-    from ergopose.report.context import FloorCamera
-
+    """The monitored area for the floor map: the session's floor.toml when it has one, else 6 x 6 m."""
     cams = [(c.name, float(c.position_world[0]), float(c.position_world[1])) for c in session.calibrated_cameras]
-    if session.ground_truth_dir is not None:
-        from ergopose.sim.ground_truth import SCENE_FILE
-
-        scene_path = Path(session.ground_truth_dir) / SCENE_FILE
-        if scene_path.exists():
-            plan = floor_plan_from_mapping(tomllib.loads(scene_path.read_text()))
-            return dataclasses.replace(plan, cameras=tuple(FloorCamera(name=n, x=x, y=y) for n, x, y in cams))
+    if session.floor_plan_path is not None:
+        return load_floor_plan(session.floor_plan_path, cameras=cams)
     return floor_plan_from_boxes([], cameras=cams)

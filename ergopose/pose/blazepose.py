@@ -175,6 +175,8 @@ class PersonDetection:
 
 
 def _load_interpreter(path: Path, card: ModelCard, num_threads: int):
+    # Deferred on purpose: the LiteRT runtime is heavy and only needed when a network runs
+    # (not for scoring, reports or --help).
     from ai_edge_litert.interpreter import Interpreter
 
     path = Path(path)

@@ -41,6 +41,7 @@ from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import ViewMap, VirtualView, upright_rotation
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D, PersonDetection
+from ergopose.records import Detections2D
 
 _WORLD_UP = np.array([0.0, 0.0, 1.0])
 _LEFT_HIP, _RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
@@ -193,8 +194,6 @@ class FrameDetections:
 
     def to_recon(self, camera: Camera, time_s: float):
         """The reconstruction stage's record (ergopose.recon.records.Detections2D) of these people."""
-        from ergopose.recon.records import Detections2D
-
         rotation = np.asarray(camera.rotation_world_from_cam, dtype=np.float64)
         return Detections2D(camera=camera.name, frame=self.frame_index, time_s=time_s,
                             pixels_view=self.pixels_view, confidence=self.confidence,

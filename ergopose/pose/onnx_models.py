@@ -276,6 +276,7 @@ class OnnxPoseModel:
     """Runs a user-brought top-down ONNX pose model on BGR crops of the card's input size."""
 
     def __init__(self, card: OnnxPoseCard | str | os.PathLike, *, num_threads: int = DEFAULT_THREADS):
+        # Deferred on purpose: onnxruntime is heavy and only needed for a user-brought ONNX model.
         import onnxruntime as ort
 
         self.card = card if isinstance(card, OnnxPoseCard) else load_onnx_card(card)

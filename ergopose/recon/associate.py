@@ -29,8 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS, Detections2D
+from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS
 from ergopose.recon.settings import ReconSettings
+from ergopose.records import Detections2D
 
 
 

@@ -21,10 +21,10 @@ from ergopose.errors import InputError
 from ergopose.keypoints import LIMBS
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
-from ergopose.recon.records import Detections2D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.table import TracksWriter
 from ergopose.recon.triangulate import reconstruct_frames
+from ergopose.records import Detections2D
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,9 @@ from ergopose.geometry.triangulation import reject_outliers
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.associate import associate
-from ergopose.recon.records import TORSO_JOINTS, Detections2D, People3D, body_centres
+from ergopose.recon.records import TORSO_JOINTS, People3D, body_centres
 from ergopose.recon.settings import ReconSettings
+from ergopose.records import Detections2D
 
 
 def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: ReconSettings | None = None,

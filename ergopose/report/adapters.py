@@ -7,14 +7,47 @@ metres; text for people), it computes no new numbers.
 
 from __future__ import annotations
 
+import datetime as _dt
 import hashlib
+import math
+import os
+import tomllib
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Iterable, Mapping, Sequence
 
+import numpy as np
+
 from ergopose.ergonomics.methods import Method, load_method
+from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
-from ergopose.report.context import (ActionLevelInfo, FloorCamera, FloorItem, FloorPlan, MethodInfo, ModelInfo,
-                                     Setting)
+from ergopose.errors import ConfigError
+from ergopose.keypoints import LIMBS
+from ergopose.report.context import (
+    ActionLevelInfo,
+    Assumption,
+    BandTime,
+    CalibrationInfo,
+    DataFile,
+    FloorCamera,
+    FloorItem,
+    FloorPlan,
+    Hold,
+    HourLevels,
+    LevelTime,
+    LimbFrequency,
+    LimbStats,
+    MethodInfo,
+    ModelInfo,
+    RegionAccuracy,
+    Repetition,
+    Setting,
+    StandardFlag,
+    WorkerDiagnostics,
+    WorkerInfo,
+    WorkerSummary,
+    WorstMoment,
+)
 
 #: Furniture kinds drawn on the floor plan (table legs and brackets are left out: the top is drawn).
 FLOOR_KINDS = {"shelf": "shelf", "table_top": "table", "pallet": "pallet", "carton": "carton"}
@@ -82,13 +115,46 @@ def floor_plan_from_scene(scene: Any, cameras: Iterable[Any] = (), cell_m: float
     return floor_plan_from_boxes(scene.boxes, scene.area, cams, cell_m)
 
 
-def floor_plan_from_mapping(data: Mapping[str, Any], cell_m: float = 0.25) -> FloorPlan:
-    """A floor plan from a scene's ``to_dict()`` (area_m, boxes with name/kind/lo/hi)."""
-    class _B:
-        def __init__(self, d: Mapping[str, Any]):
-            self.name, self.kind, self.lo, self.hi = d["name"], d["kind"], d["lo"], d["hi"]
-    return floor_plan_from_boxes([_B(b) for b in data.get("boxes", ())], data.get("area_m", (-3, 3, -3, 3)),
-                                 cell_m=cell_m)
+def load_floor_plan(path: str | os.PathLike, cameras: Iterable[tuple[str, float, float]] = (),
+                    cell_m: float = 0.25) -> FloorPlan:
+    """The floor plan of a session's floor.toml (docs/session-format.md) with the cameras (name, x, y).
+
+    ``area_m = [x_min, x_max, y_min, y_max]`` (metres, optional, default 6 x 6 m around the
+    origin) and ``[[boxes]]`` with ``name``, ``kind``, ``lo = [x, y, z]`` and ``hi = [x, y, z]``
+    (other keys, e.g. the simulator's colours, are ignored). Kinds outside FLOOR_KINDS are not
+    drawn. A wrong file raises one ConfigError naming the file and the key.
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read the floor plan ({exc})", path=path) from None
+    area = data.get("area_m", (-3.0, 3.0, -3.0, 3.0))
+    if not (isinstance(area, (list, tuple)) and len(area) == 4 and all(_is_number(v) for v in area)
+            and area[1] > area[0] and area[3] > area[2]):
+        raise ConfigError(f"expected [x_min, x_max, y_min, y_max] in metres with x_max > x_min and y_max > y_min, "
+                          f"got {area!r}", path=path, field="area_m")
+    boxes = data.get("boxes", [])
+    if not isinstance(boxes, list):
+        raise ConfigError("expected [[boxes]] tables", path=path, field="boxes")
+    parsed = []
+    for k, b in enumerate(boxes):
+        where = f"boxes[{k}]"
+        if not isinstance(b, dict):
+            raise ConfigError("expected a table with name, kind, lo, hi", path=path, field=where)
+        for key in ("name", "kind"):
+            if not isinstance(b.get(key), str):
+                raise ConfigError(f"expected a text {key}, got {b.get(key)!r}", path=path, field=f"{where}.{key}")
+        for key in ("lo", "hi"):
+            v = b.get(key)
+            if not (isinstance(v, list) and len(v) in (2, 3) and all(_is_number(x) for x in v)):
+                raise ConfigError(f"expected [x, y, z] in metres, got {v!r}", path=path, field=f"{where}.{key}")
+        parsed.append(SimpleNamespace(name=b["name"], kind=b["kind"], lo=b["lo"], hi=b["hi"]))
+    return floor_plan_from_boxes(parsed, area, cameras, cell_m)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 # ------------------------------------------------------------------- shift aggregation
@@ -136,8 +202,6 @@ _ANGLE_WORDS = {"trunk": "trunk flexion", "head": "head inclination", "upper arm
 
 
 def _flag_from_finding(f: Any) -> Any:
-    from ergopose.report.context import StandardFlag
-
     if not f.measured:
         return StandardFlag(standard=f.standard, body_part=f.body_part, condition="the angles needed were not measured",
                             verdict="not measured", seconds=0.0, longest_s=float("nan"), note="")
@@ -170,12 +234,6 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
     frame (or None) for the skeleton drawing. Without them the worst moments are drawn at the
     middle of the episode, without a skeleton.
     """
-    import numpy as np
-
-    from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
-    from ergopose.report.context import (BandTime, Hold, HourLevels, LevelTime, Repetition, WorkerSummary,
-                                         WorstMoment)
-
     methods = dict(methods or {n: load_method(n) for n in ("rula", "reba")})
     levels, unscored = [], {}
     for m, (_, level_col) in LEVEL_COLUMNS.items():
@@ -228,10 +286,6 @@ def _angle_body_part(angle: str) -> str:
 
 
 def _worst_moments(summary: Any, methods: Mapping[str, Method], frames: Any, joints_at: Any, limit: int) -> tuple:
-    import numpy as np
-
-    from ergopose.report.context import WorstMoment
-
     episodes = list(summary.episodes.get("rula_action_level", ())) + list(summary.episodes.get("reba_risk_level", ()))
     chosen: list[Any] = []
     for e in episodes:
@@ -277,7 +331,6 @@ def _reason(row: Any, methods: Mapping[str, Method]) -> str:
     drove the score ("trunk 20-60 flexion (band 3 of 4)"; angles in degrees)."""
     if row is None:
         return "the episode's level (no frame details stored)"
-    from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
 
     parts = []
     for col in BODY_PART_COLUMNS["rula"]:
@@ -306,9 +359,6 @@ def worker_diagnostics(diag: Any, *, frames_reliable: int, reliable_rule: str, e
     frames_reliable / reliable_rule: from :func:`ergopose.report.quality.reliable_frames`.
     region_frames are the frames per lens region of ``region_limb`` (the hips: where the body is).
     """
-    from ergopose.keypoints import LIMBS
-    from ergopose.report.context import LimbFrequency, LimbStats, WorkerDiagnostics
-
     stats, freq = [], []
     for limb, _, _ in LIMBS:
         for region in ("all", "central", "outer", "edge"):
@@ -333,8 +383,6 @@ def calibration_info(path: str | Path, cameras: Sequence[str], *, reprojection_r
                      check: Any = None) -> Any:
     """A CalibrationInfo from the calibration file and, when run, its bar check
     (ergopose.calibration.check.CheckReport)."""
-    from ergopose.report.context import CalibrationInfo, RegionAccuracy
-
     regions = ()
     if check is not None:
         regions = tuple(RegionAccuracy(region=r.region, target_m=float(r.target), measured_m=float(r.mean),
@@ -377,8 +425,6 @@ def _factor_value(name: str, value: Any) -> str:
 
 
 def _clock(shift_s: float, start: Any) -> str:
-    import datetime as _dt
-
     if start is not None:
         return (start + _dt.timedelta(seconds=float(shift_s))).strftime("%H:%M:%S")
     h, rem = divmod(int(round(shift_s)), 3600)
@@ -389,8 +435,6 @@ def worker_assumptions(session: Any, worker: Any | None, settings_name: str = "s
     """What was assumed for a worker (ergopose.session.WorkerInfo, or None for an unnamed worker):
     every task factor with the value in force for the whole session and where it was set, then
     every period that changes a factor."""
-    from ergopose.report.context import Assumption
-
     start = getattr(session, "recorded_at", None)
     out = []
     own = worker.factors if worker is not None else None
@@ -421,8 +465,6 @@ def worker_infos(session: Any, worker_ids: Sequence[str], csv_files: Mapping[str
     """WorkerInfo records for the workers found in a session (ids as in the results), with names
     and assumptions from the session settings (ergopose.session.Session) and their CSV files
     ({id: [(label, path relative to the report folder), ...]})."""
-    from ergopose.report.context import DataFile, WorkerInfo
-
     named = {w.worker_id: w for w in session.workers}
     out = []
     for wid in worker_ids:

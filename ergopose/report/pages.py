@@ -26,9 +26,16 @@ from markupsafe import Markup
 
 from ergopose.keypoints import LIMBS
 from ergopose.report import svg
-from ergopose.report.context import (FLAG_VERDICTS, Assumption, MethodInfo, ModelInfo, SessionInfo, WorkerResults,
-                                     WorkerSummary)
-from ergopose.report.quality import Finding, Verdict, quality_verdict
+from ergopose.report.context import (
+    FLAG_VERDICTS,
+    Assumption,
+    MethodInfo,
+    ModelInfo,
+    SessionInfo,
+    WorkerResults,
+    WorkerSummary,
+)
+from ergopose.report.quality import SCORED_LIMBS, Finding, Verdict, quality_verdict
 
 # ------------------------------------------------------------------------- shared records
 
@@ -898,7 +905,6 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
                               id_prefix="fig-frequency")
     total_frames = sum(d.region_frames.values())
     regions = []
-    from ergopose.report.quality import SCORED_LIMBS
     for reg in ("central", "outer", "edge"):
         nfr = d.region_frames.get(reg, 0)
         fr = [freq[(limb, reg)] for limb in SCORED_LIMBS if (limb, reg) in freq and freq[(limb, reg)].frames > 0]

@@ -19,6 +19,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
+from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.report.context import CalibrationInfo, WorkerDiagnostics
 
 RATINGS = ("good", "fair", "poor")
@@ -155,10 +158,6 @@ def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE, 
     (e.g. :meth:`ergopose.recon.diagnostics.LimbStatsAccumulator.medians`), so a shift can be
     judged piece by piece; None takes the medians over the frames given.
     """
-    import numpy as np
-
-    from ergopose.keypoints import LIMB_INDEX, LIMBS
-
     pts = np.asarray(points_world, dtype=np.float64)
     names = [n for n, _, _ in LIMBS]
     cols = [names.index(n) for n in SCORED_LIMBS]

@@ -21,7 +21,7 @@ from typing import Any
 
 import jinja2
 
-from ergopose.atomic import write_text
+from ergopose.atomic import readable, write_text
 from ergopose.errors import ErgoposeError
 from ergopose.progress import ProgressCallback, report
 from ergopose.report.pages import IndexPage, WorkerPage, build_index_page, build_worker_page, worker_page_name
@@ -39,18 +39,6 @@ def environment(template_dir: str | os.PathLike | None = None,
     folder = Path(template_dir) if template_dir is not None else resource_dir("templates")
     return env_class(loader=jinja2.FileSystemLoader(str(folder)), autoescape=True, undefined=jinja2.StrictUndefined,
                      trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
-
-
-def readable(path: str | os.PathLike) -> None:
-    """Give a written file (or folder) the permissions the user's umask allows for new files.
-
-    Atomic writing goes through temporary files that are private (0600, folders 0700); reports
-    are meant to be opened by others from a shared drive.
-    """
-    mask = os.umask(0)
-    os.umask(mask)
-    p = Path(path)
-    os.chmod(p, (0o777 if p.is_dir() else 0o666) & ~mask)
 
 
 def context_variables(context: Any) -> dict[str, Any]:

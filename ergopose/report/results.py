@@ -29,10 +29,10 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from ergopose.atomic import atomic_dir
+from ergopose.atomic import atomic_dir, readable
 from ergopose.errors import InputError
 from ergopose.report._codec import from_jsonable, to_jsonable
-from ergopose.report.context import (SessionInfo, WorkerDiagnostics, WorkerInfo, WorkerResults, WorkerSummary,
+from ergopose.report.context import (SessionInfo, WorkerDiagnostics, WorkerResults, WorkerSummary,
                                      check_worker)
 
 RESULTS_FORMAT = "ergopose-results/1"
@@ -123,11 +123,33 @@ def save_results(report_dir: str | os.PathLike, session: SessionInfo,
             (wdir / SUMMARY_FILE).write_text(_dump("summary", summary), encoding="utf-8")
             (wdir / DIAGNOSTICS_FILE).write_text(_dump("diagnostics", diagnostics), encoding="utf-8")
             frames.loc[:, list(FRAME_COLUMNS)].to_parquet(wdir / FRAMES_FILE, index=False)
-        from ergopose.report.render import readable
-
         for p in (tmp, *tmp.rglob("*")):
             readable(p)
     return final
+
+
+def session_results(session: SessionInfo,
+                    workers: Sequence[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]) -> SessionResults:
+    """The results :func:`save_results` stores, as :func:`load_results` would read them back, built
+    in memory: the records pass through the same JSON conversion (numpy scalars become Python
+    numbers, tuples stay tuples), the per-frame tables keep FRAME_COLUMNS with nullable-integer
+    scores; checked as when saving. The assessment renders its report from these."""
+    if len(workers) != len(session.workers):
+        raise ValueError(f"{len(workers)} worker results for {len(session.workers)} workers")
+    info = from_jsonable(SessionInfo, to_jsonable(session), source="session")
+    out = []
+    for winfo, (summary, diagnostics, frames) in zip(info.workers, workers):
+        where = f"worker {winfo.worker_id}"
+        summary = from_jsonable(WorkerSummary, to_jsonable(summary), source=where)
+        diagnostics = from_jsonable(WorkerDiagnostics, to_jsonable(diagnostics), source=where)
+        check_worker(winfo, summary, diagnostics, source=where)
+        _check_frames(frames, source=f"frames of {where}")
+        table = frames.loc[:, list(FRAME_COLUMNS)].reset_index(drop=True)
+        for c in _SCORE_COLUMNS:
+            if table[c].dtype != "Int16":
+                table[c] = table[c].astype("Int16")
+        out.append(WorkerResults(info=winfo, summary=summary, diagnostics=diagnostics, frames=table))
+    return SessionResults(session=info, workers=tuple(out))
 
 
 # --------------------------------------------------------------------------------- reading
@@ -200,6 +222,7 @@ def session_from_mapping(data: Mapping[str, Any], source: str = "session") -> Se
 
 
 __all__ = [
-    "RESULTS_FORMAT", "FRAME_COLUMNS", "SessionResults", "save_results", "load_results", "load_frames",
+    "RESULTS_FORMAT", "FRAME_COLUMNS", "SessionResults", "save_results", "session_results", "load_results",
+    "load_frames",
     "frames_table", "results_dir", "session_from_mapping",
 ]

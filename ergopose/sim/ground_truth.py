@@ -27,14 +27,19 @@ from __future__ import annotations
 import math
 import os
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+import pandas as pd
+import tomli_w
 
 from ergopose.errors import InputError
-from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
+from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, NUM_JOINTS
+from ergopose.sim.motion import TASKS
+from ergopose.sim.scene import LENS_REGIONS_DEG, lens_region
 
 SCENE_FILE = "scene.toml"
 JOINTS_FILE = "joints.npz"
@@ -74,8 +79,6 @@ class GroundTruth:
 
     def lens_region(self) -> np.ndarray:
         """(F, C, W, 33) int8 lens region of every joint (index into scene["lens_regions"]; -1 = none)."""
-        from ergopose.sim.scene import lens_region
-
         return lens_region(self.theta)
 
     def worker_index(self, worker_id: str) -> int:
@@ -94,11 +97,6 @@ class GroundTruth:
         frame, time_s, camera, worker, task, theta_deg (mid-hip angle from the lens axis), region
         (central / outer / edge, see scene["lens_regions"]), n_visible and n_in_image (of the 33
         joints), and the box u_min, v_min, u_max, v_max (fisheye pixels) of the joints in the image."""
-        import pandas as pd
-
-        from ergopose.keypoints import JOINT_INDEX
-        from ergopose.sim.scene import LENS_REGIONS_DEG, lens_region
-
         f, c, w = self.visibility.shape[:3]
         hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
         theta = self.theta[..., hips].astype(np.float64).mean(axis=-1)            # (F, C, W)
@@ -107,8 +105,6 @@ class GroundTruth:
         inside = self.visibility != 4
         px = np.where(inside[..., None], self.pixels, np.nan)
         with np.errstate(all="ignore"):
-            import warnings
-
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 lo = np.nanmin(px, axis=3)
@@ -135,11 +131,6 @@ class GroundTruth:
 def write_ground_truth(folder: Path, *, scene_info: dict[str, Any], motion, camera_names: Sequence[str],
                        pixels: np.ndarray, theta: np.ndarray, visibility: np.ndarray) -> None:
     """Write scene.toml, joints.npz and postures.parquet into ``folder`` (which must exist)."""
-    import pandas as pd
-    import tomli_w
-
-    from ergopose.sim.motion import TASKS
-
     folder = Path(folder)
     header = ("# Ground truth of a SIMULATED ergopose session (ergopose simulate); "
               "docs/session-format.md describes every field.\n")
@@ -191,8 +182,6 @@ def _plain(value: Any) -> Any:
 
 def load_ground_truth(path: str | os.PathLike) -> GroundTruth:
     """Read the ground truth of a simulated session (the session folder or its ground_truth/ folder)."""
-    import pandas as pd
-
     p = Path(path)
     folder = p / "ground_truth" if (p / "ground_truth").is_dir() else p
     for name in (SCENE_FILE, JOINTS_FILE, POSTURES_FILE):

@@ -17,8 +17,9 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+import pandas as pd
 
-from ergopose.keypoints import NUM_JOINTS
+from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
 from ergopose.sim.ground_truth import GroundTruth
 from ergopose.sim.render import OUTSIDE_IMAGE, VISIBLE
 
@@ -57,10 +58,6 @@ class OracleObservations:
 
     def to_frame(self):
         """A long pandas DataFrame: source, frame, time_s, camera, worker, joint, x, y, confidence, visible."""
-        import pandas as pd
-
-        from ergopose.keypoints import BLAZEPOSE33
-
         f, c, w, j = np.meshgrid(np.arange(len(self.frames)), np.arange(len(self.camera_names)),
                                  np.arange(len(self.worker_ids)), np.arange(NUM_JOINTS), indexing="ij")
         return pd.DataFrame({

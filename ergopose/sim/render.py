@@ -21,6 +21,7 @@ Ray-casting the same primitives for single rays gives each joint's visibility pe
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -575,8 +576,6 @@ def pixel_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
 
 def _quiet(fn):
     """Run a ray kernel with NaN/inf arithmetic silent (NaN marks a miss, by design)."""
-    import functools
-
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):

@@ -27,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, region_index, region_table
-from ergopose.geometry.camera import Camera
+from ergopose.geometry.camera import Camera, ceiling_rotation
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
+from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, region_index, region_table
 
 #: Half the side of the square work area (metres): the area is [-3, 3] x [-3, 3].
 AREA_HALF = 3.0
@@ -241,8 +241,6 @@ def rig_lens(width: int, height: int, index: int = 0) -> KannalaBrandt:
 
 
 def _rig_rotation(yaw_deg: float, tilt_x_deg: float, tilt_y_deg: float) -> np.ndarray:
-    from ergopose.geometry.camera import ceiling_rotation
-
     ax, ay = math.radians(tilt_x_deg), math.radians(tilt_y_deg)
     rx = np.array([[1, 0, 0], [0, math.cos(ax), -math.sin(ax)], [0, math.sin(ax), math.cos(ax)]])
     ry = np.array([[math.cos(ay), 0, math.sin(ay)], [0, 1, 0], [-math.sin(ay), 0, math.cos(ay)]])

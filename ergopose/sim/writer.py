@@ -22,19 +22,37 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
+import tomli_w
 
 from ergopose import __version__
-from ergopose.atomic import atomic_dir
+from ergopose.atomic import atomic_dir, write_text
+from ergopose.calibration.check import write_bar_observations
 from ergopose.errors import ConfigError
+from ergopose.geometry.calibration_file import save_calibration
 from ergopose.progress import ProgressCallback, report
+from ergopose.session import FLOOR_PLAN_FILE, TaskFactors, WorkerInfo, settings_to_toml
 from ergopose.session import FactorPeriod as SessionPeriod
-from ergopose.session import TaskFactors, WorkerInfo, settings_to_toml
-from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, write_ground_truth
+from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, load_ground_truth, write_ground_truth
 from ergopose.sim.motion import TASKS, Motion, simulate_motion
-from ergopose.sim.render import (VISIBILITY_CODES, BodyPrimitives, RenderOptions, all_body_primitives,
-                                 joint_visibility, render_video)
-from ergopose.sim.scene import DEFAULT_FPS, DEFAULT_SIZE, LENS_REGIONS_DEG, Scene, default_scene, lens_region, rig_cameras
+from ergopose.sim.render import (
+    VISIBILITY_CODES,
+    BodyPrimitives,
+    RenderOptions,
+    all_body_primitives,
+    joint_visibility,
+    render_video,
+)
+from ergopose.sim.scene import (
+    DEFAULT_FPS,
+    DEFAULT_SIZE,
+    LENS_REGIONS_DEG,
+    Scene,
+    default_scene,
+    lens_region,
+    rig_cameras,
+)
 
 #: The recording start written into simulated sessions (fixed, so the same seed gives the same files).
 DEFAULT_START = dt.datetime(2024, 3, 4, 8, 0, 0, tzinfo=dt.timezone(dt.timedelta(hours=1)))
@@ -88,13 +106,12 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
     bodies = all_body_primitives(motion)
     report(progress, "motion", 1, 1, unit="step")
     with atomic_dir(out) as tmp:
-        from ergopose.geometry.calibration_file import save_calibration
-
         save_calibration(tmp / "calibration.toml", cameras,
                          description=f"SIMULATED rig of ergopose simulate (seed {config.seed}): exact values")
         videos = [f"{c.name}.mp4" for c in cameras]
         bars = write_bar_observations_for(tmp / BARS_FILE, scene, cameras, config.seed)
         (tmp / "settings.toml").write_text(_settings_text(config, motion, cameras, videos, bars), encoding="utf-8")
+        (tmp / FLOOR_PLAN_FILE).write_text(floor_plan_text(scene), encoding="utf-8")
         per_camera = render_cameras(tmp, scene, cameras, motion, bodies, videos, config, progress)
         gt = tmp / "ground_truth"
         gt.mkdir()
@@ -120,8 +137,6 @@ def write_bar_observations_for(path: Path, scene, cameras, seed: int) -> float |
 
     Returns the bars' length (all have the same), or None when the scene has no bar.
     """
-    from ergopose.calibration.check import write_bar_observations
-
     bars = list(scene.bars)
     if not bars:
         return None
@@ -175,6 +190,32 @@ def _merge_periods(periods) -> list:
     return out
 
 
+def floor_plan_text(scene: Scene) -> str:
+    """The session's floor.toml (docs/session-format.md): the scene's area and furniture boxes."""
+    return _floor_plan_toml(list(scene.area), [b.to_dict() for b in scene.boxes])
+
+
+def _floor_plan_toml(area: list, boxes: list[dict[str, Any]]) -> str:
+    plan = {"area_m": [float(v) for v in area],
+            "boxes": [{"name": b["name"], "kind": b["kind"], "lo": [float(v) for v in b["lo"]],
+                       "hi": [float(v) for v in b["hi"]]} for b in boxes]}
+    return ("# The monitored area and its furniture (world metres), for the report's floor map.\n"
+            "# Written by ergopose simulate from its scene.\n" + tomli_w.dumps(plan))
+
+
+def add_floor_plan(session_dir: str | os.PathLike) -> bool:
+    """Give a session simulated before sessions had a floor.toml the one simulate writes now,
+    from the scene of its ground truth (area and furniture boxes). Nothing is done when the
+    session has a floor.toml or no ground truth. Returns True when it wrote one."""
+    folder = Path(session_dir)
+    target = folder / FLOOR_PLAN_FILE
+    if target.exists() or not (folder / "ground_truth").is_dir():
+        return False
+    scene = load_ground_truth(folder / "ground_truth").scene
+    write_text(target, _floor_plan_toml(scene["area_m"], scene.get("boxes", [])))
+    return True
+
+
 def _scene_info(config: SimulationConfig, scene: Scene, cameras, motion: Motion) -> dict[str, Any]:
     bars = []
     for b in scene.bars:
@@ -221,8 +262,6 @@ def _camera_options(config: SimulationConfig, index: int) -> RenderOptions:
 
 
 def _render_one(camera, scene, motion, bodies, path, fps, options, on_frame):
-    import cv2
-
     cv2.setNumThreads(1)
     render_video(camera, scene, bodies, path, fps, options, on_frame=on_frame)
     return joint_visibility(camera, scene, motion, bodies)
@@ -281,7 +320,7 @@ def render_cameras(folder: Path, scene: Scene, cameras, motion: Motion, bodies: 
             except queue.Empty:
                 for i, proc in list(running.items()):
                     if not proc.is_alive() and i not in results:
-                        raise RuntimeError(f"the render process of {cameras[i].name} died (exit code {proc.exitcode})")
+                        raise RuntimeError(f"the render process of {cameras[i].name} died (exit code {proc.exitcode})") from None
                 continue
             if kind == "progress":
                 done[i] = payload

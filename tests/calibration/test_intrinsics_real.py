@@ -186,6 +186,7 @@ def test_opencv_version_is_pinned_below_5_and_works(jy):
     assert res.rms == pytest.approx(REF_RMS, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_double_sphere_refinement_on_real_corners(jy):
     """The Double Sphere model fits the same real corners about as well as Kannala-Brandt
     (measured: RMS 0.2639 px vs 0.2638 px)."""

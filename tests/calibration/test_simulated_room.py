@@ -18,6 +18,9 @@ from ergopose.calibration._so3 import angle_between
 from ergopose.calibration.check import measure_bar, write_bar_observations
 from ergopose.geometry.calibration_file import load_calibration
 
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
+
 
 def _lens_error_px(true_lens, lens, max_deg: float) -> float:
     th, ph = np.meshgrid(np.radians(np.linspace(0.0, max_deg, 40)), np.linspace(0, 2 * np.pi, 24, endpoint=False))

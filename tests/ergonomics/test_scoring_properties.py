@@ -116,6 +116,7 @@ CHANGES = ([("angle", a) for a in ANGLES] + [("adverse", f) for f in ADVERSE_FLA
            + [("protective", f) for f in PROTECTIVE_FLAGS] + [("load", ""), ("mode", ""), ("coupling", "")])
 
 
+@pytest.mark.slow
 @settings(derandomize=True, max_examples=60, deadline=None)
 @given(rows=postures(), amount=st.floats(0.0, 2.0), boundary=st.sampled_from(["higher", "lower"]))
 def test_a_worse_posture_never_scores_lower(rows, amount, boundary):
@@ -136,6 +137,7 @@ def test_a_worse_posture_never_scores_lower(rows, amount, boundary):
 @settings(derandomize=True, max_examples=40, deadline=None)
 @given(rows=postures(), variant=st.sampled_from(["single", "separate"]),
        unknown=st.sampled_from(["absent", "missing"]))
+@pytest.mark.slow
 def test_every_score_stays_in_its_range(rows, variant, unknown):
     s = ScoringSettings(rula_lower_arm_adjust=variant, reba_twist_side_adjust=variant, unknown_flags=unknown)
     frame = _frame(rows)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from evaluation_helpers import ground_truth_tracks, write_results
 
 from ergopose.cli import main
@@ -20,6 +22,7 @@ def _strict(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
+@pytest.mark.slow
 def test_evaluate_prints_and_writes_json(small_session, tmp_path, capsys):
     out = write_results(small_session, tmp_path / "out", ground_truth_tracks(load_ground_truth(small_session)))
     assert main(["evaluate", "--session", str(small_session), "--results", str(out), "--bar-draws", "10"]) == 0

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,7 +13,6 @@ import pytest
 
 from ergopose.errors import InputError
 from ergopose.evaluation.compare import ResultsLayout, evaluate_results
-from ergopose.keypoints import BLAZEPOSE33, LIMBS
 from ergopose.recon.diagnostics import REGIONS
 from ergopose.sim.ground_truth import load_ground_truth
 
@@ -119,6 +117,7 @@ def test_order_of_tracked_identities_does_not_matter(small_session, gt, tmp_path
     assert ev["scores"]["rula_grand"]["off_edge"]["kappa"] == 1.0
 
 
+@pytest.mark.slow
 def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_session, gt, tmp_path):
     # naming by stature is off by default: switch it on in a copy of the session
     import shutil

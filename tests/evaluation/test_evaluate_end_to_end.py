@@ -12,12 +12,14 @@ from evaluation_helpers import simulate
 from ergopose.cli import main
 from ergopose.recon.diagnostics import REGIONS
 
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
+
 
 def _num(x) -> bool:
     return isinstance(x, (int, float)) and math.isfinite(x)
 
 
-@pytest.mark.slow
 def test_simulate_assess_evaluate(fetched_model_dir, tmp_path, capsys):
     session = simulate(tmp_path / "session", workers=2, minutes=0.1, seed=0, size="1024x768")
     out = tmp_path / "report"

@@ -65,6 +65,7 @@ def test_pixel_noise_costs_accuracy(small_session, exact_run, tmp_path):
     assert ev["errors_3d"]["final"]["mpjpe_mm"] < ev["errors_3d"]["raw"]["mpjpe_mm"]  # smoothing helps
 
 
+@pytest.mark.slow
 def test_oracle_through_the_command_line(small_session, tmp_path, capsys):
     out = tmp_path / "out"
     code = main(["evaluate", "--session", str(small_session), "--results", str(out), "--oracle",

@@ -71,6 +71,7 @@ def _pattern(rays):
     return 128 + 60 * np.sin(7 * rays[..., 0]) * np.cos(5 * rays[..., 1]) + 50 * rays[..., 2]
 
 
+@pytest.mark.slow
 def test_view_image_equals_the_scene_seen_by_the_virtual_camera():
     """Remapping a rendered fisheye image gives what a real pinhole there would see."""
     camera = ceiling_camera(FISHEYE_KB, size=(W, H))

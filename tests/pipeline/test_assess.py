@@ -18,6 +18,9 @@ import pytest
 
 from ergopose import cli
 
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[2]
 PROGRESS_LINE = re.compile(r"^\s*[\w ]+ \[[#-]+\] ")
 

@@ -10,6 +10,9 @@ from ergopose.ergonomics.angles import joint_angles, shoulder_heights
 from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, block_sizes, context_seconds
 from ergopose.recon.pipeline import TrackFrames
 
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
+
 FPS = 12.0
 
 

@@ -10,16 +10,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mannequin import MANNEQUIN_JOINTS, draw_mannequin
 
 from ergopose.geometry.camera import ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
-from ergopose.geometry.views import VirtualView, build_map
-from ergopose.recon.records import Detections2D
 from ergopose.geometry.lenses.rectilinear import Rectilinear
+from ergopose.geometry.views import VirtualView, build_map
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.fisheye import SOURCE_REFOCUS, SOURCE_SEARCH, FisheyePoseEstimator, ViewCache, view_rotation
-
-from mannequin import MANNEQUIN_JOINTS, draw_mannequin
+from ergopose.records import Detections2D
 
 SIZE = 1024
 LENS = KannalaBrandt(fx=330.0, fy=330.0, cx=511.5, cy=511.5, k1=0.01, k2=-0.004, k3=0.0, k4=0.0)

@@ -1,4 +1,4 @@
-"""The scoring of ergopose.pose.evaluation on synthetic people under a ceiling camera, against
+"""The scoring of ergopose.evaluation.pose on synthetic people under a ceiling camera, against
 answers worked out independently (angles from dot products, boxes from the pixels, rotations
 checked by where the transformed joints land)."""
 
@@ -11,7 +11,7 @@ from ergopose.errors import ConfigError
 from ergopose.geometry.camera import ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
-from ergopose.pose.evaluation import (
+from ergopose.evaluation.pose import (
     CONDITIONS,
     EVAL_JOINTS,
     FIT_JOINTS,
@@ -296,7 +296,7 @@ def test_unknown_condition_is_a_config_error(tmp_path):
 
 
 def test_region_follows_the_configured_limits(camera):
-    from ergopose.pose.evaluation import _Rows
+    from ergopose.evaluation.pose import _Rows
 
     # Hips 0.95 m up under a camera at 3 m: 57 degrees off-axis at 3.16 m from the axis.
     p = geometry(camera, standing_person(3.16, 0.0))

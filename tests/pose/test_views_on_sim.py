@@ -12,7 +12,7 @@ import pytest
 from ergopose.cli import main as cli_main
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pose.evaluation import (
+from ergopose.evaluation.pose import (
     CONDITIONS,
     EVAL_JOINTS,
     FIT_JOINTS,
@@ -24,6 +24,9 @@ from ergopose.pose.evaluation import (
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.geometry.regions import REGION_NAMES, region_index
+
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
 
 HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
 SHOULDERS = [JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]
@@ -127,7 +130,6 @@ def evaluation(sim_session, landmarker, detector):
     return evaluate_session(sim_session, landmarker=landmarker, detector=detector, step=2)
 
 
-@pytest.mark.slow
 def test_evaluation_counts_every_visible_person_once_per_condition(evaluation, truth):
     session, gt = truth
     people = [x for x in counted_people(session, gt) if x[0] % 2 == 0]
@@ -155,7 +157,6 @@ def test_evaluation_counts_every_visible_person_once_per_condition(evaluation, t
     assert evaluation.stage_frames == gt.n_frames
 
 
-@pytest.mark.slow
 def test_upright_views_find_people_that_raw_crops_miss(evaluation):
     """The paper's claim on this short session: in the outer and edge regions, the network finds
     nearly everyone in upright views and far fewer in raw, unrotated fisheye crops (people under
@@ -192,7 +193,7 @@ def test_session_without_ground_truth_is_refused(sim_session, tmp_path):
 
 
 def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_path, capsys):
-    from ergopose.pose.evaluation import main
+    from ergopose.evaluation.pose import main
 
     out = tmp_path / "tables.md"
     code = main([str(sim_session), "--conditions", "view,crop", "--step", "6", "--processes", "1",
@@ -205,7 +206,6 @@ def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_pa
     assert "ergopose: error:" in capsys.readouterr().err
 
 
-@pytest.mark.slow
 def test_two_processes_give_the_one_process_result(sim_session, fetched_model_dir, landmarker):
     """One spawned process per camera (this test process already runs LiteRT: a forked child
     could deadlock) gives the same trials as one process."""

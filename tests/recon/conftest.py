@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from ergopose.recon.synthetic import WorkerScript, observe, rig, walk_workers
+from ergopose.sim.synthetic import WorkerScript, observe, rig, walk_workers
 
 FPS = 12.0
 

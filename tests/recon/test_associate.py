@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from ergopose.recon.associate import associate, pair_costs, ray_closest_points
-from ergopose.recon.records import Detections2D
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.synthetic import observe, walk_workers
 from ergopose.recon.triangulate import reconstruct_frames
+from ergopose.records import Detections2D
+from ergopose.sim.synthetic import observe, walk_workers
 from tests.recon.conftest import FPS
 
 
@@ -36,7 +36,7 @@ def test_crossing_paths_pairs_are_right_in_every_frame(crossing):
 def test_ghost_pair_in_an_epipolar_plane_is_refused(cameras):
     """Two people side by side on a line parallel to the baseline: their swapped rays meet
     exactly (the ghost), but too high and with a too short trunk -- the pair is impossible."""
-    from ergopose.recon.synthetic import WorkerScript
+    from ergopose.sim.synthetic import WorkerScript
 
     scripts = [WorkerScript(1.75, np.array([[-1.0, 1.0]]), pause_s=10.0),
                WorkerScript(1.75, np.array([[1.0, 1.0]]), pause_s=10.0)]

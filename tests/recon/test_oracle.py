@@ -8,7 +8,7 @@ import pytest
 from ergopose.recon import diagnostics as D
 from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.synthetic import frames_from_oracle, simulated_ground_truth
+from ergopose.sim.synthetic import frames_from_oracle, simulated_ground_truth
 from ergopose.recon.triangulate import reconstruct_frames
 
 

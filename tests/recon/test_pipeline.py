@@ -5,6 +5,7 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pytest
 
 from ergopose.keypoints import LIMBS
 from ergopose.recon import diagnostics as D
@@ -29,6 +30,7 @@ def _run_chunks(people, n, cuts, settings, cameras, pickle_between=False):
     return TrackFrames.concat(parts)
 
 
+@pytest.mark.slow
 def test_chunked_processing_gives_the_same_table(shift):
     people = reconstruct_frames(shift.frames)
     n = len(shift.frames)
@@ -54,6 +56,7 @@ def _errors_and_cv(tf, truth, source):
     return err, float(np.mean(cvs))
 
 
+@pytest.mark.slow
 def test_smoothing_beats_raw_triangulation_and_meets_the_targets(shift):
     """2 px noise, 2 % dropouts, occlusions: smoothed MPJPE under 20 mm and well below raw;
     limb-length CV lower than raw; no identity switch; with the bone-length constraint the
@@ -97,7 +100,7 @@ def test_chunks_without_anybody(rng):
     """Frames where nobody is seen (an empty chunk, then people again) are handled and the
     rows stop while nobody is there."""
     from ergopose.recon.records import People3D
-    from ergopose.recon.synthetic import WorkerScript, walk_workers
+    from ergopose.sim.synthetic import WorkerScript, walk_workers
 
     n = int(20 * FPS)
     truth = walk_workers([WorkerScript(1.7, np.array([[0.0, 0.0], [1.0, 1.0]]), pause_s=3.0)], n, FPS)
@@ -115,11 +118,12 @@ def test_chunks_without_anybody(rng):
     assert np.array_equal(tf.frame, f)
 
 
+@pytest.mark.slow
 def test_slots_of_departed_workers_are_reused_with_identical_results(monkeypatch):
     """Workers leave and others come over a shift: the smoother reuses the slots of identities gone
     for good (memory and time per frame stay flat), and the table equals one without reuse."""
     from ergopose.recon.records import People3D
-    from ergopose.recon.synthetic import WorkerScript, walk_workers
+    from ergopose.sim.synthetic import WorkerScript, walk_workers
 
     n = 4000
     scripts = [WorkerScript(stature=1.62, waypoints=np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0]]), pause_s=20.0),

@@ -9,8 +9,9 @@ import pytest
 
 from ergopose.errors import InputError
 from ergopose.geometry.views import VirtualView, upright_rotation
-from ergopose.recon.records import Detections2D, People3D, body_centres, detections_from_fisheye, upright_rotations
-from ergopose.recon.synthetic import project_all, walk_workers
+from ergopose.recon.records import People3D, body_centres
+from ergopose.records import Detections2D, detections_from_fisheye, upright_rotations
+from ergopose.sim.synthetic import project_all, walk_workers
 from tests.recon.conftest import FPS, crossing_scripts
 
 

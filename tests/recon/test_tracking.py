@@ -5,6 +5,7 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pytest
 
 from ergopose.keypoints import LIMBS
 from ergopose.recon import diagnostics as D
@@ -12,7 +13,7 @@ from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
 from ergopose.recon.records import People3D
 from ergopose.recon.session import reconstruct_session
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.synthetic import WorkerScript, walk_workers
+from ergopose.sim.synthetic import WorkerScript, walk_workers
 from ergopose.recon.tracking import HIST_BIN_M, LimbHistogram, Tracker, limb_lengths, signature_distance
 from tests.recon.conftest import FPS
 
@@ -43,6 +44,7 @@ def _run(scenario, **kw):
     return summary, tf
 
 
+@pytest.mark.slow
 def test_shift_identities_survive_occlusion_and_leaving(shift):
     summary, tf = _run(shift, chunk_frames=240)
     assert summary.workers == ("worker_1", "worker_2", "worker_3", "worker_4")
@@ -111,6 +113,7 @@ def test_short_spurious_tracks_are_dropped(rng):
     assert len(tf) == n
 
 
+@pytest.mark.slow
 def test_tracker_state_carries_over_chunks_and_pickles(shift):
     from ergopose.recon.triangulate import reconstruct_frames
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ergopose.recon.records import Detections2D, detections_from_fisheye
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.synthetic import walk_workers
 from ergopose.recon.triangulate import point_variance, reconstruct_frames, triangulate_pairs, view_focal_px
+from ergopose.records import Detections2D, detections_from_fisheye
+from ergopose.sim.synthetic import walk_workers
 from tests.recon.conftest import FPS, crossing_scripts
 
 

@@ -1,6 +1,6 @@
 """From the other stages' real records to a rendered report.
 
-Scripted workers (ergopose.recon.synthetic.walk_workers) -> joint angles -> RULA/REBA ->
+Scripted workers (ergopose.sim.synthetic.walk_workers) -> joint angles -> RULA/REBA ->
 shift aggregation -> adapters; noisy 3D joints in a tracks table -> limb diagnostics -> adapter;
 then stored, re-loaded and rendered. The report's numbers must equal the aggregation's own.
 """
@@ -20,7 +20,7 @@ from ergopose.ergonomics.scoring import score_posture
 from ergopose.keypoints import LIMBS, NUM_JOINTS
 from ergopose.recon.diagnostics import limb_diagnostics
 from ergopose.recon.pipeline import TrackFrames
-from ergopose.recon.synthetic import WorkerScript, walk_workers
+from ergopose.sim.synthetic import WorkerScript, walk_workers
 from ergopose.report import adapters
 from ergopose.report.context import SessionInfo, WorkerInfo
 from ergopose.report.quality import reliable_frames, reliable_rule

@@ -14,6 +14,7 @@ from ergopose.report import results as R
 from ergopose.report.context import (LevelTime, SessionInfo, StandardFlag, WorkerDiagnostics, WorkerInfo,
                                      WorkerSummary)
 from ergopose.report._codec import from_jsonable, to_jsonable
+from ergopose.report.render import render_pages
 
 from report_synthetic import synthetic_session
 
@@ -139,3 +140,19 @@ def test_summary_for_another_worker_is_refused(tmp_path, small):
     wrong = [(WorkerSummary("W9", 1.0, (LevelTime("rula", 1, 1.0),), {}), d, f) for _, d, f in workers]
     with pytest.raises(InputError, match="worker 'W9'"):
         R.save_results(tmp_path, session, wrong)
+
+
+def test_results_in_memory_are_the_stored_results(tmp_path, small):
+    """ergopose assess renders from session_results(...) instead of reading the folder back: the
+    records, tables and every page must be what load_results gives."""
+    session, workers = small
+    R.save_results(tmp_path, session, workers)
+    stored = R.load_results(tmp_path)
+    memory = R.session_results(session, workers)
+    assert memory.session == stored.session
+    for a, b in zip(memory.workers, stored.workers):
+        assert a.info == b.info and _same_with_nan(a.summary, b.summary) and _same_with_nan(a.diagnostics, b.diagnostics)
+        pd.testing.assert_frame_equal(a.frames, b.frames, check_dtype=True)
+    assert render_pages(memory, tmp_path) == render_pages(stored, tmp_path)
+    with pytest.raises(ValueError, match="1 worker results for 2 workers"):
+        R.session_results(session, workers[:1])

@@ -11,11 +11,16 @@ import pytest
 
 from ergopose.cli import main
 from ergopose.keypoints import JOINT_INDEX as J
+from ergopose.report.adapters import FLOOR_KINDS, load_floor_plan
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.sim.oracle import OracleSource
 from ergopose.sim.render import CameraRenderer, RenderOptions, all_body_primitives
 from ergopose.sim.scene import default_scene
+from ergopose.sim.writer import add_floor_plan
+
+# End to end (simulated sessions, whole runs): left out by make test-fast.
+pytestmark = pytest.mark.slow
 
 GT_FILES = ("scene.toml", "joints.npz", "postures.parquet")
 
@@ -65,6 +70,35 @@ def test_simulated_session_is_valid(sessions):
     assert len(gt.postures) == 144 and set(gt.postures["worker"]) == {"w1", "w2"}
     assert gt.scene["simulated"] is True and gt.scene["generator"]["seed"] == 7
     assert {b["name"] for b in gt.reference_bars()} == {"bar_central", "bar_outer", "bar_edge"}
+
+
+def test_simulated_session_has_the_scene_as_its_floor_plan(sessions):
+    """The report's floor map comes from the session's floor.toml, which simulate writes from its
+    scene: the same area and the same furniture as the ground truth's scene.toml."""
+    s = load_session(sessions[0])
+    assert s.floor_plan_path == sessions[0] / "floor.toml"
+    scene = default_scene()
+    plan = load_floor_plan(s.floor_plan_path, cameras=[("cam_1", -0.75, 0.0)])
+    assert (plan.x_min, plan.x_max, plan.y_min, plan.y_max) == scene.area
+    drawn = [b for b in scene.boxes if b.kind in FLOOR_KINDS]
+    assert [f.name for f in plan.furniture] == [b.name for b in drawn] and len(drawn) > 5
+    assert all((f.x0, f.y0, f.x1, f.y1) == (b.lo[0], b.lo[1], b.hi[0], b.hi[1]) for f, b in zip(plan.furniture, drawn))
+    assert [c.name for c in plan.cameras] == ["cam_1"]
+    gt_boxes = load_ground_truth(sessions[0]).scene["boxes"]
+    assert [b["name"] for b in gt_boxes] == [b.name for b in scene.boxes]
+
+
+def test_a_session_simulated_without_floor_plan_gets_the_same_one(sessions, tmp_path):
+    """Sessions simulated before floor.toml existed get it from their ground truth's scene
+    (ergopose demo does this for its reused demo session): byte for byte what simulate writes."""
+    old = tmp_path / "old"
+    old.mkdir()
+    for p in sessions[0].iterdir():
+        if p.name != "floor.toml":
+            (old / p.name).symlink_to(p)
+    assert add_floor_plan(old) is True
+    assert (old / "floor.toml").read_bytes() == (sessions[0] / "floor.toml").read_bytes()
+    assert add_floor_plan(old) is False and add_floor_plan(tmp_path) is False
 
 
 def test_same_seed_same_session_other_seed_differs(sessions):

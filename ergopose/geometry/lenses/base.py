@@ -25,6 +25,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ergopose.errors import ConfigError
+
 
 class LensModel(ABC):
     """A central, radially symmetric (or generic) projection between rays and pixels."""
@@ -133,8 +135,6 @@ def parameters_from_dict(
     real, finite number (bool is not a number here). Unknown keys are rejected: a typo in a
     calibration file must not silently fall back to a default. Raises ConfigError naming the field.
     """
-    from ergopose.errors import ConfigError  # local: base.py stays importable on its own
-
     optional = optional or {}
     if not isinstance(data, dict):
         raise ConfigError(f"expected a table of {kind} lens parameters, got {type(data).__name__}", field="lens")
@@ -159,8 +159,6 @@ def parameters_from_dict(
 
 def finite_number(value: Any, field: str) -> float:
     """``value`` as a float; ConfigError naming ``field`` unless it is a real finite number."""
-    from ergopose.errors import ConfigError
-
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ConfigError(f"expected a number, got {value!r}", field=field)
     value = float(value)
@@ -171,8 +169,6 @@ def finite_number(value: Any, field: str) -> float:
 
 def require_positive(kind: str, **values: float) -> None:
     """ConfigError naming the first of ``values`` that is not a finite number > 0."""
-    from ergopose.errors import ConfigError
-
     for name, value in values.items():
         if not (np.isfinite(value) and value > 0):
             raise ConfigError(f"the {kind} lens needs {name} > 0, got {value!r}", field=f"lens.{name}")
@@ -180,8 +176,6 @@ def require_positive(kind: str, **values: float) -> None:
 
 def require_finite(kind: str, **values: float) -> None:
     """ConfigError naming the first of ``values`` that is not finite."""
-    from ergopose.errors import ConfigError
-
     for name, value in values.items():
         if not np.isfinite(value):
             raise ConfigError(f"the {kind} lens needs a finite {name}, got {value!r}", field=f"lens.{name}")

@@ -65,19 +65,31 @@ under the first.
 
 from __future__ import annotations
 
+import argparse
 import multiprocessing
 import os
+import sys
+import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+import cv2
 import numpy as np
 
-from ergopose.errors import ConfigError, InputError
+from ergopose.atomic import write_text
+from ergopose.cli_progress import ProgressBars
+from ergopose.errors import ConfigError, ErgoposeError, InputError
 from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, REGION_NAMES, describe, region_index
-from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.geometry.views import VirtualView
+from ergopose.keypoints import JOINT_INDEX
+from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker, Roi
+from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
 from ergopose.progress import ProgressCallback, report
+from ergopose.session import load_session
+from ergopose.sim.ground_truth import load_ground_truth
+from ergopose.video import read_frames
 
 CONDITIONS: tuple[str, ...] = ("view", "crop", "rotated_crop", "aligned_view", "stage")
 
@@ -133,15 +145,11 @@ class EvaluationSettings:
     stage: object = None  # PoseSettings; None: the stage's defaults
 
     def stage_settings(self):
-        from ergopose.pose.fisheye import PoseSettings
-
         return self.stage if self.stage is not None else PoseSettings()
 
     @classmethod
     def like_stage(cls, stage=None, **overrides) -> "EvaluationSettings":
         """Settings whose view fit equals the given (default) 2D stage settings."""
-        from ergopose.pose.fisheye import PoseSettings
-
         s = stage if stage is not None else PoseSettings()
         values = dict(margin=float(s.body_margin), min_half_fov=float(s.min_half_fov),
                       max_half_fov=float(s.max_half_fov), min_presence=float(s.min_presence), stage=s)
@@ -343,16 +351,12 @@ class PersonGeometry:
 
     def view(self, camera, size: tuple[int, int], settings: EvaluationSettings):
         """The upright virtual view aimed at the true hip centre, fitted to the true body."""
-        from ergopose.geometry.views import VirtualView
-
         radius = float(np.max(_angle(self.rays_cam[FIT_JOINTS], self.hip_ray[None])))
         half = float(np.clip(radius * settings.margin, settings.min_half_fov, settings.max_half_fov))
         return VirtualView.aimed_along(camera, self.hip_ray, hfov=2.0 * half, size=size)
 
     def aligned_view(self, camera, size: tuple[int, int], settings: EvaluationSettings):
         """:meth:`view` rolled about its optical axis so hip -> shoulder points up in the image."""
-        from ergopose.geometry.views import VirtualView
-
         view = self.view(camera, size, settings)
         r = view.rotation_cam_from_view
         hip = view.lens.project(self.hip_ray @ r)
@@ -372,8 +376,6 @@ class PersonGeometry:
 
     def crop_roi(self, settings: EvaluationSettings):
         """Axis-aligned square around the true keypoints' box in fisheye pixels (``crop``)."""
-        from ergopose.pose.blazepose import Roi
-
         px = self._fit_pixels()
         lo, hi = px.min(axis=0), px.max(axis=0)
         side = settings.margin * float(max(hi - lo))
@@ -381,8 +383,6 @@ class PersonGeometry:
 
     def rotated_roi(self, settings: EvaluationSettings):
         """Square on the true hip centre, rotated so hip -> shoulder points up (``rotated_crop``)."""
-        from ergopose.pose.blazepose import Roi
-
         hip = self.pixels[_HIPS].mean(axis=0)
         axis = self.pixels[_SHOULDERS].mean(axis=0) - hip
         rotation = float(np.arctan2(axis[0], -axis[1]))
@@ -482,11 +482,6 @@ def _match_stage(people: list[tuple[int, PersonGeometry]], others: list[PersonGe
 def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, int, int],
                      conditions: tuple[str, ...], settings: EvaluationSettings, landmarker, detector,
                      progress: ProgressCallback | None, done_offset: int, total: int) -> tuple[PersonTrials, int, int]:
-    from ergopose.pose.fisheye import FisheyePoseEstimator
-    from ergopose.session import load_session
-    from ergopose.sim.ground_truth import load_ground_truth
-    from ergopose.video import read_frames
-
     session = load_session(session_dir)
     gt = load_ground_truth(session.ground_truth_dir)
     cam = session.cameras[camera_index]
@@ -555,9 +550,6 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
 def _camera_worker(args) -> tuple[PersonTrials, int, int]:
     """One camera in its own process, with its own networks (num_threads as given)."""
     session_dir, camera_index, frames, conditions, settings, model_dir, num_threads = args
-    import cv2
-
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 
     cv2.setNumThreads(1)
     landmarker = BlazePoseLandmarker(model_dir=model_dir, num_threads=num_threads)
@@ -635,11 +627,6 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
     cache (``model_dir``) with ``num_threads`` LiteRT threads.
     processes: 1, or 2 to evaluate each camera in its own process with its own networks.
     """
-    import time
-
-    from ergopose.session import load_session
-    from ergopose.sim.ground_truth import load_ground_truth
-
     t0 = time.perf_counter()
     conditions = tuple(conditions)
     unknown = [c for c in conditions if c not in CONDITIONS]
@@ -675,8 +662,6 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
                 results.append(r)
                 report(progress, "pose evaluation", (k + 1) * per_camera, n_cam * per_camera, unit="frame")
     else:
-        from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-
         if landmarker is None:
             landmarker = BlazePoseLandmarker(model_dir=model_dir, num_threads=num_threads)
         if detector is None and "stage" in conditions:
@@ -776,18 +761,13 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
 
 
 # --------------------------------------------------------------------------------------------
-# Command line: python -m ergopose.pose.evaluation SESSION [options]
+# Command line: python -m ergopose.evaluation.pose SESSION [options]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Evaluate a simulated session and write the markdown tables (stdout or --out, atomically)."""
-    import argparse
-    import sys
-
-    from ergopose.errors import ErgoposeError
-
     parser = argparse.ArgumentParser(
-        prog="python -m ergopose.pose.evaluation",
+        prog="python -m ergopose.evaluation.pose",
         description="Detection rate and keypoint error of the BlazePose landmark model on upright views, "
                     "raw fisheye crops, rotated crops and the full 2D stage, per lens region, "
                     "on a session written by 'ergopose simulate' (docs/pose-in-fisheye.md).")
@@ -803,7 +783,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--model-dir", type=Path, default=None)
     parser.add_argument("--out", type=Path, default=None, help="write the markdown here instead of stdout")
     args = parser.parse_args(argv)
-    from ergopose.cli_progress import ProgressBars
 
     try:
         result = evaluate_session(args.session, conditions=[c.strip() for c in args.conditions.split(",") if c.strip()],
@@ -814,8 +793,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     text = render_markdown(result) + f"\nEvaluated in {result.seconds:.0f} s.\n"
     if args.out is not None:
-        from ergopose.atomic import write_text
-
         write_text(args.out, text)
     else:
         sys.stdout.write(text)

@@ -24,7 +24,11 @@ from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, 
 from ergopose.geometry.camera import Camera, ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import NUM_JOINTS
-from ergopose.recon.records import Detections2D, detections_from_fisheye
+from ergopose.records import detections_from_fisheye
+from ergopose.sim.ground_truth import GroundTruth
+from ergopose.sim.motion import TASKS, simulate_motion
+from ergopose.sim.render import all_body_primitives, joint_visibility
+from ergopose.sim.scene import default_scene, rig_cameras
 
 #: Distortion of a real 195-degree fisheye (TUM VI cam0, Kannala-Brandt k1..k4; Schubert et al. 2018).
 LENS_COEFFICIENTS = (0.0034823894, 0.0007150348, -0.0020532361, 0.0002029367)
@@ -268,11 +272,6 @@ def simulated_ground_truth(n_workers: int, seconds: float, *, fps: float = 12.0,
     through bodies and furniture) -- everything :class:`ergopose.sim.oracle.OracleSource` needs.
     Returns (ground_truth, cameras).
     """
-    from ergopose.sim.ground_truth import GroundTruth
-    from ergopose.sim.motion import TASKS, simulate_motion
-    from ergopose.sim.render import all_body_primitives, joint_visibility
-    from ergopose.sim.scene import default_scene, rig_cameras
-
     scene = default_scene()
     cameras = rig_cameras(*size)
     motion = simulate_motion(scene, n_workers, seconds, fps, seed)
