@@ -30,6 +30,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path, metavar="FILE", default=None,
                    help="where to write the evaluation as JSON (default OUT/evaluation.json, "
                         "with --oracle OUT/oracle/evaluation.json)")
+    p.add_argument("--force", action="store_true",
+                   help="evaluate results that belong to another recording than --session (refused otherwise)")
     o = p.add_argument_group("ORACLE run (evaluation only)")
     o.add_argument("--oracle", action="store_true",
                    help="reconstruct from the simulator's ORACLE 2D keypoints instead of evaluating assess's output")
@@ -59,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     from ergopose.evaluation.text import format_evaluation
 
     progress = ProgressBars()
+    _check_results(args, progress)
     oracle = None
     if args.oracle:
         for name in ("noise_px", "occluded_noise_px"):
@@ -87,3 +90,17 @@ def run(args: argparse.Namespace) -> int:
     print(format_evaluation(evaluation.to_dict()))
     print(f"\nJSON: {path}")
     return 0
+
+
+def _check_results(args: argparse.Namespace, progress) -> None:
+    """Refuse results (and an ORACLE run's folder) of another recording than --session, unless --force."""
+    from ergopose.evaluation.oracle import ORACLE_DIR
+    from ergopose.pipeline.guard import check_results_session
+    from ergopose.session import load_session
+
+    session = load_session(args.session, check_videos=False)
+    folders = [args.results] + ([args.results / ORACLE_DIR] if args.oracle else [])
+    for folder in folders:
+        check_results_session(folder, session, args.force, progress=progress,
+                              advice="give the results of this session with --results, or add --force to "
+                                     "evaluate them anyway")

@@ -440,7 +440,8 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
                                     reba_high_share=_high_share(s.timeline, "reba_risk_level", 3),
                                     csv_files=(frames_csv, summary_csv)))
     session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
-    index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress)
+    skipped = _skipped_frames(session, out_dir)
+    index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress, skipped)
     return Outputs(index_html=index, session_csv=session_csv, workers=tuple(outputs))
 
 
@@ -451,13 +452,29 @@ def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
     return float((levels[scored] >= threshold).sum() / n) if n else float("nan")
 
 
+def _skipped_frames(session: Session, out_dir: Path) -> tuple:
+    """csv/skipped_frames.csv from the stored chunks; the report's records of them."""
+    from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
+    from ergopose.pipeline.store import ResultStore
+
+    rows = skipped_in_store(ResultStore(out_dir))
+    write_skipped_csv(out_dir / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps)
+    return skipped_records(rows, session.camera_names, session.fps)
+
+
 def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
-                 models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None) -> Path:
-    """Store the report results (ergopose.report.results) and render the pages."""
+                 models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None,
+                 skipped: tuple = ()) -> Path:
+    """Store the report results (ergopose.report.results) and render the pages.
+
+    skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
+    """
     from ergopose.report import adapters
     from ergopose.report.context import DataFile, SessionInfo
     from ergopose.report.quality import reliable_rule
     from ergopose.report.render import render_report
+    from ergopose.pipeline.guard import fingerprint_of
+    from ergopose.pipeline.skipped import SKIPPED_CSV
     from ergopose.report.results import save_results
 
     worker_records = []
@@ -479,7 +496,9 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
                                               check=calibration_check(session)),
         floor=floor, workers=_with_identities(adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
                                               ident, session),
-        csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),))
+        csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
+                   DataFile("Skipped video frames (CSV)", f"{CSV_DIR}/{SKIPPED_CSV}")),
+        fingerprint=fingerprint_of(session), skipped_frames=tuple(skipped))
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, progress=progress)
     return files.index
