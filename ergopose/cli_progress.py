@@ -73,3 +73,9 @@ class ProgressBars:
         if event.message:
             text += f"  {event.message}"
         return text
+
+
+def warnings_only(event: ProgressEvent) -> None:
+    """A ProgressCallback for --quiet: no bars, but warnings (ergopose.progress.warn) still shown."""
+    if event.unit == "note":
+        print(f"ergopose: {event.stage}: {event.message}", file=sys.stderr, flush=True)

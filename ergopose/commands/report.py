@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ergopose.cli_progress import ProgressBars
+from ergopose.cli_progress import ProgressBars, warnings_only
 from ergopose.errors import InputError
 from ergopose.report.render import render_report
 from ergopose.report.results import RESULTS_DIR, SESSION_FILE
@@ -72,7 +72,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     folder = report_folder(args.session, args.out)
     progress = None if args.quiet else ProgressBars()
-    check_session(args.session, folder, args.force, progress)
+    check_session(args.session, folder, args.force, progress or warnings_only)
     files = render_report(folder, progress=progress)
     for path in (files.index, *files.workers):
         size = files.sizes[path.name]

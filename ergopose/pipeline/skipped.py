@@ -2,7 +2,7 @@
 
 The 2D stage marks a frame of a camera it could not decode (or whose size was wrong) in the
 chunk's ``detections`` (negative codes, :data:`ergopose.video.SKIP_CODES`) and goes on without
-it. After the run they are gathered from the stored chunks into ``csv/skipped_frames.csv`` (one
+it. After the run they are gathered from the stored chunks into ``csv/frames_skipped.csv`` (one
 row per camera and frame: camera, frame, time_s, reason; only the header when none was skipped)
 and into the report's quality section (:class:`ergopose.report.context.SkippedFrames`).
 """
@@ -19,7 +19,7 @@ import pandas as pd
 from ergopose.atomic import atomic_path
 from ergopose.video import SKIP_CODES
 
-SKIPPED_CSV = "skipped_frames.csv"
+SKIPPED_CSV = "frames_skipped.csv"
 _REASONS = {code: reason for reason, code in SKIP_CODES.items()}
 
 
@@ -40,7 +40,7 @@ def skipped_in_store(store) -> np.ndarray:
 
 
 def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Sequence[str], fps: float) -> Path:
-    """csv/skipped_frames.csv from :func:`skipped_in_store` rows (written atomically)."""
+    """csv/frames_skipped.csv from :func:`skipped_in_store` rows (written atomically)."""
     table = pd.DataFrame({
         "camera": [camera_names[int(c)] for c in skipped[:, 1]],
         "frame": skipped[:, 0],

@@ -453,7 +453,7 @@ def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
 
 
 def _skipped_frames(session: Session, out_dir: Path) -> tuple:
-    """csv/skipped_frames.csv from the stored chunks; the report's records of them."""
+    """csv/frames_skipped.csv from the stored chunks; the report's records of them."""
     from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
     from ergopose.pipeline.store import ResultStore
 

@@ -215,7 +215,7 @@ class SkippedFrames:
     """Frames of one camera's video that could not be read and were skipped (nobody was measured
     from that camera in them). camera: camera name. frames: how many. spans_s: (first, last)
     shift time in seconds of each run of consecutive skipped frames, in time order, at most
-    MAX_SKIPPED_SPANS of them (csv/skipped_frames.csv lists every frame)."""
+    MAX_SKIPPED_SPANS of them (csv/frames_skipped.csv lists every frame)."""
 
     camera: str
     frames: int
