@@ -55,3 +55,28 @@ def fetched_model_dir(tmp_path_factory):
     events = []
     fetch_models(progress=events.append, model_dir=model_dir)
     return model_dir, events
+
+
+# The tiny simulated session and one uninterrupted assessment of it: shared by the pipeline tests
+# (end to end, kill and resume, fault injection), made once per test session.
+
+
+@pytest.fixture(scope="session")
+def tiny_session(tmp_path_factory):
+    """3 seconds of a simulated two-worker shift (36 frame pairs at 12 fps)."""
+    from ergopose.sim.writer import SimulationConfig, simulate_session
+
+    path = tmp_path_factory.mktemp("session") / "day1"
+    simulate_session(path, SimulationConfig(workers=2, minutes=0.05, seed=4))
+    return path
+
+
+@pytest.fixture(scope="session")
+def reference(tiny_session, fetched_model_dir, tmp_path_factory):
+    """An uninterrupted run: the report folder and the bytes of every CSV file."""
+    from ergopose import cli
+    from tests.pipeline import helpers
+
+    out = tmp_path_factory.mktemp("reference") / "report"
+    assert cli.main(helpers.assess_args(tiny_session, out, fetched_model_dir[0])) == 0
+    return out, helpers.csv_bytes(out)

@@ -102,3 +102,35 @@ def test_a_damaged_frame_is_skipped_and_later_frames_keep_their_numbers(tmp_path
         assert [i for i, _, _ in got] == list(range(start, 36))
         for i, frame, why in got:
             assert why == "" and np.array_equal(frame, one_pass[i]), f"frame {i} read from {start} differs"
+
+
+class _FakeCapture:
+    """Frames of a capture as OpenCV would give them, some short (a truncated frame buffer)."""
+
+    def __init__(self, frames, fps=12.0):
+        self.frames, self.fps, self.pos = frames, fps, 0
+
+    def get(self, prop):
+        return {cv2.CAP_PROP_FRAME_HEIGHT: 120, cv2.CAP_PROP_FRAME_WIDTH: 160, cv2.CAP_PROP_FPS: self.fps,
+                cv2.CAP_PROP_POS_MSEC: 1000.0 * (self.pos - 1) / self.fps}[prop]
+
+    def set(self, prop, value):
+        self.pos = int(value)
+
+    def read(self):
+        if self.pos >= len(self.frames):
+            return False, None
+        self.pos += 1
+        return True, self.frames[self.pos - 1]
+
+
+def test_frames_of_the_wrong_size_are_skipped_and_named():
+    from ergopose.video import WRONG_SIZE, _checked
+
+    frames = [np.full((120, 160, 3), i, np.uint8) for i in range(10)]
+    frames[3] = frames[3][:60]  # half a frame
+    frames[7] = frames[7][:, :, 0]  # one channel
+    got = list(_checked(_FakeCapture(frames), 2, 10))
+    assert [i for i, _, _ in got] == list(range(2, 10))
+    assert [(i, why) for i, f, why in got if f is None] == [(3, WRONG_SIZE), (7, WRONG_SIZE)]
+    assert all(int(f[0, 0, 0]) == i for i, f, _ in got if f is not None)

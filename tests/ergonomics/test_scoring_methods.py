@@ -19,6 +19,7 @@ from ergopose.errors import ConfigError
 from ergopose.resources import resource_dir
 from tests.conftest import SHARED, need_shared
 
+REPO = Path(__file__).resolve().parents[2]
 REFERENCE = SHARED / "ergonomics" / "rula-reba-reference.md"
 
 

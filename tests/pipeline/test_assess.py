@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from ergopose import cli
-from tests.pipeline.conftest import PROGRESS_LINE
-from tests.pipeline.conftest import assess_args as _assess_args
-from tests.pipeline.conftest import csv_bytes as _csv_bytes
+from tests.pipeline.helpers import PROGRESS_LINE
+from tests.pipeline.helpers import assess_args as _assess_args
+from tests.pipeline.helpers import csv_bytes as _csv_bytes
 
 REPO = Path(__file__).resolve().parents[2]
 

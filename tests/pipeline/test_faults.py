@@ -13,14 +13,13 @@ import json
 import os
 import shutil
 import subprocess
-import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ergopose import cli
-from tests.pipeline.conftest import assess_args, csv_bytes, user_lines
+from tests.pipeline.helpers import assess_args, csv_bytes, user_lines
 
 
 def _files(folder: Path) -> dict[Path, bytes]:
