@@ -52,14 +52,19 @@ def run(args: argparse.Namespace) -> int:
     from ergopose.sim.writer import SimulationConfig, simulate_session
 
     bars = ProgressBars()
-    if _is_session(args.session):
+    fresh = not _is_session(args.session)
+    if not fresh:
         print(f"demo session: {args.session} (already simulated)")
     else:
         print(f"simulating the demo session in {args.session} ({args.workers} workers, {args.minutes:g} min, "
               f"seed {args.seed})")
         simulate_session(args.session, SimulationConfig(workers=args.workers, minutes=args.minutes, seed=args.seed),
                          progress=bars)
-    result = assess(args.session, AssessOptions(out_dir=args.out, processes=args.processes), progress=bars)
+    # A demo session simulated just now replaces the default demo report of an earlier one (with a
+    # warning); any other folder holding another recording's results is refused as by assess.
+    force = fresh and Path(args.out) == Path(DEMO_REPORT)
+    result = assess(args.session, AssessOptions(out_dir=args.out, processes=args.processes, force=force),
+                    progress=bars)
     print_result(result)
     print(f"compare with the simulation's ground truth: ergopose evaluate --session {args.session} "
           f"--results {args.out}")
