@@ -42,7 +42,7 @@ def make_chunks(out: Path, minutes: float) -> None:
 
     rng = np.random.default_rng(0)
     store = ResultStore(out)
-    store.chunks_dir.mkdir(parents=True, exist_ok=True)
+    store.open({"bench": "simulated motion", "minutes": minutes, "fps": FPS})  # the chunks' inputs
     n = int(round(minutes * 60 * FPS))
     m = simulate_motion(default_scene(), 2, n / FPS, FPS, seed=0)
     for start, stop in chunk_ranges(n, int(CHUNK_S * FPS)):

@@ -14,7 +14,7 @@ import sys
 from typing import Sequence
 
 from ergopose import __version__
-from ergopose.errors import ErgoposeError
+from ergopose.errors import ErgoposeError, output_error
 
 #: Subcommand modules, in the order ``--help`` lists them.
 COMMAND_MODULES: tuple[str, ...] = (
@@ -54,9 +54,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     func = getattr(args, "func", None)
-    if func is None:
-        parser.print_help()
-        return 0
+    if func is None:  # no command: the help, and the usage-error code (argparse's convention)
+        parser.print_help(sys.stderr)
+        return 2
     try:
         code = func(args)
     except ErgoposeError as exc:
@@ -67,4 +67,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except OSError as exc:  # a full disk or a read-only folder met while writing: one line, not a traceback
+        err = output_error(exc)
+        if err is None:
+            raise
+        print(f"ergopose: error: {err}", file=sys.stderr)
+        return 2
     return 0 if code is None else int(code)

@@ -33,6 +33,13 @@ class ProgressBars:
         self._current: str | None = None
 
     def __call__(self, event: ProgressEvent) -> None:
+        if event.unit == "note":  # ergopose.progress.warn: a line of its own, never throttled
+            if self.tty and self._current is not None:
+                self.stream.write("\n")
+                self._current = None
+            self.stream.write(f"ergopose: {event.stage}: {event.message}\n")
+            self.stream.flush()
+            return
         now = time.monotonic()
         start = self._start.setdefault(event.stage, now)
         finished = event.total is not None and event.done >= event.total
@@ -66,3 +73,9 @@ class ProgressBars:
         if event.message:
             text += f"  {event.message}"
         return text
+
+
+def warnings_only(event: ProgressEvent) -> None:
+    """A ProgressCallback for --quiet: no bars, but warnings (ergopose.progress.warn) still shown."""
+    if event.unit == "note":
+        print(f"ergopose: {event.stage}: {event.message}", file=sys.stderr, flush=True)

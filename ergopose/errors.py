@@ -7,6 +7,7 @@ wrong; the command line prints it on one line and exits non-zero, without a trac
 
 from __future__ import annotations
 
+import errno
 from os import PathLike
 
 
@@ -36,3 +37,38 @@ class InputError(ErgoposeError):
 
 class ModelError(ErgoposeError):
     """A pose model is missing, corrupt or cannot be run."""
+
+
+class OutputError(ErgoposeError):
+    """The output folder cannot take the results: not a folder, not writable, or the disk is full."""
+
+
+#: errno values that mean "this place cannot take more output", and what to tell the user.
+_OUTPUT_ERRNOS = {
+    errno.ENOSPC: "the disk is full",
+    errno.EDQUOT: "the disk quota is used up",
+    errno.EROFS: "the file system is read-only",
+    errno.EACCES: "no permission to write here",
+    errno.EPERM: "no permission to write here",
+}
+
+
+def output_reason(exc: BaseException) -> str | None:
+    """What an OSError of writing means for the user ("the disk is full", ...), or None."""
+    return _OUTPUT_ERRNOS.get(getattr(exc, "errno", None))
+
+
+def output_error(exc: OSError) -> OutputError | None:
+    """The one-line OutputError for an OSError of writing output (disk full, read-only, no
+    permission), or None for any other OSError. Files already complete are never touched by a
+    failed write (ergopose.atomic), so the message says the run can be resumed."""
+    what = output_reason(exc)
+    if what is None:
+        return None
+    where = exc.filename
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        advice = ("make room (or give another folder with --out) and run the same command again: "
+                  "the finished pieces are kept and the run continues where it stopped")
+    else:
+        advice = "give a folder you can write to with --out"
+    return OutputError(f"cannot write ({what}); {advice}", path=where)

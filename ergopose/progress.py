@@ -44,4 +44,10 @@ def report(progress: ProgressCallback | None, stage: str, done: int, total: int 
         progress(ProgressEvent(stage=stage, done=done, total=total, unit=unit, message=message))
 
 
+def warn(progress: ProgressCallback | None, message: str) -> None:
+    """Tell the user something they should know that does not stop the work (a damaged stored
+    piece computed again, frames skipped): an event of stage "warning", unit "note"."""
+    report(progress, "warning", 0, None, unit="note", message=message)
+
+
 ProgressFn = Callable[[ProgressEvent], None]

@@ -4,6 +4,10 @@ A video is read in chunks of frames (``read_frames(path, start, stop)``), each c
 its own reader and seeking to its first frame, so chunks can be processed in any order, in
 any process, and give the same frames as one pass from the start (tests check it). A file
 that ends early or cannot be decoded gives one InputError naming the file and the frame.
+
+:func:`read_frames_checked` is the reader of an assessment: a frame that cannot be decoded or has
+the wrong size is given as None with the reason, and reading goes on with the next frame (the
+reader seeks to it, so later frames keep their numbers); the caller decides how many it accepts.
 """
 
 from __future__ import annotations
@@ -96,3 +100,72 @@ def read_frames(path: str | os.PathLike, start: int, stop: int) -> Iterator[tupl
             yield index, frame
     finally:
         cap.release()
+
+
+#: Why a frame was skipped (read_frames_checked); detect stores the code per frame and camera.
+UNDECODABLE = "cannot be decoded"
+WRONG_SIZE = "has the wrong size (short or damaged frame)"
+SKIP_CODES = {UNDECODABLE: -1, WRONG_SIZE: -2}
+
+
+def read_frames_checked(path: str | os.PathLike, start: int,
+                        stop: int) -> Iterator[tuple[int, np.ndarray | None, str]]:
+    """Yield (frame index, BGR frame or None, "" or why it was skipped) for frames start .. stop-1.
+
+    A frame that cannot be decoded (UNDECODABLE) or whose size differs from the video's
+    (WRONG_SIZE) comes as None. Each decoded frame is numbered by its timestamp, not by counting:
+    in a damaged file OpenCV's seek can land frames early and the decoder can drop a frame, and
+    counting would then give later frames wrong numbers (measured on a damaged MPEG-4 file: a
+    seek to frame 30 landed on frame 19). Frames before ``start`` are read past; frames the decoder
+    dropped come as UNDECODABLE.
+    """
+    path = Path(path)
+    if start < 0 or stop < start:
+        raise ValueError(f"invalid frame range {start}..{stop}")
+    cap = _open(path)
+    try:
+        yield from _checked(cap, start, stop)
+    finally:
+        cap.release()
+
+
+def _checked(cap: cv2.VideoCapture, start: int, stop: int) -> Iterator[tuple[int, np.ndarray | None, str]]:
+    shape = (int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)), int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)))
+    fps = float(cap.get(cv2.CAP_PROP_FPS))
+    timed = np.isfinite(fps) and fps > 0
+
+    def number(counted: int) -> int:
+        """The decoded frame's number from its timestamp (the count where the file gives none)."""
+        ms = cap.get(cv2.CAP_PROP_POS_MSEC)
+        return int(round(ms * fps / 1000.0)) if timed and np.isfinite(ms) and ms >= 0 else counted
+
+    if start > 0:
+        cap.set(cv2.CAP_PROP_POS_FRAMES, start)
+    index = start
+    last = -1
+    while index < stop:
+        ok, frame = cap.read()
+        if not ok or frame is None:
+            yield index, None, UNDECODABLE
+            index += 1
+            if index < stop:
+                cap.set(cv2.CAP_PROP_POS_FRAMES, index)
+                last = -1
+            continue
+        n = number(index)
+        if n <= last:  # no progress by timestamp: trust the count from here on
+            timed = False
+            n = index
+        last = n
+        if n < index:  # the seek landed early: read on to the wanted frame
+            continue
+        while index < min(n, stop):  # frames the decoder dropped
+            yield index, None, UNDECODABLE
+            index += 1
+        if index >= stop:
+            break
+        if frame.ndim != 3 or frame.shape[:2] != shape:
+            yield index, None, WRONG_SIZE
+        else:
+            yield index, frame, ""
+        index += 1

@@ -37,3 +37,11 @@ def test_user_error_is_one_line_without_traceback(monkeypatch, capsys):
     assert cli.main(["boom"]) == 2
     err = capsys.readouterr().err
     assert err == "ergopose: error: day1/settings.toml: fps: expected a number, got 'abc'\n"
+
+
+def test_no_command_prints_the_help_and_exits_2(capsys):
+    assert cli.main([]) == 2
+    captured = capsys.readouterr()
+    assert "usage: ergopose" in captured.err and "commands" in captured.err
+    done = subprocess.run([sys.executable, "-m", "ergopose"], capture_output=True, text=True)
+    assert done.returncode == 2 and "usage: ergopose" in done.stderr

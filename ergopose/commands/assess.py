@@ -32,6 +32,11 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="video is processed and stored in pieces of this length (default 10)")
     p.add_argument("--model-dir", default=None, metavar="DIR",
                    help="pose model cache (default: $ERGOPOSE_MODEL_DIR or the user cache)")
+    p.add_argument("--force", action="store_true",
+                   help="write into an output folder that holds the results of another recording, replacing them")
+    p.add_argument("--max-bad-frames", type=float, default=0.2, metavar="SHARE",
+                   help="share of a piece of video (--chunk-seconds) that may be unreadable and skipped; "
+                        "more is an error naming the video and the time (default 0.2)")
     p.set_defaults(func=run)
     return p
 
@@ -39,8 +44,10 @@ def register(subparsers) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     if args.chunk_seconds <= 0:
         raise ConfigError(f"expected a positive number of seconds, got {args.chunk_seconds}", field="--chunk-seconds")
+    if not 0.0 <= args.max_bad_frames <= 1.0:
+        raise ConfigError(f"expected a share between 0 and 1, got {args.max_bad_frames}", field="--max-bad-frames")
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,
-                            model_dir=args.model_dir)
+                            model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames)
     result = assess(args.session, options, progress=ProgressBars())
     print_result(result)
     return 0

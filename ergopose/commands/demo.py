@@ -50,7 +50,8 @@ def _is_session(path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     bars = ProgressBars()
-    if _is_session(args.session):
+    fresh = not _is_session(args.session)
+    if not fresh:
         print(f"demo session: {args.session} (already simulated)")
         if add_floor_plan(args.session):  # a demo session simulated before sessions had a floor.toml
             print(f"added {args.session / FLOOR_PLAN_FILE} (the floor map) from the simulated scene")
@@ -59,7 +60,11 @@ def run(args: argparse.Namespace) -> int:
               f"seed {args.seed})")
         simulate_session(args.session, SimulationConfig(workers=args.workers, minutes=args.minutes, seed=args.seed),
                          progress=bars)
-    result = assess(args.session, AssessOptions(out_dir=args.out, processes=args.processes), progress=bars)
+    # A demo session simulated just now replaces the default demo report of an earlier one (with a
+    # warning); any other folder holding another recording's results is refused as by assess.
+    force = fresh and Path(args.out) == Path(DEMO_REPORT)
+    result = assess(args.session, AssessOptions(out_dir=args.out, processes=args.processes, force=force),
+                    progress=bars)
     print_result(result)
     print(f"compare with the simulation's ground truth: ergopose evaluate --session {args.session} "
           f"--results {args.out}")

@@ -5,12 +5,17 @@ an assessment against a reference 3D marker recording (docs/evaluation.md)."""
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
+from ergopose.atomic import write_text
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
 from ergopose.evaluation.compare import ResultsLayout, evaluate_results, write_json
-from ergopose.evaluation.oracle import OracleOptions, run_oracle
+from ergopose.evaluation.oracle import ORACLE_DIR, OracleOptions, run_oracle
+from ergopose.evaluation.reference import evaluate_reference, format_reference
+from ergopose.pipeline.guard import check_results_session
+from ergopose.session import load_session
 from ergopose.evaluation.text import format_evaluation
 
 
@@ -53,6 +58,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     r.add_argument("--worker", default=None, metavar="ID",
                    help="compare only this tracked worker (default: in each frame the tracked row nearest the "
                         "reference)")
+    p.add_argument("--force", action="store_true",
+                   help="evaluate results that belong to another recording than --session (refused otherwise)")
     o = p.add_argument_group("ORACLE run (evaluation only)")
     o.add_argument("--oracle", action="store_true",
                    help="reconstruct from the simulator's ORACLE 2D keypoints instead of evaluating assess's output")
@@ -81,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
         return run_reference(args, progress)
     if args.session is None:
         raise ConfigError("give --session DIR (a simulated session) or --reference FILE.trc", field="--session")
+    _check_results(args, progress)
     oracle = None
     if args.oracle:
         for name in ("noise_px", "occluded_noise_px"):
@@ -112,12 +120,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_reference(args: argparse.Namespace, progress) -> int:
-    import json
-
-    from ergopose.atomic import write_text
-    from ergopose.errors import ConfigError
-    from ergopose.evaluation.reference import evaluate_reference, format_reference
-
     if args.oracle:
         raise ConfigError("--oracle needs a simulated session, not --reference", field="--oracle")
     ev = evaluate_reference(args.results, args.reference, session_dir=args.session, axes=args.reference_axes,
@@ -127,3 +129,13 @@ def run_reference(args: argparse.Namespace, progress) -> int:
     print(format_reference(ev))
     print(f"\nJSON: {path}")
     return 0
+
+
+def _check_results(args: argparse.Namespace, progress) -> None:
+    """Refuse results (and an ORACLE run's folder) of another recording than --session, unless --force."""
+    session = load_session(args.session, check_videos=False)
+    folders = [args.results] + ([args.results / ORACLE_DIR] if args.oracle else [])
+    for folder in folders:
+        check_results_session(folder, session, args.force, progress=progress,
+                              advice="give the results of this session with --results, or add --force to "
+                                     "evaluate them anyway")

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ergopose.cli_progress import ProgressBars
+from ergopose.cli_progress import ProgressBars, warnings_only
 from ergopose.errors import InputError
 from ergopose.report.render import render_report
 from ergopose.report.results import RESULTS_DIR, SESSION_FILE
@@ -39,6 +39,20 @@ def report_folder(session: str | Path, out: str | Path | None = None) -> Path:
     return folder
 
 
+def check_session(session: str | Path, folder: Path, force: bool, progress=None) -> None:
+    """When --session is a session folder (not the report folder itself), refuse stored results of
+    another recording unless ``force`` (ergopose.pipeline.guard)."""
+    from ergopose.pipeline.guard import check_results_session
+    from ergopose.session import SETTINGS_FILE, load_session
+
+    session = Path(session)
+    if folder.resolve() == session.resolve() or not (session / SETTINGS_FILE).is_file():
+        return
+    check_results_session(folder, load_session(session, check_videos=False), force, progress=progress,
+                          advice="give the report folder of this session with --out, or add --force to render "
+                                 "them anyway")
+
+
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "report", help="re-render the HTML report of a session from its stored results",
@@ -49,6 +63,8 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser.add_argument("--out", metavar="DIR", default=None,
                         help=f"the report folder holding {RESULTS_DIR}/ (default: {DEFAULT_REPORTS_DIR}/<session name>)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--force", action="store_true",
+                        help="render results that belong to another recording than --session (refused otherwise)")
     parser.set_defaults(func=run)
     return parser
 
@@ -56,6 +72,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     folder = report_folder(args.session, args.out)
     progress = None if args.quiet else ProgressBars()
+    check_session(args.session, folder, args.force, progress or warnings_only)
     files = render_report(folder, progress=progress)
     for path in (files.index, *files.workers):
         size = files.sizes[path.name]

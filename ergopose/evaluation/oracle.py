@@ -26,6 +26,7 @@ from ergopose.atomic import atomic_dir, write_text
 from ergopose.ergonomics.export import write_worker_frames_csv
 from ergopose.errors import InputError
 from ergopose.evaluation.compare import ResultsLayout
+from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.identify import identify_by_stature
 from ergopose.pipeline.stages import score_worker, scoring_settings
 from ergopose.progress import ProgressCallback, report
@@ -122,6 +123,7 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
                           settings=recon.as_dict()) as writer:
             writer.meta["source"] = "oracle"
             writer.meta["oracle"] = options.as_dict()
+            writer.meta["session_fingerprint"] = fingerprint_of(session)  # whose results (ergopose.pipeline.guard)
             writer.write(tracks)
             writer.set_workers(statures)
         # Named after the settings' workers by stature, as ergopose assess does.

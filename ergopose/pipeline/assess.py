@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ergopose.errors import ConfigError
-from ergopose.pipeline import detect, stages
+from ergopose.pipeline import detect, guard, stages
 from ergopose.pipeline.detect import detect_chunk
 from ergopose.pipeline.stages import WorkerOutput
 from ergopose.pipeline.store import ResultStore
@@ -48,12 +48,17 @@ class AssessOptions:
     processes: worker processes for the 2D stage (default: one per core).
     chunk_seconds: length of a chunk of video processed and stored as one piece.
     model_dir: the pose model cache (default: ERGOPOSE_MODEL_DIR or the user cache).
+    force: write into an output folder holding the results of another recording (replacing them).
+    max_bad_frame_share: the share of a chunk's frames of one video that may be unreadable and
+        skipped; more is an error naming the video and the time.
     """
 
     out_dir: Path | None = None
     processes: int | None = None
     chunk_seconds: float = CHUNK_SECONDS
     model_dir: str | None = None
+    force: bool = False
+    max_bad_frame_share: float = 0.2
 
 
 @dataclass(frozen=True)
@@ -82,10 +87,13 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     """Run the whole assessment of a session (see the module docstring)."""
     t_start = time.perf_counter()
     timings: dict[str, float] = {}
+    if options.out_dir is not None:
+        guard.check_output_folder(options.out_dir)  # before any video is read
     report(progress, "session", 0, 1, unit="step", message="checking videos, calibration and settings")
     session = load_session(session_dir)
     report(progress, "session", 1, 1, unit="step")
     out_dir = Path(options.out_dir) if options.out_dir is not None else default_out_dir(session)
+    guard.check_before_work(out_dir, session, options.force, progress)
     scoring = stages.scoring_settings(session)
 
     t0 = time.perf_counter()
@@ -98,10 +106,10 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     chunk_frames = max(1, int(round(options.chunk_seconds * session.fps)))
     job = detect.DetectJob(cameras=session.calibrated_cameras,
                            videos=tuple(str(c.video_path) for c in session.cameras),
-                           fps=session.fps, model_dir=options.model_dir,
+                           fps=session.fps, model_dir=options.model_dir, max_bad_share=options.max_bad_frame_share,
                            num_threads=1)  # one thread per process: the same numbers whatever the process count
     store = ResultStore(out_dir)
-    with store.lock():
+    with guard.output_faults(out_dir), store.lock():
         return _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes,
                               progress, t_start, timings)
 
@@ -110,7 +118,7 @@ def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, 
                    t_start, timings) -> AssessResult:
     store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
     ranges = detect.chunk_ranges(session.frame_count, chunk_frames)
-    done = store.finished(ranges)
+    done = store.finished(ranges, progress)
     todo = [r for r in ranges if r[0] not in done]
 
     t0 = time.perf_counter()

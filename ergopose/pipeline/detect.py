@@ -14,14 +14,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator, FrameDetections, PoseSettings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.triangulate import reconstruct_frames
-from ergopose.video import read_frames
+from ergopose.video import SKIP_CODES, read_frames_checked
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,8 @@ class DetectJob:
     fps: frame rate; time of frame i is i / fps.
     model_dir: the pose model cache (None: the default cache).
     num_threads: LiteRT threads per network in one worker process.
+    max_bad_share: the share of a chunk's frames of one video that may be skipped (undecodable or
+        of the wrong size); more is an error naming the video and the time.
     """
 
     cameras: tuple[Camera, ...]
@@ -39,6 +42,7 @@ class DetectJob:
     fps: float
     model_dir: str | None = None
     num_threads: int = 1
+    max_bad_share: float = 0.2
     pose: PoseSettings = PoseSettings()
     recon: ReconSettings = ReconSettings()
 
@@ -48,7 +52,9 @@ class ChunkResult:
     """The result of one chunk: frames start .. stop-1.
 
     people: the People3D rows of the chunk (association + triangulation, before tracking).
-    detections: (stop - start, C) int16, people found by the 2D stage per frame and camera.
+    detections: (stop - start, C) int16, people found by the 2D stage per frame and camera; a
+        negative value marks a frame that was skipped (ergopose.video.SKIP_CODES: -1 could not be
+        decoded, -2 had the wrong size).
     """
 
     start: int
@@ -72,17 +78,29 @@ def _networks(job: DetectJob):
 
 
 def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None) -> ChunkResult:
-    """2D poses in every camera for frames start .. stop-1, associated and triangulated."""
+    """2D poses in every camera for frames start .. stop-1, associated and triangulated.
+
+    A frame of one camera that cannot be read is skipped (no people from that camera in that
+    frame) and marked in ``detections``; more than ``job.max_bad_share`` of the chunk's frames of
+    one video skipped is an InputError naming the video and the time.
+    """
     landmarker, detector = _networks(job)
     stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose) for i, cam in enumerate(job.cameras)]
-    readers = [read_frames(path, start, stop) for path in job.videos]
+    readers = [read_frames_checked(path, start, stop) for path in job.videos]
     frames_2d = []
     counts = np.zeros((stop - start, len(job.cameras)), np.int16)
+    limit = job.max_bad_share * (stop - start)
     for k, frames in enumerate(zip(*readers)):
         index = frames[0][0]
         time_s = index / job.fps
         per_camera = []
-        for c, ((_, image), stage, cam) in enumerate(zip(frames, stages, job.cameras)):
+        for c, ((_, image, problem), stage, cam) in enumerate(zip(frames, stages, job.cameras)):
+            if image is None:
+                counts[k, c] = SKIP_CODES[problem]
+                if np.count_nonzero(counts[:, c] < 0) > limit:
+                    raise _too_many_bad(job, c, start, stop, counts[:k + 1, c])
+                per_camera.append(FrameDetections.empty(c, index).to_recon(cam, time_s))
+                continue
             found = stage.process(image, index)
             counts[k, c] = found.count
             per_camera.append(found.to_recon(cam, time_s))
@@ -90,6 +108,21 @@ def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallba
         report(progress, "pose", k + 1, stop - start, unit="frame")
     people = reconstruct_frames(frames_2d, job.recon)
     return ChunkResult(start, stop, people, counts)
+
+
+def _too_many_bad(job: DetectJob, camera: int, start: int, stop: int, codes: np.ndarray) -> InputError:
+    bad = np.flatnonzero(codes < 0) + start
+    return InputError(f"{bad.size} of the {stop - start} frames between {_clock(start / job.fps)} and "
+                      f"{_clock(stop / job.fps)} of the video cannot be read (first bad frame {bad[0]}, at "
+                      f"{_clock(bad[0] / job.fps)}); more than the {100 * job.max_bad_share:g} % allowed "
+                      "(--max-bad-frames): the video is damaged there", path=job.videos[camera])
+
+
+def _clock(seconds: float) -> str:
+    """h:mm:ss.s of video time."""
+    h, rem = divmod(float(seconds), 3600.0)
+    m, s = divmod(rem, 60.0)
+    return f"{int(h)}:{int(m):02d}:{s:04.1f}"
 
 
 def chunk_ranges(n_frames: int, chunk_frames: int) -> list[tuple[int, int]]:

@@ -22,6 +22,7 @@ import pyarrow.parquet as pq
 from ergopose import __version__
 from ergopose.atomic import atomic_path
 from ergopose.calibration import check
+from ergopose.ergonomics import uncertainty as U
 from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
 from ergopose.ergonomics.export import FramesCsvWriter, write_session_summary_csv, write_worker_summary_csv
@@ -31,7 +32,9 @@ from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.identify import identify_by_stature
 from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, block_sizes
-from ergopose.pipeline.store import file_fingerprint
+from ergopose.pipeline.guard import fingerprint_of
+from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
+from ergopose.pipeline.store import ResultStore, file_fingerprint
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, model_card
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.pipeline import ShiftReconstruction
@@ -221,10 +224,6 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
     """Angle deviations, score probabilities and ranges, confidence and its cause per frame
     (:mod:`ergopose.ergonomics.uncertainty`): the joints resampled within the reconstruction's
     deviations and scored again with the same task inputs."""
-    from ergopose.ergonomics import uncertainty as U
-    from ergopose.ergonomics.angles import joint_angles
-    from ergopose.ergonomics.scoring import score_posture
-
     n = len(rows)
     draws_world = U.sample_points(rows.points_world, rows.std_world, rows.frame)
     extra = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
@@ -461,7 +460,8 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
                                     reba_high_share=_high_share(s.timeline, "reba_risk_level", 3),
                                     csv_files=(frames_csv, summary_csv)))
     session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
-    index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress)
+    skipped = _skipped_frames(session, out_dir)
+    index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress, skipped)
     return Outputs(index_html=index, session_csv=session_csv, workers=tuple(outputs))
 
 
@@ -472,9 +472,20 @@ def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
     return float((levels[scored] >= threshold).sum() / n) if n else float("nan")
 
 
+def _skipped_frames(session: Session, out_dir: Path) -> tuple:
+    """csv/frames_skipped.csv from the stored chunks; the report's records of them."""
+    rows = skipped_in_store(ResultStore(out_dir))
+    write_skipped_csv(out_dir / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps)
+    return skipped_records(rows, session.camera_names, session.fps)
+
+
 def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
-                 models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None) -> Path:
-    """Store the report results (ergopose.report.results) and render the pages."""
+                 models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None,
+                 skipped: tuple = ()) -> Path:
+    """Store the report results (ergopose.report.results) and render the pages.
+
+    skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
+    """
     worker_records = []
     for s in scored:
         summary = adapters.worker_summary(s.summary, frames=s.peak_frames if len(s.peak_frames) else None,
@@ -494,7 +505,9 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
                                               check=calibration_check(session)),
         floor=floor, workers=_with_identities(adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
                                               ident, session),
-        csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),))
+        csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
+                   DataFile("Skipped video frames (CSV)", f"{CSV_DIR}/{SKIPPED_CSV}")),
+        fingerprint=fingerprint_of(session), skipped_frames=tuple(skipped))
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, session_results(info, worker_records), progress=progress)
     return files.index

@@ -11,9 +11,12 @@ Layout under the output folder::
     pipeline/lock                    held (flock) by the one run writing to this folder
 
 Every file is written under a temporary name and renamed when complete, so a killed process
-leaves either a whole chunk file or none. A chunk file that cannot be read is computed again.
-When the inputs change (videos, calibration, settings, models, ergopose version, chunk size),
-the fingerprint changes and the earlier chunks are not reused.
+leaves either a whole chunk file or none. Each chunk file also carries the fingerprint of the
+inputs it was computed from and a SHA-256 checksum of its arrays: a chunk that cannot be read or
+fails its checksum (a disk fault, a file cut short by copying) is named, removed and computed
+again, and only that chunk. When the inputs change (videos, calibration, settings, models,
+ergopose version, chunk size), the fingerprint changes and the earlier chunks are not reused.
+The manifest only records the inputs for people to read: a damaged manifest costs no chunk.
 """
 
 from __future__ import annotations
@@ -33,7 +36,13 @@ from ergopose.atomic import atomic_path, clean_up, write_text
 from ergopose.errors import InputError
 from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
 
-FORMAT_VERSION = 2  # 2: People3D chunks carry every camera's 2D observations (the body fit)
+#: 2: chunk files carry the inputs' fingerprint and a checksum (version 1 chunks are computed again);
+#: 3: People3D chunks carry every camera's 2D observations (the body fit).
+FORMAT_VERSION = 3
+
+#: Members of a chunk file besides the People3D arrays.
+_CHECKSUM = "sha256"
+_INPUTS = "inputs"
 
 
 def file_fingerprint(path: str | os.PathLike, sample_bytes: int = 1 << 20) -> str:
@@ -57,6 +66,20 @@ def fingerprint(parts: dict[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def arrays_checksum(arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 over named arrays (sorted by name): each name, dtype, shape and bytes."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+class DamagedPiece(Exception):
+    """A stored piece that cannot be read or fails its checksum (message: what is wrong)."""
+
+
 class ResultStore:
     """The results folder of one assessment."""
 
@@ -65,6 +88,9 @@ class ResultStore:
         self.chunks_dir = self.root / "chunks"
         self.manifest_path = self.root / "manifest.json"
         self.tracks_path = self.root / "tracks.parquet"
+        self.inputs_fingerprint: str | None = None
+        #: (file, what was wrong) of every damaged chunk found and removed by this store object
+        self.damaged: list[tuple[Path, str]] = []
 
     @classmethod
     def at(cls, root: str | os.PathLike) -> "ResultStore":
@@ -99,19 +125,19 @@ class ResultStore:
                     fcntl.flock(f.fileno(), fcntl.LOCK_UN)
 
     def open(self, inputs: dict[str, Any]) -> bool:
-        """Prepare the store for inputs; True when earlier chunks of the same inputs are reused.
+        """Prepare the store for inputs; True when the manifest says earlier chunks are of the same inputs.
 
-        A store made from other inputs is cleared of its chunk files (they cannot be reused).
+        Chunk files of other inputs are removed when :meth:`finished` meets them (each carries the
+        fingerprint of its inputs), so a damaged or missing manifest costs nothing.
         """
-        manifest = {"format": FORMAT_VERSION, "ergopose": __version__, "fingerprint": fingerprint(inputs),
+        self.inputs_fingerprint = fingerprint(inputs)
+        manifest = {"format": FORMAT_VERSION, "ergopose": __version__, "fingerprint": self.inputs_fingerprint,
                     "inputs": inputs}
         old = self._read_manifest()
         reuse = old is not None and old.get("fingerprint") == manifest["fingerprint"] \
             and old.get("format") == FORMAT_VERSION
         self.chunks_dir.mkdir(parents=True, exist_ok=True)
-        if not reuse:
-            for p in self.chunks_dir.glob("chunk_*.npz"):
-                p.unlink()
+        if old != json.loads(json.dumps(manifest, sort_keys=True, default=repr)):
             write_text(self.manifest_path, json.dumps(manifest, indent=2, sort_keys=True, default=repr) + "\n")
         return reuse
 
@@ -124,39 +150,93 @@ class ResultStore:
     def chunk_path(self, start: int) -> Path:
         return self.chunks_dir / f"chunk_{start:09d}.npz"
 
+    def _fingerprint(self) -> str:
+        """The inputs' fingerprint: set by :meth:`open`, or read from the manifest (worker processes)."""
+        if self.inputs_fingerprint is None:
+            manifest = self._read_manifest()
+            if manifest is None or not isinstance(manifest.get("fingerprint"), str):
+                raise RuntimeError(f"{self.manifest_path}: the store was not opened for these inputs")
+            self.inputs_fingerprint = manifest["fingerprint"]
+        return self.inputs_fingerprint
+
     def save_chunk(self, result: ChunkResult) -> Path:
         final = self.chunk_path(result.start)
         arrays = people_to_arrays(result.people)
+        arrays.update(start=np.int64(result.start), stop=np.int64(result.stop),
+                      detections=np.asarray(result.detections), **{_INPUTS: np.array(self._fingerprint())})
+        arrays[_CHECKSUM] = np.array(arrays_checksum(arrays))
         with atomic_path(final) as tmp:
             with tmp.open("wb") as f:
-                np.savez(f, start=result.start, stop=result.stop, detections=result.detections, **arrays)
+                np.savez(f, **arrays)
         return final
 
-    def load_chunk(self, start: int, stop: int) -> ChunkResult | None:
-        """A finished chunk, or None if it is missing, unreadable or not for this range."""
+    def read_chunk(self, start: int, stop: int) -> ChunkResult | None:
+        """The stored chunk of frames start .. stop-1 of these inputs; None if there is none (no file,
+        or one of other inputs or another range). DamagedPiece if the file cannot be read or fails
+        its checksum."""
         path = self.chunk_path(start)
-        if not path.exists():
-            return None
         try:
             with np.load(path, allow_pickle=False) as data:
-                if int(data["start"]) != start or int(data["stop"]) != stop:
-                    return None
-                return ChunkResult(start, stop, people_from_arrays(data), np.asarray(data["detections"]))
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError):
+                arrays = {name: data[name] for name in data.files}
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+            raise DamagedPiece(f"cannot be read ({type(exc).__name__}: {exc})") from None
+        stored = arrays.pop(_CHECKSUM, None)
+        if stored is None:
+            return None  # an earlier format: computed again, as for changed inputs
+        if str(stored) != arrays_checksum(arrays):
+            raise DamagedPiece("fails its checksum (the file was changed or damaged after it was written)")
+        if str(arrays.get(_INPUTS)) != self._fingerprint():
+            return None
+        try:
+            if int(arrays["start"]) != start or int(arrays["stop"]) != stop:
+                return None
+            return ChunkResult(start, stop, people_from_arrays(arrays), np.asarray(arrays["detections"]))
+        except (KeyError, ValueError, TypeError) as exc:
+            raise DamagedPiece(f"does not hold a chunk of people ({type(exc).__name__}: {exc})") from None
+
+    def _drop_damaged(self, start: int, problem: str) -> None:
+        path = self.chunk_path(start)
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+        self.damaged.append((path, problem))
+
+    def load_chunk(self, start: int, stop: int) -> ChunkResult | None:
+        """A finished chunk, or None if it is missing, of other inputs, or damaged (a damaged file is
+        removed, so the next run computes it again, and listed in :attr:`damaged`)."""
+        try:
+            return self.read_chunk(start, stop)
+        except DamagedPiece as exc:
+            self._drop_damaged(start, str(exc))
             return None
 
-    def finished(self, ranges: Iterable[tuple[int, int]]) -> set[int]:
-        """Start frames of the chunks already stored for their range.
+    def finished(self, ranges: Iterable[tuple[int, int]], progress=None) -> set[int]:
+        """Start frames of the chunks already stored, whole and of these inputs, for their range.
 
-        Only each file's range is read (chunk files appear whole, by rename); the arrays are read
-        once, by the tracking stage, which names a file it cannot read.
+        Every stored chunk is read and its checksum checked. A damaged one is named (a warning
+        through ``progress``), removed and left out, so it is computed again in this run; a chunk
+        of other inputs or of another range is removed.
         """
+        from ergopose.progress import warn
+
+        ranges = list(ranges)
         done = set()
         for start, stop in ranges:
+            path = self.chunk_path(start)
             try:
-                with np.load(self.chunk_path(start), allow_pickle=False) as data:
-                    if int(data["start"]) == start and int(data["stop"]) == stop:
-                        done.add(start)
-            except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError):
+                chunk = self.read_chunk(start, stop)
+            except DamagedPiece as exc:
+                self._drop_damaged(start, str(exc))
+                warn(progress, f"{path}: the stored piece {exc}; it is computed again")
                 continue
+            if chunk is not None:
+                done.add(start)
+            else:
+                with contextlib.suppress(FileNotFoundError):
+                    path.unlink()
+        wanted = {self.chunk_path(start).name for start, _ in ranges}
+        for p in self.chunks_dir.glob("chunk_*.npz"):
+            if p.name not in wanted:  # another chunk length or session length
+                p.unlink()
         return done

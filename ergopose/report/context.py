@@ -211,6 +211,21 @@ class Setting:
 
 
 @dataclass(frozen=True)
+class SkippedFrames:
+    """Frames of one camera's video that could not be read and were skipped (nobody was measured
+    from that camera in them). camera: camera name. frames: how many. spans_s: (first, last)
+    shift time in seconds of each run of consecutive skipped frames, in time order, at most
+    MAX_SKIPPED_SPANS of them (csv/frames_skipped.csv lists every frame)."""
+
+    camera: str
+    frames: int
+    spans_s: tuple[tuple[float, float], ...] = ()
+
+
+MAX_SKIPPED_SPANS = 20
+
+
+@dataclass(frozen=True)
 class SessionInfo:
     """The session as a whole (``results/session.json``).
 
@@ -222,7 +237,9 @@ class SessionInfo:
     settings: the scoring settings (ergopose.ergonomics.settings.ScoringSettings) as used.
     calibration: the calibration and its accuracy, or None. floor: the monitored area.
     workers: every worker, in report order. csv_files: session-wide CSV files (the session
-    summary).
+    summary). fingerprint: the recording's fingerprint (ergopose.pipeline.guard; None in results
+    written before it existed). skipped_frames: per camera with skipped frames, which (empty when
+    every frame was read).
     """
 
     session_id: str
@@ -241,6 +258,8 @@ class SessionInfo:
     floor: FloorPlan
     workers: tuple[WorkerInfo, ...]
     csv_files: tuple[DataFile, ...] = ()
+    fingerprint: str | None = None
+    skipped_frames: tuple[SkippedFrames, ...] = ()
 
     def __post_init__(self) -> None:
         ids = [w.worker_id for w in self.workers]

@@ -288,6 +288,7 @@ class QualitySection:
     frequency_figure: reconstruction frequency per limb overall and per lens region.
     regions: time per lens region. calibration_rows / calibration_note: the calibration's accuracy.
     error_3d: median 3D error against ground truth in a sentence (empty when there is none).
+    video: which video frames could not be read and were skipped, in a sentence.
     """
 
     verdict: Verdict
@@ -301,6 +302,7 @@ class QualitySection:
     calibration_rows: tuple[CalibrationRow, ...]
     calibration_note: str
     error_3d: str
+    video: str = ""
 
 
 @dataclass(frozen=True)
@@ -923,7 +925,31 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
                                 caption="Share of tracked frames (%) in which each limb was reconstructed, overall and "
                                         "per lens region (central, outer, edge)."),
         region_spread=region_spread, regions=tuple(regions), calibration_rows=cal_rows, calibration_note=cal_note,
-        error_3d=err)
+        error_3d=err, video=skipped_sentence(session))
+
+
+def skipped_sentence(session: SessionInfo) -> str:
+    """The quality section's sentence on the video frames that could not be read and were skipped."""
+    from ergopose.report.context import MAX_SKIPPED_SPANS
+
+    if not session.skipped_frames:
+        return "Every frame of every camera's video was read."
+    parts = []
+    for r in session.skipped_frames:
+        spans = ", ".join(_clock_s(a) if b - a < 0.5 / session.fps else f"{_clock_s(a)} to {_clock_s(b)}"
+                          for a, b in r.spans_s)
+        more = " and later" if len(r.spans_s) >= MAX_SKIPPED_SPANS else ""
+        parts.append(f"{r.camera}: {r.frames:,} frame{'s' if r.frames != 1 else ''} "
+                     f"({fmt_percent(r.frames, session.frames)} of the session) at {spans}{more}")
+    return ("Some video frames could not be read and were skipped; in them nobody was measured from that "
+            "camera (the skipped-frames CSV file lists every one). " + "; ".join(parts) + ".")
+
+
+def _clock_s(seconds: float) -> str:
+    """Shift time as h:mm:ss.s."""
+    h, rem = divmod(float(seconds), 3600.0)
+    m, sec = divmod(rem, 60.0)
+    return f"{int(h)}:{int(m):02d}:{sec:04.1f}"
 
 
 def _spread(s) -> str:

@@ -18,10 +18,10 @@ from ergopose.ergonomics.methods import load_method, load_method_file
 from ergopose.ergonomics.scoring import lookup
 from ergopose.errors import ConfigError
 from ergopose.resources import resource_dir
+from tests.conftest import SHARED, need_shared
 
 REPO = Path(__file__).resolve().parents[2]
-REFERENCE = (Path(os.environ.get("ERGOPOSE_SHARED") or REPO.parent / "shared")
-             / "ergonomics" / "rula-reba-reference.md")
+REFERENCE = SHARED / "ergonomics" / "rula-reba-reference.md"
 
 
 def _markdown_tables(text: str) -> dict[str, list[list[str]]]:
@@ -49,8 +49,7 @@ def _markdown_tables(text: str) -> dict[str, list[list[str]]]:
 
 @pytest.fixture(scope="module")
 def reference() -> dict[str, list[list[str]]]:
-    if not REFERENCE.is_file():
-        pytest.fail(f"the ergonomics reference is missing: {REFERENCE}")
+    need_shared(REFERENCE, "the RULA/REBA reference")
     return _markdown_tables(REFERENCE.read_text(encoding="utf-8"))
 
 
@@ -118,7 +117,7 @@ def test_lookup_clamps_rula_8_plus_and_7_plus():
 
 
 def test_action_levels_match_the_reference():
-    text = REFERENCE.read_text(encoding="utf-8")
+    text = need_shared(REFERENCE, "the RULA/REBA reference").read_text(encoding="utf-8")
     rula = re.search(r"RULA action levels:(.*?)\n\n", text, re.S).group(1)
     found = re.findall(r"(\d+)(?:-(\d+))? AL(\d)", rula)
     expected = [(int(a), int(b or a), int(lv)) for a, b, lv in found]

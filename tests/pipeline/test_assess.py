@@ -4,7 +4,6 @@ outputs, resuming after kills with identical CSV files, and one clear message fo
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import signal
 import subprocess
@@ -17,39 +16,14 @@ import numpy as np
 import pytest
 
 from ergopose import cli
+from tests.pipeline.helpers import PROGRESS_LINE
+from tests.pipeline.helpers import assess_args as _assess_args
+from tests.pipeline.helpers import csv_bytes as _csv_bytes
 
 # End to end (simulated sessions, whole runs): left out by make test-fast.
 pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[2]
-PROGRESS_LINE = re.compile(r"^\s*[\w ]+ \[[#-]+\] ")
-
-
-@pytest.fixture(scope="module")
-def tiny_session(tmp_path_factory):
-    """3 seconds of a simulated two-worker shift (36 frame pairs at 12 fps)."""
-    from ergopose.sim.writer import SimulationConfig, simulate_session
-
-    path = tmp_path_factory.mktemp("session") / "day1"
-    simulate_session(path, SimulationConfig(workers=2, minutes=0.05, seed=4))
-    return path
-
-
-def _assess_args(session, out, model_dir, *extra):
-    return ["assess", "--session", str(session), "--out", str(out), "--model-dir", str(model_dir),
-            "--chunk-seconds", "0.5", *extra]
-
-
-@pytest.fixture(scope="module")
-def reference(tiny_session, fetched_model_dir, tmp_path_factory):
-    """An uninterrupted run: the report folder and the bytes of every CSV file."""
-    out = tmp_path_factory.mktemp("reference") / "report"
-    assert cli.main(_assess_args(tiny_session, out, fetched_model_dir[0])) == 0
-    return out, _csv_bytes(out)
-
-
-def _csv_bytes(out: Path) -> dict[str, bytes]:
-    return {p.name: p.read_bytes() for p in sorted((out / "csv").glob("*.csv"))}
 
 
 def test_assess_writes_the_report_and_csv_files(reference, capsys):
@@ -84,6 +58,56 @@ def test_killed_runs_resume_to_identical_csv_files(reference, tiny_session, fetc
     assert _csv_bytes(out) == expected
     leftovers = [p for p in out.rglob("*") if ".tmp" in p.name]
     assert not leftovers, f"temporary files left behind: {leftovers}"
+
+
+def _kill_when(args, env, out: Path, appeared, timeout_s: float = 120.0) -> bool:
+    """Start the assessment, kill its whole process group the moment ``appeared(out)`` is true;
+    False when the run ended first."""
+    proc = subprocess.Popen(args, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    t_end = time.monotonic() + timeout_s
+    try:
+        while proc.poll() is None and time.monotonic() < t_end:
+            if appeared(out):
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                return True
+            time.sleep(0.002)
+        return False
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def _temp_in(folder: str):
+    return lambda out: any(".tmp" in p.name for p in (out / folder).glob(".*")) if (out / folder).is_dir() else False
+
+
+@pytest.mark.slow
+def test_runs_killed_in_every_stage_resume_to_identical_csv_files(reference, tiny_session, fetched_model_dir,
+                                                                  tmp_path):
+    """Kill at a seeded chunk of the 2D stage, then while the tracks table, a scored-frames file,
+    a CSV file and the stored results are being written (the moment a temporary file of each
+    appears): each following run resumes, and the last one writes the CSVs of an uninterrupted run."""
+    _, expected = reference
+    out = tmp_path / "report"
+    args = [sys.executable, "-m", "ergopose", *_assess_args(tiny_session, out, fetched_model_dir[0])]
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    k = int(np.random.default_rng(16).integers(1, 5))  # of the 6 chunks
+    moments = {
+        f"{k} chunks stored": lambda o: len(list((o / "pipeline" / "chunks").glob("chunk_*.npz"))) >= k,
+        "tracks table": _temp_in("pipeline"),
+        "scored frames": _temp_in("pipeline/scored"),
+        "CSV files": _temp_in("csv"),
+        "stored results": lambda o: any(p.name.startswith(".results.") for p in o.glob(".results.*")),
+    }
+    killed = [name for name, appeared in moments.items() if _kill_when(args, env, out, appeared)]
+    assert len(killed) >= 3, f"killed only at {killed}"  # the late moments are short: most must be hit
+    done = subprocess.run(args, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert _csv_bytes(out) == expected
+    assert not [p for p in out.rglob("*") if ".tmp" in p.name]
 
 
 def _copy_session(src: Path, dst: Path) -> Path:
