@@ -72,9 +72,10 @@ def test_two_cameras_recover_the_body_and_its_uncertainty(rng):
     start = truth + rng.normal(0.0, 0.08, truth.shape)
     fit = _fit(P, px, conf, truth, start)
     err = np.linalg.norm(fit.points_world - truth, axis=-1)
-    # 1.5 px at f = 300 px and about 2.5 m is about 12 mm per view; two views, lengths known.
+    # 1.5 px at f = 300 px and about 2.5 m is about 12 mm across each view's rays; two views 1.5 m
+    # apart see about 2.5 m away at about 35 degrees to each other: about 22 mm in depth.
     assert np.median(err) < 0.015
-    assert np.percentile(err, 95) < 0.04
+    assert np.percentile(err, 95) < 0.06
     assert not fit.inferred.any()
     # The fit's deviations describe its errors: error / predicted deviation per coordinate.
     z = (fit.points_world - truth) / np.sqrt(fit.variance_world)
@@ -91,7 +92,10 @@ def test_without_the_body_model_terms_two_views_are_independent_triangulations(r
     fit = B.fit_bodies(P, px, conf, truth + 0.03, L, np.full_like(L, 1e6),
                        options=B.FitOptions(pose_prior_sigma_m=1e6, huber_k=1e6, iterations=15))
     dlt = triangulate_dlt(P, px, conf)
-    assert np.max(np.abs(fit.points_world - dlt.points)) < 2e-3
+    # The floor term stays: a foot point the noise put below the floor is lifted to it.
+    above = dlt.points[..., 2] > 0.02
+    assert np.max(np.abs(fit.points_world - dlt.points)[above]) < 2e-3
+    assert np.all(fit.points_world[..., 2] > -0.005)
 
 
 def test_one_camera_is_enough_with_the_segment_lengths_and_the_previous_pose(rng):

@@ -3,6 +3,7 @@ self-occlusion from its ray casts): the whole reconstruction against the simulat
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from ergopose.recon import diagnostics as D
@@ -34,10 +35,22 @@ def test_oracle_four_workers(oracle_session):
     assert D.identity_switches(tf, truth) == 0
     mapping = D.match_workers(tf, truth)
     assert sorted(mapping.values()) == [0, 1, 2, 3]
-    err = D.region_errors(tf, D.truth_for_workers(tf, truth, mapping))
-    raw = D.region_errors(tf, D.truth_for_workers(tf, truth, mapping), source="raw")
-    assert err["all"].mean_m < 0.020
-    assert err["all"].mean_m < 0.75 * raw["all"].mean_m
+    per_worker = D.truth_for_workers(tf, truth, mapping)
+    raw = D.region_errors(tf, per_worker, source="raw")
+    e = np.concatenate([np.linalg.norm(tf.worker_rows(w).points_world - g, axis=-1) for w, g in per_worker.items()])
+    raw_e = np.concatenate([np.linalg.norm(tf.worker_rows(w).raw_points_world - g, axis=-1)
+                            for w, g in per_worker.items()])
+    inferred = np.concatenate([tf.worker_rows(w).inferred for w in per_worker])
+    # The body model gives every joint of every tracked frame a position (the joint-by-joint
+    # triangulation gave 30 % of them: legs are almost never seen by both ceiling cameras here).
+    assert np.isfinite(e).mean() > 0.98
+    # Measured 24-26 mm over every joint, 16 mm over the joints two cameras saw (the
+    # triangulation alone: 28 mm raw, 18 mm smoothed, on that 30 %).
+    assert np.nanmean(e) < 0.030
+    assert np.nanmean(e[~inferred]) < 0.020
+    both = np.isfinite(raw_e) & np.isfinite(e)
+    assert np.mean(e[both]) < 0.75 * np.mean(raw_e[both])
+    assert raw["all"].points < 0.4 * np.isfinite(e).sum()
     statures = {w["id"]: w["stature_m"] for w in gt.scene["workers"]}
     for w, p in mapping.items():
         # Legs are rarely seen by both cameras here: the estimate rests on trunk and arms.
