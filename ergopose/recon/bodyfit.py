@@ -49,7 +49,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ergopose.geometry.triangulation import triangulate_dlt
 from ergopose.keypoints import JOINT_INDEX, LIMBS, NUM_JOINTS
 from ergopose.recon.tracking import LimbHistogram
 
@@ -158,8 +157,6 @@ _LHIP, _RHIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
 _FOOT = np.array([JOINT_INDEX[n] for n in ("left_ankle", "right_ankle", "left_heel", "right_heel",
                                            "left_foot_index", "right_foot_index")])
 _FLOOR_SIGMA_M = 0.02
-#: A joint triangulated for a segment-length sample must reproject within this (view pixels, RMS).
-LENGTH_SAMPLE_MAX_PX = 15.0
 #: A segment takes the median of its best-seen samples once it has this many (else of all).
 BEST_SAMPLES = 30
 #: Weight of each frame in a worker's running keypoint-noise estimate (about 5 frames' memory).
@@ -533,7 +530,11 @@ class ShiftBodies:
         """Segment lengths of every worker: the median of the best-seen samples (the gated
         triangulation: both points above min_confidence in two cameras, reprojection-checked)
         where a segment has BEST_SAMPLES of them; else, for the long segments (limbs, trunk sides,
-        neck), the median of every sample (:meth:`_length_samples`); else the population length
+        neck), the median of every sample (every joint triangulated from all the cameras that saw
+        it, :func:`ergopose.recon.triangulate.triangulate_observations`: with ceiling cameras legs,
+        the neck and the face are rarely above the gate in two cameras -- oracle, 30 s, 4
+        workers: thigh, shank and neck had 0-8 best samples per worker, and a population length
+        scaled from the hands missed the shank by up to 20 %); else the population length
         scaled to the worker's long segments. Short segments (hands, feet, face) never take the
         ungated samples: their noise is large against their length, and a noisy length is too
         long by about var / 2L (oracle, 30 s: hands +5 cm, ankle-heel +3 cm; MPJPE 34.4 mm
@@ -552,8 +553,8 @@ class ShiftBodies:
     def fit_range(self, rows: dict[str, np.ndarray], f0: int, f1: int) -> None:
         """Fit the rows of frames f0 <= f < f1, in frame order (rows sorted by frame).
 
-        rows: "frame", "identity", "points" (gated raw triangulation), "var", "views", "P", "px",
-        "oc"; writes "fit", "fit_var", "inferred", "fit_err" in place.
+        rows: "frame", "identity", "points" (gated raw triangulation), "ungated"
+        (triangulate_observations), "var", "views", "P", "px", "oc"; writes "fit", "fit_var", "inferred", "fit_err" in place.
         """
         frames = rows["frame"]
         b = int(f0)
@@ -567,7 +568,7 @@ class ShiftBodies:
                 for s, t in zip(starts, np.r_[starts[1:], i1]):
                     self._fit_frame(rows, np.arange(s, t))
                 best = segment_lengths(rows["points"][i0:i1])
-                every = segment_lengths(self._length_samples(rows, slice(i0, i1)))
+                every = segment_lengths(rows["ungated"][i0:i1])
                 ids = rows["identity"][i0:i1]
                 for ident in np.unique(ids):
                     h = self.hists.setdefault(int(ident), LimbHistogram(NUM_SEGMENTS))
@@ -575,25 +576,6 @@ class ShiftBodies:
                     h_all = self.hists_all.setdefault(int(ident), LimbHistogram(NUM_SEGMENTS))
                     h_all.add(every[ids == ident])
             b = e
-
-    def _length_samples(self, rows: dict[str, np.ndarray], sel: slice) -> np.ndarray:
-        """(n, 33, 3) points whose segment lengths measure the worker: each joint triangulated from
-        every camera that saw it at all (weighted DLT, confidence as weight, no confidence gate),
-        kept where its RMS reprojection error is within ``LENGTH_SAMPLE_MAX_PX``; where no 2D
-        observations are stored, the reconstruction's triangulation. A joint seen by one camera
-        gives no sample. Why not only the gated triangulation: with ceiling cameras legs, the neck
-        and the face are rarely above the gate in two cameras (oracle, 30 s, 4 workers: thigh,
-        shank and neck had 0-8 samples per worker), and a population length scaled from the hands
-        missed the shank by up to 20 %. A noisy but unbiased sample per frame gives a median that
-        is right (the bias of a noisy length is about sigma^2 / 2L, 3 mm for 5 cm noise)."""
-        oc = rows["oc"][sel]
-        P = rows["P"][sel]
-        absent = ~(oc > 0).any(axis=-1)  # cameras that did not see the person: any invertible P
-        P = np.where(absent[..., None, None], np.eye(3, 4) + np.array([0.0, 0.0, 0.0, 1.0]), P)
-        tri = triangulate_dlt(P, np.where(oc[..., None] > 0, rows["px"][sel], np.nan), oc)
-        X = np.where((tri.reprojection_error_px <= LENGTH_SAMPLE_MAX_PX)[..., None], tri.points, np.nan)
-        stored = oc.reshape(len(oc), -1).max(axis=1) > 0
-        return np.where(stored[:, None, None], X, rows["points"][sel])
 
     def _fit_frame(self, rows: dict[str, np.ndarray], idx: np.ndarray) -> None:
         f = int(rows["frame"][idx[0]])

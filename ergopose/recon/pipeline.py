@@ -30,6 +30,7 @@ from ergopose.recon.bodyfit import ShiftBodies
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
+from ergopose.recon.triangulate import triangulate_observations
 from ergopose.recon.tracking import LimbHistogram, Tracker, identity_name, limb_lengths
 
 #: Frames per smoothing block (the grid is frame // BLOCK_FRAMES).
@@ -275,7 +276,7 @@ class ShiftReconstruction:
                 "err": people.reprojection_error_px[sel], "views": people.views[sel],
                 "var": people.variance_world[sel],
                 "P": people.obs_projection[sel], "px": people.obs_pixels_view[sel],
-                "oc": people.obs_confidence[sel],
+                "oc": people.obs_confidence[sel], "ungated": triangulate_observations(people)[sel],
                 "fit": np.full((m, NUM_JOINTS, 3), np.nan), "fit_var": np.full((m, NUM_JOINTS, 3), np.nan),
                 "inferred": np.zeros((m, NUM_JOINTS), bool), "fit_err": np.full((m, NUM_JOINTS), np.nan)})
         if len(res.centres):

@@ -18,7 +18,7 @@ from typing import Sequence
 import numpy as np
 
 from ergopose.errors import InputError
-from ergopose.geometry.triangulation import reject_outliers
+from ergopose.geometry.triangulation import reject_outliers, triangulate_dlt
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.associate import associate
@@ -197,3 +197,28 @@ def point_variance(projections: np.ndarray, points: np.ndarray, weights: np.ndar
         var *= (1.0 + (reprojection_error_px / settings.reprojection_scale_px) ** 2)[..., None]
     var[~ok] = np.nan
     return var
+
+
+#: A joint triangulated from every observation (:func:`triangulate_observations`) must reproject
+#: within this (view pixels, RMS over the cameras).
+UNGATED_MAX_PX = 15.0
+
+
+def triangulate_observations(people: People3D) -> np.ndarray:
+    """(M, 33, 3) each joint triangulated from every camera that saw it at all: weighted DLT with
+    the confidences as weights and no confidence gate, kept where its RMS reprojection error is
+    within UNGATED_MAX_PX; NaN where fewer than two cameras saw it. Rows without stored 2D
+    observations (made from 3D points) give their points_world.
+
+    Noisier than the gated triangulation but unbiased, and available where the gate leaves
+    nothing (legs, neck and face under ceiling cameras): what body measurements are taken from.
+    """
+    oc = people.obs_confidence
+    P = people.obs_projection
+    absent = ~(oc > 0).any(axis=-1)  # cameras that did not see the person: any invertible matrix
+    P = np.where(absent[..., None, None], np.eye(3, 4) + np.array([0.0, 0.0, 0.0, 1.0]), P)
+    px = np.where(oc[..., None] > 0, people.obs_pixels_view, np.nan)
+    tri = triangulate_dlt(P, px, oc)
+    X = np.where((tri.reprojection_error_px <= UNGATED_MAX_PX)[..., None], tri.points, np.nan)
+    stored = oc.reshape(len(oc), -1).max(axis=1) > 0
+    return np.where(stored[:, None, None], X, people.points_world)
