@@ -20,15 +20,36 @@ is maximised with ``scipy.optimize.linear_sum_assignment``; leaving a person unp
 so one good pair is not traded for two poor ones). People left without a partner are single-view
 observations: they are kept (the tracker uses them to follow an identity) but never
 triangulated.
+
+:func:`associate_views` does the same for any number C of cameras: a person is a *set* of
+detections, at most one per camera. With three or more cameras, every candidate pair of every
+two cameras (cost within the gate) seeds a hypothesis: its torso joints are triangulated from
+the two views (least-squares point of the rays), and each other camera adds the detection
+whose torso rays pass closest to those points, if the mean distance is within
+``association_max_distance_m`` (a ray passing within d of the point where two rays meet lies
+within d of each of them, so the gate keeps every pairwise ray distance of the set within the
+pairwise gate). The torso is triangulated again from all the set's views; an added view whose
+rays are then farther than the gate is dropped (the worst first), and the set must pass the same
+plausibility checks as a pair. Sets are then taken greedily, the most cameras first and, among
+equals, the lowest cost, skipping any that shares a detection with a set already taken: a ghost
+pair (two people in one epipolar plane of two cameras) rarely gets a third camera's support,
+while the true set does. The detections left over are paired with the gated optimal assignment
+of each camera pair; where two cameras' assignments claim the same detection, the lower cost
+wins and the assignments are run again without the detections taken. With two cameras this is
+exactly :func:`associate`; with one camera every detection is single.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ergopose.geometry.triangulation import triangulate_midpoint
+
+from ergopose.keypoints import NUM_JOINTS
 from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS, Detections2D
 from ergopose.recon.settings import ReconSettings
 
@@ -99,13 +120,17 @@ def ray_closest_points(origin_a, rays_a, origin_b, rays_b):
     return dist, 0.5 * (pa + pb), s, t
 
 
-def pair_costs(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings) -> np.ndarray:
-    """(Na, Nb) mean ray-to-ray distance in metres of every candidate pair; +inf if impossible."""
+def pair_costs(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings, rays=None) -> np.ndarray:
+    """(Na, Nb) mean ray-to-ray distance in metres of every candidate pair; +inf if impossible.
+
+    rays: optional ((rays_a, centres_a), (rays_b, centres_b)) already computed (world_rays(),
+    centres_world()) -- associate_views computes them once per camera."""
     na, nb = det_a.count, det_b.count
     if na == 0 or nb == 0:
         return np.full((na, nb), np.inf)
-    ra, rb = det_a.world_rays(), det_b.world_rays()  # (N, 33, 3)
-    oa, ob = det_a.centres_world(), det_b.centres_world()
+    if rays is None:
+        rays = ((det_a.world_rays(), det_a.centres_world()), (det_b.world_rays(), det_b.centres_world()))
+    (ra, oa), (rb, ob) = rays  # (N, 33, 3), (N, 3)
     seen_a = det_a.confidence >= max(settings.min_confidence, 1e-12)
     seen_b = det_b.confidence >= max(settings.min_confidence, 1e-12)
     both = seen_a[:, None, :] & seen_b[None, :, :]  # (Na, Nb, 33)
@@ -156,3 +181,188 @@ def associate(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings 
     single_b = np.setdiff1d(np.arange(nb), pairs[:, 1])
     return Association(pairs=pairs, cost_m=cost[pairs[:, 0], pairs[:, 1]] if len(pairs) else np.zeros(0),
                        single_a=single_a, single_b=single_b, cost_matrix_m=cost)
+
+
+@dataclass(frozen=True)
+class ViewAssociation:
+    """Result of associating the people of C cameras in one frame.
+
+    groups: (K, C) int64, one row per person seen by two or more cameras: the index of its
+        detection in each camera's Detections2D, -1 where that camera is not in the set. Rows
+        with more cameras come first, then in the order of the detection indices.
+    cost_m: (K,) the set's cost in metres: for two cameras the pair cost (mean ray-to-ray
+        distance, :func:`pair_costs`); for three or more twice the mean distance of the set's
+        torso rays to their least-squares points (the same scale: two rays meeting at d lie d/2
+        from their midpoint).
+    singles: (S, 2) int64 rows (camera position, detection index) of the detections in no set,
+        by camera, then by detection index.
+    """
+
+    groups: np.ndarray
+    cost_m: np.ndarray
+    singles: np.ndarray
+
+    @property
+    def n_cameras(self) -> np.ndarray:
+        """(K,) number of cameras in each set."""
+        return (self.groups >= 0).sum(axis=1)
+
+
+def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None = None) -> ViewAssociation:
+    """Group the people seen by C calibrated cameras in one frame (module docstring).
+
+    dets: one Detections2D per camera (any C >= 1). Every detection ends up in exactly one set
+    or single. With C = 2 the sets are the pairs of :func:`associate`.
+    """
+    settings = settings or ReconSettings()
+    C = len(dets)
+    gate = settings.association_max_distance_m
+    used = [np.zeros(d.count, bool) for d in dets]
+    cam_pairs = [(a, b) for a in range(C) for b in range(a + 1, C)]
+    rays = [(d.world_rays(), d.centres_world()) if d.count else None for d in dets]
+    costs = {(a, b): pair_costs(dets[a], dets[b], settings, (rays[a], rays[b])) for a, b in cam_pairs}
+    groups: list[np.ndarray] = []
+    group_cost: list[float] = []
+    if C >= 3:
+        sets, set_cost = _multi_view_sets(dets, rays, costs, settings)
+        order = np.lexsort((set_cost, -(sets >= 0).sum(axis=1)))
+        for h in order:
+            cams = np.flatnonzero(sets[h] >= 0)
+            if any(used[c][sets[h, c]] for c in cams):
+                continue
+            for c in cams:
+                used[c][sets[h, c]] = True
+            groups.append(sets[h])
+            group_cost.append(float(set_cost[h]))
+    while True:  # pairs among the detections left
+        proposals = []
+        for a, b in cam_pairs:
+            cost = costs[(a, b)]
+            if cost.size == 0:
+                continue
+            cost = np.where(used[a][:, None] | used[b][None, :], np.inf, cost)
+            rows, cols = gated_assignment(cost, gate)
+            proposals += [(float(cost[i, j]), a, int(i), b, int(j)) for i, j in zip(rows, cols)]
+        conflict = False
+        for cst, a, i, b, j in sorted(proposals):
+            if used[a][i] or used[b][j]:
+                conflict = True
+                continue
+            used[a][i] = used[b][j] = True
+            row = np.full(C, -1, np.int64)
+            row[a], row[b] = i, j
+            groups.append(row)
+            group_cost.append(cst)
+        if not conflict:
+            break
+    if groups:
+        g = np.stack(groups)
+        order = np.lexsort(tuple(g[:, c] for c in range(C - 1, -1, -1)) + (-(g >= 0).sum(axis=1),))
+        g, cst = g[order], np.array(group_cost)[order]
+    else:
+        g, cst = np.zeros((0, C), np.int64), np.zeros(0)
+    singles = [(c, i) for c in range(C) for i in np.flatnonzero(~used[c])]
+    return ViewAssociation(groups=g, cost_m=cst,
+                           singles=np.array(singles, np.int64).reshape(-1, 2))
+
+
+def _multi_view_sets(dets: Sequence[Detections2D], rays: list, costs: dict, settings: ReconSettings):
+    """Hypotheses of three or more views, one per candidate pair (module docstring).
+
+    rays: per camera (world_rays(), centres_world()) or None without people.
+    Returns (sets (H, C) int64 with -1 for cameras not in the set, cost (H,)); only sets of at
+    least three cameras that pass the checks.
+    """
+    C = len(dets)
+    gate = settings.association_max_distance_m
+    min_conf = max(settings.min_confidence, 1e-12)
+    counts = [d.count for d in dets]
+    nmax = max(counts)
+    empty = (np.zeros((0, C), np.int64), np.zeros(0))
+    seeds = []
+    for (a, b), cost in costs.items():
+        ii, jj = np.nonzero(cost <= gate)
+        if len(ii):
+            m = np.full((len(ii), C), -1, np.int64)
+            m[:, a], m[:, b] = ii, jj
+            seeds.append(m)
+    if not seeds:
+        return empty
+    mem = np.concatenate(seeds)
+    H = len(mem)
+    # Per camera, padded with one empty slot at the end so that index -1 means "not in the set".
+    S = np.zeros((C, nmax + 1, NUM_JOINTS), bool)
+    R = np.full((C, nmax + 1, NUM_JOINTS, 3), np.nan)
+    O = np.full((C, nmax + 1, 3), np.nan)
+    for c, d in enumerate(dets):
+        if d.count:
+            S[c, :d.count] = d.confidence >= min_conf
+            R[c, :d.count], O[c, :d.count] = rays[c]
+    cam = np.arange(C)[None, :]
+    seed_cam = mem >= 0
+    X = triangulate_midpoint(O[cam, mem], R[cam, mem], (S[cam, mem] & seed_cam[..., None]).astype(np.float64)).points
+    fin = np.isfinite(X).all(axis=-1)  # (H, J) joints both seed views saw
+    # Each other camera adds the detection whose rays pass closest to the seed's points (over
+    # the torso joints it sees, else over all joints it sees, as pair_costs does).
+    for c in range(C):
+        n = counts[c]
+        if n == 0:
+            continue
+        d = R[c, :n][None]  # (1, n, J, 3)
+        v = X[:, None] - O[c, :n][None, :, None, :]  # (H, n, J, 3)
+        with np.errstate(invalid="ignore"):
+            t = np.einsum("hnjk,hnjk->hnj", v, d)
+            perp = np.linalg.norm(v - t[..., None] * d, axis=-1)
+        dist, ok = _view_distance(perp, fin[:, None, :] & S[c, :n][None], settings)
+        with np.errstate(invalid="ignore"):
+            ok &= ~np.any(fin[:, None, :] & S[c, :n][None] & ~(t > 0), axis=-1) & ~seed_cam[:, c, None]
+        dist = np.where(ok, dist, np.inf)
+        k = np.argmin(dist, axis=1)
+        add = dist[np.arange(H), k] <= gate
+        mem[add, c] = k[add]
+    grown = (mem >= 0).sum(axis=1) >= 3
+    if not grown.any():
+        return empty
+    mem, seed_cam = mem[grown], seed_cam[grown]
+    # Triangulate from all the views; drop the added view farthest beyond the gate, then again.
+    for _ in range(C - 1):
+        member = mem >= 0
+        tri = triangulate_midpoint(O[cam, mem], R[cam, mem], (member[..., None] & S[cam, mem]).astype(np.float64))
+        res = tri.residuals_m  # (H, C, J): +inf behind the camera, NaN where not used or no point
+        view_dist, ok = _view_distance(res, ~np.isnan(res), settings)
+        view_dist = np.where(ok, view_dist, np.inf)
+        bad = member & ~seed_cam & ~(view_dist <= gate)
+        if not bad.any():
+            break
+        rows = np.flatnonzero(bad.any(axis=1))
+        worst = np.argmax(np.where(bad, np.minimum(view_dist, 1e300), -1.0), axis=1)[rows]
+        mem[rows, worst] = -1
+    member = mem >= 0
+    keep = member.sum(axis=1) >= 3
+    # Plausibility of the set's torso, as for a pair.
+    P = tri.points
+    z = P[..., TORSO_JOINTS, 2]
+    with np.errstate(invalid="ignore"):
+        keep &= ~np.any(np.isfinite(z) & ((z < settings.torso_min_z_m) | (z > settings.torso_max_z_m)), axis=1)
+        sh = _masked_mean(P[:, SHOULDERS], np.isfinite(P[:, SHOULDERS]).all(axis=-1))
+        hp = _masked_mean(P[:, HIPS], np.isfinite(P[:, HIPS]).all(axis=-1))
+        trunk = np.linalg.norm(sh - hp, axis=-1)
+        keep &= ~np.isfinite(trunk) | ((trunk >= settings.trunk_min_length_m) & (trunk <= settings.trunk_max_length_m))
+        keep &= np.all(~member | np.isfinite(view_dist), axis=1)
+        cost = 2.0 * np.where(member, view_dist, 0.0).sum(axis=1) / member.sum(axis=1)
+    return mem[keep], cost[keep]
+
+
+def _view_distance(dist: np.ndarray, valid: np.ndarray, settings: ReconSettings):
+    """Mean over joints (last axis) of distances, the rule of pair_costs: the torso joints
+    among ``valid`` when there are at least association_min_joints of them, else all valid
+    joints (at least 3). Returns (mean distance, enough joints); inf propagates (behind)."""
+    torso = np.zeros(NUM_JOINTS, bool)
+    torso[TORSO_JOINTS] = True
+    vt = valid & torso
+    by_torso = vt.sum(axis=-1) >= settings.association_min_joints
+    use = np.where(by_torso[..., None], vt, valid)
+    n = use.sum(axis=-1)
+    with np.errstate(invalid="ignore"):
+        mean = np.where(use, dist, 0.0).sum(axis=-1) / np.maximum(n, 1)
+    return mean, by_torso | (n >= 3)
