@@ -223,8 +223,9 @@ def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None
     costs = {(a, b): pair_costs(dets[a], dets[b], settings, (rays[a], rays[b])) for a, b in cam_pairs}
     groups: list[np.ndarray] = []
     group_cost: list[float] = []
-    if C >= 3:
-        sets, set_cost = _multi_view_sets(dets, rays, costs, settings)
+    geo = _Views(dets, rays, settings) if C >= 3 else None
+    if geo is not None:
+        sets, set_cost = _multi_view_sets(geo, costs, settings)
         order = np.lexsort((set_cost, -(sets >= 0).sum(axis=1)))
         for h in order:
             cams = np.flatnonzero(sets[h] >= 0)
@@ -255,6 +256,12 @@ def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None
             group_cost.append(cst)
         if not conflict:
             break
+    if geo is not None:
+        groups, group_cost = _merge_sets(groups, group_cost, used, geo, costs, settings)
+        used = [np.zeros(d.count, bool) for d in dets]
+        for g in groups:
+            for c in np.flatnonzero(g >= 0):
+                used[c][g[c]] = True
     if groups:
         g = np.stack(groups)
         order = np.lexsort(tuple(g[:, c] for c in range(C - 1, -1, -1)) + (-(g >= 0).sum(axis=1),))
@@ -266,18 +273,65 @@ def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None
                            singles=np.array(singles, np.int64).reshape(-1, 2))
 
 
-def _multi_view_sets(dets: Sequence[Detections2D], rays: list, costs: dict, settings: ReconSettings):
+class _Views:
+    """The rays of every detection of every camera, padded with one empty slot per camera so
+    that index -1 means "not in the set": S (C, N+1, J) seen with min_confidence, R (C, N+1, J,
+    3) unit world rays, O (C, N+1, 3) centres."""
+
+    def __init__(self, dets: Sequence[Detections2D], rays: list, settings: ReconSettings) -> None:
+        C = len(dets)
+        self.counts = [d.count for d in dets]
+        n = max(self.counts)
+        self.S = np.zeros((C, n + 1, NUM_JOINTS), bool)
+        self.R = np.full((C, n + 1, NUM_JOINTS, 3), np.nan)
+        self.O = np.full((C, n + 1, 3), np.nan)
+        min_conf = max(settings.min_confidence, 1e-12)
+        for c, d in enumerate(dets):
+            if d.count:
+                self.S[c, :d.count] = d.confidence >= min_conf
+                self.R[c, :d.count], self.O[c, :d.count] = rays[c]
+        self.cam = np.arange(C)[None, :]
+
+    def check(self, mem: np.ndarray, settings: ReconSettings):
+        """Triangulate sets (H, C) from all their views (least-squares point of the rays).
+
+        Returns (view_dist (H, C): each member view's mean distance to the points (the rule of
+        pair_costs: torso joints, else all its triangulated joints, at least 3), +inf where it
+        has too few joints or a point lies behind it, NaN for non-members; plausible (H,): the
+        torso's height and trunk length pass the checks of a pair)."""
+        member = mem >= 0
+        tri = triangulate_midpoint(self.O[self.cam, mem], self.R[self.cam, mem],
+                                   (member[..., None] & self.S[self.cam, mem]).astype(np.float64))
+        res = tri.residuals_m  # (H, C, J): +inf behind the camera, NaN where not used or no point
+        view_dist, ok = _view_distance(res, ~np.isnan(res), settings)
+        view_dist = np.where(member, np.where(ok, view_dist, np.inf), np.nan)
+        P = tri.points
+        z = P[..., TORSO_JOINTS, 2]
+        with np.errstate(invalid="ignore"):
+            plausible = ~np.any(np.isfinite(z) & ((z < settings.torso_min_z_m) | (z > settings.torso_max_z_m)),
+                                axis=1)
+            sh = _masked_mean(P[:, SHOULDERS], np.isfinite(P[:, SHOULDERS]).all(axis=-1))
+            hp = _masked_mean(P[:, HIPS], np.isfinite(P[:, HIPS]).all(axis=-1))
+            trunk = np.linalg.norm(sh - hp, axis=-1)
+            plausible &= ~np.isfinite(trunk) | ((trunk >= settings.trunk_min_length_m)
+                                                & (trunk <= settings.trunk_max_length_m))
+        return view_dist, plausible
+
+
+def _set_cost(view_dist: np.ndarray) -> np.ndarray:
+    """Twice the mean over the member views of their distance (the scale of a pair's cost)."""
+    member = ~np.isnan(view_dist)
+    return 2.0 * np.where(member, view_dist, 0.0).sum(axis=1) / np.maximum(member.sum(axis=1), 1)
+
+
+def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings):
     """Hypotheses of three or more views, one per candidate pair (module docstring).
 
-    rays: per camera (world_rays(), centres_world()) or None without people.
     Returns (sets (H, C) int64 with -1 for cameras not in the set, cost (H,)); only sets of at
     least three cameras that pass the checks.
     """
-    C = len(dets)
+    C = len(geo.counts)
     gate = settings.association_max_distance_m
-    min_conf = max(settings.min_confidence, 1e-12)
-    counts = [d.count for d in dets]
-    nmax = max(counts)
     empty = (np.zeros((0, C), np.int64), np.zeros(0))
     seeds = []
     for (a, b), cost in costs.items():
@@ -290,22 +344,14 @@ def _multi_view_sets(dets: Sequence[Detections2D], rays: list, costs: dict, sett
         return empty
     mem = np.concatenate(seeds)
     H = len(mem)
-    # Per camera, padded with one empty slot at the end so that index -1 means "not in the set".
-    S = np.zeros((C, nmax + 1, NUM_JOINTS), bool)
-    R = np.full((C, nmax + 1, NUM_JOINTS, 3), np.nan)
-    O = np.full((C, nmax + 1, 3), np.nan)
-    for c, d in enumerate(dets):
-        if d.count:
-            S[c, :d.count] = d.confidence >= min_conf
-            R[c, :d.count], O[c, :d.count] = rays[c]
-    cam = np.arange(C)[None, :]
+    cam, S, R, O = geo.cam, geo.S, geo.R, geo.O
     seed_cam = mem >= 0
     X = triangulate_midpoint(O[cam, mem], R[cam, mem], (S[cam, mem] & seed_cam[..., None]).astype(np.float64)).points
     fin = np.isfinite(X).all(axis=-1)  # (H, J) joints both seed views saw
     # Each other camera adds the detection whose rays pass closest to the seed's points (over
     # the torso joints it sees, else over all joints it sees, as pair_costs does).
     for c in range(C):
-        n = counts[c]
+        n = geo.counts[c]
         if n == 0:
             continue
         d = R[c, :n][None]  # (1, n, J, 3)
@@ -324,33 +370,78 @@ def _multi_view_sets(dets: Sequence[Detections2D], rays: list, costs: dict, sett
     if not grown.any():
         return empty
     mem, seed_cam = mem[grown], seed_cam[grown]
-    # Triangulate from all the views; drop the added view farthest beyond the gate, then again.
+    # Triangulate from all the views; drop the added view farthest beyond the gate, then again
+    # (at most C - 2 drops, so the last round always ends the loop).
     for _ in range(C - 1):
-        member = mem >= 0
-        tri = triangulate_midpoint(O[cam, mem], R[cam, mem], (member[..., None] & S[cam, mem]).astype(np.float64))
-        res = tri.residuals_m  # (H, C, J): +inf behind the camera, NaN where not used or no point
-        view_dist, ok = _view_distance(res, ~np.isnan(res), settings)
-        view_dist = np.where(ok, view_dist, np.inf)
-        bad = member & ~seed_cam & ~(view_dist <= gate)
+        view_dist, plausible = geo.check(mem, settings)
+        bad = ~seed_cam & (mem >= 0) & ~(view_dist <= gate)
         if not bad.any():
             break
         rows = np.flatnonzero(bad.any(axis=1))
         worst = np.argmax(np.where(bad, np.minimum(view_dist, 1e300), -1.0), axis=1)[rows]
         mem[rows, worst] = -1
     member = mem >= 0
-    keep = member.sum(axis=1) >= 3
-    # Plausibility of the set's torso, as for a pair.
-    P = tri.points
-    z = P[..., TORSO_JOINTS, 2]
-    with np.errstate(invalid="ignore"):
-        keep &= ~np.any(np.isfinite(z) & ((z < settings.torso_min_z_m) | (z > settings.torso_max_z_m)), axis=1)
-        sh = _masked_mean(P[:, SHOULDERS], np.isfinite(P[:, SHOULDERS]).all(axis=-1))
-        hp = _masked_mean(P[:, HIPS], np.isfinite(P[:, HIPS]).all(axis=-1))
-        trunk = np.linalg.norm(sh - hp, axis=-1)
-        keep &= ~np.isfinite(trunk) | ((trunk >= settings.trunk_min_length_m) & (trunk <= settings.trunk_max_length_m))
-        keep &= np.all(~member | np.isfinite(view_dist), axis=1)
-        cost = 2.0 * np.where(member, view_dist, 0.0).sum(axis=1) / member.sum(axis=1)
-    return mem[keep], cost[keep]
+    keep = (member.sum(axis=1) >= 3) & plausible & np.all(~member | (view_dist <= gate), axis=1)
+    return mem[keep], _set_cost(view_dist)[keep]
+
+
+def _merge_sets(groups: list, group_cost: list, used: list, geo: _Views, costs: dict, settings: ReconSettings):
+    """Join sets (and single detections) of disjoint cameras that are one person.
+
+    The seeds of :func:`_multi_view_sets` only grow with a camera that sees enough of the joints
+    both seed views saw; with a hidden torso a person can end up as two pairs, e.g. cameras
+    (2, 3) and (1, 4). Two sets with no camera in common, linked by at least one candidate pair
+    within the gate, are joined when every view of the union lies within the gate of the union's
+    points and the union passes the plausibility checks; the lowest cost first, in rounds until
+    nothing joins. Returns the new (groups, group_cost).
+    """
+    C = len(geo.counts)
+    gate = settings.association_max_distance_m
+    mem = [np.asarray(g) for g in groups]
+    cost = list(group_cost)
+    for c in range(C):
+        for i in np.flatnonzero(~used[c]):
+            row = np.full(C, -1, np.int64)
+            row[c] = i
+            mem.append(row)
+            cost.append(np.nan)
+    if len(mem) < 2:
+        return groups, group_cost
+    # Global detection numbers and the candidate-pair links between them.
+    offset = np.concatenate([[0], np.cumsum(geo.counts)])
+    link = np.zeros((offset[-1], offset[-1]), bool)
+    for (a, b), cst in costs.items():
+        if cst.size:
+            link[offset[a]:offset[a + 1], offset[b]:offset[b + 1]] = cst <= gate
+    link |= link.T
+    while len(mem) >= 2:
+        M = np.stack(mem)
+        inside = np.zeros((len(M), offset[-1]), bool)
+        r, c = np.nonzero(M >= 0)
+        inside[r, offset[c] + M[r, c]] = True
+        linked = (inside.astype(np.int64) @ link.astype(np.int64) @ inside.T.astype(np.int64)) > 0
+        disjoint = ((M >= 0).astype(np.int64) @ (M >= 0).T.astype(np.int64)) == 0
+        s, t = np.nonzero(np.triu(linked & disjoint, 1))
+        if not len(s):
+            break
+        union = np.maximum(M[s], M[t])
+        view_dist, plausible = geo.check(union, settings)
+        ok = plausible & np.all(np.isnan(view_dist) | (view_dist <= gate), axis=1)
+        if not ok.any():
+            break
+        ucost = _set_cost(view_dist)
+        taken = np.zeros(len(M), bool)
+        new_mem, new_cost = [], []
+        for k in np.flatnonzero(ok)[np.argsort(ucost[ok], kind="stable")]:
+            if taken[s[k]] or taken[t[k]]:
+                continue
+            taken[s[k]] = taken[t[k]] = True
+            new_mem.append(union[k])
+            new_cost.append(float(ucost[k]))
+        mem = [m for m, x in zip(mem, taken) if not x] + new_mem
+        cost = [q for q, x in zip(cost, taken) if not x] + new_cost
+    keep = [k for k, m in enumerate(mem) if (m >= 0).sum() >= 2]
+    return [mem[k] for k in keep], [cost[k] for k in keep]
 
 
 def _view_distance(dist: np.ndarray, valid: np.ndarray, settings: ReconSettings):
