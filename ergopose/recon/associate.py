@@ -370,6 +370,9 @@ def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings):
     if not grown.any():
         return empty
     mem, seed_cam = mem[grown], seed_cam[grown]
+    # Seeds of one person (every pair of its cameras) usually grow into the same set.
+    mem, first = np.unique(mem, axis=0, return_index=True)
+    seed_cam = seed_cam[first]
     # Triangulate from all the views; drop the added view farthest beyond the gate, then again
     # (at most C - 2 drops, so the last round always ends the loop).
     for _ in range(C - 1):

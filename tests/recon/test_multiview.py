@@ -130,7 +130,7 @@ def test_more_cameras_smaller_3d_error(crossing4, crossing):
     both = np.isfinite(errors[2]) & np.isfinite(errors[4])
     assert both.sum() > 0.9 * np.isfinite(errors[2]).sum()
     mean = {k: np.mean(e[both]) for k, e in errors.items()}
-    # Measured: 13.0, 10.0, 7.8 mm (2 px noise, 2 % dropouts).
+    # Measured: 28.2, 18.3, 13.3 mm on 9,132 joints (2 px noise, 2 % dropouts).
     assert mean[4] < mean[3] < mean[2]
     assert mean[4] < 0.75 * mean[2]
     assert np.isfinite(errors[4]).sum() >= np.isfinite(errors[2]).sum()
@@ -183,11 +183,18 @@ def test_oracle_four_cameras(four_cameras):
         w = _workers(people, od)
         sets = np.flatnonzero(people.n_cameras >= 2)
         assert all(len(set(w[r][w[r] >= 0])) == 1 for r in sets)  # no set mixes workers
-        # Detections left out of their worker's set (measured: 1 of 1890 with 2 cameras,
-        # 17 of 3775 with 4: torsos hidden by furniture, too few joints to pair).
-        n_det = sum(len(o[c]) for o in od for c in range(len(sel)))
-        in_set = (w[sets] >= 0).sum()
-        assert in_set >= 0.99 * n_det - (people.n_cameras == 1).sum()
+        keys = [(people.frame[r], w[r][w[r] >= 0][0]) for r in sets]
+        assert len(set(keys)) == len(keys)  # no worker split over two sets
+        # Detections of workers seen by two or more cameras that were left out of the worker's
+        # set (measured: 2 of 1,860 with the rig's 2 cameras -- torsos hidden, too few joints
+        # to pair -- and 0 of 3,775 with 4).
+        seen = np.zeros((len(fr), 4), np.int64)
+        for f, o in enumerate(od):
+            for c in range(len(sel)):
+                seen[f, o[c]] += 1
+        n_det = seen[seen >= 2].sum()
+        left_out = n_det - (w[sets] >= 0).sum()
+        assert left_out <= 2
         e = np.full((len(fr), 4, NUM_JOINTS), np.nan)
         for r in sets:
             p = w[r][w[r] >= 0][0]
@@ -195,7 +202,7 @@ def test_oracle_four_cameras(four_cameras):
         errors[len(sel)] = e
     both = np.isfinite(errors[2]) & np.isfinite(errors[4])
     m2, m4 = np.mean(errors[2][both]), np.mean(errors[4][both])
-    # Measured: 27.9 -> 20.0 mm on the same joints; 9,594 -> 15,567 joints triangulated.
+    # Measured: 27.9 -> 15.8 mm on the same 9,594 joints; 9,594 -> 15,654 joints triangulated.
     assert m4 < 0.8 * m2
     assert np.isfinite(errors[4]).sum() > 1.4 * np.isfinite(errors[2]).sum()
     assert timing[4] < 0.05  # seconds per frame (measured 8-13 ms on a shared 2-core machine)
