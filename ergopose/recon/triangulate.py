@@ -44,6 +44,9 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     cameras = tuple(d.camera for d in frames[0])
     if not cameras:
         raise InputError("no cameras in the first frame", field="frames")
+    twice = sorted({c for c in cameras if cameras.count(c) > 1})
+    if twice:
+        raise InputError(f"camera {twice[0]!r} is listed twice in a frame (cameras {list(cameras)})", field="frames")
     C = len(cameras)
     rows_frame, rows_time, rows_det, rows_ncam = [], [], [], []
     set_P, set_px, set_w = [], [], []
