@@ -35,8 +35,13 @@ equals, the lowest cost, skipping any that shares a detection with a set already
 pair (two people in one epipolar plane of two cameras) rarely gets a third camera's support,
 while the true set does. The detections left over are paired with the gated optimal assignment
 of each camera pair; where two cameras' assignments claim the same detection, the lower cost
-wins and the assignments are run again without the detections taken. With two cameras this is
-exactly :func:`associate`; with one camera every detection is single.
+wins and the assignments are run again without the detections taken. Last, sets (or single
+detections) with no camera in common that are linked by a candidate pair are joined when all
+the union's views meet its triangulated points within the gate (:func:`_merge_sets`: a seed
+only grows with cameras that see enough of the joints both seed views saw, so a half-hidden
+worker could otherwise be left as two pairs). With two cameras this is exactly
+:func:`associate`; with one camera every detection is single. Details and measurements:
+docs/reconstruction.md, section 1.
 """
 
 from __future__ import annotations
@@ -48,11 +53,9 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ergopose.geometry.triangulation import triangulate_midpoint
-
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS, Detections2D
 from ergopose.recon.settings import ReconSettings
-
 
 
 @dataclass(frozen=True)
