@@ -322,7 +322,7 @@ def test_pose2sim_demo_association(pose2sim_frames):
     assert np.isfinite(diff_mm).mean() > 0.93 and np.nanmedian(diff_mm) < 3.0
 
     # At Pose2Sim's own confidence threshold (0.3) the second detections of cameras 1 and 2 meet:
-    # a person seated 3.3 m behind the subject (static, nose at 1.2 m), a 2-camera set.
+    # apparently a seated person 3.3 m behind the subject (static, nose at 1.2 m), a 2-camera set.
     low = reconstruct_frames(frames, ReconSettings(min_confidence=0.3))
     main = np.array([np.flatnonzero(low.frame == f)[np.argmax(low.n_cameras[low.frame == f])] for f in range(100)])
     assert np.all(low.n_cameras[main] == 4) and np.array_equal(low.detection[main][kept], chosen[kept])
