@@ -349,6 +349,50 @@ def recon_oracle(minutes: float = 10.0, size: tuple[int, int] = (2592, 1944), no
     emit(f"{tag}_generation", t_gen, "s", frames=n, note="motion, visibility ray casts, oracle, Detections2D")
 
 
+def recon_cameras(minutes: float = 1.0, size: tuple[int, int] = (2592, 1944), seed: int = 3) -> None:
+    from ergopose.sim.synthetic import extra_ceiling_cameras, frames_from_oracle, simulated_ground_truth
+    from ergopose.recon.triangulate import reconstruct_frames
+    from ergopose.sim.oracle import OracleSource
+    from ergopose.sim.scene import rig_cameras
+
+    cams = tuple(rig_cameras(*size)) + extra_ceiling_cameras(size)
+    gt, cams = simulated_ground_truth(4, minutes * 60.0, seed=seed, size=size, cameras=cams)
+    obs = OracleSource(gt, noise_px=2.0, seed=seed).observe()
+    frames, order = frames_from_oracle(obs, cams)
+    truth = gt.joints_world
+    errors = {}
+    for sel in ((0, 1), (0, 1, 2), (0, 1, 2, 3)):
+        fr = [tuple(f[c] for c in sel) for f in frames]
+        od = [[o[c] for c in sel] for o in order]
+        t0 = time.process_time()
+        people = reconstruct_frames(fr)
+        cpu = (time.process_time() - t0) / len(fr)
+        f0 = people.frame - people.frame.min()
+        w = np.full(people.detection.shape, -1)
+        for r, c in zip(*np.nonzero(people.detection >= 0)):
+            w[r, c] = od[f0[r]][c][people.detection[r, c]]
+        sets = np.flatnonzero(people.n_cameras >= 2)
+        mixed = sum(len(set(w[r][w[r] >= 0])) > 1 for r in sets)
+        keys = [(f0[r], w[r][w[r] >= 0].min()) for r in sets]
+        seen = np.zeros((len(fr), truth.shape[1]), np.int64)
+        for f, o in enumerate(od):
+            for c in range(len(sel)):
+                seen[f, o[c]] += 1
+        e = np.full((len(fr),) + truth.shape[1:3], np.nan)
+        for r in sets:
+            p = w[r][w[r] >= 0].min()
+            e[f0[r], p] = np.linalg.norm(people.points_world[r] - truth[f0[r], p], axis=-1)
+        errors[len(sel)] = e
+        common = np.isfinite(e) & np.isfinite(errors[2])
+        emit(f"recon_cameras_{len(sel)}", 1000 * cpu, "ms/frame", note="CPU time of association + triangulation",
+             sets=len(sets), sets_mixing_workers=int(mixed), workers_split=len(keys) - len(set(keys)),
+             detections_of_people_seen_by_2plus=int(seen[seen >= 2].sum()),
+             left_out_of_their_set=int(seen[seen >= 2].sum() - (w[sets] >= 0).sum()),
+             single_view_rows=int((people.n_cameras == 1).sum()), joints=int(np.isfinite(e).sum()),
+             raw_mpjpe_mm=round(1000 * float(np.nanmean(e)), 2),
+             raw_mpjpe_on_2camera_joints_mm=round(1000 * float(np.mean(e[common])), 2), frames=len(fr))
+
+
 def recon_vs_aniposelib(seconds: float = 60.0) -> None:
     import cv2
     from aniposelib.cameras import CameraGroup, FisheyeCamera
@@ -438,7 +482,7 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--no-write", action="store_true")
     ap.add_argument("names", nargs="*")
     args = ap.parse_args(argv)
-    names = args.names or ["track_smooth", "synthetic", "oracle", "aniposelib"]
+    names = args.names or ["track_smooth", "synthetic", "oracle", "aniposelib", "cameras"]
     if "track_smooth" in names:
         track_smooth_8h(args.hours, write=not args.no_write)
     if "synthetic" in names:
@@ -448,6 +492,8 @@ def main(argv: list[str]) -> int:
         recon_oracle(args.minutes, size=(1024, 768))
     if "aniposelib" in names:
         recon_vs_aniposelib()
+    if "cameras" in names:
+        recon_cameras()
     return 0
 
 

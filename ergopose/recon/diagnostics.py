@@ -10,7 +10,7 @@ and "reconstruction frequencies"). For every worker and limb of keypoints.LIMBS:
   which both joints of the limb have a position;
 
 each for all frames and split by lens region. The region of a limb in a frame comes from the
-larger of its two joints' ``lens_angle_deg`` (the larger angle off the two cameras' axes; for a
+larger of its two joints' ``lens_angle_deg`` (the largest angle off the cameras' axes; for a
 joint without a position, the worker's body centre): central below the first limit of
 ``lens_region_limits_deg``, outer up to the second, edge beyond (settings; defaults 30 and 60
 degrees).

@@ -28,15 +28,16 @@ class People3D:
 
     cameras: (C,) camera names.
     frame: (M,) int64 frame index; rows are sorted by frame. time_s: (M,) float64 seconds.
-    n_cameras: (M,) int8 -- 2 for a person associated across both cameras and triangulated, 1
-        for a person seen by one camera only (never triangulated: points all NaN).
+    n_cameras: (M,) int8 -- the number of cameras in the person's set (>= 2: associated across
+        them and triangulated), 1 for a person seen by one camera only (never triangulated:
+        points all NaN).
     detection: (M, C) int32 index of the person in that camera's Detections2D of the frame,
         -1 where that camera did not see (or was not associated with) the person.
     points_world: (M, J, 3) float64 metres; NaN where the joint was not reconstructed (seen by
         fewer than two cameras, confidence below the threshold, rejected as outlier, or a
         single-view person).
     reprojection_error_px: (M, J) RMS reprojection error in view pixels; NaN where points is NaN.
-    views: (M, J) int8 number of cameras whose observation of the joint was used: 2 for a
+    views: (M, J) int8 number of cameras whose observation of the joint was used: >= 2 for a
         triangulated joint, 1 where only one camera saw it (no 3D point), 0 where none did or
         the joint was rejected.
     confidence: (M, J) float64 mean 2D confidence of the used observations; 0 where views = 0.

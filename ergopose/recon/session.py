@@ -34,7 +34,7 @@ class SessionSummary:
     path: the tracks table (None when only kept in memory). frames: frames processed.
     workers: worker names in order of appearance. stature_m / limb_medians_m: per worker, the
     stature estimate and the median raw limb lengths (keypoints.LIMBS names -> metres).
-    people_pairs / people_single_view: person rows triangulated from two cameras / seen by one.
+    people_pairs / people_single_view: person rows triangulated from two or more cameras / seen by one.
     rows: worker-frame rows written. seconds: wall time.
     """
 
@@ -81,7 +81,7 @@ def reconstruct_session(frames: Iterable[Sequence[Detections2D]], out_path: str 
                         total_frames: int | None = None) -> tuple[SessionSummary, TrackFrames | None]:
     """Associate, triangulate, track, smooth and write a session.
 
-    frames: per frame, one Detections2D per camera (two cameras, frame indices increasing; frames
+    frames: per frame, one Detections2D per camera (one or more cameras, frame indices increasing; frames
         may be missing: they count as frames where nobody was seen).
     out_path: the Parquet tracks table; None keeps the rows in memory and returns them.
     cameras: the Camera objects (for lens angles); settings: ReconSettings.
@@ -99,7 +99,7 @@ def reconstruct_session(frames: Iterable[Sequence[Detections2D]], out_path: str 
     def run(sink) -> None:
         for chunk in _chunks(frames, chunk_frames):
             people = reconstruct_frames(chunk, settings)
-            counts["pairs"] += int(np.sum(people.n_cameras == 2))
+            counts["pairs"] += int(np.sum(people.n_cameras >= 2))
             counts["single"] += int(np.sum(people.n_cameras == 1))
             stop = chunk[-1][0].frame + 1
             done = shift.push(people, shift.next_frame, stop)

@@ -17,7 +17,7 @@ smoothed               bool       x, y, z come from the Kalman/RTS smoother (els
 gap_filled             bool       x, y, z filled by the smoother inside a short gap
 gated                  bool       the raw point was ignored by the smoother as an outlier
 raw_x, raw_y, raw_z    float32    the triangulation before smoothing (NaN = not triangulated)
-lens_angle_deg         float32    larger angle off the two cameras' axes of the joint's final
+lens_angle_deg         float32    largest angle off the cameras' axes of the joint's final
                                   position (or of the worker's body centre where that is NaN)
 inferred               bool       the position was placed by the body model: fewer than two
                                   cameras saw the joint with min_confidence

@@ -4,7 +4,7 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
 
 1. Prediction. Each live track predicts its body centre (mean of the torso joints) with
    constant velocity from its last update.
-2. Matching people seen by both cameras. Cost = horizontal (x, y) distance between predicted
+2. Matching people seen by two or more cameras. Cost = horizontal (x, y) distance between predicted
    and triangulated centre (the height of the centre jumps when the torso is hidden and the
    centre falls back to other joints; the floor position hardly does); a pair is possible
    within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per second the track has gone
@@ -17,7 +17,7 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    point where the ray reaches the track's height (in front of the camera), gated by
    ``single_view_gate_m``. A match keeps the track alive (its identity goes on through an
    occlusion from one camera) and moves the centre to that point in x and y.
-4. Births. A person seen by both cameras and matched to no track starts a new, *tentative*
+4. Births. A person seen by two or more cameras and matched to no track starts a new, *tentative*
    track.
 5. Ends. A track unseen for more than ``max_coast_s`` ends (a newly born tentative one after
    TENTATIVE_MAX_COAST_S).
@@ -343,7 +343,7 @@ class Tracker:
         ended: list[TrackEnd] = []
         cent_f, cent_t, cent_p = [], [], []
         bounds = np.searchsorted(frames, np.arange(first_frame, stop_frame + 1))
-        is3d = (people.n_cameras == 2) & np.isfinite(people.centre_world).all(axis=1)
+        is3d = (people.n_cameras >= 2) & np.isfinite(people.centre_world).all(axis=1)
         is1 = (people.n_cameras == 1) & np.isfinite(people.ray_world).all(axis=1)
         centre = people.centre_world
         origin, ray = people.ray_origin_world, people.ray_world

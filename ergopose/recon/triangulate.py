@@ -1,14 +1,16 @@
 """Association and triangulation of a run of frames: Detections2D per camera -> People3D.
 
-Per frame, the people of the two cameras are paired (:mod:`ergopose.recon.associate`). Every
-pair is triangulated with the weighted DLT in the two virtual views
+Per frame, the people of the C cameras (any C >= 1) are grouped into sets of at most one
+detection per camera (:func:`ergopose.recon.associate.associate_views`; with two cameras these
+are the pairs of :func:`~ergopose.recon.associate.associate`). Every set of two or more cameras
+is triangulated with the weighted DLT in its virtual views
 (:func:`ergopose.geometry.triangulation.reject_outliers`, weights = 2D confidence, keypoints
-below ``min_confidence`` excluded), all pairs of all frames in one vectorised call. Outliers:
-with three or more views the worst view of a joint above ``reprojection_threshold_px`` is
-dropped (reject_outliers); with two views nothing tells which of the two is wrong, so a joint
-still above the threshold is rejected as a whole -- its point becomes NaN and both observations
-are marked in ``rejected``. A joint seen by fewer than two cameras stays NaN: nothing is
-invented. People without a partner become single-view rows (n_cameras = 1).
+below ``min_confidence`` excluded), all sets of all frames in one vectorised call. Outliers:
+while a joint has three or more views the worst view above ``reprojection_threshold_px`` is
+dropped (reject_outliers); with two views left nothing tells which of the two is wrong, so a
+joint still above the threshold is rejected as a whole -- its point becomes NaN and its
+observations are marked in ``rejected``. A joint seen by fewer than two cameras stays NaN:
+nothing is invented. People in no set become single-view rows (n_cameras = 1).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from ergopose.errors import InputError
 from ergopose.geometry.triangulation import reject_outliers, triangulate_dlt
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
-from ergopose.recon.associate import associate
+from ergopose.recon.associate import associate_views
 from ergopose.recon.records import TORSO_JOINTS, People3D, body_centres
 from ergopose.recon.settings import ReconSettings
 from ergopose.records import Detections2D
@@ -31,48 +33,63 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
                        progress: ProgressCallback | None = None) -> People3D:
     """Associate and triangulate every frame of a run.
 
-    frames: for each frame, one Detections2D per camera, in the same camera order every frame
-        (exactly two cameras); frame indices must increase.
-    Returns the :class:`People3D` rows of all frames (pairs first within a frame, then the
-    single-view people of camera A, then of camera B).
+    frames: for each frame, one Detections2D per camera (one or more cameras), in the same camera
+        order every frame; frame indices must increase.
+    Returns the :class:`People3D` rows of all frames (within a frame: the sets seen by two or
+    more cameras, most cameras first (ViewAssociation order), then the single-view people of
+    the first camera, of the second, ...).
     """
     settings = settings or ReconSettings()
     if not frames:
         raise InputError("no frames to reconstruct", field="frames")
     cameras = tuple(d.camera for d in frames[0])
-    if len(cameras) != 2:
-        raise InputError(f"association needs exactly two cameras, got {len(cameras)}", field="frames")
+    if not cameras:
+        raise InputError("no cameras in the first frame", field="frames")
+    twice = sorted({c for c in cameras if cameras.count(c) > 1})
+    if twice:
+        raise InputError(f"camera {twice[0]!r} is listed twice in a frame (cameras {list(cameras)})", field="frames")
+    C = len(cameras)
     rows_frame, rows_time, rows_det, rows_ncam = [], [], [], []
-    pair_P, pair_px, pair_w = [], [], []
+    set_P, set_px, set_w = [], [], []
     single_rows = []  # (row index, camera position, Detections2D, person index)
     last = None
     for k, dets in enumerate(frames):
         if tuple(d.camera for d in dets) != cameras:
             raise InputError(f"frame {dets[0].frame if dets else k}: cameras {[d.camera for d in dets]} "
                              f"differ from {list(cameras)}", field="frames")
-        a, b = dets
-        if a.frame != b.frame:
-            raise InputError(f"the two cameras disagree on the frame index ({a.frame} vs {b.frame})",
+        a = dets[0]
+        if any(d.frame != a.frame for d in dets):
+            raise InputError(f"the cameras disagree on the frame index ({[d.frame for d in dets]})",
                              field="frames")
         if last is not None and a.frame <= last:
             raise InputError(f"frame indices must increase (frame {a.frame} after {last})", field="frames")
         last = a.frame
-        assoc = associate(a, b, settings)
-        for i, j in assoc.pairs:
+        assoc = associate_views(dets, settings)
+        g = assoc.groups
+        if len(g):
+            # Padded per-camera arrays: index -1 is the empty slot (camera not in the set).
+            nmax = max(d.count for d in dets)
+            P = np.zeros((C, nmax + 1, 3, 4))
+            px = np.full((C, nmax + 1, NUM_JOINTS, 2), np.nan)
+            w = np.zeros((C, nmax + 1, NUM_JOINTS))
+            for c, d in enumerate(dets):
+                P[c, :d.count], px[c, :d.count], w[c, :d.count] = d.projection, d.pixels_view, d.confidence
+            cam = np.arange(C)[None, :]
+            set_P.append(P[cam, g])
+            set_px.append(px[cam, g])
+            set_w.append(w[cam, g])
+            rows_frame += [a.frame] * len(g)
+            rows_time += [a.time_s] * len(g)
+            rows_det += list(g)
+            rows_ncam += list((g >= 0).sum(axis=1))
+        for c, i in assoc.singles:
+            single_rows.append((len(rows_frame), int(c), dets[c], int(i)))
             rows_frame.append(a.frame)
             rows_time.append(a.time_s)
-            rows_det.append((i, j))
-            rows_ncam.append(2)
-            pair_P.append(np.stack([a.projection[i], b.projection[j]]))
-            pair_px.append(np.stack([a.pixels_view[i], b.pixels_view[j]]))
-            pair_w.append(np.stack([a.confidence[i], b.confidence[j]]))
-        for cam, det, singles in ((0, a, assoc.single_a), (1, b, assoc.single_b)):
-            for i in singles:
-                single_rows.append((len(rows_frame), cam, det, int(i)))
-                rows_frame.append(a.frame)
-                rows_time.append(a.time_s)
-                rows_det.append((i, -1) if cam == 0 else (-1, i))
-                rows_ncam.append(1)
+            row = np.full(C, -1, np.int64)
+            row[c] = i
+            rows_det.append(row)
+            rows_ncam.append(1)
         report(progress, "association", k + 1, len(frames), unit="frame")
 
     m = len(rows_frame)
@@ -81,18 +98,19 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     err = np.full((m, NUM_JOINTS), np.nan)
     views = np.zeros((m, NUM_JOINTS), np.int8)
     conf = np.zeros((m, NUM_JOINTS))
-    rejected = np.zeros((m, 2, NUM_JOINTS), bool)
+    rejected = np.zeros((m, C, NUM_JOINTS), bool)
     variance = np.full((m, NUM_JOINTS, 3), np.nan)
     origin = np.full((m, 3), np.nan)
     ray = np.full((m, 3), np.nan)
-    obs_P = np.zeros((m, 2, 3, 4))
-    obs_px = np.full((m, 2, NUM_JOINTS, 2), np.nan)
-    obs_conf = np.zeros((m, 2, NUM_JOINTS))
-    is_pair = n_cameras == 2
-    if pair_P:
-        obs_P[is_pair], obs_px[is_pair], obs_conf[is_pair] = np.stack(pair_P), np.stack(pair_px), np.stack(pair_w)
-        tri = triangulate_pairs(np.stack(pair_P), np.stack(pair_px), np.stack(pair_w), settings)
-        points[is_pair], err[is_pair], views[is_pair], conf[is_pair], rejected[is_pair], variance[is_pair] = tri
+    obs_P = np.zeros((m, C, 3, 4))
+    obs_px = np.full((m, C, NUM_JOINTS, 2), np.nan)
+    obs_conf = np.zeros((m, C, NUM_JOINTS))
+    is_set = n_cameras >= 2
+    if set_P:
+        P, px, w = np.concatenate(set_P), np.concatenate(set_px), np.concatenate(set_w)
+        obs_P[is_set], obs_px[is_set], obs_conf[is_set] = P, px, w
+        tri = triangulate_pairs(P, px, w, settings)
+        points[is_set], err[is_set], views[is_set], conf[is_set], rejected[is_set], variance[is_set] = tri
     for row, cam, det, i in single_rows:
         obs_P[row, cam], obs_px[row, cam], obs_conf[row, cam] = det.projection[i], det.pixels_view[i], det.confidence[i]
         c = det.confidence[i]
@@ -104,7 +122,7 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
         ray[row] = _mean_ray(rays, used)
     return People3D(
         cameras=cameras, frame=np.array(rows_frame, np.int64), time_s=np.array(rows_time, np.float64),
-        n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, 2), points_world=points,
+        n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, C), points_world=points,
         reprojection_error_px=err, views=views, confidence=conf, rejected=rejected, variance_world=variance,
         centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray,
         obs_projection=obs_P, obs_pixels_view=obs_px, obs_confidence=obs_conf)
@@ -123,16 +141,25 @@ def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
 
 def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
                       settings: ReconSettings | None = None):
-    """Triangulate associated people, all at once.
+    """Triangulate associated people (two or more views each), all at once.
 
-    projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33).
+    projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33). A view the
+    person is not seen in (a camera outside its set) has an all-zero projection matrix (as in
+    People3D.obs_projection) or confidence 0; it is left out.
     Returns (points (M, 33, 3), reprojection_error_px (M, 33), views (M, 33) int8,
     confidence (M, 33) mean over the used views, rejected (M, V, 33) bool,
     variance (M, 33, 3) per-coordinate variance from :func:`point_variance`).
     """
     settings = settings or ReconSettings()
+    projections = np.asarray(projections, dtype=np.float64)
+    absent = ~np.any(projections != 0.0, axis=(-2, -1))  # (M, V)
     w = np.where(confidence >= max(settings.min_confidence, 1e-12), confidence, 0.0)
-    w = np.where(np.isfinite(pixels_view).all(axis=-1), w, 0.0)
+    w = np.where(np.isfinite(pixels_view).all(axis=-1) & ~absent[..., None], w, 0.0)
+    if absent.any():
+        # A stand-in matrix (the person's first view, weight 0) keeps the algebra finite.
+        first = np.argmax(~absent, axis=1)
+        stand_in = projections[np.arange(len(projections)), first]
+        projections = np.where(absent[..., None, None], stand_in[:, None], projections)
     tri, rejected = reject_outliers(projections, pixels_view, w, 2,
                                     threshold_px=settings.reprojection_threshold_px)
     points = tri.points.copy()

@@ -265,15 +265,16 @@ def frames_from_oracle(observations, cameras, *, view_size: tuple[int, int] = (2
 
 
 def simulated_ground_truth(n_workers: int, seconds: float, *, fps: float = 12.0, seed: int = 0,
-                           size: tuple[int, int] = PAPER_SIZE):
+                           size: tuple[int, int] = PAPER_SIZE, cameras=None):
     """A simulated session's ground truth built in memory, without rendering video.
 
     The simulator's room, rig (at ``size``), scripted workers and per-joint visibility (ray casts
     through bodies and furniture) -- everything :class:`ergopose.sim.oracle.OracleSource` needs.
-    Returns (ground_truth, cameras).
+    cameras: Camera objects to use instead of the simulator's two-camera rig (any number, e.g.
+    the rig plus :func:`extra_ceiling_cameras`). Returns (ground_truth, cameras).
     """
     scene = default_scene()
-    cameras = rig_cameras(*size)
+    cameras = tuple(cameras) if cameras is not None else rig_cameras(*size)
     motion = simulate_motion(scene, n_workers, seconds, fps, seed)
     bodies = all_body_primitives(motion)
     per_camera = [joint_visibility(cam, scene, motion, bodies) for cam in cameras]
@@ -287,3 +288,14 @@ def simulated_ground_truth(n_workers: int, seconds: float, *, fps: float = 12.0,
         carrying=np.zeros((nf, nw), bool), times_s=motion.times_s, postures=None,
         scene={"workers": [{"id": w.worker_id, "stature_m": w.spec.measurements.stature} for w in motion.workers]})
     return gt, cameras
+
+
+def extra_ceiling_cameras(size: tuple[int, int] = PAPER_SIZE, positions=((0.0, 1.6, 2.95), (0.0, -1.6, 3.02)),
+                          names=("cam_3", "cam_4")) -> tuple[Camera, ...]:
+    """More ceiling fisheye cameras for multi-camera tests: the simulator rig's lens model
+    (camera 1's intrinsics) looking straight down from ``positions``, turned by 90 and 270 degrees
+    so that their baselines with the rig's cameras run in other directions."""
+    from ergopose.sim.scene import rig_lens
+
+    return tuple(ceiling_camera(name, rig_lens(*size, 0), size[0], size[1], pos, yaw=math.pi / 2 + k * math.pi)
+                 for k, (name, pos) in enumerate(zip(names, positions)))
