@@ -240,6 +240,8 @@ def triangulate_observations(people: People3D) -> np.ndarray:
     Noisier than the gated triangulation but unbiased, and available where the gate leaves
     nothing (legs, neck and face under ceiling cameras): what body measurements are taken from.
     """
+    if len(people) == 0:
+        return people.points_world
     oc = people.obs_confidence
     P = people.obs_projection
     absent = ~(oc > 0).any(axis=-1)  # cameras that did not see the person: any invertible matrix
