@@ -462,6 +462,11 @@ def recon_vs_aniposelib(seconds: float = 60.0) -> None:
              limb_cv_major_pct=round(100 * _cv_points(X), 2))
     emit("recon_vs_aniposelib_speedup_vs_optim", t_opt / t_ours, "x", ours_s=round(t_ours, 3),
          optim_s=round(t_opt, 3), goal=10.0)
+    # The body model fit alone, per worker-frame, beside triangulate_optim per worker-frame (same keypoints).
+    fit_ms = 1000 * sr.bodies.fit_seconds / max(sr.bodies.fitted_rows, 1)
+    optim_ms = 1000 * t_opt / (n * 4)
+    emit("skeleton_fit_worker_frame_ms", fit_ms, "ms", worker_frames=sr.bodies.fitted_rows,
+         aniposelib_triangulate_optim_ms=round(optim_ms, 3), ratio_optim_to_ours=round(optim_ms / fit_ms, 2))
 
 
 def _peak_rss_mb() -> float:
