@@ -388,8 +388,8 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
         notes.append(f"The reference's Y axis (up in a TRC) lands {math.degrees(math.acos(max(-1, min(1, up[2])))):.0f} "
                      "deg from world up after alignment: check the reference's axes.")
     segments = {}
-    for limb, a, b in LIMBS:
-        ia, ib = JOINT_INDEX[a], JOINT_INDEX[b]
+    for limb, joint_a, joint_b in LIMBS:
+        ia, ib = JOINT_INDEX[joint_a], JOINT_INDEX[joint_b]
         la = np.linalg.norm(pts[selected, ia] - pts[selected, ib], axis=-1)
         lr = np.linalg.norm(ref_world[selected, ia] - ref_world[selected, ib], axis=-1)
         ok = np.isfinite(la) & np.isfinite(lr)
