@@ -55,7 +55,8 @@ _OUTPUT_ERRNOS = {
 
 def output_reason(exc: BaseException) -> str | None:
     """What an OSError of writing means for the user ("the disk is full", ...), or None."""
-    return _OUTPUT_ERRNOS.get(getattr(exc, "errno", None))
+    code = getattr(exc, "errno", None)
+    return _OUTPUT_ERRNOS.get(code) if isinstance(code, int) else None
 
 
 def output_error(exc: OSError) -> OutputError | None:

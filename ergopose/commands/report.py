@@ -16,8 +16,10 @@ from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars, warnings_only
 from ergopose.errors import InputError
+from ergopose.pipeline.guard import check_results_session
 from ergopose.report.render import render_report
 from ergopose.report.results import RESULTS_DIR, SESSION_FILE
+from ergopose.session import SETTINGS_FILE, load_session
 
 DEFAULT_REPORTS_DIR = "reports"
 
@@ -42,9 +44,6 @@ def report_folder(session: str | Path, out: str | Path | None = None) -> Path:
 def check_session(session: str | Path, folder: Path, force: bool, progress=None) -> None:
     """When --session is a session folder (not the report folder itself), refuse stored results of
     another recording unless ``force`` (ergopose.pipeline.guard)."""
-    from ergopose.pipeline.guard import check_results_session
-    from ergopose.session import SETTINGS_FILE, load_session
-
     session = Path(session)
     if folder.resolve() == session.resolve() or not (session / SETTINGS_FILE).is_file():
         return

@@ -5,7 +5,19 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import math
+import os
+import shutil
+import tomllib
 from pathlib import Path
+
+from ergopose.atomic import write_text
+from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.calibration_file import (load_calibration, read_pose2sim_calibration, save_calibration,
+                                                world_frame_warnings)
+from ergopose.geometry.camera import Camera
+from ergopose.session import CALIBRATION_FILE, FPS_TOLERANCE, SETTINGS_FILE, load_session, settings_to_toml
+from ergopose.video import probe_video
 
 HELP = """\
 Make a session folder (docs/session-format.md) from one video per camera and a calibration file:
@@ -50,11 +62,6 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 def _read_calibration(path: Path, units: str):
-    import tomllib
-
-    from ergopose.errors import ConfigError
-    from ergopose.geometry.calibration_file import load_calibration, read_pose2sim_calibration
-
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -67,17 +74,6 @@ def _read_calibration(path: Path, units: str):
 
 
 def run_new(args: argparse.Namespace) -> int:
-    import math
-    import os
-    import shutil
-
-    from ergopose.atomic import write_text
-    from ergopose.errors import ConfigError, InputError
-    from ergopose.geometry.calibration_file import save_calibration, world_frame_warnings
-    from ergopose.geometry.camera import Camera
-    from ergopose.session import CALIBRATION_FILE, FPS_TOLERANCE, SETTINGS_FILE, load_session, settings_to_toml
-    from ergopose.video import probe_video
-
     root: Path = args.dir
     if root.exists() and (not root.is_dir() or any(root.iterdir())):
         raise InputError("already exists and is not an empty folder: choose a new session folder", path=root)

@@ -40,12 +40,23 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.posture import ANGLE_COLUMNS
+from ergopose.ergonomics.scoring import score_posture
+from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError, InputError
-from ergopose.evaluation.compare import SCORE_SCALES, ResultsLayout, _angle_stats, _json_ready, _r
+from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
+from ergopose.evaluation.compare import (SCORE_SCALES, ResultsLayout, _angle_stats, _json_ready, _r, _read_frames_csv,
+                                         reported_ids)
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMBS, NUM_JOINTS
+from ergopose.pipeline.scoring import _take
+from ergopose.pipeline.stages import scoring_settings
 from ergopose.progress import ProgressCallback, report
+from ergopose.recon.table import read_tracks, table_to_frames
+from ergopose.recon.tracking import identity_name
+from ergopose.session import load_session
 
 #: A tracked row and the aligned reference are the same person within this mean joint distance (m).
 MATCH_DISTANCE_M = 0.5
@@ -172,9 +183,6 @@ def _reference_joints(trc: TrcData) -> tuple[np.ndarray, dict[str, str]]:
 def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None) -> dict[int, pd.DataFrame]:
     """{tracked worker number: its frames CSV}: by the tracked name (worker_N), by the session's
     naming (``names``), else by the unique CSV whose frames are exactly the worker's."""
-    from ergopose.evaluation.compare import _read_frames_csv
-    from ergopose.recon.tracking import identity_name
-
     files = sorted(layout.csv_dir.glob(f"{layout.csv_prefix}*_frames.csv"))
     by_frames: dict[tuple, list[str]] = {}
     cache: dict[str, pd.DataFrame] = {}
@@ -256,13 +264,6 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
                        match_distance_m: float = MATCH_DISTANCE_M, layout: ResultsLayout | None = None,
                        progress: ProgressCallback | None = None) -> dict[str, Any]:
     """Compare the assessment in ``results_dir`` with the reference TRC (module docstring)."""
-    from ergopose.ergonomics.angles import joint_angles
-    from ergopose.ergonomics.posture import ANGLE_COLUMNS
-    from ergopose.ergonomics.scoring import score_posture
-    from ergopose.ergonomics.settings import ScoringSettings
-    from ergopose.recon.table import read_tracks, table_to_frames
-    from ergopose.recon.tracking import identity_name
-
     if not math.isfinite(offset_s):
         raise ConfigError(f"expected a number of seconds, got {offset_s}", field="--reference-offset")
     steps = 5
@@ -277,10 +278,6 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
     names = None
     scoring = ScoringSettings()
     if session_dir is not None:
-        from ergopose.evaluation.compare import reported_ids
-        from ergopose.pipeline.stages import scoring_settings
-        from ergopose.session import load_session
-
         session = load_session(session_dir, check_videos=False)
         scoring = scoring_settings(session)
         reported, _ = reported_ids(session, tracks, table.metadata)
@@ -391,8 +388,8 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
         notes.append(f"The reference's Y axis (up in a TRC) lands {math.degrees(math.acos(max(-1, min(1, up[2])))):.0f} "
                      "deg from world up after alignment: check the reference's axes.")
     segments = {}
-    for limb, a, b in LIMBS:
-        ia, ib = JOINT_INDEX[a], JOINT_INDEX[b]
+    for limb, joint_a, joint_b in LIMBS:
+        ia, ib = JOINT_INDEX[joint_a], JOINT_INDEX[joint_b]
         la = np.linalg.norm(pts[selected, ia] - pts[selected, ib], axis=-1)
         lr = np.linalg.norm(ref_world[selected, ia] - ref_world[selected, ib], axis=-1)
         ok = np.isfinite(la) & np.isfinite(lr)
@@ -546,8 +543,6 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
 
 
 def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
-    from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
-
     both = np.isfinite(a) & np.isfinite(b)
     cm = confusion_matrix(a, b, scale)
     return {
@@ -564,12 +559,6 @@ def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
         "mean_difference": _r(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
         "confusion_matrix": {"rows": "assessment", "columns": "reference", "counts": cm.tolist()},
     }
-
-
-def _take(rows, mask):
-    from ergopose.pipeline.scoring import _take as take
-
-    return take(rows, mask)
 
 
 def format_reference(ev: Mapping[str, Any]) -> str:

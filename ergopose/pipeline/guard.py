@@ -27,6 +27,10 @@ from pathlib import Path
 from typing import Iterator, Sequence
 
 from ergopose.errors import OutputError, output_error, output_reason
+from ergopose.pipeline.store import file_fingerprint
+from ergopose.progress import warn
+from ergopose.recon.table import read_metadata
+from ergopose.report.results import RESULTS_DIR, SESSION_FILE
 
 #: Bytes an assessment stores per tracked person and frame, measured (docs/assess.md, "Room on
 #: disk"): the chunk store (real 2D work: 3.7 kB), and tracks, scored frames, CSV files and
@@ -143,8 +147,6 @@ def session_fingerprint(calibration_fingerprint: str, video_fingerprints: Sequen
 
 def fingerprint_of(session) -> str:
     """The fingerprint of a loaded session (:class:`ergopose.session.Session`)."""
-    from ergopose.pipeline.store import file_fingerprint
-
     return session_fingerprint(file_fingerprint(session.calibration_path),
                                [file_fingerprint(c.video_path) for c in session.cameras])
 
@@ -174,8 +176,6 @@ def results_owner(out_dir: str | os.PathLike) -> ResultsOwner | None:
     Read from the stored results (results/session.json), else the pose stage's manifest
     (pipeline/manifest.json: the content fingerprints of the calibration and videos), else a
     tracks table's metadata (an ORACLE run's folder)."""
-    from ergopose.report.results import RESULTS_DIR, SESSION_FILE
-
     out = Path(out_dir)
     path = out / RESULTS_DIR / SESSION_FILE
     with contextlib.suppress(OSError, ValueError, AttributeError, TypeError):
@@ -192,8 +192,6 @@ def results_owner(out_dir: str | os.PathLike) -> ResultsOwner | None:
             return ResultsOwner(fp, None, int(inputs["frames"]) if "frames" in inputs else None, path)
     for path in sorted((out / "pipeline").glob("*tracks.parquet")):  # an ORACLE run's folder
         with contextlib.suppress(Exception):  # an unreadable table tells nothing about its owner
-            from ergopose.recon.table import read_metadata
-
             fp = read_metadata(path).get("session_fingerprint")
             if isinstance(fp, str):
                 return ResultsOwner(fp, None, None, path)
@@ -221,8 +219,6 @@ def check_results_session(out_dir: str | os.PathLike, session, force: bool, *, a
     """OutputError if ``out_dir`` holds results of another recording than ``session``, unless
     ``force``; then a warning says so. ``advice``: what the user can do instead (the message
     adds "or add --force to ..."). """
-    from ergopose.progress import warn
-
     fingerprint = fingerprint_of(session)
     owner = foreign_results(out_dir, session, fingerprint)
     if owner is None:

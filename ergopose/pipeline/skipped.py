@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.atomic import atomic_path
+from ergopose.report.context import MAX_SKIPPED_SPANS, SkippedFrames
 from ergopose.video import SKIP_CODES
 
 SKIPPED_CSV = "frames_skipped.csv"
@@ -54,8 +55,6 @@ def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Seque
 
 def skipped_records(skipped: np.ndarray, camera_names: Sequence[str], fps: float):
     """Per camera with skipped frames, a :class:`ergopose.report.context.SkippedFrames`."""
-    from ergopose.report.context import MAX_SKIPPED_SPANS, SkippedFrames
-
     out = []
     for c, name in enumerate(camera_names):
         frames = skipped[skipped[:, 1] == c, 0]

@@ -35,6 +35,7 @@ from ergopose import __version__
 from ergopose.atomic import atomic_path, clean_up, write_text
 from ergopose.errors import InputError
 from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
+from ergopose.progress import warn
 
 #: 2: chunk files carry the inputs' fingerprint and a checksum (version 1 chunks are computed again);
 #: 3: People3D chunks carry every camera's 2D observations (the body fit).
@@ -218,8 +219,6 @@ class ResultStore:
         through ``progress``), removed and left out, so it is computed again in this run; a chunk
         of other inputs or of another range is removed.
         """
-        from ergopose.progress import warn
-
         ranges = list(ranges)
         done = set()
         for start, stop in ranges:

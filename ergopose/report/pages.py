@@ -28,6 +28,7 @@ from ergopose.keypoints import LIMBS
 from ergopose.report import svg
 from ergopose.report.context import (
     FLAG_VERDICTS,
+    MAX_SKIPPED_SPANS,
     Assumption,
     MethodInfo,
     ModelInfo,
@@ -930,8 +931,6 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
 
 def skipped_sentence(session: SessionInfo) -> str:
     """The quality section's sentence on the video frames that could not be read and were skipped."""
-    from ergopose.report.context import MAX_SKIPPED_SPANS
-
     if not session.skipped_frames:
         return "Every frame of every camera's video was read."
     parts = []

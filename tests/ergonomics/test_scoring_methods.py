@@ -8,7 +8,6 @@ method data and with the scoring's table lookup.
 from __future__ import annotations
 
 import re
-import os
 from pathlib import Path
 
 import numpy as np
