@@ -162,6 +162,12 @@ _FLOOR_SIGMA_M = 0.02
 BEST_SAMPLES = 30
 #: Weight of each frame in a worker's running keypoint-noise estimate (about 5 frames' memory).
 NOISE_RATE = 0.2
+#: The measured keypoint noise never falls below this share of keypoint_sigma_px. Measured with
+#: 0.25 (ORACLE, 30 s, 4 workers, 2592 x 1944): MPJPE 24.0 -> 20.6 mm, but RULA grand exact
+#: agreement 82.5 -> 63.9 %: the noise of the keypoints a camera cannot see (the network's
+#: guesses) is larger than that of the seen ones the scale is measured on, and the face's
+#: hidden points then outweighed its shape, tipping the neck angle.
+MIN_NOISE_SCALE = 1.0
 
 
 @dataclass(frozen=True)
@@ -634,7 +640,7 @@ class ShiftBodies:
         new_scale = np.where(np.isfinite(measured),
                              np.exp(np.log(used_scale) + NOISE_RATE * (np.log(np.maximum(measured, 1e-6))
                                                                        - np.log(used_scale))), used_scale)
-        new_scale = np.maximum(new_scale, 1.0)
+        new_scale = np.maximum(new_scale, MIN_NOISE_SCALE)
         for k, ident in enumerate(ids):
             self.noise[int(ident)] = float(new_scale[k])
         var = fit.variance_world * np.maximum(new_scale / used_scale, 1.0)[:, None, None] ** 2
