@@ -226,3 +226,40 @@ def test_a_swap_the_network_keeps_is_followed_and_flagged(camera, landmarker):
     assert all(c <= s.uncertain_confidence for c in conf[flip:flip + s.left_right_window]), conf
     assert all(c > 0.5 for c in conf[flip + s.left_right_window:]), conf
     assert conf[1] > 0.5
+
+
+def test_on_real_frames_a_view_that_starts_upside_down_comes_upright(shared_data, landmarker, detector):
+    """Real people: frames of the Pose2Sim recording's cam_02 re-rendered into a virtual
+    equidistant fisheye (the person 75 degrees off the lens axis, 250 px/rad, the camera turned
+    by 180 degrees), the stage started on a view upside down at the person. Before issue 19 the
+    view stays upside down on every frame; now it is upright from the first frame and the
+    person's hips are where BlazePose puts them on the original pinhole frames."""
+    from ergopose.evaluation import refisheye as R
+
+    root = shared_data / "pose2sim-demo"
+    real = R.load_cameras(root)[1]
+    frames = R.read_frames(root, 2, 5)
+    pixels, _ = R.reference_pose(frames[0], detector, landmarker)
+    rays = R._unit(real.lens.unproject(pixels))
+    hip = R._unit(rays[R.HIPS].mean(0))
+    torso = float(R._angle(R._unit(rays[R.SHOULDERS].mean(0)), hip))
+    vf = R.virtual_fisheye(real, hip, np.radians(75.0), np.pi, 250.0)
+    view_map = R.build_map(vf.camera.lens, (vf.camera.width, vf.camera.height), real.lens, vf.rotation_real_from_virtual)
+    hip_v = hip @ vf.rotation_real_from_virtual
+    assert np.isclose(np.degrees(np.arccos(hip_v[2])), 75.0)
+    rolls = {}
+    for name, settings in (("before", BEFORE), ("after", PoseSettings())):
+        stage = FisheyePoseEstimator(vf.camera, 0, landmarker, None, settings)
+        down = view_rotation(vf.camera, hip_v) @ np.array([0.0, 1.0, 0.0])
+        stage._targets = [Target(hip_v, np.radians(25.0), SOURCE_REFOCUS, up_cam=down)]
+        rolls[name] = []
+        for f, frame in enumerate(frames):
+            found = stage.process(view_map.apply(frame), f)
+            assert found.count == 1, (name, f)
+            (nxt,) = stage._targets
+            rolls[name].append(np.degrees(abs(roll_from_upright(vf.camera, nxt.direction_cam, nxt.up_cam))))
+            if name == "after" and f == 0:
+                hips = R._unit(found.rays_cam[0, R.HIPS].mean(0))
+                assert R._angle(hips, hip_v) < 0.5 * torso
+    assert min(rolls["before"]) > 120.0, rolls
+    assert max(rolls["after"]) <= np.degrees(PoseSettings().max_body_roll) + 1e-6, rolls
