@@ -194,7 +194,7 @@ class PoseSettings:
     align_views: bool = True
     refocus_on_alignment: bool = True
     min_axis_fraction: float = 0.15
-    max_body_roll: float = np.radians(30.0)
+    max_body_roll: float = 0.0
     upright_undefined_angle: float = np.radians(10.0)
     recheck_roll: float | None = np.radians(110.0)
     merge_prefers_upright: bool = True
@@ -338,14 +338,16 @@ def roll_from_upright(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndar
 def bounded_up(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None, max_roll: float,
                undefined_angle: float = 0.0) -> np.ndarray | None:
     """The up direction of a view along ``direction_cam`` that follows ``up_cam`` (e.g. the body
-    axis) but is rolled at most ``max_roll`` from world upright. None (upright) when ``up_cam``
-    is None or ``max_roll`` is 0; ``up_cam`` unchanged when the view is within
-    ``undefined_angle`` of the world's vertical (no world up to hold to) or ``max_roll`` >= pi."""
-    if up_cam is None or max_roll <= 0:
+    axis) but is rolled at most ``max_roll`` from world upright. None when ``up_cam`` is None;
+    ``up_cam`` unchanged when the view is within ``undefined_angle`` of the world's vertical (no
+    world up to hold to) or ``max_roll`` >= pi; None (upright) when ``max_roll`` is 0."""
+    if up_cam is None:
         return None
     d = _unit(np.asarray(direction_cam, dtype=np.float64))
     if max_roll >= np.pi or not upright_defined(camera, d, undefined_angle):
         return up_cam
+    if max_roll <= 0:
+        return None
     roll = float(np.clip(_roll_of(camera, d, up_cam), -max_roll, max_roll))
     # _roll_of of this vector is ``roll``: its image in the upright view is (sin r, -cos r).
     return _upright(camera, d) @ np.array([np.sin(roll), -np.cos(roll), 0.0])

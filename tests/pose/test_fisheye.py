@@ -165,8 +165,8 @@ def _rolled_view(camera, target_world, hfov_deg, roll):
 def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector, lean_deg):
     """A person leaning (drawn upright in a view rolled against the upright one): the stage's
     next view is rolled from upright towards the drawn hip-to-shoulder direction by at most
-    ``max_body_roll`` (world vertical stays the reference), and the pose found in that view
-    leans by what is left over."""
+    ``max_body_roll`` (here 30 degrees; world vertical stays the reference), and the pose found
+    in that view leans by what is left over."""
     target = (1.4, 0.6, 1.0)
     view = _rolled_view(camera, target, 40.0, np.radians(lean_deg))
     background = (170, 170, 170)
@@ -181,11 +181,12 @@ def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector,
     upright = VirtualView.aimed_along(camera, hip_ray, np.radians(40))
     d = upright.lens.project(shoulder_ray @ upright.rotation_cam_from_view) - upright.lens.project(hip_ray @ upright.rotation_cam_from_view)
     assert abs(np.degrees(np.arctan2(d[0], -d[1])) - lean_deg) < 3.0
-    stage = FisheyePoseEstimator(camera, 0, landmarker, detector)
+    settings = PoseSettings(max_body_roll=np.radians(30.0))
+    stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings)
     assert stage.process(frame, 0).count == 1
     (nxt,) = stage._targets
     assert nxt.up_cam is not None
-    bound = np.degrees(PoseSettings().max_body_roll)
+    bound = np.degrees(settings.max_body_roll)
     left_over = lean_deg - np.clip(lean_deg, -bound, bound)
     r = view_rotation(camera, nxt.direction_cam, nxt.up_cam)
     lens = Rectilinear.from_fov(256, 256, 2 * nxt.half_fov)

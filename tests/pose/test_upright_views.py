@@ -60,10 +60,11 @@ CAMERAS = {
 }
 
 
+@pytest.mark.parametrize("bound_deg", [0.0, 30.0])
 @pytest.mark.parametrize("name", list(CAMERAS))
-def test_views_are_upright_to_the_world_within_the_bound(name):
+def test_views_are_upright_to_the_world_within_the_bound(name, bound_deg):
     camera = CAMERAS[name]
-    s = PoseSettings()
+    s = PoseSettings(max_body_roll=np.radians(bound_deg))
     rng = np.random.default_rng(19)
     checked = near_axis = 0
     for _ in range(60):
@@ -107,6 +108,7 @@ def test_bounded_up_limits_and_passes_through():
     # Straight below the camera the world gives no up: the body axis is used as it is.
     below = np.array([0.0, 0.0, 1.0])
     assert bounded_up(camera, below, body, np.radians(30), np.radians(10)) is body
+    assert bounded_up(camera, below, body, 0.0, np.radians(10)) is body
 
 
 # --------------------------------------------------------------------------------------------
