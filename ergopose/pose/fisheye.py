@@ -62,7 +62,7 @@ _BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
     "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
     "left_heel", "right_heel", "left_foot_index", "right_foot_index")])
 
-from dataclasses import replace  # noqa: E402  (kept out of the import block above)
+from dataclasses import replace  # kept out of the import block above
 
 #: Every left/right pair of the 33 keypoints (swapping a skeleton exchanges all of them).
 _LR_PAIRS = np.array([(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")])
@@ -672,7 +672,7 @@ class FisheyePoseEstimator:
             # A plausible body axis first, then the view closest to upright, then confidence.
             def rank(i):
                 implausible = s.recheck_roll is not None and abs(people[i]["body_roll"]) > s.recheck_roll
-                return implausible, int(round(abs(people[i]["view_roll"]) / s.merge_roll_step)), -score[i]
+                return implausible, round(abs(people[i]["view_roll"]) / s.merge_roll_step), -score[i]
             order = sorted(range(len(people)), key=rank)
         else:
             order = sorted(range(len(people)), key=lambda i: -score[i])

@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from test_fisheye import LENS, SIZE, fisheye_with_person
 
 from ergopose.geometry.camera import Camera, ceiling_camera, look_at_rotation
 from ergopose.geometry.lenses.equidistant import Equidistant
@@ -28,8 +29,6 @@ from ergopose.pose.fisheye import (
     upright_defined,
     view_rotation,
 )
-
-from test_fisheye import LENS, SIZE, fisheye_with_person
 
 #: The stage before issue 19: views follow the body axis wherever it points, no re-check,
 #: duplicates ranked by confidence only, no left/right check.
