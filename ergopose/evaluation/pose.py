@@ -33,7 +33,8 @@ Conditions (``CONDITIONS``), each per ground-truth person whose torso the camera
 ``stage``
     The full 2D stage, :class:`ergopose.pose.fisheye.FisheyePoseEstimator`, run end to end on
     every frame (search views with the detector, motion cues, re-focusing on the network's
-    alignment points with views rolled to the body axis, coasting, searching where a person was
+    alignment points with views upright to the world (turned towards the body axis by at most
+    ``PoseSettings.max_body_roll``), left/right kept consistent, coasting, searching where a person was
     lost); nothing from the ground truth is given to it. Its detections are matched one to one to the people.
 
 The four oracle conditions (all but ``stage``) give the network the true

@@ -6,22 +6,34 @@ The paper's steps 1-3 for one camera. Per frame:
    is re-focused on the pose just detected. With BlazePose (``refocus_on_alignment``) it is
    placed by the landmark network's own two alignment points, the way MediaPipe places its next
    crop: aimed at their hip centre, half field of view = the angular radius of their body
-   circle times ``body_margin``, rolled so the body axis points up. Without them: aimed at the
-   confident hip keypoints, fitted to the body keypoints, rolled so the hip-to-shoulder
-   direction points up. Every ``search_every`` frames coarse cues are added: moving blobs from
+   circle times ``body_margin``, rolled towards their body axis. Without them: aimed at the
+   confident hip keypoints, fitted to the body keypoints, rolled towards the hip-to-shoulder
+   direction. Every ``search_every`` frames coarse cues are added: moving blobs from
    background subtraction on a downscaled frame, and the BlazePose detector run on a fixed set
    of upright search views that together cover the floor; and on the frame after a followed
    person's view gave up, the detector runs on the search views around that place. Each cue
    is a bearing (a ray in the camera frame), an angular size and, from the detector, the body
    axis.
 2. *Views.* Each target gets a virtual pinhole view (256 x 256 by default) aimed along its
-   bearing: rolled to the body axis when one is known (``align_views``), upright (the paper's
-   construction: the image of the world's vertical points up) otherwise. BlazePose's landmark
-   model was trained on crops aligned with the body axis; a person bending over is a leaning
-   figure in an upright view and a standing one in an aligned view (docs/pose-in-fisheye.md).
+   bearing. World vertical is the reference for its roll: the view is upright (the paper's
+   construction: the image of the world's vertical points up), turned towards the body axis
+   when one is known by at most ``max_body_roll``. BlazePose's landmark model was trained on
+   crops aligned with the body axis, so a little turn helps a leaning person; a body axis
+   trusted without bound lets a view that once went upside down stay upside down (the
+   network's alignment points in an upside-down view point "up" in it), and views turned far
+   from upright swap people's left and right more often (docs/pose-in-fisheye.md).
 3. *Pose.* The landmark network runs on each view; keypoints come back in view pixels, are mapped
-   to fisheye pixels and to rays in the camera frame. Overlapping detections of one person (two
-   targets that converged) are merged, keeping the more confident one.
+   to fisheye pixels and to rays in the camera frame. A detection whose body axis points more
+   than ``recheck_roll`` away from world up in a turned view is run again in an upright view
+   (kept only if that finds the person the right way up). Overlapping detections of one person
+   (two targets that converged) are merged, keeping the one with a plausible body axis, then
+   the one whose view is closest to upright, then the more confident one.
+4. *Left and right.* Each person's skeleton is compared with their previous frame's: a
+   skeleton whose left and right limbs match it the other way round is swapped back; when the
+   network keeps the other labelling for most of the last ``left_right_window`` frames it is
+   followed, and frames around such a change, and limbs whose own left/right disagrees with
+   the body's, are passed on with their confidence lowered (``uncertain_confidence``), never as
+   a confident pose.
 
 The target is a direction and an angular radius, both in the camera frame, so nothing here
 depends on the world or on the other camera.
@@ -50,6 +62,24 @@ _BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
     "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
     "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
     "left_heel", "right_heel", "left_foot_index", "right_foot_index")])
+
+from dataclasses import replace  # kept out of the import block above
+
+#: Every left/right pair of the 33 keypoints (swapping a skeleton exchanges all of them).
+_LR_PAIRS = np.array([(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")])
+                      for n in JOINT_INDEX if "left" in n], dtype=np.int64)
+_MIRROR = np.arange(NUM_JOINTS)
+_MIRROR[_LR_PAIRS[:, 0]], _MIRROR[_LR_PAIRS[:, 1]] = _LR_PAIRS[:, 1], _LR_PAIRS[:, 0]
+#: The pairs that decide a skeleton's left and right, and the two limb groups checked on their own.
+_LR_DECIDE = np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n])
+                       for n in ("shoulder", "hip", "elbow", "wrist", "knee", "ankle")], dtype=np.int64)
+_LR_LIMBS = {
+    "arms": (("elbow", "wrist"), ("elbow", "wrist", "pinky", "index", "thumb")),
+    "legs": (("knee", "ankle"), ("knee", "ankle", "heel", "foot_index")),
+}
+_LR_LIMB_PAIRS = {k: (np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n]) for n in check]),
+                      np.array([JOINT_INDEX[side + n] for n in joints for side in ("left_", "right_")]))
+                  for k, (check, joints) in _LR_LIMBS.items()}
 
 #: Where a person's view came from (FrameDetections.source).
 SOURCE_REFOCUS, SOURCE_MOTION, SOURCE_SEARCH = 0, 1, 2
@@ -94,10 +124,11 @@ class PoseSettings:
     motion_warmup: frames the background model learns before its blobs count.
     same_person_angle: two detections whose hip-centre rays are closer than this fraction of
         their angular radius are one person.
-    align_views: roll each person view about its axis so the body axis points up in it (the
-        previous pose's hip-to-shoulder direction when re-focusing, the detector's body axis
-        for a search cue); False: every view upright (the paper's construction: the image of
-        the world's vertical points up). Search views and motion cues are always upright.
+    align_views: roll each person view about its axis towards the body axis (the previous
+        pose's alignment points or hip-to-shoulder direction when re-focusing, the detector's
+        body axis for a search cue), by at most ``max_body_roll`` from upright; False: every
+        view upright (the paper's construction: the image of the world's vertical points up).
+        Search views and motion cues are always upright.
     refocus_on_alignment: re-focus on the network's own alignment points when it gives them
         (BlazePose: the hip centre and a point on the circle around the whole body, along the body
         axis; MediaPipe places its next crop with them): the view is aimed at that hip centre, its
@@ -108,6 +139,33 @@ class PoseSettings:
     min_axis_fraction: the hip-to-shoulder angle must be at least this fraction of the body's
         angular radius for its direction to roll the next view (a torso seen end-on from
         above has no reliable direction); otherwise the view is upright.
+    max_body_roll: world vertical is the reference for every view's roll: the body axis (from
+        the detector or the previous pose) rolls a view at most this far from upright (the
+        image of the world's vertical pointing up). 0: every view upright; pi: views follow
+        the body axis wherever it points (the stage before issue 19). Chosen by measurement
+        (docs/pose-in-fisheye.md, "Upright views and left/right").
+    upright_undefined_angle: a view whose axis is closer than this to the world's vertical
+        (a person straight below or above the camera) has no defined "up" from the world: the
+        body axis rolls it unbounded and its detections are not re-checked.
+    recheck_roll: a detection whose body axis (the network's alignment points, or hips to
+        shoulders) is rolled further than this from world up in a view that is not upright
+        (a view that locked upside down) is run again in an upright view; the upright result
+        is kept when it finds the person with a plausible axis, the detection is dropped
+        otherwise. A search cue whose detector axis disagrees as much gets an upright view.
+        None: never re-checked.
+    merge_prefers_upright: of two detections of one person, keep the one whose body axis is
+        plausible (within ``recheck_roll`` of world up), then the one whose view is closest to
+        upright (in steps of ``merge_roll_step``), then the more confident one. False: the
+        more confident one only.
+    left_right_check: keep each followed person's left and right consistent from frame to
+        frame: a skeleton whose left/right limbs match the previous frame's the other way
+        round is swapped back, unless the network has said so in most of the last
+        ``left_right_window`` frames (then its labelling is followed); limbs whose own match
+        disagrees with the whole body's, and frames where the recent labelling is split, get
+        their confidence lowered to at most ``uncertain_confidence``.
+    left_right_ratio: the cost of one labelling (sum of the angles between this frame's and
+        the previous frame's keypoints of the same label) must be below this fraction of the
+        other's for a decision; in between the frame does not vote.
     view_cache_px: 0 (default): every person view's map is built for exactly the view
         requested (about 1 ms). Above 0: maps are cached and a view that differs from the one
         requested by at most this many view pixels anywhere is reused (direction, roll and
@@ -137,6 +195,15 @@ class PoseSettings:
     align_views: bool = True
     refocus_on_alignment: bool = True
     min_axis_fraction: float = 0.15
+    max_body_roll: float = 0.0
+    upright_undefined_angle: float = np.radians(10.0)
+    recheck_roll: float | None = np.radians(110.0)
+    merge_prefers_upright: bool = True
+    merge_roll_step: float = np.radians(20.0)
+    left_right_check: bool = True
+    left_right_ratio: float = 0.5
+    left_right_window: int = 9
+    uncertain_confidence: float = 0.1
     view_cache_px: float = 0.0
     max_people: int = 8
 
@@ -206,6 +273,13 @@ class FrameDetections:
                    np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64))
 
 
+def _lowered(confidence: np.ndarray, joints: np.ndarray, ceiling: float) -> np.ndarray:
+    """``confidence`` with the given joints' values lowered to at most ``ceiling`` (a copy)."""
+    out = np.array(confidence, dtype=np.float64, copy=True)
+    out[joints] = np.minimum(out[joints], ceiling)
+    return out
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
@@ -240,6 +314,42 @@ def _roll_of(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | Non
         return 0.0
     # Rolling by r turns the view's up (0, -1) into (sin r, -cos r) in the upright view.
     return float(np.arctan2(u[0], -u[1]))
+
+
+def _world_up_cam(camera: Camera) -> np.ndarray:
+    return np.asarray(camera.rotation_world_from_cam, dtype=np.float64).T @ _WORLD_UP
+
+
+def upright_defined(camera: Camera, direction_cam: np.ndarray, undefined_angle: float) -> bool:
+    """True when a view along ``direction_cam`` is further than ``undefined_angle`` from the
+    world's vertical (up or down), so that "upright" is well defined in it."""
+    d = _unit(np.asarray(direction_cam, dtype=np.float64))
+    return bool(np.linalg.norm(np.cross(d, _world_up_cam(camera))) > np.sin(undefined_angle))
+
+
+def roll_from_upright(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None) -> float:
+    """Roll (radians, clockwise on screen, in (-pi, pi]) of the image of ``up_cam`` from the
+    image of world up, in a view along ``direction_cam`` (0 when ``up_cam`` is None or along
+    the axis)."""
+    return _roll_of(camera, _unit(np.asarray(direction_cam, dtype=np.float64)), up_cam)
+
+
+def bounded_up(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None, max_roll: float,
+               undefined_angle: float = 0.0) -> np.ndarray | None:
+    """The up direction of a view along ``direction_cam`` that follows ``up_cam`` (e.g. the body
+    axis) but is rolled at most ``max_roll`` from world upright. None when ``up_cam`` is None;
+    ``up_cam`` unchanged when the view is within ``undefined_angle`` of the world's vertical (no
+    world up to hold to) or ``max_roll`` >= pi; None (upright) when ``max_roll`` is 0."""
+    if up_cam is None:
+        return None
+    d = _unit(np.asarray(direction_cam, dtype=np.float64))
+    if max_roll >= np.pi or not upright_defined(camera, d, undefined_angle):
+        return up_cam
+    if max_roll <= 0:
+        return None
+    roll = float(np.clip(_roll_of(camera, d, up_cam), -max_roll, max_roll))
+    # _roll_of of this vector is ``roll``: its image in the upright view is (sin r, -cos r).
+    return _upright(camera, d) @ np.array([np.sin(roll), -np.cos(roll), 0.0])
 
 
 def _rolled(camera: Camera, direction_cam: np.ndarray, roll: float) -> np.ndarray:
@@ -347,6 +457,7 @@ class FisheyePoseEstimator:
         self._frames_seen = 0
         self._targets: list[Target] = []
         self._lost: list[Target] = []
+        self._lr_tracks: list[dict] = []
 
     # -- search views ------------------------------------------------------------------------
     def _make_search_views(self) -> list[tuple[VirtualView, ViewMap]]:
@@ -386,8 +497,8 @@ class FisheyePoseEstimator:
                     continue
                 radius = float(_angle_between(rays[0], rays[1]))
                 # The detector's second point lies along the body axis from the hips (beyond the head).
-                up = rays[1] if self.settings.align_views else None
-                cues.append(Target(rays[0], self._half_fov(radius), SOURCE_SEARCH, up_cam=up))
+                cues.append(Target(rays[0], self._half_fov(radius), SOURCE_SEARCH,
+                                   up_cam=self._view_up(rays[0], rays[1])))
         return cues
 
     def _motion_cues(self, frame_bgr: np.ndarray) -> list[Target]:
@@ -444,6 +555,8 @@ class FisheyePoseEstimator:
         targets = targets[: 4 * s.max_people]
         results = [self._run_view(frame_bgr, t) for t in targets]
         people = self._merge([r for r in results if r is not None])[: s.max_people]
+        if s.left_right_check:
+            people = self._left_right(people)
         found = [self._refocus(p) for p in people]
         # Views that found nobody this time keep looking for a few frames (brief occlusions),
         # unless a person found elsewhere now covers them.
@@ -456,6 +569,20 @@ class FisheyePoseEstimator:
                       and not self._covered(t, found)]
         return self._record(people, frame_index)
 
+    def _view_up(self, direction_cam: np.ndarray, body_up_cam: np.ndarray | None) -> np.ndarray | None:
+        """The up direction of a view along ``direction_cam`` for a body whose axis points
+        along ``body_up_cam``: world upright, rolled towards the body axis by at most
+        ``max_body_roll``; upright when the body axis disagrees with world up by more than
+        ``recheck_roll`` (an axis pointing down is the network's mistake, not the body's)."""
+        s = self.settings
+        if not s.align_views or body_up_cam is None:
+            return None
+        if s.recheck_roll is not None and \
+                upright_defined(self.camera, direction_cam, s.upright_undefined_angle) and \
+                abs(roll_from_upright(self.camera, direction_cam, body_up_cam)) > s.recheck_roll:
+            return None
+        return bounded_up(self.camera, direction_cam, body_up_cam, s.max_body_roll, s.upright_undefined_angle)
+
     def _covered(self, cue: Target, targets: Sequence[Target]) -> bool:
         for t in targets:
             if _angle_between(cue.direction_cam, t.direction_cam) < self.settings.same_person_angle * t.half_fov:
@@ -463,7 +590,21 @@ class FisheyePoseEstimator:
         return False
 
     def _run_view(self, frame_bgr: np.ndarray, target: Target) -> dict | None:
-        view, view_map = self.views.get(target.direction_cam, target.half_fov, target.up_cam)
+        """The network on the target's view; a detection whose body axis points away from world
+        up (by more than ``recheck_roll``) in a rolled view is checked again in an upright view."""
+        s = self.settings
+        person = self._landmarks(frame_bgr, target, target.up_cam)
+        if person is None or s.recheck_roll is None or target.up_cam is None or \
+                abs(person["body_roll"]) <= s.recheck_roll or abs(person["view_roll"]) < 1e-6:
+            return person
+        again = self._landmarks(frame_bgr, target, None)
+        if again is None or abs(again["body_roll"]) > s.recheck_roll:
+            return None
+        again["rechecked"] = True
+        return again
+
+    def _landmarks(self, frame_bgr: np.ndarray, target: Target, up_cam: np.ndarray | None) -> dict | None:
+        view, view_map = self.views.get(target.direction_cam, target.half_fov, up_cam)
         image = view_map.apply(frame_bgr)
         kp = self.landmarker(image)
         if not kp.presence >= self.settings.min_presence:
@@ -472,8 +613,31 @@ class FisheyePoseEstimator:
         alignment = getattr(kp, "alignment", None)
         if alignment is not None:
             alignment = view.view_pixels_to_rays_cam(alignment)
-        return {"kp": kp, "view": view, "rays_cam": rays_cam, "source": target.source,
-                "half_fov": target.half_fov, "alignment_rays": alignment}
+        person = {"kp": kp, "view": view, "rays_cam": rays_cam, "source": target.source,
+                  "half_fov": target.half_fov, "alignment_rays": alignment, "rechecked": False,
+                  "view_roll": roll_from_upright(self.camera, target.direction_cam, up_cam)}
+        person["body_roll"] = self._body_roll(person)
+        return person
+
+    def _body_roll(self, person: dict) -> float:
+        """Roll of a detection's body axis from world up (radians; 0 when unknown or when the
+        world's up is undefined there): the alignment points' hip centre to body circle, else
+        the confident hips to the confident shoulders."""
+        s = self.settings
+        aux = person["alignment_rays"]
+        if aux is not None and np.isfinite(aux).all():
+            centre, up = _unit(aux[0]), _unit(aux[1])
+        else:
+            rays, conf = person["rays_cam"], person["kp"].confidence
+            good = (conf >= s.min_keypoint_confidence) & np.isfinite(rays).all(axis=1)
+            hips, shoulders = [_LEFT_HIP, _RIGHT_HIP], [_LEFT_SHOULDER, _RIGHT_SHOULDER]
+            if not (good[hips].any() and good[shoulders].any()):
+                return 0.0
+            centre = _unit(rays[[j for j in hips if good[j]]].mean(axis=0))
+            up = _unit(rays[[j for j in shoulders if good[j]]].mean(axis=0))
+        if not upright_defined(self.camera, centre, s.upright_undefined_angle):
+            return 0.0
+        return roll_from_upright(self.camera, centre, up)
 
     def _body_bearing(self, person: dict) -> tuple[np.ndarray, float, np.ndarray | None] | None:
         """Hip-centre ray, angular radius of the confident body keypoints, and the shoulder-centre
@@ -496,12 +660,21 @@ class FisheyePoseEstimator:
 
     def _merge(self, people: list[dict]) -> list[dict]:
         """One detection per person: drop a detection whose body centre lies inside a better one
-        (better: higher pose flag times mean body-keypoint confidence)."""
+        (better: with ``merge_prefers_upright``, a body axis within ``recheck_roll`` of world up,
+        then a view closer to upright; then a higher pose flag times mean body-keypoint confidence)."""
         bearings = [self._body_bearing(p) for p in people]
         # The better detection of one person: the pose flag times the mean confidence of the body
         # keypoints (two views of one person often both have a flag near 1).
         score = [float(p["kp"].presence) * float(np.mean(p["kp"].confidence[_BODY_JOINTS])) for p in people]
-        order = sorted(range(len(people)), key=lambda i: -score[i])
+        s = self.settings
+        if s.merge_prefers_upright:
+            # A plausible body axis first, then the view closest to upright, then confidence.
+            def rank(i):
+                implausible = s.recheck_roll is not None and abs(people[i]["body_roll"]) > s.recheck_roll
+                return implausible, round(abs(people[i]["view_roll"]) / s.merge_roll_step), -score[i]
+            order = sorted(range(len(people)), key=rank)
+        else:
+            order = sorted(range(len(people)), key=lambda i: -score[i])
         kept: list[int] = []
         for i in order:
             if bearings[i] is None:
@@ -518,8 +691,8 @@ class FisheyePoseEstimator:
         return [people[i] for i in kept]
 
     def _refocus(self, person: dict) -> Target:
-        """The next frame's view of a person: aimed at the hips, fitted to the body, rolled so
-        the hip-to-shoulder direction points up (when it is known well enough)."""
+        """The next frame's view of a person: aimed at the hips, fitted to the body, rolled
+        from upright towards the body axis by at most ``max_body_roll`` (:meth:`_view_up`)."""
         s = self.settings
         centre, radius, shoulder = person["bearing"]
         aux = person["alignment_rays"]
@@ -528,12 +701,100 @@ class FisheyePoseEstimator:
             radius = float(_angle_between(centre, extent))
             if radius > 0:
                 return Target(centre, self._half_fov(radius), SOURCE_REFOCUS,
-                              up_cam=extent if s.align_views else None)
+                              up_cam=self._view_up(centre, extent))
         up = None
-        if s.align_views and shoulder is not None and \
-                _angle_between(shoulder, centre) >= s.min_axis_fraction * radius:
-            up = shoulder
+        if shoulder is not None and _angle_between(shoulder, centre) >= s.min_axis_fraction * radius:
+            up = self._view_up(centre, shoulder)
         return Target(centre, self._half_fov(radius), SOURCE_REFOCUS, up_cam=up)
+
+    # -- left and right ----------------------------------------------------------------------
+    def _lr_verdict(self, before: dict, rays: np.ndarray, conf: np.ndarray, pairs: np.ndarray) -> int | None:
+        """0: ``rays`` keep the left and right of ``before`` (the previous frame's skeleton of the
+        same person), 1: they match it the other way round, None: cannot tell (fewer than two
+        confident pairs, or neither labelling clearly closer, e.g. a side view with left and
+        right on top of each other)."""
+        s = self.settings
+        left, right = pairs[:, 0], pairs[:, 1]
+        prev_rays, prev_conf = before["rays"], before["conf"]
+        good = ((conf >= s.min_keypoint_confidence) & (prev_conf >= s.min_keypoint_confidence)
+                & np.isfinite(rays).all(axis=1) & np.isfinite(prev_rays).all(axis=1))
+        ok = good[left] & good[right]
+        if ok.sum() < 2:
+            return None
+        l, r = left[ok], right[ok]
+        same = float(np.sum(_angle_between(prev_rays[l], rays[l]) + _angle_between(prev_rays[r], rays[r])))
+        swap = float(np.sum(_angle_between(prev_rays[l], rays[r]) + _angle_between(prev_rays[r], rays[l])))
+        if swap < s.left_right_ratio * same:
+            return 1
+        if same < s.left_right_ratio * swap:
+            return 0
+        return None
+
+    def _left_right(self, people: list[dict]) -> list[dict]:
+        """Keep each person's left and right consistent with their previous frames (see
+        ``PoseSettings.left_right_check``); updates the per-person history."""
+        s = self.settings
+        tracks, used, kept = self._lr_tracks, set(), []
+        window = max(1, int(s.left_right_window))
+        for p in people:
+            centre, radius, _ = p["bearing"]
+            best = None
+            for k, t in enumerate(tracks):
+                a = float(_angle_between(centre, t["centre"]))
+                if k not in used and a < s.same_person_angle * max(radius, t["radius"]) and \
+                        (best is None or a < best[0]):
+                    best = (a, k)
+            votes: list[int | None] = []
+            uncertain = False
+            since_flip = window
+            if best is not None:
+                used.add(best[1])
+                track = tracks[best[1]]
+                since_flip = track["since_flip"] + 1
+                verdict = self._lr_verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE)
+                votes = (track["votes"] + [verdict])[-window:]
+                against = sum(1 for v in votes if v == 1)
+                if against > window // 2:
+                    # The network has labelled this person the other way round in most recent
+                    # frames: follow it (the votes flip with the track's labelling).
+                    votes = [None if v is None else 1 - v for v in votes]
+                    since_flip = 0
+                elif verdict == 1:
+                    self._swap(p)
+                # Split recent labelling, or a labelling change less than a window ago: the
+                # left and right of this frame are not to be trusted.
+                uncertain = against >= 2 or since_flip < window
+            conf = p["kp"].confidence.copy()
+            rays = p["rays_cam"]
+            if best is not None:
+                # Limbs whose own left and right disagree with the body's are not trusted.
+                for check, joints in _LR_LIMB_PAIRS.values():
+                    if self._lr_verdict(tracks[best[1]], rays, conf, check) == 1:
+                        p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, joints,
+                                                                      s.uncertain_confidence))
+            if uncertain:
+                paired = _LR_PAIRS.ravel()
+                p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, paired, s.uncertain_confidence))
+            p["left_right_uncertain"] = uncertain
+            kept.append({"centre": centre, "radius": radius, "rays": rays, "conf": conf, "votes": votes,
+                         "since_flip": since_flip, "missed": 0})
+        for k, t in enumerate(tracks):
+            if k not in used and t["missed"] < s.coast_frames:
+                kept.append({**t, "missed": t["missed"] + 1})
+        self._lr_tracks = kept
+        return people
+
+    @staticmethod
+    def _swap(person: dict) -> None:
+        """Exchange the left and right keypoints of a detection (in place)."""
+        kp = person["kp"]
+        person["kp"] = replace(
+            kp, pixels=kp.pixels[_MIRROR], confidence=kp.confidence[_MIRROR],
+            depth=None if kp.depth is None else kp.depth[_MIRROR],
+            landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[_MIRROR],
+            world_m=None if kp.world_m is None else kp.world_m[_MIRROR])
+        person["rays_cam"] = person["rays_cam"][_MIRROR]
+        person["left_right_swapped"] = True
 
     def _record(self, people: list[dict], frame_index: int) -> FrameDetections:
         if not people:

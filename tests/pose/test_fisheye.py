@@ -17,7 +17,14 @@ from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import VirtualView, build_map
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pose.fisheye import SOURCE_REFOCUS, SOURCE_SEARCH, FisheyePoseEstimator, ViewCache, view_rotation
+from ergopose.pose.fisheye import (
+    SOURCE_REFOCUS,
+    SOURCE_SEARCH,
+    FisheyePoseEstimator,
+    PoseSettings,
+    ViewCache,
+    view_rotation,
+)
 from ergopose.records import Detections2D
 
 SIZE = 1024
@@ -156,8 +163,9 @@ def _rolled_view(camera, target_world, hfov_deg, roll):
 @pytest.mark.parametrize("lean_deg", [-60.0, 50.0])
 def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector, lean_deg):
     """A person leaning (drawn upright in a view rolled against the upright one): the stage's
-    next view is rolled so the drawn hip-to-shoulder direction points up in it, and the pose
-    found in that view stands upright there."""
+    next view is rolled from upright towards the drawn hip-to-shoulder direction by at most
+    ``max_body_roll`` (here 30 degrees; world vertical stays the reference), and the pose found
+    in that view leans by what is left over."""
     target = (1.4, 0.6, 1.0)
     view = _rolled_view(camera, target, 40.0, np.radians(lean_deg))
     background = (170, 170, 170)
@@ -172,20 +180,25 @@ def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector,
     upright = VirtualView.aimed_along(camera, hip_ray, np.radians(40))
     d = upright.lens.project(shoulder_ray @ upright.rotation_cam_from_view) - upright.lens.project(hip_ray @ upright.rotation_cam_from_view)
     assert abs(np.degrees(np.arctan2(d[0], -d[1])) - lean_deg) < 3.0
-    stage = FisheyePoseEstimator(camera, 0, landmarker, detector)
+    settings = PoseSettings(max_body_roll=np.radians(30.0))
+    stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings)
     assert stage.process(frame, 0).count == 1
     (nxt,) = stage._targets
     assert nxt.up_cam is not None
+    bound = np.degrees(settings.max_body_roll)
+    left_over = lean_deg - np.clip(lean_deg, -bound, bound)
     r = view_rotation(camera, nxt.direction_cam, nxt.up_cam)
     lens = Rectilinear.from_fov(256, 256, 2 * nxt.half_fov)
     d = lens.project(shoulder_ray @ r) - lens.project(hip_ray @ r)
-    assert abs(np.degrees(np.arctan2(d[0], -d[1]))) < 10.0
+    assert abs(np.degrees(np.arctan2(d[0], -d[1])) - left_over) < 10.0
     found = stage.process(frame, 1)
     assert found.count == 1 and found.source[0] == SOURCE_REFOCUS
     px = found.pixels_view[0]
     axis = px[[JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]].mean(0) - \
         px[[JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]].mean(0)
-    assert abs(np.degrees(np.arctan2(axis[0], -axis[1]))) < 10.0
+    # (The network's shoulders and hips on the drawn figure leaning by 30 degrees in the view
+    # give its axis to within about 13 degrees.)
+    assert abs(np.degrees(np.arctan2(axis[0], -axis[1])) - left_over) < 15.0
     # Keypoints still come back onto the drawn joints in the fisheye image.
     drawn_fisheye = view.view_to_source_pixels(joints_view["left_shoulder"])
     torso = np.linalg.norm(view.view_to_source_pixels(joints_view["left_hip"]) - drawn_fisheye)
