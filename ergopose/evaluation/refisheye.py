@@ -63,6 +63,13 @@ from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import build_map
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
+from ergopose.pose.blazepose import Roi
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.fisheye import PoseSettings
+from ergopose.session import load_session
+from ergopose.sim.ground_truth import load_ground_truth
+from ergopose.video import read_frames as read_video
 
 DEFAULT_ROOT = Path("/work/shared/data/pose2sim-demo")
 LIMB_NAMES = ("shoulder", "elbow", "wrist", "hip", "knee", "ankle")
@@ -125,7 +132,6 @@ def reference_pose(frame: np.ndarray, detector, landmarker, upright_camera: Came
     """BlazePose on a whole pinhole frame, MediaPipe's way: (33, 2) pixels and (33,) confidence,
     or None when the detector finds nobody. upright_camera: the crops are turned to the image of
     the world's vertical at the hips instead of the body axis (an upright reference)."""
-    from ergopose.pose.blazepose import Roi
 
     h, w = frame.shape[:2]
     side = max(h, w)
@@ -265,7 +271,6 @@ MODES: dict[str, dict] = {
 
 
 def _settings(mode: str):
-    from ergopose.pose.fisheye import PoseSettings
 
     return PoseSettings(**MODES[mode])
 
@@ -303,7 +308,6 @@ def openpose_reference(root: Path, number: int, frames: int, camera: Camera) -> 
 
 
 def reference_for_camera(root: Path, number: int, frames: int, model_dir=None) -> dict:
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 
     cv2.setNumThreads(1)
     det = BlazePoseDetector(model_dir=model_dir, num_threads=1)
@@ -327,8 +331,6 @@ def reference_for_camera(root: Path, number: int, frames: int, model_dir=None) -
 def run_config(args) -> list[dict]:
     """All modes on one virtual camera (frames rendered once, every mode's stage fed in turn)."""
     root, number, frames, off_axis_deg, roll_deg, px_per_rad, modes, ref, model_dir = args
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-    from ergopose.pose.fisheye import FisheyePoseEstimator
 
     real = load_cameras(root)[number - 1]
     refs, ref = ref, ref["aligned"]
@@ -381,11 +383,6 @@ def simulated_camera(args) -> list[dict]:
     worker whose four torso joints the camera sees (visible, or behind the worker's own body)
     is counted; the reference rays are the true joints, seen where visibility is 0."""
     session_dir, camera_index, stop, modes = args
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-    from ergopose.pose.fisheye import FisheyePoseEstimator
-    from ergopose.session import load_session
-    from ergopose.sim.ground_truth import load_ground_truth
-    from ergopose.video import read_frames as read_video
 
     cv2.setNumThreads(1)
     session = load_session(session_dir)
@@ -499,7 +496,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     ctx = multiprocessing.get_context("spawn")
     t0 = time.time()
     if a.sim is not None:
-        from ergopose.session import load_session
 
         n = len(load_session(a.sim).cameras)
         with ProcessPoolExecutor(a.processes, mp_context=ctx) as pool:

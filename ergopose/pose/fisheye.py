@@ -42,7 +42,7 @@ depends on the world or on the other camera.
 from __future__ import annotations
 
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol, Sequence
 
 import cv2
@@ -63,7 +63,6 @@ _BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
     "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
     "left_heel", "right_heel", "left_foot_index", "right_foot_index")])
 
-from dataclasses import replace  # kept out of the import block above
 
 #: Every left/right pair of the 33 keypoints (swapping a skeleton exchanges all of them).
 _LR_PAIRS = np.array([(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")])

@@ -28,7 +28,7 @@ from ergopose.records import detections_from_fisheye
 from ergopose.sim.ground_truth import GroundTruth
 from ergopose.sim.motion import TASKS, simulate_motion
 from ergopose.sim.render import all_body_primitives, joint_visibility
-from ergopose.sim.scene import default_scene, rig_cameras
+from ergopose.sim.scene import default_scene, rig_cameras, rig_lens
 
 #: Distortion of a real 195-degree fisheye (TUM VI cam0, Kannala-Brandt k1..k4; Schubert et al. 2018).
 LENS_COEFFICIENTS = (0.0034823894, 0.0007150348, -0.0020532361, 0.0002029367)
@@ -295,7 +295,5 @@ def extra_ceiling_cameras(size: tuple[int, int] = PAPER_SIZE, positions=((0.0, 1
     """More ceiling fisheye cameras for multi-camera tests: the simulator rig's lens model
     (camera 1's intrinsics) looking straight down from ``positions``, turned by 90 and 270 degrees
     so that their baselines with the rig's cameras run in other directions."""
-    from ergopose.sim.scene import rig_lens
-
     return tuple(ceiling_camera(name, rig_lens(*size, 0), size[0], size[1], pos, yaw=math.pi / 2 + k * math.pi)
                  for k, (name, pos) in enumerate(zip(names, positions)))
