@@ -8,6 +8,7 @@ from pathlib import Path
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
 from ergopose.pipeline.assess import AssessOptions, assess
+from ergopose.report.pages import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -54,16 +55,30 @@ def run(args: argparse.Namespace) -> int:
 
 
 def print_result(result) -> None:
-    """The summary a user sees at the end: workers, shares at high risk, where the files are."""
+    """The summary a user sees at the end: per worker the tracked time split by confidence (with
+    causes), the shares at high risk of the tracked and of the scored time, where the files are.
+    The figures are the shift summary's, formatted as in the report."""
     print(f"assessed {result.session} ({result.frames} frames, {result.seconds:.0f} s"
           + (f", {result.chunks_reused} of {result.chunks_total} chunks reused" if result.chunks_reused else "") + ")")
     for w in result.workers:
-        name = f" ({w.name})" if w.name != w.worker_id else ""
-        print(f"  {w.worker_id}{name}: tracked {w.observed_s / 60:.1f} min; "
-              f"RULA action level 3-4 {_pct(w.rula_high_share)}, REBA high/very high {_pct(w.reba_high_share)}")
+        for line in worker_lines(w):
+            print(line)
     print(f"report: {result.index_html}")
     print(f"CSV files: {result.session_csv.parent}")
 
 
-def _pct(x: float) -> str:
-    return "n/a" if x != x else f"{100 * x:.0f} % of tracked time"
+def worker_lines(w) -> list[str]:
+    """One worker's lines of the terminal summary (w: ergopose.pipeline.stages.WorkerOutput)."""
+    s = w.summary
+    total = s.observed_s
+    name = f" ({w.name})" if w.name != w.worker_id else ""
+    lines = [f"  {w.worker_id}{name}: tracked {fmt_duration(total)}"]
+    for c in s.confidence:
+        causes = "; ".join(f"{ca.cause} {fmt_duration(ca.time_s)} ({fmt_percent(ca.time_s, total)})" for ca in c.causes)
+        lines.append(f"    {CONFIDENCE_WORDS[c.level]}: {fmt_duration(c.time_s)} ({fmt_percent(c.time_s, total)} of "
+                     f"tracked time)" + (f": {causes}" if causes else ""))
+    for label, col in (("RULA action level 3-4", "rula_action_level"), ("REBA high/very high", "reba_risk_level")):
+        high, scored = s.high_time_s(col), s.scored_time_s(col)
+        lines.append(f"    {label}: {fmt_duration(high)} = {fmt_percent(high, total)} of tracked time, "
+                     f"{fmt_percent(high, scored)} of scored time ({fmt_duration(scored)} scored)")
+    return lines

@@ -11,6 +11,15 @@ between the first chunk's frames), so the observed time is frames x period and a
 its first to its last frame plus one period. Frames further apart than ``max_gap_s`` (tracking
 lost) end a hold. Missing scores (<NA>) are counted as their own "missing" share.
 
+Confidence (the frames' ``confidence`` and ``cause`` columns, ergopose.ergonomics.uncertainty):
+the tracked time split into scored with confidence, scored with low confidence and unscored, each
+with the time per cause -- seconds and percent of the tracked time, counted once here and shown as
+such by the CSV files, the report and the terminal summary. Inputs: per body part (INPUT_GROUPS),
+the median over the shift of the per-frame standard deviation of its angles (the largest of its
+angles in a frame; from a histogram of 0.01 degree bins up to 90 degrees, so exact to 0.005
+degree whatever the chunking) and the share of the tracked frames in which one of its joints was placed by the body
+model (inferred) rather than seen by two cameras.
+
 Chunks: :class:`ShiftAccumulator` takes the shift in pieces (``add`` each chunk, in order) and
 gives exactly the answer of the whole series, because holds still open at the end of a chunk are
 carried into the next one. :func:`aggregate_shift` is the one-call form.
@@ -43,6 +52,7 @@ from ergopose.ergonomics.activity import check_time, frame_period
 from ergopose.ergonomics.posture import expand_sides
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, REPETITION_ANGLES
 from ergopose.ergonomics.settings import ScoringSettings
+from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUP_JOINTS, INPUT_GROUPS
 from ergopose.errors import InputError
 from ergopose.progress import ProgressCallback, report
 
@@ -160,6 +170,51 @@ class ExposureFinding:
 
 
 @dataclass(frozen=True)
+class CauseTime:
+    """Time with one cause of low confidence or of no score: cause (ergopose.ergonomics.uncertainty.
+    CAUSES, or "not recorded"), frames, seconds, percent of the tracked time."""
+
+    cause: str
+    frames: int
+    time_s: float
+    percent: float
+
+
+@dataclass(frozen=True)
+class ConfidenceShare:
+    """One part of the tracked time: level "confident" (both scores scored with confidence), "low"
+    (scored with low confidence) or "unscored" (a score missing); frames, seconds, percent of the
+    tracked time, and the time per cause (empty for "confident"; causes with no time left out)."""
+
+    level: str
+    frames: int
+    time_s: float
+    percent: float
+    causes: tuple[CauseTime, ...]
+
+
+@dataclass(frozen=True)
+class InputCertainty:
+    """How well one body part's RULA/REBA inputs were measured over the shift.
+
+    body_part: in words (INPUT_GROUPS). angles: the angle columns. measured_frames: frames with
+    one of the angles measured. median_sd_rad: the median over those frames of the largest
+    standard deviation of its angles in the frame (radians; NaN when never measured or when the
+    frames carry no deviations). inferred_frames: frames in which one of its joints was placed by
+    the body model; known_frames: frames whose inferred flags were given (0 = unknown);
+    inferred_percent: inferred_frames of known_frames (NaN when unknown).
+    """
+
+    body_part: str
+    angles: tuple[str, ...]
+    measured_frames: int
+    median_sd_rad: float
+    inferred_frames: int
+    known_frames: int
+    inferred_percent: float
+
+
+@dataclass(frozen=True)
 class ShiftSummary:
     """Everything reported for one worker over a shift (or any stretch of frames)."""
 
@@ -174,6 +229,32 @@ class ShiftSummary:
     episodes: Mapping[str, tuple[Episode, ...]]
     repetitions: tuple[Repetitions, ...]
     exposure: tuple[ExposureFinding, ...]
+    confidence: tuple[ConfidenceShare, ...] = ()
+    inputs: tuple[InputCertainty, ...] = ()
+
+    def confidence_of(self, level: str) -> ConfidenceShare | None:
+        """The ConfidenceShare of a level ("confident", "low", "unscored"); None when the frames
+        carried no confidence column."""
+        for c in self.confidence:
+            if c.level == level:
+                return c
+        return None
+
+    def high_time_s(self, column: str, levels: Sequence[int] = (3, 4)) -> float:
+        """Seconds at the given levels of a level column (0 when the column is absent)."""
+        d = self.distributions.get(column)
+        return float(sum(d.at(v).time_s for v in levels)) if d is not None else 0.0
+
+    def scored_time_s(self, column: str) -> float:
+        """Seconds with a value in a level column (tracked time less its missing time)."""
+        d = self.distributions.get(column)
+        return float(self.observed_s - d.missing_time_s) if d is not None else 0.0
+
+
+#: Standard deviations of the inputs are counted in bins this wide (radians), _SD_BINS of them.
+_SD_BIN_RAD = float(np.deg2rad(0.01))
+_SD_BINS = 9000  # 0-90 degrees; larger deviations fall in the last bin
+NOT_RECORDED = "not recorded"
 
 
 def nominal_frame_period(time_s: np.ndarray) -> float:
@@ -413,11 +494,21 @@ class ShiftAccumulator:
         self.rep_minutes: dict[str, dict[int, int]] = {}
         self.columns: tuple[str, ...] | None = None
         self.exposure_present: dict[str, bool] = {}
+        self.confidence_frames: dict[tuple[str, str], int] = {}  # (level, cause) -> frames
+        self.input_sd_hist = np.zeros((len(INPUT_GROUPS), _SD_BINS), dtype=np.int64)
+        self.input_measured = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
+        self.input_inferred = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
+        self.input_known = 0
 
-    def add(self, frames: pd.DataFrame) -> None:
-        """Take the next chunk of frames (time order, after the previous chunk)."""
+    def add(self, frames: pd.DataFrame, inferred: np.ndarray | None = None) -> None:
+        """Take the next chunk of frames (time order, after the previous chunk).
+
+        inferred: (n, 33) joints placed by the body model, one row per frame (the tracks table's
+        ``inferred``), for the inputs' inferred shares; None = not known for this chunk."""
         if len(frames) == 0:
             return
+        if inferred is not None and np.shape(inferred)[0] != len(frames):
+            raise ValueError(f"inferred has {np.shape(inferred)[0]} rows for {len(frames)} frames")
         frames = expand_sides(frames)
         if "time_s" not in frames.columns:
             raise InputError("the frames need a time_s column to be aggregated", field="time_s")
@@ -472,6 +563,8 @@ class ShiftAccumulator:
                 self.exposure_runs[key] = _Runs(self.period, self.s.max_gap_s, static_s=self.static_hold_s)
             self.exposure_runs[key].add(t, _codes(z))
 
+        self._add_certainty(frames, inferred)
+
         minutes = np.floor((t - self.shift_start_s) / 60.0).astype(np.int64)
         for angle in REPETITION_ANGLES:
             col = REPETITION_PREFIX + angle
@@ -483,6 +576,60 @@ class ShiftAccumulator:
             um, mc = np.unique(minutes[ev], return_counts=True)
             for m, k in zip(um.tolist(), mc.tolist()):
                 per_min[m] = per_min.get(m, 0) + k
+
+    def _add_certainty(self, frames: pd.DataFrame, inferred: np.ndarray | None) -> None:
+        """Count the chunk's frames per confidence level and cause, and its inputs' deviations."""
+        if "confidence" in frames.columns:
+            level = frames["confidence"].astype("string").fillna("unscored").to_numpy(dtype=object)
+            cause = (frames["cause"].astype("string").fillna("").to_numpy(dtype=object) if "cause" in frames.columns
+                     else np.full(len(frames), "", dtype=object))
+            cause = np.where(level == "confident", "", np.where(cause == "", NOT_RECORDED, cause))
+            keys, counts = np.unique(np.stack([level.astype(str), cause.astype(str)]), axis=1, return_counts=True)
+            for (lv, ca), k in zip(keys.T.tolist(), counts.tolist()):
+                self.confidence_frames[(lv, ca)] = self.confidence_frames.get((lv, ca), 0) + int(k)
+        for g, (_, angles, _) in enumerate(INPUT_GROUPS):
+            measured = np.zeros(len(frames), dtype=bool)
+            for a in angles:
+                x = _col(frames, a)
+                if x is not None:
+                    measured |= np.isfinite(x)
+            self.input_measured[g] += int(measured.sum())
+            sds = [x for x in (_col(frames, f"{a}_sd") for a in angles) if x is not None]
+            if sds:
+                sd = np.fmax.reduce(np.stack(sds), axis=0)
+                sd = sd[measured & np.isfinite(sd)]
+                idx = np.clip((sd / _SD_BIN_RAD).astype(np.int64), 0, _SD_BINS - 1)
+                self.input_sd_hist[g] += np.bincount(idx, minlength=_SD_BINS)
+            if inferred is not None:
+                self.input_inferred[g] += int(np.asarray(inferred)[:, INPUT_GROUP_JOINTS[g]].any(axis=1).sum())
+        if inferred is not None:
+            self.input_known += len(frames)
+
+    def _confidence_result(self, period: float, pct) -> tuple[ConfidenceShare, ...]:
+        if not self.confidence_frames:
+            return ()
+        out = []
+        for lv in CONFIDENCE_LEVELS:
+            n = sum(k for (level, _), k in self.confidence_frames.items() if level == lv)
+            causes = tuple(CauseTime(ca, k, k * period, pct(k * period)) for ca in (*CAUSES, NOT_RECORDED)
+                           if (k := self.confidence_frames.get((lv, ca), 0)) > 0 and lv != "confident")
+            out.append(ConfidenceShare(lv, n, n * period, pct(n * period), causes))
+        return tuple(out)
+
+    def _inputs_result(self) -> tuple[InputCertainty, ...]:
+        out = []
+        for g, (part, angles, _) in enumerate(INPUT_GROUPS):
+            hist = self.input_sd_hist[g]
+            total = int(hist.sum())
+            if total:
+                k = int(np.searchsorted(np.cumsum(hist), (total + 1) // 2))  # the lower median's bin
+                median = (k + 0.5) * _SD_BIN_RAD
+            else:
+                median = math.nan
+            known = self.input_known
+            out.append(InputCertainty(part, angles, int(self.input_measured[g]), median, int(self.input_inferred[g]),
+                                      known, float(100.0 * self.input_inferred[g] / known) if known else math.nan))
+        return tuple(out)
 
     # ------------------------------------------------------------------------------ result
 
@@ -580,17 +727,20 @@ class ShiftAccumulator:
         return ShiftSummary(worker=self.worker, frames=self.frames, frame_period_s=period, observed_s=observed,
                             start_s=self.start_s, end_s=self.end_s,
                             distributions=MappingProxyType(distributions), hourly=tuple(hourly),
-                            episodes=MappingProxyType(episodes), repetitions=tuple(reps), exposure=tuple(exposure))
+                            episodes=MappingProxyType(episodes), repetitions=tuple(reps), exposure=tuple(exposure),
+                            confidence=self._confidence_result(period, pct), inputs=self._inputs_result())
 
 
 def aggregate_shift(frames: pd.DataFrame, worker: str = "", *, chunk_frames: int | None = None,
-                    progress: ProgressCallback | None = None, **options) -> ShiftSummary:
-    """Aggregate one worker's scored frames (in time order); options as :class:`ShiftAccumulator`."""
+                    progress: ProgressCallback | None = None, inferred: np.ndarray | None = None,
+                    **options) -> ShiftSummary:
+    """Aggregate one worker's scored frames (in time order); inferred: (n, 33) joints placed by the
+    body model (see :meth:`ShiftAccumulator.add`); options as :class:`ShiftAccumulator`."""
     acc = ShiftAccumulator(worker, **options)
     n = len(frames)
     step = n if not chunk_frames else max(1, int(chunk_frames))
     for i in range(0, n, step or 1):
-        acc.add(frames.iloc[i:i + step])
+        acc.add(frames.iloc[i:i + step], None if inferred is None else np.asarray(inferred)[i:i + step])
         report(progress, "aggregate", min(i + step, n), n, unit="frame")
     return acc.result()
 
@@ -610,6 +760,7 @@ def aggregate_session(frames: pd.DataFrame, *, by: str = "worker", progress: Pro
 
 __all__ = [
     "ValueTime", "Distribution", "HourStats", "Episode", "Repetitions", "ExposureFinding", "ShiftSummary",
+    "CauseTime", "ConfidenceShare", "InputCertainty", "NOT_RECORDED",
     "ShiftAccumulator", "aggregate_shift", "aggregate_session", "DISTRIBUTION_COLUMNS", "EPISODE_COLUMNS",
     "REPETITION_PREFIX", "ISO_VERDICTS", "EN_VERDICTS",
 ]

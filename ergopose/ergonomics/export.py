@@ -21,11 +21,14 @@ from ergopose.ergonomics.aggregate import REPETITION_PREFIX, ShiftSummary
 from ergopose.ergonomics.posture import (ANGLE_COLUMNS, DISTANCE_COLUMNS, FLAG_COLUMNS, IDENTITY, POSTURE_COLUMNS,
                                          expand_sides, to_csv_units)
 from ergopose.ergonomics.scoring import reba_columns, rula_columns
+from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUPS, SD_COLUMNS
 from ergopose.ergonomics.uncertainty import SCORE_COLUMNS as UNCERTAINTY_SCORE_COLUMNS
-from ergopose.ergonomics.uncertainty import SD_COLUMNS
 
 #: digits after the decimal point per kind of column
 _DECIMALS = {"angle": 2, "distance": 3, "time": 3, "load": 2, "percent": 2, "rate": 3}
+
+#: The levels counted as high risk (RULA action level 3-4, REBA risk level 3-4 = high, very high).
+HIGH_LEVELS = (3, 4)
 
 #: the session summary's level columns: (method, level column, levels)
 _SESSION_LEVELS = (("rula", "rula_action_level", (1, 2, 3, 4)), ("reba", "reba_risk_level", (0, 1, 2, 3, 4)))
@@ -141,8 +144,10 @@ class FramesCsvWriter:
 
 WORKER_SUMMARY_COLUMNS = (
     "worker", "section", "item", "hour", "value", "time_s", "percent", "holds", "longest_hold_s",
-    "longest_hold_start_s", "start_s", "end_s", "peak_score", "count", "per_minute", "verdict",
+    "longest_hold_start_s", "start_s", "end_s", "peak_score", "count", "per_minute", "verdict", "sd_deg",
 )
+#: The session summary's names of the confidence levels (columns <name>_s, <name>_pct, <name>_<cause>_s ...).
+CONFIDENCE_NAMES = {"confident": "confident", "low": "low_confidence", "unscored": "unscored"}
 
 
 def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
@@ -182,7 +187,19 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
                 holds=f.static_holds.get(zone), longest_hold_s=f.longest_static_hold_s.get(zone),
                 count=f.entries if f.standard.startswith("EN") else None,
                 per_minute=f.per_minute if f.standard.startswith("EN") else None, verdict=f.verdict)
+    for c in summary.confidence:
+        row(section="confidence", item=c.level, value="all", time_s=c.time_s, percent=c.percent)
+        for ca in c.causes:
+            row(section="confidence", item=c.level, value=ca.cause, time_s=ca.time_s, percent=ca.percent)
+    for i in summary.inputs:
+        if math.isfinite(i.median_sd_rad):
+            row(section="inputs", item=i.body_part, value="angle sd", count=i.measured_frames,
+                sd_deg=math.degrees(i.median_sd_rad))
+        if i.known_frames:
+            row(section="inputs", item=i.body_part, value="inferred", count=i.inferred_frames,
+                percent=i.inferred_percent)
     table = pd.DataFrame(rows, columns=list(WORKER_SUMMARY_COLUMNS))
+    table["sd_deg"] = table["sd_deg"].astype(np.float64).round(_DECIMALS["angle"])
     for c in ("hour", "holds", "peak_score", "count"):
         table[c] = table[c].astype("Int64")
     for c in ("time_s", "longest_hold_s", "longest_hold_start_s", "start_s", "end_s"):
@@ -207,6 +224,30 @@ def _slug(text: str) -> str:
     return out.strip("_")
 
 
+def _confidence_columns(s: ShiftSummary) -> dict[str, float]:
+    """The tracked time split by confidence, with causes, and each input's certainty (NaN when the
+    frames carried no confidence or deviation columns)."""
+    r: dict[str, float] = {}
+    for lv in CONFIDENCE_LEVELS:
+        c = s.confidence_of(lv)
+        name = CONFIDENCE_NAMES[lv]
+        r[f"{name}_s"] = c.time_s if c is not None else math.nan
+        r[f"{name}_pct"] = c.percent if c is not None else math.nan
+        if lv == "confident":
+            continue
+        by = {ca.cause: ca for ca in c.causes} if c is not None else {}
+        for cause in CAUSES:
+            ca = by.get(cause)
+            r[f"{name}_{_slug(cause)}_s"] = (ca.time_s if ca else 0.0) if c is not None else math.nan
+            r[f"{name}_{_slug(cause)}_pct"] = (ca.percent if ca else 0.0) if c is not None else math.nan
+    inputs = {i.body_part: i for i in s.inputs}
+    for part, _, _ in INPUT_GROUPS:
+        i = inputs.get(part)
+        r[f"{_slug(part)}_median_sd_deg"] = math.degrees(i.median_sd_rad) if i is not None else math.nan
+        r[f"{_slug(part)}_inferred_pct"] = i.inferred_percent if i is not None else math.nan
+    return r
+
+
 def session_summary_table(summaries: Sequence[ShiftSummary] | Mapping[str, ShiftSummary]) -> pd.DataFrame:
     """One row per worker: time per level, worst episode, repetitions, exposure verdicts."""
     items = list(summaries.values()) if isinstance(summaries, Mapping) else list(summaries)
@@ -222,6 +263,11 @@ def session_summary_table(summaries: Sequence[ShiftSummary] | Mapping[str, Shift
                 r[f"{method}_level{lv}_pct"] = v.percent if v else math.nan
                 r[f"{method}_level{lv}_longest_hold_s"] = v.longest_hold_s if v else math.nan
             r[f"{method}_missing_pct"] = dist.missing_percent if dist is not None else math.nan
+            high, scored = s.high_time_s(col, HIGH_LEVELS), s.scored_time_s(col)
+            r[f"{method}_scored_s"] = scored if dist is not None else math.nan
+            r[f"{method}_high_s"] = high if dist is not None else math.nan
+            r[f"{method}_high_pct"] = 100.0 * high / s.observed_s if dist is not None and s.observed_s > 0 else math.nan
+            r[f"{method}_high_pct_of_scored"] = 100.0 * high / scored if dist is not None and scored > 0 else math.nan
             eps = s.episodes.get(col, ())
             worst = eps[0] if eps else None
             r[f"{method}_worst_level"] = worst.level if worst else None
@@ -239,13 +285,16 @@ def session_summary_table(summaries: Sequence[ShiftSummary] | Mapping[str, Shift
             r["max_repetitions_in_one_minute"] = None
         for f in s.exposure:
             r[f"{_slug(f.standard)}_{_slug(f.body_part)}"] = f.verdict
+        r.update(_confidence_columns(s))
         rows.append(r)
     table = pd.DataFrame(rows)
     for c in table.columns:
         if c.endswith(("_s",)) or c == "frame_period_s":
             table[c] = table[c].astype(np.float64).round(6 if c == "frame_period_s" else _DECIMALS["time"])
-        elif c.endswith("_pct"):
+        elif c.endswith(("_pct", "_pct_of_scored")):
             table[c] = table[c].astype(np.float64).round(_DECIMALS["percent"])
+        elif c.endswith("_sd_deg"):
+            table[c] = table[c].astype(np.float64).round(_DECIMALS["angle"])
         elif c == "max_repetitions_per_min":
             table[c] = table[c].astype(np.float64).round(_DECIMALS["rate"])
         elif c.endswith(("_worst_level", "_worst_episode_peak", "in_one_minute")):

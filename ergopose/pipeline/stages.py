@@ -56,15 +56,18 @@ SESSION_CSV = "session_summary.csv"
 
 @dataclass(frozen=True)
 class WorkerOutput:
-    """One worker's results: id, shown name, tracked seconds, share of tracked time at RULA
-    action level 3-4 and REBA risk level 3-4, and the CSV files written."""
+    """One worker's results: id, shown name, the shift summary (ergopose.ergonomics.aggregate.
+    ShiftSummary: tracked time, time at each level, the split by confidence with causes) and the
+    CSV files written."""
 
     worker_id: str
     name: str
-    observed_s: float
-    rula_high_share: float
-    reba_high_share: float
+    summary: Any
     csv_files: tuple[Path, ...]
+
+    @property
+    def observed_s(self) -> float:
+        return float(self.summary.observed_s)
 
 
 # ----------------------------------------------------------------------------------- inputs
@@ -252,7 +255,8 @@ def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -
     """A worker's rows scored in one piece (:func:`score_rows`) and the shift summary; for
     evaluations of short sessions. ``ergopose assess`` scores in blocks (:func:`score_tracks`)."""
     frames = score_rows(session, rows, worker_id, scoring)
-    summary = aggregate_shift(frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps)
+    summary = aggregate_shift(frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps,
+                              inferred=getattr(rows, "inferred", None))
     return ScoredWorker(worker_id=worker_id, frames=frames, summary=summary, diagnostics=diagnostics,
                         reliable=reliable_frames(rows.points_world), points_world=rows.points_world)
 
@@ -291,7 +295,7 @@ class _WorkerSink:
 
     def write(self, frames: pd.DataFrame, rows) -> None:
         self.csv.write(frames)
-        self.acc.add(frames)
+        self.acc.add(frames, getattr(rows, "inferred", None))
         if self._schema is None:
             self._schema = pa.Schema.from_pandas(frames, preserve_index=False)
             self._parquet = self._stack.enter_context(pq.ParquetWriter(self._scored_tmp, self._schema,
@@ -455,21 +459,11 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
         csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
                                   ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
         outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
-                                    observed_s=float(s.summary.observed_s),
-                                    rula_high_share=_high_share(s.timeline, "rula_action_level", 3),
-                                    reba_high_share=_high_share(s.timeline, "reba_risk_level", 3),
-                                    csv_files=(frames_csv, summary_csv)))
+                                    summary=s.summary, csv_files=(frames_csv, summary_csv)))
     session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
     skipped = _skipped_frames(session, out_dir)
     index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress, skipped)
     return Outputs(index_html=index, session_csv=session_csv, workers=tuple(outputs))
-
-
-def _high_share(frames: pd.DataFrame, column: str, threshold: int) -> float:
-    levels = frames[column]
-    scored = levels.notna()
-    n = int(scored.sum())
-    return float((levels[scored] >= threshold).sum() / n) if n else float("nan")
 
 
 def _skipped_frames(session: Session, out_dir: Path) -> tuple:

@@ -28,12 +28,15 @@ from ergopose.report.context import (
     Assumption,
     BandTime,
     CalibrationInfo,
+    CauseSeconds,
+    ConfidenceTime,
     DataFile,
     FloorCamera,
     FloorItem,
     FloorPlan,
     Hold,
     HourLevels,
+    InputQuality,
     LevelTime,
     LimbFrequency,
     LimbStats,
@@ -272,9 +275,17 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
                  for r in summary.repetitions)
     worst = _worst_moments(summary, methods, frames, joints_at, worst_limit)
     flags = tuple(_flag_from_finding(f) for f in summary.exposure)
+    confidence = tuple(ConfidenceTime(level=c.level, seconds=float(c.time_s),
+                                      causes=tuple(CauseSeconds(ca.cause, float(ca.time_s)) for ca in c.causes))
+                       for c in getattr(summary, "confidence", ()))
+    period = float(summary.frame_period_s)
+    inputs = tuple(InputQuality(body_part=i.body_part, angles=tuple(i.angles), median_sd_rad=float(i.median_sd_rad),
+                                inferred_s=i.inferred_frames * period, known_s=i.known_frames * period)
+                   for i in getattr(summary, "inputs", ()))
     return WorkerSummary(worker_id=str(summary.worker), observed_s=float(summary.observed_s), levels=tuple(levels),
                          unscored_s=unscored, body_parts=tuple(body_parts), holds=tuple(holds[:holds_limit]),
-                         repetitions=reps, hourly=tuple(hourly), worst=worst, flags=flags)
+                         repetitions=reps, hourly=tuple(hourly), worst=worst, flags=flags, confidence=confidence,
+                         inputs=inputs)
 
 
 def _angle_body_part(angle: str) -> str:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+from ergopose.ergonomics.uncertainty import CONFIDENCE_LEVELS
 from ergopose.errors import InputError
 
 #: Allowed worker ids (also folder and file names): pseudonymous, no path characters.
@@ -406,6 +407,47 @@ class StandardFlag:
 
 
 @dataclass(frozen=True)
+class CauseSeconds:
+    """Time with one cause of low confidence or of no score: cause (in words: "not seen", "one
+    camera", "occluded limbs", "uncertain angles", "not recorded"), seconds."""
+
+    cause: str
+    seconds: float
+
+
+@dataclass(frozen=True)
+class ConfidenceTime:
+    """One part of the tracked time by confidence (ergopose.ergonomics.uncertainty): level
+    ("confident" = both scores scored with confidence, "low" = scored with low confidence,
+    "unscored" = a score missing), seconds, causes (time per cause; empty for "confident")."""
+
+    level: str
+    seconds: float
+    causes: tuple[CauseSeconds, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.level not in CONFIDENCE_LEVELS:
+            raise ValueError(f"level must be one of {', '.join(CONFIDENCE_LEVELS)}, got {self.level!r}")
+
+
+@dataclass(frozen=True)
+class InputQuality:
+    """How well one body part's RULA/REBA inputs were measured over the shift.
+
+    body_part: in words ("left wrist"). angles: the posture-table angles. median_sd_rad: median
+    over the shift of the per-frame standard deviation of its angles (radians; NaN when unknown).
+    inferred_s: time in which one of its joints was placed by the body model rather than seen by
+    two cameras; known_s: time for which that was recorded (0 = unknown).
+    """
+
+    body_part: str
+    angles: tuple[str, ...]
+    median_sd_rad: float
+    inferred_s: float
+    known_s: float
+
+
+@dataclass(frozen=True)
 class WorkerSummary:
     """The shift aggregation of one worker (``results/workers/<id>/summary.json``).
 
@@ -413,7 +455,10 @@ class WorkerSummary:
     method and level (every level of both methods, zeros included). unscored_s: per method,
     observed time without a score (missing joints). body_parts: time per body part and band.
     holds: longest holds. repetitions: repetitive movements. hourly: per hour and method.
-    worst: worst moments, worst first. flags: ISO 11226 / EN 1005-4 judgements.
+    worst: worst moments, worst first. flags: ISO 11226 / EN 1005-4 judgements. confidence: the
+    tracked time split into scored with confidence, scored with low confidence and unscored, with
+    causes (empty in results written before it existed). inputs: per body part, how well its
+    inputs were measured (empty when unknown).
     """
 
     worker_id: str
@@ -426,6 +471,8 @@ class WorkerSummary:
     hourly: tuple[HourLevels, ...] = ()
     worst: tuple[WorstMoment, ...] = ()
     flags: tuple[StandardFlag, ...] = ()
+    confidence: tuple[ConfidenceTime, ...] = ()
+    inputs: tuple[InputQuality, ...] = ()
 
 
 # ---------------------------------------------------------------------------- diagnostics

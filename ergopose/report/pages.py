@@ -155,6 +155,19 @@ class MethodHeadline:
 
 
 @dataclass(frozen=True)
+class ConfidenceRow:
+    """One part of the tracked time by confidence: key ("confident", "low", "unscored"; data
+    attribute for tests and tools), level (in words), time, percent (of the tracked time), causes
+    (time per cause in words, "cause 1 min 02 s (12.3 %)" joined by semicolons; "-" when none)."""
+
+    key: str
+    level: str
+    time: str
+    percent: str
+    causes: str
+
+
+@dataclass(frozen=True)
 class BandRow:
     """Time of a body part in one band: method, body_part, score (band score), criterion (band in
     words), time, percent (of the tracked time)."""
@@ -279,6 +292,22 @@ class RegionRow:
 
 
 @dataclass(frozen=True)
+class InputRow:
+    """How well one body part's RULA/REBA inputs were measured: body_part, median_sd (median over
+    the shift of the angles' standard deviation, degrees), inferred (share of the tracked time in
+    which its joints were placed by the body model), verdict ("measured", "uncertain", "mostly
+    inferred", "mostly inferred, uncertain"), concern (true when the verdict is not "measured"; for
+    styling), task_input (the settings key that can give the input instead, or why none can)."""
+
+    body_part: str
+    median_sd: str
+    inferred: str
+    verdict: str
+    concern: bool
+    task_input: str
+
+
+@dataclass(frozen=True)
 class QualitySection:
     """The quality section (as in the paper's evaluation).
 
@@ -290,6 +319,8 @@ class QualitySection:
     regions: time per lens region. calibration_rows / calibration_note: the calibration's accuracy.
     error_3d: median 3D error against ground truth in a sentence (empty when there is none).
     video: which video frames could not be read and were skipped, in a sentence.
+    inputs: per body part, how well its RULA/REBA inputs were measured (empty when unknown);
+    inputs_note: how to read that table and which inputs can be given as task inputs instead.
     """
 
     verdict: Verdict
@@ -304,6 +335,8 @@ class QualitySection:
     calibration_note: str
     error_3d: str
     video: str = ""
+    inputs: tuple[InputRow, ...] = ()
+    inputs_note: str = ""
 
 
 @dataclass(frozen=True)
@@ -313,6 +346,9 @@ class WorkerPage:
     page_title: the HTML title. session: session header. worker_id: pseudonymous id.
     display_name: the name (with the id) or the id alone. nav: links to the index and the other
     workers. tracked: sentence on how much of the session the worker was tracked.
+    confidence_rows: the tracked time split into scored with confidence, scored with low
+    confidence and not scored, with causes (empty when not recorded); confidence_note: how the
+    split was made, or that it was not recorded.
     headline: per method, share of the shift at each action level; headline_figure: the same
     as stacked bars. timeline_figures: worst and median score per time bin, per method;
     timeline_note: how the timeline was downsampled. body_part_figures / body_part_rows: time per
@@ -329,6 +365,8 @@ class WorkerPage:
     display_name: str
     nav: tuple[Link, ...]
     tracked: str
+    confidence_rows: tuple[ConfidenceRow, ...]
+    confidence_note: str
     headline: tuple[MethodHeadline, ...]
     headline_figure: Figure
     timeline_figures: tuple[Figure, ...]
@@ -355,13 +393,18 @@ class WorkerPage:
 @dataclass(frozen=True)
 class WorkerRow:
     """A worker on the index page: display_name, page (link to the worker page), tracked (time),
-    rula_high (share at RULA action level 3-4), reba_high (share at REBA high or very high),
+    confident / low_confidence / unscored (share of the tracked time scored with confidence, scored
+    with low confidence, not scored; "n/a" when not recorded), rula_high (share of the tracked time
+    at RULA action level 3-4), reba_high (share of the tracked time at REBA high or very high),
     reliable (share with a reliable skeleton), verdict_label (confidence in words), verdict_rating
     ("good"/"fair"/"poor", for styling), csv (links to the worker's CSV files)."""
 
     display_name: str
     page: Link
     tracked: str
+    confident: str
+    low_confidence: str
+    unscored: str
     rula_high: str
     reba_high: str
     reliable: str
@@ -406,6 +449,22 @@ HIGH_LEVELS = {"rula": (3, 4), "reba": (3, 4)}
 BIN_CHOICES_S = (1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600)
 MAX_BINS = 480
 RATING_LABELS = {"good": "High confidence", "fair": "Moderate confidence", "poor": "Low confidence"}
+#: The confidence levels of the tracked time in words (terminal summary and report).
+CONFIDENCE_WORDS = {"confident": "scored with confidence", "low": "scored with low confidence", "unscored": "not scored"}
+#: An input is "uncertain" when the median standard deviation of its angles over the shift is at
+#: least this (degrees): RULA/REBA posture bands are 10-25 degrees wide (neck 10-20, wrist 15,
+#: trunk and upper arm 20 or more), so such an angle often falls in a neighbouring band.
+UNCERTAIN_SD_DEG = 10.0
+#: An input is "mostly inferred" when its joints were placed by the body model in at least this
+#: share (percent) of the tracked time.
+MOSTLY_INFERRED_PCT = 50.0
+#: Settings keys (docs/session-format.md, task factors) that give a body part's input instead of
+#: the cameras; body parts not listed can only be measured.
+TASK_INPUTS = {
+    "left upper arm": "arm_supported", "right upper arm": "arm_supported",
+    "left wrist": "wrist_twist_end_range (twist only)", "right wrist": "wrist_twist_end_range (twist only)",
+    "legs": "seated, legs_supported",
+}
 REGION_NAMES = {"all": "whole field of view", "central": "central", "outer": "outer", "edge": "lens edge"}
 
 #: Plain-language meaning of each scoring setting (ergopose.ergonomics.settings.ScoringSettings).
@@ -634,11 +693,63 @@ def headline(summary: WorkerSummary, method: MethodInfo) -> MethodHeadline:
     high = [lv for lv in method.action_levels if lv.level in HIGH_LEVELS[method.name]]
     high_s = sum(secs.get(lv.level, 0.0) for lv in high)
     names = " or ".join(lv.label for lv in high)
+    scored = total - unscored
     key = (f"{fmt_percent(high_s, total)} of the tracked time ({fmt_duration(high_s)}) at {METHOD_TITLES[method.name]} "
-           f"level {names}: {high[0].wording}." if high else "")
+           f"level {names}, {fmt_percent(high_s, scored)} of the scored time ({fmt_duration(scored)} scored, "
+           f"{fmt_duration(unscored)} not scored): {high[0].wording}." if high else "")
     return MethodHeadline(method=METHOD_TITLES[method.name], title=method.title, levels=tuple(rows),
                           unscored_time=fmt_duration(unscored), unscored_percent=fmt_percent(unscored, total),
                           key_fact=key)
+
+
+def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], str]:
+    """The tracked time by confidence, with causes, and a note on the split (shares of the tracked time)."""
+    total = summary.observed_s
+    rows = []
+    for c in summary.confidence:
+        causes = "; ".join(f"{ca.cause} {fmt_duration(ca.seconds)} ({fmt_percent(ca.seconds, total)})"
+                           for ca in c.causes)
+        rows.append(ConfidenceRow(key=c.level, level=CONFIDENCE_WORDS.get(c.level, c.level),
+                                  time=fmt_duration(c.seconds), percent=fmt_percent(c.seconds, total),
+                                  causes=causes or "-"))
+    if not rows:
+        return (), ("How sure each frame's scores are was not recorded with these results (written before "
+                    "ergopose measured it): shares below are of the tracked time, scored or not.")
+    note = ("Shares are of the tracked time. A frame is scored with confidence when both its RULA and its REBA "
+            "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
+            "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
+            "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
+            "uncertain for the score.")
+    return tuple(rows), note
+
+
+def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
+    """Per body part, how well its RULA/REBA inputs were measured, and how to read the table."""
+    rows = []
+    for i in summary.inputs:
+        sd = math.degrees(i.median_sd_rad)
+        share = 100.0 * i.inferred_s / i.known_s if i.known_s > 0 else float("nan")
+        uncertain = math.isfinite(sd) and sd >= UNCERTAIN_SD_DEG
+        inferred = math.isfinite(share) and share >= MOSTLY_INFERRED_PCT
+        verdict = ", ".join(w for w, on in (("mostly inferred", inferred), ("uncertain", uncertain)) if on) or "measured"
+        rows.append(InputRow(body_part=i.body_part, median_sd=f"{sd:.1f}°" if math.isfinite(sd) else "n/a",
+                             inferred=fmt_percent(i.inferred_s, i.known_s), verdict=verdict,
+                             concern=verdict != "measured",
+                             task_input=TASK_INPUTS.get(i.body_part, "none: measured only")))
+    if not rows:
+        return (), ""
+    weak = [r.body_part for r in rows if r.concern]
+    lead = (f"The scores of {', '.join(weak)} rest on inputs that were mostly inferred or uncertain: read those "
+            "body parts' bands and the scores they feed with care. " if weak else
+            "Every body part's inputs were mostly seen and measured with a small spread. ")
+    note = (lead + f"Median SD: the median over the shift of the standard deviation of the body part's angles "
+            f"(the largest of them in each frame); 'uncertain' from {UNCERTAIN_SD_DEG:g}° (posture bands are "
+            f"10-25° wide). Inferred: share of the tracked time in which its joints were placed by the body model, "
+            f"not seen by two cameras; 'mostly inferred' from {MOSTLY_INFERRED_PCT:g} %. Where the cameras cannot "
+            "settle an input, the session's settings.toml can give it as a task input (the keys in the last "
+            "column; [defaults], [workers.ID] or [[periods]], docs/session-format.md); angles themselves "
+            "cannot be given.")
+    return tuple(rows), note
 
 
 def _level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time") -> tuple:
@@ -915,6 +1026,7 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
         regions.append(RegionRow(region=REGION_NAMES[reg], time=fmt_duration(nfr / session.fps),
                                  percent=fmt_percent(nfr, total_frames), reconstruction=rec))
     cal_rows, cal_note = calibration_rows(session)
+    inputs, inputs_note = input_rows(res.summary)
     err = (f"Against ground truth, the median 3D joint error was {100 * d.error_3d_m:.1f} cm."
            if math.isfinite(d.error_3d_m) else "")
     return QualitySection(
@@ -926,7 +1038,7 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
                                 caption="Share of tracked frames (%) in which each limb was reconstructed, overall and "
                                         "per lens region (central, outer, edge)."),
         region_spread=region_spread, regions=tuple(regions), calibration_rows=cal_rows, calibration_note=cal_note,
-        error_3d=err, video=skipped_sentence(session))
+        error_3d=err, video=skipped_sentence(session), inputs=inputs, inputs_note=inputs_note)
 
 
 def skipped_sentence(session: SessionInfo) -> str:
@@ -979,7 +1091,8 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
             for w in session.workers if w.worker_id != info.worker_id]
     tracked = (f"{who} was tracked for {fmt_duration(summ.observed_s)} of the {fmt_duration(session.duration_s)} "
                f"recorded ({fmt_percent(summ.observed_s, session.duration_s)}). Shares below are shares of the "
-               "tracked time.")
+               "tracked time unless they say otherwise.")
+    conf_rows, conf_note = confidence_rows(summ)
     timeline, tl_note = timeline_figures(frames, session, who, clock)
     part_figs, part_rows = body_part_section(summ, who)
     holds = tuple(HoldRow(body_part=h.body_part, method=METHOD_TITLES.get(h.method, h.method), score=h.score,
@@ -998,7 +1111,7 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
     downloads = tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in info.csv_files + session.csv_files)
     return WorkerPage(
         page_title=f"{who}: ergonomic report, {header.title}", session=header, worker_id=info.worker_id,
-        display_name=who, nav=tuple(nav), tracked=tracked,
+        display_name=who, nav=tuple(nav), tracked=tracked, confidence_rows=conf_rows, confidence_note=conf_note,
         headline=tuple(headline(summ, m) for m in session.methods),
         headline_figure=headline_figure(summ, session, who), timeline_figures=timeline, timeline_note=tl_note,
         body_part_figures=part_figs, body_part_rows=part_rows, holds=holds, repetitions=reps,
@@ -1036,9 +1149,12 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
         for m in ("rula", "reba"):
             secs = level_seconds(summ, m)
             highs[m] = fmt_percent(sum(secs.get(lv, 0.0) for lv in HIGH_LEVELS[m]), summ.observed_s)
+        conf = {c.level: fmt_percent(c.seconds, summ.observed_s) for c in summ.confidence}
         rows.append(WorkerRow(
             display_name=who, page=Link(href=quote(worker_page_name(info.worker_id)), text=who, note=""),
-            tracked=fmt_duration(summ.observed_s), rula_high=highs["rula"], reba_high=highs["reba"],
+            tracked=fmt_duration(summ.observed_s), confident=conf.get("confident", "n/a"),
+            low_confidence=conf.get("low", "n/a"), unscored=conf.get("unscored", "n/a"),
+            rula_high=highs["rula"], reba_high=highs["reba"],
             reliable=fmt_percent(d.frames_reliable, d.frames_observed), verdict_label=RATING_LABELS[verdict.rating],
             verdict_rating=verdict.rating, csv=tuple(_csv_link(report_dir, f.path, f.label) for f in info.csv_files)))
     cal_rows, cal_note = calibration_rows(session)
@@ -1050,6 +1166,7 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
 
 __all__ = [
     "Link", "Figure", "SessionHeader", "SettingRow", "MethodsSection", "CalibrationRow", "LevelRow", "MethodHeadline",
+    "ConfidenceRow", "InputRow", "confidence_rows", "input_rows", "CONFIDENCE_WORDS",
     "BandRow", "HoldRow", "RepetitionRow", "MomentCard", "HourRow", "HourTable", "FlagRow", "LimbRow", "RegionRow",
     "QualitySection", "WorkerPage", "WorkerRow", "IndexPage", "build_worker_page", "build_index_page",
     "worker_page_name", "Finding", "Verdict",

@@ -24,7 +24,8 @@ from ergopose.ergonomics.methods import load_method
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records
-from ergopose.report.context import (Assumption, BandTime, DataFile, CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
+from ergopose.report.context import (Assumption, BandTime, CauseSeconds, ConfidenceTime, InputQuality, DataFile,
+                                     CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
                                      LimbStats, ModelInfo, RegionAccuracy, Repetition, SessionInfo, StandardFlag,
                                      WorkerDiagnostics, WorkerInfo, WorkerSummary, WorstMoment)
 from ergopose.report.results import frames_table
@@ -205,9 +206,29 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
         StandardFlag("ISO 11226", "left shoulder", "the angles needed were not measured", "not measured", 0.0,
                      float("nan"), ""),
     )
+    # confidence (no draws from rng, so the other workers' frames stay as they were): unscored where
+    # either score is missing ("not seen"); of the scored frames, every third block of 60 frames is
+    # low confidence, split between one camera and occluded limbs
+    missing = np.isnan(frames["rula_grand"].to_numpy(dtype=np.float64, na_value=np.nan)) | np.isnan(
+        frames["reba_score"].to_numpy(dtype=np.float64, na_value=np.nan))
+    block = np.arange(len(frames)) // 60
+    low = ~missing & (block % 3 == 0)
+    one_camera = low & (block % 2 == 0)
+    confidence = (
+        ConfidenceTime("confident", float((~missing & ~low).sum()) * dt),
+        ConfidenceTime("low", float(low.sum()) * dt, (CauseSeconds("one camera", float(one_camera.sum()) * dt),
+                                                      CauseSeconds("occluded limbs", float((low & ~one_camera).sum()) * dt))),
+        ConfidenceTime("unscored", float(missing.sum()) * dt, (CauseSeconds("not seen", float(missing.sum()) * dt),)),
+    )
+    inputs = (
+        InputQuality("neck", ("neck_flexion", "neck_side_bend", "neck_twist"), math.radians(6.4), 0.2 * observed, observed),
+        InputQuality("left wrist", ("left_wrist_flexion", "left_wrist_deviation"), math.radians(14.5), 0.7 * observed,
+                     observed),
+        InputQuality("trunk", ("trunk_flexion",), math.radians(2.1), 0.0, observed),
+    )
     return WorkerSummary(worker_id=worker_id, observed_s=observed, levels=tuple(levels), unscored_s=unscored,
                          body_parts=tuple(body_parts), holds=holds, repetitions=reps, hourly=tuple(hourly),
-                         worst=tuple(worst), flags=flags)
+                         worst=tuple(worst), flags=flags, confidence=confidence, inputs=inputs)
 
 
 def _diagnostics(worker_id: str, frames: pd.DataFrame, rng: np.random.Generator, body: BodyMeasurements) -> WorkerDiagnostics:

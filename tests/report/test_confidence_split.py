@@ -1,0 +1,184 @@
+"""The tracked time split by confidence (scored with confidence, low confidence, unscored, with
+causes) is counted once, in the shift aggregation, and the worker summary CSV, the session summary
+CSV, the rendered report and the terminal summary show the same seconds and percentages.
+
+Frames with known ``confidence`` / ``cause`` columns (as ergopose.pipeline.stages.score_uncertainty
+writes them): 200 frames at 10 frames per second (20 s tracked):
+  confident                100 frames  10 s  50 %
+  low, one camera           40 frames   4 s  20 %
+  low, occluded limbs       20 frames   2 s  10 %
+  unscored, not seen        30 frames   3 s  15 %
+  unscored, one camera      10 frames   1 s   5 %
+and the left wrist's inputs: SD 5 degrees in 150 frames and 20 degrees in 50 (median 5), its
+joints inferred in 120 frames (60 %); the neck measured with SD 2 degrees, never inferred.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ergopose.commands.assess import worker_lines
+from ergopose.ergonomics.aggregate import aggregate_shift
+from ergopose.ergonomics.export import session_summary_table, worker_summary_table
+from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.pipeline.stages import WorkerOutput
+from ergopose.report import adapters
+from ergopose.report.render import render_report
+from ergopose.report.results import save_results, session_results
+from report_synthetic import synthetic_session
+
+FPS = 10.0
+EXPECTED = {  # level -> (seconds, percent, {cause: (seconds, percent)})
+    "confident": (10.0, 50.0, {}),
+    "low": (4.0 + 2.0, 30.0, {"one camera": (4.0, 20.0), "occluded limbs": (2.0, 10.0)}),
+    "unscored": (3.0 + 1.0, 20.0, {"not seen": (3.0, 15.0), "one camera": (1.0, 5.0)}),
+}
+
+
+def _frames() -> tuple[pd.DataFrame, np.ndarray]:
+    n = 200
+    spec = [("confident", "", 100), ("low", "one camera", 40), ("low", "occluded limbs", 20),
+            ("unscored", "not seen", 30), ("unscored", "one camera", 10)]
+    conf = np.concatenate([[c] * k for c, _, k in spec])
+    cause = np.concatenate([[ca] * k for _, ca, k in spec])
+    order = np.random.default_rng(3).permutation(n)  # interleaved, so runs cross chunk ends
+    conf, cause = conf[order], cause[order]
+    scored = conf != "unscored"
+    rula = np.where(scored, np.where(np.arange(n) % 4 == 0, 6, 3), np.nan)
+    reba = np.where(scored, np.where(np.arange(n) % 5 == 0, 9, 4), np.nan)
+    sd_wrist = np.where(np.arange(n) < 150, 5.0, 20.0)[order]
+    frames = pd.DataFrame({
+        "worker": "W1", "frame": np.arange(n), "time_s": np.arange(n) / FPS,
+        "rula_grand": pd.array(rula, dtype="Float64").astype("Int16"),
+        "rula_action_level": pd.array(np.where(np.isnan(rula), np.nan, np.where(rula >= 5, 3, 2)),
+                                      dtype="Float64").astype("Int8"),
+        "reba_score": pd.array(reba, dtype="Float64").astype("Int16"),
+        "reba_risk_level": pd.array(np.where(np.isnan(reba), np.nan, np.where(reba >= 8, 3, 2)),
+                                    dtype="Float64").astype("Int8"),
+        "left_wrist_flexion": np.radians(10.0), "left_wrist_flexion_sd": np.radians(sd_wrist),
+        "neck_flexion": np.radians(15.0), "neck_flexion_sd": np.radians(2.0),
+        "confidence": pd.array(conf, dtype="string"), "cause": pd.array(cause, dtype="string"),
+    })
+    inferred = np.zeros((n, NUM_JOINTS), dtype=bool)
+    inferred[order[:120], JOINT_INDEX["left_pinky"]] = True
+    return frames, inferred
+
+
+@pytest.fixture(scope="module")
+def summary():
+    frames, inferred = _frames()
+    return aggregate_shift(frames, "W1", frame_period_s=1.0 / FPS, chunk_frames=37, inferred=inferred)
+
+
+def test_aggregation_splits_tracked_time(summary):
+    assert summary.observed_s == pytest.approx(20.0)
+    assert [c.level for c in summary.confidence] == ["confident", "low", "unscored"]
+    for c in summary.confidence:
+        secs, pct, causes = EXPECTED[c.level]
+        assert c.time_s == pytest.approx(secs) and c.percent == pytest.approx(pct)
+        assert [ca.cause for ca in c.causes] == list(causes)
+        for ca in c.causes:
+            assert (ca.time_s, ca.percent) == pytest.approx(causes[ca.cause])
+    assert sum(c.time_s for c in summary.confidence) == pytest.approx(summary.observed_s)
+    # the same answer in one piece as in chunks of 37 frames
+    frames, inferred = _frames()
+    assert aggregate_shift(frames, "W1", frame_period_s=1.0 / FPS, inferred=inferred).confidence == summary.confidence
+
+
+def test_aggregation_measures_inputs(summary):
+    inputs = {i.body_part: i for i in summary.inputs}
+    wrist, neck = inputs["left wrist"], inputs["neck"]
+    assert math.degrees(wrist.median_sd_rad) == pytest.approx(5.0, abs=0.01)
+    assert (wrist.inferred_frames, wrist.known_frames, wrist.inferred_percent) == (120, 200, pytest.approx(60.0))
+    assert math.degrees(neck.median_sd_rad) == pytest.approx(2.0, abs=0.01)
+    assert neck.inferred_frames == 0
+    assert math.isnan(inputs["legs"].median_sd_rad) and inputs["legs"].measured_frames == 0
+
+
+def test_summary_csvs_carry_the_split(summary):
+    long = worker_summary_table(summary)
+    conf = long[long["section"] == "confidence"]
+    for level, (secs, pct, causes) in EXPECTED.items():
+        allrow = conf[(conf["item"] == level) & (conf["value"] == "all")].iloc[0]
+        assert (allrow["time_s"], allrow["percent"]) == pytest.approx((secs, pct))
+        for cause, (cs, cp) in causes.items():
+            row = conf[(conf["item"] == level) & (conf["value"] == cause)].iloc[0]
+            assert (row["time_s"], row["percent"]) == pytest.approx((cs, cp))
+    wrist = long[(long["section"] == "inputs") & (long["item"] == "left wrist")].set_index("value")
+    assert wrist.loc["angle sd", "sd_deg"] == pytest.approx(5.0, abs=0.01)
+    assert wrist.loc["inferred", "percent"] == pytest.approx(60.0)
+
+    row = session_summary_table([summary]).iloc[0]
+    assert (row["confident_s"], row["confident_pct"]) == pytest.approx((10.0, 50.0))
+    assert (row["low_confidence_s"], row["low_confidence_pct"]) == pytest.approx((6.0, 30.0))
+    assert (row["low_confidence_one_camera_s"], row["low_confidence_occluded_limbs_pct"]) == pytest.approx((4.0, 10.0))
+    assert row["low_confidence_not_seen_s"] == 0.0
+    assert (row["unscored_s"], row["unscored_pct"], row["unscored_not_seen_s"]) == pytest.approx((4.0, 20.0, 3.0))
+    assert row["left_wrist_inferred_pct"] == pytest.approx(60.0)
+    # high risk with both bases: RULA level 3 in the frames with grand score 6
+    frames, _ = _frames()
+    high = float((frames["rula_action_level"] >= 3).sum()) / FPS
+    assert row["rula_high_s"] == pytest.approx(high)
+    assert row["rula_high_pct"] == pytest.approx(100 * high / 20.0, abs=0.006)
+    assert row["rula_high_pct_of_scored"] == pytest.approx(100 * high / 16.0, abs=0.006)
+
+
+def _text(html: str) -> str:
+    return re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", html))
+
+
+def test_report_and_terminal_show_the_same_figures(summary, tmp_path: Path):
+    session, workers = synthetic_session(n_workers=1, duration_s=20.0, fps=FPS, gaps=False, csv=False)
+    _, diag, frames = workers[0]
+    record = adapters.worker_summary(summary)
+    save_results(tmp_path, session, [(record, diag, frames)])
+    files = render_report(tmp_path, session_results(session, [(record, diag, frames)]))
+    page = (tmp_path / "worker-W1.html").read_text(encoding="utf-8")
+    index = files.index.read_text(encoding="utf-8")
+
+    shares = dict(re.findall(r'data-share="confidence-(\w+)">([^<]*)<', page))
+    assert shares == {"confident": "50.0 %", "low": "30.0 %", "unscored": "20.0 %"}
+    for level, share in (("confident", "50.0 %"), ("low", "30.0 %"), ("unscored", "20.0 %")):
+        assert re.search(rf'data-share="{level}">{re.escape(share)}<', index), level
+    row = re.search(r'<tr data-confidence="low">(.*?)</tr>', page).group(1)
+    assert "6.0 s" in row and "one camera 4.0 s (20.0 %)" in row and "occluded limbs 2.0 s (10.0 %)" in row
+    row = re.search(r'<tr data-confidence="unscored">(.*?)</tr>', page).group(1)
+    assert "not seen 3.0 s (15.0 %)" in row and "one camera 1.0 s (5.0 %)" in row
+
+    # the quality section names the wrist as mostly inferred and gives its median SD
+    wrist = re.search(r'<tr data-input="left wrist">(.*?)</tr>', page).group(1)
+    assert "5.0°" in wrist and "60.0 %" in wrist and "mostly inferred" in wrist and "wrist_twist_end_range" in wrist
+    neck = re.search(r'<tr data-input="neck">(.*?)</tr>', page).group(1)
+    assert "2.0°" in neck and "0.0 %" in neck and "measured" in neck
+    assert "docs/session-format.md" in _text(page)
+
+    # the headline states both bases; the terminal prints the very same figures
+    rula_high = float((_frames()[0]["rula_action_level"] >= 3).sum()) / FPS
+    text = _text(page)
+    tracked_pct, scored_pct = f"{100 * rula_high / 20.0:.1f} %", f"{100 * rula_high / 16.0:.1f} %"
+    assert f"{tracked_pct} of the tracked time" in text and f"{scored_pct} of the scored time" in text
+    lines = worker_lines(WorkerOutput(worker_id="W1", name="W1", summary=summary, csv_files=()))
+    terminal = "\n".join(lines)
+    assert "scored with confidence: 10 s (50.0 % of tracked time)" in terminal
+    assert "scored with low confidence: 6.0 s (30.0 % of tracked time): one camera 4.0 s (20.0 %); " \
+           "occluded limbs 2.0 s (10.0 %)" in terminal
+    assert "not scored: 4.0 s (20.0 % of tracked time): not seen 3.0 s (15.0 %); one camera 1.0 s (5.0 %)" in terminal
+    assert f"RULA action level 3-4: {'%.1f s' % rula_high} = {tracked_pct} of tracked time, {scored_pct} of scored " \
+           "time (16 s scored)" in terminal
+
+
+def test_results_without_confidence_still_render(tmp_path: Path):
+    """Results stored before the split existed (no confidence, no inputs) render with a note."""
+    session, workers = synthetic_session(n_workers=1, duration_s=20.0, fps=FPS, gaps=False, csv=False)
+    rec, diag, frames = workers[0]
+    rec = dataclasses.replace(rec, confidence=(), inputs=())
+    render_report(tmp_path, session_results(session, [(rec, diag, frames)]))
+    page = (tmp_path / "worker-W1.html").read_text(encoding="utf-8")
+    assert "Not recorded with these results." in page and 'data-input=' not in page
