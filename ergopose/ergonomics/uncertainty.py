@@ -27,6 +27,8 @@ chunking, and the same input gives the same bytes.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 
@@ -107,7 +109,8 @@ def angle_sd(estimate: pd.DataFrame, draws: list[pd.DataFrame]) -> pd.DataFrame:
         est = estimate[a].to_numpy(np.float64)
         d = np.stack([dr[a].to_numpy(np.float64) for dr in draws]) - est
         d = (d + np.pi) % (2 * np.pi) - np.pi
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a frame whose every draw is NaN: NaN
             out[f"{a}_sd"] = np.sqrt(np.nanmean(d * d, axis=0)) if len(draws) else np.full(len(est), np.nan)
         out[f"{a}_sd"] = np.where(np.isfinite(est), out[f"{a}_sd"], np.nan)
     return pd.DataFrame(out, index=estimate.index)
@@ -117,7 +120,8 @@ def score_spread(reported: pd.Series, draws: list[pd.Series]) -> tuple[np.ndarra
     """(probability of the reported score, 10th, 90th percentile) over the draws; NaN where not scored."""
     rep = pd.to_numeric(reported, errors="coerce").to_numpy(np.float64)
     D = np.stack([pd.to_numeric(d, errors="coerce").to_numpy(np.float64) for d in draws])
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # frames without any scored draw: NaN
         p = np.where(np.isfinite(rep), (D == rep).mean(axis=0), np.nan)
         ok = np.isfinite(D)
         low = np.where(ok.any(axis=0), np.nanpercentile(np.where(ok, D, np.nan), 10, axis=0, method="lower"), np.nan)
