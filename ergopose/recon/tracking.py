@@ -3,7 +3,7 @@
 Per frame (in frame order; the state carries over from one chunk of frames to the next):
 
 1. Prediction. Each live track predicts its body centre (mean of the torso joints) with
-   constant velocity from its last update.
+   constant horizontal velocity from its last update (the height is held).
 2. Matching people seen by two or more cameras. Cost = horizontal (x, y) distance between predicted
    and triangulated centre (the height of the centre jumps when the torso is hidden and the
    centre falls back to other joints; the floor position hardly does); a pair is possible
@@ -471,6 +471,11 @@ class Tracker:
             gain = 1.0 - (1.0 - ALPHA) ** frames
             v = 0.5 * t.vel + 0.5 * (meas - t.pos) / gap_s
             t.pos = pred + gain * r
+        # Horizontal velocity only: the centre's height jumps with the set of torso joints seen
+        # (and a fitted body's centre dips as the worker bends), which is no motion of the
+        # worker; a vertical velocity carried that jump into every coasting prediction, and the
+        # single-view rays are cut at the predicted height, so it moved their matches sideways.
+        v[2] = 0.0
         speed = float(np.linalg.norm(v))
         t.vel = v if speed <= MAX_SPEED_M_S else v * (MAX_SPEED_M_S / speed)
         t.last_update_frame = f

@@ -155,3 +155,21 @@ def test_people_meeting_and_turning_back_keep_their_identities(rng):
     same, identities, groups = kept(ReconSettings())
     assert same and identities == 2 and groups >= 1
     assert not kept(ReconSettings(contact_distance_m=0.0))[0]
+
+
+def test_coasting_prediction_holds_the_height(rng):
+    """The body centre's height drops when a worker bends, which is no motion to predict: a
+    track coasting after such a drop keeps its last height and moves only horizontally."""
+    n = int(8 * FPS)
+    truth = walk_workers([WorkerScript(1.75, np.array([[-2.0, 0.0], [2.0, 0.0]]), pause_s=0.0)], n, FPS)
+    bend0, gone0 = int(4 * FPS), int(5 * FPS)
+    truth[bend0:gone0, 0, :, 2] -= 0.4  # the whole body 0.4 m lower for a second
+    vis = np.zeros((n, 1), bool)
+    vis[:gone0] = True  # then unseen (coasting) to the end
+    tr = Tracker(ReconSettings(max_coast_s=2.0), FPS)
+    res = tr.update(_stored(truth, vis, rng, sigma=0.002), 0, n)
+    c = res.centres
+    coast = c[(c[:, 0] > gone0) & (c[:, 0] < gone0 + 1.5 * FPS)]
+    assert len(coast) > 10
+    assert np.ptp(coast[:, 4]) < 1e-9  # height held
+    assert np.ptp(coast[:, 2]) > 0.1  # still moving along x at its last horizontal speed
