@@ -11,6 +11,11 @@ pixels become rays through the calibrated lens;
 * keypoint error: angle between the rays of the 12 limb keypoints the reference gives (score
   >= 0.3), over the angle of the reference torso (shoulder centre to hip centre).
 
+A second reference, ``trc``: Pose2Sim's own 3D result of the recording
+(``pose-3d/S00_P00_T01_BalancingTrial_0-100.trc``, triangulated from the OpenPose keypoints of
+all four cameras, TRC axes = world[:, [1, 2, 0]]) projected into each camera: the keypoints as
+the four cameras agree on them, not as one camera's OpenPose run placed them.
+
 Run: ``python -m ergopose.evaluation.pose_csv --csv-dir DIR`` with DIR holding cam01.csv ..
 cam04.csv written by ``ergopose pose`` (see ``main``).
 """
@@ -27,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.evaluation.refisheye import DEFAULT_ROOT, openpose_reference, score_frame
+from ergopose.evaluation.trc import read_trc
 from ergopose.geometry.calibration_file import read_pose2sim_calibration
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
@@ -59,9 +65,36 @@ def frames_from_csv(table: pd.DataFrame, camera: Camera, frames: int) -> list[_F
     return [_Frame(rays[frame_of == f], conf[frame_of == f]) for f in range(frames)]
 
 
-def score_csv(csv: str | Path, camera: Camera, number: int, root: Path = DEFAULT_ROOT, frames: int = 100) -> dict:
-    """found (share of the reference's frames), counted, median and p90 keypoint error (torso lengths)."""
-    ref = openpose_reference(root, number, frames, camera)
+TRC_FILE = "pose-3d/S00_P00_T01_BalancingTrial_0-100.trc"
+#: The TRC's markers scored, by joint.
+_TRC_MARKERS = {"RShoulder": "right_shoulder", "LShoulder": "left_shoulder", "RElbow": "right_elbow",
+                "LElbow": "left_elbow", "RWrist": "right_wrist", "LWrist": "left_wrist", "RHip": "right_hip",
+                "LHip": "left_hip", "RKnee": "right_knee", "LKnee": "left_knee", "RAnkle": "right_ankle",
+                "LAnkle": "left_ankle"}
+
+
+def trc_reference(root: Path, frames: int, camera: Camera) -> dict:
+    """Pose2Sim's 3D markers projected into the camera: rays (frames, 33, 3) and conf (1 where given)."""
+    trc = read_trc(root / TRC_FILE)
+    rays = np.full((frames, NUM_JOINTS, 3), np.nan)
+    conf = np.zeros((frames, NUM_JOINTS))
+    n = min(frames, trc.points_trc.shape[0])
+    for marker, joint in _TRC_MARKERS.items():
+        world = trc.points_trc[:n, trc.markers.index(marker)][:, [2, 0, 1]]  # TRC axes = world[:, [1, 2, 0]]
+        cam = camera.points_world_to_cam(world)
+        j = JOINT_INDEX[joint]
+        rays[:n, j] = cam / np.linalg.norm(cam, axis=-1, keepdims=True)
+        conf[:n, j] = np.isfinite(cam).all(axis=-1)
+    return {"rays": rays, "conf": conf}
+
+
+def score_csv(csv: str | Path, camera: Camera, number: int, root: Path = DEFAULT_ROOT, frames: int = 100,
+              reference: str = "openpose") -> dict:
+    """found (share of the reference's frames), counted, median and p90 keypoint error (torso
+    lengths); reference "openpose" (the camera's own OpenPose keypoints) or "trc" (Pose2Sim's 3D
+    result projected)."""
+    ref = openpose_reference(root, number, frames, camera) if reference == "openpose" else \
+        trc_reference(root, frames, camera)
     found = counted = 0
     errors = []
     for f, people in enumerate(frames_from_csv(pd.read_csv(csv), camera, frames)):
@@ -89,12 +122,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=100)
     args = parser.parse_args(argv)
     cameras = read_pose2sim_calibration(args.root / "Calib_qualisys.toml")
-    print("| camera | found | keypoints | median torso | p90 torso |")
-    print("|---|---|---|---|---|")
+    print("| camera | reference | found | keypoints | median torso | p90 torso |")
+    print("|---|---|---|---|---|---|")
     for number, camera in enumerate(cameras, start=1):
-        s = score_csv(args.csv_dir / f"cam{number:02d}.csv", camera, number, args.root, args.frames)
-        print(f"| {s['camera']} | {100 * s['found_share']:.0f} % ({s['found']}/{s['counted']}) | {s['keypoints']} | "
-              f"{s['median']:.3f} | {s['p90']:.3f} |")
+        for reference in ("openpose", "trc"):
+            s = score_csv(args.csv_dir / f"cam{number:02d}.csv", camera, number, args.root, args.frames, reference)
+            print(f"| {s['camera']} | {reference} | {100 * s['found_share']:.0f} % ({s['found']}/{s['counted']}) | "
+                  f"{s['keypoints']} | {s['median']:.3f} | {s['p90']:.3f} |")
     return 0
 
 
