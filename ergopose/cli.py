@@ -19,6 +19,7 @@ from ergopose.errors import ErgoposeError, output_error
 #: Subcommand modules, in the order ``--help`` lists them.
 COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.assess",
+    "ergopose.commands.pose",
     "ergopose.commands.demo",
     "ergopose.commands.models",
     "ergopose.commands.session",

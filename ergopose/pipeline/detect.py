@@ -85,7 +85,8 @@ def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallba
     one video skipped is an InputError naming the video and the time.
     """
     landmarker, detector = _networks(job)
-    stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose) for i, cam in enumerate(job.cameras)]
+    stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose, progress=progress)
+              for i, cam in enumerate(job.cameras)]
     readers = [read_frames_checked(path, start, stop) for path in job.videos]
     frames_2d = []
     counts = np.zeros((stop - start, len(job.cameras)), np.int16)

@@ -53,6 +53,7 @@ from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import ViewMap, VirtualView, upright_rotation
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D, PersonDetection
+from ergopose.progress import ProgressCallback, warn
 from ergopose.records import Detections2D
 
 _WORLD_UP = np.array([0.0, 0.0, 1.0])
@@ -171,7 +172,9 @@ class PoseSettings:
         field of view quantised; :class:`ViewCache`). People move, so few requests repeat:
         measured on a simulated session, 5 % of views reused at 0.5 px and 6 % at 2 px, with
         no measurable gain in speed, against about 1 MB of maps per cached view.
-    max_people: most people tracked per camera.
+    max_people: most people tracked per camera. A frame where the stage reaches it is counted
+        (``FisheyePoseEstimator.capped_frames``) and told once per estimator through its progress
+        callback, naming the camera and the setting: more people than this are not followed.
     """
 
     search_every: int = 12
@@ -443,8 +446,12 @@ class FisheyePoseEstimator:
     """
 
     def __init__(self, camera: Camera, camera_index: int, landmarker: Landmarker,
-                 detector: Detector | None = None, settings: PoseSettings = PoseSettings()):
+                 detector: Detector | None = None, settings: PoseSettings = PoseSettings(),
+                 progress: ProgressCallback | None = None):
         self.camera = camera
+        self.progress = progress
+        #: Frames where the stage reached ``settings.max_people`` (people found or views to run).
+        self.capped_frames = 0
         self.camera_index = int(camera_index)
         self.landmarker = landmarker
         self.detector = detector
@@ -551,9 +558,13 @@ class FisheyePoseEstimator:
             # A view lost its person: the detector looks again around there at once.
             cues = self._search_cues(frame_bgr, near=[t.direction_cam for t in lost])
             targets += [c for c in cues if not self._covered(c, targets)]
+        views = len(targets)
         targets = targets[: 4 * s.max_people]
         results = [self._run_view(frame_bgr, t) for t in targets]
-        people = self._merge([r for r in results if r is not None])[: s.max_people]
+        people = self._merge([r for r in results if r is not None])
+        if views > 4 * s.max_people or len(people) >= s.max_people:
+            self._capped(frame_index, len(people), views)
+        people = people[: s.max_people]
         if s.left_right_check:
             people = self._left_right(people)
         found = [self._refocus(p) for p in people]
@@ -567,6 +578,16 @@ class FisheyePoseEstimator:
                       if r is None and t.source == SOURCE_REFOCUS and t.missed >= s.coast_frames
                       and not self._covered(t, found)]
         return self._record(people, frame_index)
+
+    def _capped(self, frame_index: int, found: int, views: int) -> None:
+        """Count a frame at the ``max_people`` cap (people found, or views to run beyond 4 per
+        person); tell it the first time."""
+        self.capped_frames += 1
+        if self.capped_frames == 1:
+            cap = self.settings.max_people
+            warn(self.progress, f"camera {self.camera.name} reached max_people = {cap} in frame {frame_index} "
+                                f"({found} people found, {views} places to look for {4 * cap} allowed): the 2D "
+                                f"stage follows at most {cap} people per camera, more are not followed")
 
     def _view_up(self, direction_cam: np.ndarray, body_up_cam: np.ndarray | None) -> np.ndarray | None:
         """The up direction of a view along ``direction_cam`` for a body whose axis points

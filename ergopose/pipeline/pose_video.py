@@ -1,0 +1,124 @@
+"""``ergopose pose``: the 2D stage alone on one video, keypoints per frame into a CSV file.
+
+No session, no second camera: the camera (from a calibration file or a nominal one built from
+the image, :mod:`ergopose.geometry.image_circle`) gives the lens and which way is up, and the
+fisheye 2D stage (:class:`ergopose.pose.fisheye.FisheyePoseEstimator`, which works for any lens
+model) finds and follows the people frame by frame. The table is tidy: one row per frame,
+person and keypoint, pixels in the video's own pixels (docs/pose-command.md).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ergopose.atomic import atomic_path
+from ergopose.errors import InputError
+from ergopose.geometry.camera import Camera
+from ergopose.geometry.image_circle import CircleSearch, find_image_circle, max_image
+from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
+from ergopose.pose.fisheye import Detector, FisheyePoseEstimator, Landmarker, PoseSettings
+from ergopose.progress import ProgressCallback, report, warn
+from ergopose.video import read_frames, read_frames_checked
+
+#: The CSV's columns, in order.
+POSE_COLUMNS: tuple[str, ...] = ("frame", "time_s", "person", "joint", "x_px", "y_px", "confidence")
+
+#: Frames sampled through the video for the image circle's maximum image.
+CIRCLE_SAMPLES = 24
+
+
+@dataclass(frozen=True)
+class PoseVideoResult:
+    """What :func:`pose_video` found.
+
+    table: the keypoints (columns POSE_COLUMNS), frame by frame, person by person.
+    people: (frames,) int, people found per frame of the range; -1 a frame that could not be read.
+    start, stop: the frames processed, start .. stop-1.
+    capped_frames: frames where the stage reached ``max_people``.
+    """
+
+    table: pd.DataFrame
+    people: np.ndarray
+    start: int
+    stop: int
+    capped_frames: int
+
+    @property
+    def frames_read(self) -> int:
+        return int(np.count_nonzero(self.people >= 0))
+
+    @property
+    def frames_with_people(self) -> int:
+        return int(np.count_nonzero(self.people > 0))
+
+
+def circle_from_video(path: str | os.PathLike, start: int, stop: int,
+                      samples: int = CIRCLE_SAMPLES) -> CircleSearch:
+    """The image circle seen in up to ``samples`` frames spread evenly over start .. stop-1."""
+    picks = np.unique(np.linspace(start, stop - 1, min(samples, stop - start)).round().astype(int))
+    frames = (frame for i in picks for _, frame in read_frames(path, int(i), int(i) + 1))
+    return find_image_circle(max_image(frames))
+
+
+def pose_video(path: str | os.PathLike, camera: Camera, fps: float, start: int, stop: int,
+               landmarker: Landmarker, detector: Detector | None, settings: PoseSettings = PoseSettings(),
+               progress: ProgressCallback | None = None) -> PoseVideoResult:
+    """The 2D stage on frames start .. stop-1 of one video. Frames that cannot be decoded are
+    skipped (counted in ``people`` as -1, and told through ``progress``); reaching
+    ``settings.max_people`` is told once, naming the camera and the setting."""
+    stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings, progress=progress)
+    count = stop - start
+    people = np.zeros(count, np.int64)
+    frames, persons, pixels, confidence = [], [], [], []
+    for k, (index, image, problem) in enumerate(read_frames_checked(path, start, stop)):
+        if image is None:
+            people[k] = -1  # why: problem, one of ergopose.video.SKIP_CODES
+        else:
+            found = stage.process(image, index)
+            people[k] = found.count
+            if found.count:
+                frames.append(np.full(found.count, index, np.int64))
+                persons.append(np.arange(found.count, dtype=np.int64))
+                pixels.append(found.pixels_fisheye)
+                confidence.append(found.confidence)
+        report(progress, "pose", k + 1, count, unit="frame")
+    skipped = int(np.count_nonzero(people < 0))
+    if skipped == count:
+        raise InputError(f"none of the {count} frames could be decoded", path=path)
+    if skipped:
+        warn(progress, f"{camera.name}: {skipped} of {count} frames could not be decoded and were skipped")
+    table = _table(frames, persons, pixels, confidence, fps)
+    return PoseVideoResult(table, people, start, stop, stage.capped_frames)
+
+
+def _table(frames: list[np.ndarray], persons: list[np.ndarray], pixels: list[np.ndarray],
+           confidence: list[np.ndarray], fps: float) -> pd.DataFrame:
+    if not frames:
+        return pd.DataFrame({c: pd.Series(dtype=t) for c, t in zip(
+            POSE_COLUMNS, ("int64", "float64", "int64", "str", "float64", "float64", "float64"))})
+    frame = np.concatenate(frames)
+    person = np.concatenate(persons)
+    xy = np.concatenate(pixels)  # (P, 33, 2)
+    conf = np.concatenate(confidence)  # (P, 33)
+    rows = frame.size * NUM_JOINTS
+    return pd.DataFrame({
+        "frame": np.repeat(frame, NUM_JOINTS),
+        "time_s": np.repeat(np.round(frame / fps, 4), NUM_JOINTS),
+        "person": np.repeat(person, NUM_JOINTS),
+        "joint": np.tile(np.array(BLAZEPOSE33, dtype=object), frame.size),
+        "x_px": np.round(xy[..., 0].reshape(rows), 2),
+        "y_px": np.round(xy[..., 1].reshape(rows), 2),
+        "confidence": np.round(np.where(np.isfinite(xy).all(axis=-1), conf, 0.0).reshape(rows), 4),
+    }, columns=list(POSE_COLUMNS))
+
+
+def write_pose_csv(path: str | os.PathLike, table: pd.DataFrame) -> Path:
+    """Write the keypoint table atomically (a keypoint the lens cannot place: empty x_px, y_px)."""
+    with atomic_path(path) as tmp:
+        table.to_csv(tmp, index=False, lineterminator="\n")
+    return Path(path)

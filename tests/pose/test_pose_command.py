@@ -1,0 +1,267 @@
+"""``ergopose pose``: the 2D stage alone on one video, to a keypoint CSV (issue 14).
+
+A short fisheye video of a drawn person (mannequin.py) walking slowly, warped into the fisheye
+image through a known lens with a black surround outside the image circle: the command must
+find the person in most frames and put the keypoints near the drawn joints, with the camera from
+a calibration file and with an approximate camera made from the image circle. Bad input gives
+one line and a non-zero exit. The image circle search is checked on its own, and the command on
+two frames of the real Pose2Sim recording.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import cv2
+import numpy as np
+import pandas as pd
+import pytest
+from test_fisheye import LENS, SIZE, fisheye_with_person
+
+from ergopose import cli
+from ergopose.geometry.calibration_file import save_calibration
+from ergopose.geometry.camera import ceiling_camera
+from ergopose.geometry.image_circle import find_image_circle, max_image
+from ergopose.keypoints import JOINT_INDEX
+from ergopose.pipeline.pose_video import POSE_COLUMNS
+from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.progress import ProgressEvent
+
+FPS = 12.0
+FRAMES = 10
+#: Lit radius of the test lens's image circle (pixels) and its centre.
+CIRCLE = (511.5, 511.5, 480.0)
+PROGRESS_LINE = re.compile(r"^\s*\S+ (\[[#-]*\] )?\d+(/\d+)? \w+s ")
+
+
+def user_lines(err: str) -> list[str]:
+    return [ln for ln in err.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln) and not ln.startswith("INFO:")]
+
+
+def _masked(frame: np.ndarray) -> np.ndarray:
+    u, v, r = CIRCLE
+    yy, xx = np.mgrid[0:frame.shape[0], 0:frame.shape[1]]
+    out = frame.copy()
+    out[np.hypot(xx - u, yy - v) > r] = 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def camera():
+    return ceiling_camera("cam_1", LENS, SIZE, SIZE, position_world=(0.0, 0.0, 3.0))
+
+
+@pytest.fixture(scope="module")
+def walking_video(camera, tmp_path_factory):
+    """A 10-frame fisheye video of the drawn person moving 3 cm a frame; the drawn joints per frame."""
+    path = tmp_path_factory.mktemp("pose_video") / "cam_1.mp4"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), FPS, (SIZE, SIZE))
+    truth = []
+    for k in range(FRAMES):
+        frame, joints = fisheye_with_person(camera, (1.2 + 0.03 * k, 0.8, 1.0))
+        writer.write(_masked(frame))
+        truth.append(joints)
+    writer.release()
+    return path, truth
+
+
+def _run(capsys, *args) -> tuple[int, str, list[str]]:
+    capsys.readouterr()
+    code = cli.main([str(a) for a in args])
+    captured = capsys.readouterr()
+    return code, captured.out, user_lines(captured.err)
+
+
+def _check_keypoints(table: pd.DataFrame, truth: list[dict]) -> None:
+    assert tuple(table.columns) == POSE_COLUMNS
+    found = sorted(set(table["frame"]))
+    assert len(found) >= 0.8 * FRAMES, f"person found in {len(found)} of {FRAMES} frames"
+    assert np.allclose(table["time_s"], table["frame"] / FPS, atol=1e-4)
+    assert set(table["joint"]) == set(JOINT_INDEX)
+    errors = []
+    for f in found:
+        rows = table[(table["frame"] == f) & (table["person"] == 0)].set_index("joint")
+        joints = truth[f]
+        torso = np.linalg.norm(joints["left_shoulder"] - joints["left_hip"])
+        for name, drawn in joints.items():
+            errors.append(np.linalg.norm(rows.loc[name, ["x_px", "y_px"]].to_numpy(float) - drawn) / torso)
+    assert np.median(errors) < 0.15 and np.percentile(errors, 90) < 0.3, (np.median(errors), np.percentile(errors, 90))
+
+
+def test_pose_with_a_calibration_file(camera, walking_video, fetched_model_dir, tmp_path, capsys):
+    video, truth = walking_video
+    calibration = save_calibration(tmp_path / "calibration.toml", [camera])
+    out = tmp_path / "keypoints.csv"
+    code, stdout, lines = _run(capsys, "pose", video, "--camera", calibration, "--out", out,
+                               "--model-dir", fetched_model_dir[0])
+    assert code == 0, lines
+    assert lines == []  # no warnings
+    assert "people found in" in stdout and str(out) in stdout
+    _check_keypoints(pd.read_csv(out), truth)
+
+
+def test_pose_without_calibration_finds_the_image_circle(walking_video, fetched_model_dir, tmp_path, capsys):
+    video, truth = walking_video
+    # The field of view across the lit circle of the test lens.
+    theta = float(np.arccos(LENS.unproject(np.array([CIRCLE[0] + CIRCLE[2], CIRCLE[1]]))[2]))
+    out = tmp_path / "keypoints.csv"
+    code, stdout, lines = _run(capsys, "pose", video, "--fov-deg", f"{2 * math.degrees(theta):.1f}", "--out", out,
+                               "--model-dir", fetched_model_dir[0], "--start", "0.1")
+    assert code == 0, lines
+    circle = re.search(r"equidistant lens, .* image circle at \(([\d.]+), ([\d.]+)\) r = ([\d.]+) px", stdout)
+    assert circle is not None, stdout
+    assert np.allclose([float(x) for x in circle.groups()], CIRCLE, atol=1.0), stdout
+    table = pd.read_csv(out)
+    assert table["frame"].min() >= 1  # --start 0.1 s = frame 1
+    _check_keypoints(table, truth)
+
+
+def _score_against_ground_truth(table: pd.DataFrame, gt, camera_index: int) -> tuple[int, int, np.ndarray]:
+    """(worker-frames whose torso the camera sees, of them found, limb keypoint errors in torso
+    lengths): found = a person of the table whose hip centre is within 0.5 torso lengths (the
+    ground truth's, in fisheye pixels) of the worker's; the closest is scored."""
+    hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
+    shoulders = [JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]
+    limbs = [JOINT_INDEX[s + n] for n in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle")
+             for s in ("left_", "right_")]
+    people = {key: g.set_index("joint").reindex(list(JOINT_INDEX))[["x_px", "y_px"]].to_numpy(float)
+              for key, g in table.groupby(["frame", "person"])}
+    counted, found, errors = 0, 0, []
+    for f in range(gt.n_frames):
+        here = [xy for (frame, _), xy in people.items() if frame == f]
+        for w in range(len(gt.worker_ids)):
+            visible = gt.visible[f, camera_index, w]
+            if not visible[hips + shoulders].all():
+                continue
+            counted += 1
+            px = gt.pixels[f, camera_index, w]
+            hip = px[hips].mean(axis=0)
+            torso = np.linalg.norm(px[shoulders].mean(axis=0) - hip)
+            dist = [np.linalg.norm(xy[hips].mean(axis=0) - hip) for xy in here]
+            if dist and min(dist) <= 0.5 * torso:
+                found += 1
+                xy = here[int(np.argmin(dist))]
+                seen = [j for j in limbs if visible[j]]
+                errors.extend(np.linalg.norm(xy[seen] - px[seen], axis=1) / torso)
+    return counted, found, np.asarray(errors)
+
+
+@pytest.mark.parametrize("calibrated", [True, False])
+def test_pose_on_a_simulated_session_video(tiny_session, fetched_model_dir, tmp_path, capsys, calibrated):
+    """The simulator's rendered workshop (3 s, 2 workers, 1024 x 768 fisheye): against the ground
+    truth's projected joints. Measured: the worker found in 36 of 36 frames (35 of 36 from the
+    image circle), limb keypoints a median 0.15 torso lengths off, p90 0.65 (0.55)."""
+    from ergopose.sim.ground_truth import load_ground_truth
+
+    out = tmp_path / "cam_1.csv"
+    camera = ["--camera", tiny_session / "calibration.toml"] if calibrated else ["--fov-deg", "190"]
+    code, stdout, lines = _run(capsys, "pose", tiny_session / "cam_1.mp4", *camera, "--out", out,
+                               "--model-dir", fetched_model_dir[0])
+    assert code == 0, lines
+    counted, found, errors = _score_against_ground_truth(pd.read_csv(out), load_ground_truth(
+        tiny_session / "ground_truth"), 0)
+    assert counted >= 30
+    assert found >= 0.9 * counted, (found, counted)
+    assert np.median(errors) < 0.25, np.median(errors)
+
+
+def test_image_circle_search(camera):
+    frame, _ = fisheye_with_person(camera, (1.2, 0.8, 1.0))
+    found = find_image_circle(max_image([_masked(frame)]))
+    assert found.circle is not None, found.reason
+    assert np.allclose(found.circle, CIRCLE, atol=1.0)
+    # A circle cut by the frame's top and bottom edges: its arcs are enough.
+    u, v, r = CIRCLE
+    tall = np.zeros((800, 1024, 3), np.uint8)
+    yy, xx = np.mgrid[0:800, 0:1024]
+    tall[np.hypot(xx - u, yy - 400) <= r] = 200
+    cut = find_image_circle(max_image([tall]))
+    assert cut.circle is not None and np.allclose(cut.circle, (u, 400, r), atol=1.0)
+    assert "black" in find_image_circle(np.zeros((600, 800), np.uint8)).reason
+    assert "corners" in find_image_circle(np.full((600, 800), 120, np.uint8)).reason
+    square = np.zeros((600, 800), np.uint8)
+    square[100:500, 200:600] = 200
+    assert find_image_circle(square).circle is None
+
+
+def _write(path, frames, fps=FPS):
+    h, w = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+    for f in frames:
+        writer.write(f)
+    writer.release()
+    return path
+
+
+@pytest.mark.parametrize("case", ["missing", "not a video", "fov 90", "fov 300", "black", "not fisheye",
+                                  "fov with camera", "max people 0"])
+def test_bad_input_is_one_line_and_a_non_zero_exit(case, tmp_path, capsys):
+    out = tmp_path / "k.csv"
+    args: list = []
+    words: tuple = ()
+    if case == "missing":
+        args, words = [tmp_path / "nothing.mp4"], ("nothing.mp4", "not found")
+    elif case == "not a video":
+        text = tmp_path / "notes.mp4"
+        text.write_text("not a video\n")
+        args, words = [text], ("notes.mp4", "cannot open the video")
+    elif case in ("fov 90", "fov 300"):
+        args, words = [tmp_path / "any.mp4", "--fov-deg", case.split()[1]], ("--fov-deg", "between 100 and 280")
+    elif case == "black":
+        video = _write(tmp_path / "black.mp4", [np.zeros((240, 320, 3), np.uint8)] * 4)
+        args, words = [video], ("no image circle found in", "black.mp4", "black video", "--camera FILE")
+    elif case == "not fisheye":
+        rng = np.random.default_rng(14)
+        video = _write(tmp_path / "wall.mp4", [rng.integers(40, 255, (240, 320, 3), dtype=np.uint8)] * 4)
+        args, words = [video], ("no image circle found in", "lit to its corners", "--camera FILE")
+    elif case == "fov with camera":
+        args, words = [tmp_path / "any.mp4", "--camera", tmp_path / "c.toml", "--fov-deg", "180"], ("--fov-deg",)
+    elif case == "max people 0":
+        args, words = [tmp_path / "any.mp4", "--max-people", "0"], ("--max-people",)
+    code, stdout, lines = _run(capsys, "pose", *args, "--out", out)
+    assert code != 0
+    assert len(lines) == 1 and lines[0].startswith("ergopose: error:"), lines
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert not out.exists()
+
+
+def test_reaching_max_people_is_told_once_naming_the_camera_and_the_setting(camera, landmarker, detector):
+    frame, _ = fisheye_with_person(camera, (1.2, 0.8, 1.0))
+    events: list[ProgressEvent] = []
+    stage = FisheyePoseEstimator(camera, 0, landmarker, detector, PoseSettings(max_people=1), progress=events.append)
+    for k in range(3):
+        assert stage.process(frame, k).count == 1
+    warnings = [e for e in events if e.unit == "note"]
+    assert stage.capped_frames == 3 and len(warnings) == 1
+    assert "cam_1" in warnings[0].message and "max_people = 1" in warnings[0].message
+    # Below the cap: nothing to tell.
+    quiet: list[ProgressEvent] = []
+    stage = FisheyePoseEstimator(camera, 0, landmarker, detector, PoseSettings(max_people=2), progress=quiet.append)
+    stage.process(frame, 0)
+    assert stage.capped_frames == 0 and quiet == []
+
+
+def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, capsys):
+    root = shared_data / "pose2sim-demo"
+    out = tmp_path / "cam01.csv"
+    # Frames 0-1 of cam01 (60 fps); the calibration's cam_01 is chosen by the video's name.
+    code, stdout, lines = _run(capsys, "pose", root / "videos" / "cam01.mp4", "--camera", root / "Calib_qualisys.toml",
+                               "--out", out, "--end", "0.034", "--model-dir", fetched_model_dir[0])
+    assert code == 0, lines
+    assert len(lines) == 1 and "1088x1920" in lines[0] and "1080x1920" in lines[0]  # the padding warning
+    table = pd.read_csv(out)
+    assert sorted(set(table["frame"])) == [0, 1]
+    # The recording's own OpenPose keypoints (pose-associated) of frame 0: hips and shoulders agree.
+    ref = json.loads((root / "pose-associated" / "cam01_json" / "cam01.0000.json").read_text())["people"][0]
+    k = np.array(ref["pose_keypoints_2d"]).reshape(-1, 3)
+    rows = table[(table["frame"] == 0)]
+    torso = np.linalg.norm(k[5, :2] - k[11, :2])
+    best = min(
+        np.median([np.linalg.norm(rows[(rows["person"] == p) & (rows["joint"] == name)][["x_px", "y_px"]]
+                                  .to_numpy(float)[0] - k[i, :2])
+                   for i, name in ((5, "left_shoulder"), (6, "right_shoulder"), (11, "left_hip"), (12, "right_hip"))])
+        for p in sorted(set(rows["person"])))
+    assert best < 0.15 * torso, (best, torso)
