@@ -51,7 +51,11 @@ settings.toml (format_version 1)::
 
 Task factors (all optional; absent = not given, and scoring treats it as unknown):
 load_kg (kg >= 0), load_mode (intermittent | static | repeated), coupling (good | fair | poor |
-unacceptable), shock, arm_supported, seated, legs_supported, wrist_twist_end_range (true/false).
+unacceptable), shock, arm_supported, seated, legs_supported, wrist_twist_end_range (true/false),
+wrist_flexion_deg and wrist_deviation_deg (degrees, -90 to 90; flexion + toward the palm, - toward
+the back of the hand; deviation + toward the thumb): the wrist posture of the task, used in place
+of a wrist angle only where the cameras do not see the hand (ergopose.ergonomics.task_inputs).
+Inside, the wrist angles are radians (TaskFactors.wrist_flexion / wrist_deviation).
 For a worker at a time the most specific value wins: the worker's period, then a period for
 everyone, then the worker's own value, then [defaults].
 """
@@ -90,7 +94,14 @@ FLOOR_PLAN_FILE = "floor.toml"
 LOAD_MODES = ("intermittent", "static", "repeated")
 COUPLINGS = ("good", "fair", "poor", "unacceptable")
 FLAG_FACTORS = ("shock", "arm_supported", "seated", "legs_supported", "wrist_twist_end_range")
-FACTOR_NAMES = ("load_kg", "load_mode", "coupling") + FLAG_FACTORS
+#: Task factors that are angles: field of TaskFactors (radians) -> key in settings.toml (degrees).
+ANGLE_FACTORS = {"wrist_flexion": "wrist_flexion_deg", "wrist_deviation": "wrist_deviation_deg"}
+#: The accepted range of an angle factor, degrees (inclusive).
+ANGLE_FACTOR_RANGE_DEG = (-90.0, 90.0)
+#: The fields of TaskFactors.
+FACTOR_NAMES = ("load_kg", "load_mode", "coupling") + FLAG_FACTORS + tuple(ANGLE_FACTORS)
+#: The task factors' keys in settings.toml.
+FACTOR_KEYS = tuple(ANGLE_FACTORS.get(f, f) for f in FACTOR_NAMES)
 
 _TOP_KEYS = {"format_version", "recorded_at", "fps", "description", "calibration", "cameras", "defaults",
              "periods", "workers", "scoring", "identification", "calibration_check"}
@@ -99,15 +110,21 @@ _CHECK_KEYS = {"observations", "length_m"}
 #: Plausible adult statures (metres) for a worker's given stature.
 STATURE_RANGE_M = (1.2, 2.3)
 _CAMERA_KEYS = {"name", "video"}
-_WORKER_KEYS = {"name", "stature_m", "periods", *FACTOR_NAMES}
-_PERIOD_KEYS = {"start", "end", *FACTOR_NAMES}
+_WORKER_KEYS = {"name", "stature_m", "periods", *FACTOR_KEYS}
+_PERIOD_KEYS = {"start", "end", *FACTOR_KEYS}
+_ANGLE_KEYS = {key: name for name, key in ANGLE_FACTORS.items()}
 #: Largest accepted relative difference between the settings' fps and a video's frame rate.
 FPS_TOLERANCE = 0.01
 
 
 @dataclass(frozen=True)
 class TaskFactors:
-    """What the cameras cannot see. None = not given."""
+    """What the cameras cannot see. None = not given.
+
+    wrist_flexion / wrist_deviation: the task's wrist posture in RADIANS (settings.toml gives
+    degrees: wrist_flexion_deg, wrist_deviation_deg), with the sign conventions of the joint angles
+    (docs/joint-angles.md).
+    """
 
     load_kg: float | None = None
     load_mode: str | None = None
@@ -117,6 +134,8 @@ class TaskFactors:
     seated: bool | None = None
     legs_supported: bool | None = None
     wrist_twist_end_range: bool | None = None
+    wrist_flexion: float | None = None
+    wrist_deviation: float | None = None
 
     def over(self, base: "TaskFactors") -> "TaskFactors":
         """These factors where given, ``base``'s elsewhere."""
@@ -124,8 +143,13 @@ class TaskFactors:
                               for f in FACTOR_NAMES})
 
     def given(self) -> dict[str, Any]:
-        """The factors that are given, by name."""
+        """The factors that are given, by field name (angles in radians)."""
         return {f: getattr(self, f) for f in FACTOR_NAMES if getattr(self, f) is not None}
+
+    def settings_values(self) -> dict[str, Any]:
+        """The factors that are given, as settings.toml has them (keys and degrees)."""
+        return {ANGLE_FACTORS.get(f, f): (round(math.degrees(v), 9) if f in ANGLE_FACTORS else v)
+                for f, v in self.given().items()}
 
 
 @dataclass(frozen=True)
@@ -280,11 +304,8 @@ class Session:
                     out = p.factors.over(out)
         return out
 
-    def factor_table(self, worker_id: str, times_s: Sequence[float] | np.ndarray):
-        """A pandas DataFrame of the task factors at each time, in the posture-table conventions
-        (docs/posture-table.md): load_kg float (NaN unknown), load_mode / coupling strings (<NA>
-        unknown), flags 0.0 / 1.0 (NaN unknown). One row per time, index 0..n-1."""
-        t = np.asarray(times_s, dtype=np.float64)
+    def _layers(self, worker_id: str, t: np.ndarray) -> list[tuple[np.ndarray, TaskFactors]]:
+        """(mask over the times, factors) from the least to the most specific."""
         n = t.size
         w = self.worker(worker_id)
         layers: list[tuple[np.ndarray, TaskFactors]] = [(np.ones(n, bool), self.defaults)]
@@ -293,10 +314,19 @@ class Session:
         layers += [((t >= p.start_s) & (t < p.end_s), p.factors) for p in self.periods]
         if w is not None:
             layers += [((t >= p.start_s) & (t < p.end_s), p.factors) for p in w.periods]
+        return layers
+
+    def factor_table(self, worker_id: str, times_s: Sequence[float] | np.ndarray):
+        """A pandas DataFrame of the task factors at each time, in the posture-table conventions
+        (docs/posture-table.md): load_kg float (NaN unknown), load_mode / coupling strings (<NA>
+        unknown), flags 0.0 / 1.0 (NaN unknown). One row per time, index 0..n-1. The angle factors
+        are not in it (they are not posture-table inputs): see :meth:`task_angles`."""
+        t = np.asarray(times_s, dtype=np.float64)
+        n = t.size
         load = np.full(n, np.nan)
         flags = {f: np.full(n, np.nan) for f in FLAG_FACTORS}
         cats = {"load_mode": np.full(n, None, dtype=object), "coupling": np.full(n, None, dtype=object)}
-        for mask, f in layers:
+        for mask, f in self._layers(worker_id, t):
             if f.load_kg is not None:
                 load[mask] = f.load_kg
             for name in FLAG_FACTORS:
@@ -312,6 +342,18 @@ class Session:
                               "coupling": pd.array(cats["coupling"], dtype="string"),
                               **flags})
         return frame
+
+    def task_angles(self, worker_id: str, times_s: Sequence[float] | np.ndarray) -> pd.DataFrame:
+        """The angle factors of a worker at each time: columns wrist_flexion and wrist_deviation in
+        radians (NaN where the settings give none), one row per time, index 0..n-1."""
+        t = np.asarray(times_s, dtype=np.float64)
+        out = {name: np.full(t.size, np.nan) for name in ANGLE_FACTORS}
+        for mask, f in self._layers(worker_id, t):
+            for name in ANGLE_FACTORS:
+                v = getattr(f, name)
+                if v is not None:
+                    out[name][mask] = v
+        return pd.DataFrame(out)
 
 
 # --- loading ------------------------------------------------------------------------------------------
@@ -362,7 +404,7 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
             raise r.fail(f"{where}.video", f"video {video!r} is listed for two cameras")
         entries.append((name, vpath))
 
-    defaults = r.factors(data.get("defaults", {}), "defaults", set(FACTOR_NAMES))
+    defaults = r.factors(data.get("defaults", {}), "defaults", set(FACTOR_KEYS))
     scoring = data.get("scoring", {})
     if not isinstance(scoring, dict):
         raise r.fail("scoring", "expected a table of scoring settings")
@@ -422,7 +464,7 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
             if not lo <= stature <= hi:
                 raise r.fail(f"{where}.stature_m", f"expected a body height in metres between {lo} and {hi}, "
                                                    f"got {table['stature_m']!r}")
-        factors = r.factors({k: v for k, v in table.items() if k in FACTOR_NAMES}, where, set(FACTOR_NAMES))
+        factors = r.factors({k: v for k, v in table.items() if k in FACTOR_KEYS}, where, set(FACTOR_KEYS))
         wperiods = r.periods(table.get("periods", []), f"{where}.periods", recorded_at, duration)
         workers.append(WorkerInfo(worker_id=str(wid), name=name, factors=factors, periods=wperiods,
                                   stature_m=stature))
@@ -564,6 +606,12 @@ class _Reader:
                 if value not in COUPLINGS:
                     raise self.fail(field, f"expected one of {', '.join(COUPLINGS)}, got {value!r}")
                 out[key] = value
+            elif key in _ANGLE_KEYS:
+                v = self.number(value, field)
+                lo, hi = ANGLE_FACTOR_RANGE_DEG
+                if not lo <= v <= hi:
+                    raise self.fail(field, f"expected an angle in degrees from {lo:g} to {hi:g}, got {value!r}")
+                out[_ANGLE_KEYS[key]] = math.radians(v)
             else:
                 if not isinstance(value, bool):
                     raise self.fail(field, f"expected true or false, got {value!r}")
@@ -602,7 +650,7 @@ class _Reader:
             if end <= 0 or start >= duration:
                 raise self.fail(at, f"lies outside the recording ({start:g} s to {end:g} s; the videos last "
                                     f"{duration:g} s)")
-            factors = self.factors({k: v for k, v in item.items() if k not in ("start", "end")}, at, set(FACTOR_NAMES))
+            factors = self.factors({k: v for k, v in item.items() if k not in ("start", "end")}, at, set(FACTOR_KEYS))
             if not factors.given():
                 raise self.fail(at, "gives no task factor (load_kg, load_mode, coupling, shock, ...)")
             for j, other in enumerate(out):
@@ -656,7 +704,7 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
         data["description"] = description
     data["cameras"] = [{"name": n, "video": v} for n, v in cameras]
     if defaults is not None and defaults.given():
-        data["defaults"] = defaults.given()
+        data["defaults"] = defaults.settings_values()
     if periods:
         data["periods"] = [_period_dict(p) for p in periods]
     if workers:
@@ -667,7 +715,7 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
                 entry["name"] = w.name
             if w.stature_m is not None:
                 entry["stature_m"] = float(w.stature_m)
-            entry.update(w.factors.given())
+            entry.update(w.factors.settings_values())
             if w.periods:
                 entry["periods"] = [_period_dict(p) for p in w.periods]
             table[w.worker_id] = entry
@@ -680,4 +728,4 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
 
 
 def _period_dict(p: FactorPeriod) -> dict[str, Any]:
-    return {"start": float(p.start_s), "end": float(p.end_s), **p.factors.given()}
+    return {"start": float(p.start_s), "end": float(p.end_s), **p.factors.settings_values()}

@@ -226,3 +226,55 @@ def test_scoring_table_is_checked(tmp_path):
     assert ok.scoring == {"rula_static_hold_s": 600.0}
     msg = _error(tmp_path / "b", ConfigError, settings=SETTINGS + "\n[scoring]\nrula_static_hold = 600.0\n")
     assert "settings.toml" in msg and "rula_static_hold" in msg
+
+
+WRIST_SETTINGS = SETTINGS.replace('coupling = "good"\n', 'coupling = "good"\nwrist_flexion_deg = -20.0\n').replace(
+    'load_mode = "static"\n', 'load_mode = "static"\nwrist_flexion_deg = 35\nwrist_deviation_deg = 10.0\n')
+
+
+def test_wrist_posture_is_read_in_degrees_and_held_in_radians(tmp_path):
+    s = load_session(make_session(tmp_path / "s", settings=WRIST_SETTINGS))
+    assert s.defaults.wrist_flexion == pytest.approx(np.radians(-20.0)) and s.defaults.wrist_deviation is None
+    at = s.factors_at("w1", 0.6)  # the worker's period (0.25 .. 0.75 s) gives both angles
+    assert at.wrist_flexion == pytest.approx(np.radians(35.0)) and at.wrist_deviation == pytest.approx(np.radians(10.0))
+    table = s.task_angles("w1", s.times_s)  # frames at 0, 1/12, ... 11/12 s
+    assert list(table.columns) == ["wrist_flexion", "wrist_deviation"]
+    np.testing.assert_allclose(np.degrees(table["wrist_flexion"]), [-20.0] * 3 + [35.0] * 6 + [-20.0] * 3)
+    dev = np.degrees(table["wrist_deviation"].to_numpy())
+    assert np.isnan(dev[:3]).all() and np.isnan(dev[9:]).all() and np.allclose(dev[3:9], 10.0)
+    assert "wrist_flexion" not in s.factor_table("w1", s.times_s).columns  # not a posture-table input
+    assert np.isnan(load_session(make_session(tmp_path / "plain")).task_angles("w1", [0.0]).to_numpy()).all()
+
+
+def test_written_wrist_posture_reads_back_in_degrees(tmp_path):
+    from ergopose.session import FactorPeriod, WorkerInfo
+
+    defaults = TaskFactors(wrist_flexion=float(np.radians(-20.0)))
+    text = settings_to_toml(recorded_at=START, fps=12.0, cameras=[("cam_1", "a.mp4"), ("cam_2", "b.mp4")],
+                            defaults=defaults,
+                            workers=[WorkerInfo("w1", None, TaskFactors(wrist_deviation=float(np.radians(-5.0))),
+                                                (FactorPeriod(0.1, 0.4, TaskFactors(wrist_flexion=0.0)),))])
+    assert "wrist_flexion_deg = -20.0" in text and "wrist_deviation_deg = -5.0" in text
+    s = load_session(make_session(tmp_path / "s", settings=text))
+    assert s.factors_at("w1", 0.5) == TaskFactors(wrist_flexion=pytest.approx(np.radians(-20.0)),
+                                                  wrist_deviation=pytest.approx(np.radians(-5.0)))
+    assert s.factors_at("w1", 0.2).wrist_flexion == 0.0
+
+
+@pytest.mark.parametrize("line, field, words", [
+    ("wrist_flexion_deg = 95.0", "defaults.wrist_flexion_deg", "from -90 to 90"),
+    ("wrist_deviation_deg = -90.5", "defaults.wrist_deviation_deg", "from -90 to 90"),
+    ('wrist_flexion_deg = "20"', "defaults.wrist_flexion_deg", "expected a number"),
+    ("wrist_flexion_deg = true", "defaults.wrist_flexion_deg", "expected a number"),
+    ("wrist_flexion = 20.0", "defaults.wrist_flexion", "did you mean 'wrist_flexion_deg'"),
+])
+def test_bad_wrist_posture_is_named(tmp_path, line, field, words):
+    msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace('coupling = "good"\n', f'coupling = "good"\n{line}\n'))
+    assert "settings.toml" in msg and field in msg and words in msg
+
+
+def test_wrist_posture_in_a_period_is_checked_and_may_be_the_only_factor(tmp_path):
+    msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace("load_kg = 3.0", "wrist_deviation_deg = 120"))
+    assert "periods[0].wrist_deviation_deg" in msg and "from -90 to 90" in msg
+    s = load_session(make_session(tmp_path / "ok", settings=SETTINGS.replace("load_kg = 3.0", "wrist_flexion_deg = 15")))
+    assert s.periods[0].factors == TaskFactors(wrist_flexion=pytest.approx(np.radians(15.0)))

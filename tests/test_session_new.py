@@ -121,3 +121,17 @@ def test_the_same_video_for_two_cameras(tmp_path, capsys):
     assert cli.main(["session", "new", str(tmp_path / "s"), "--calibration", str(calibration), a, a]) == 2
     err = capsys.readouterr().err
     assert err.count("ergopose: error") == 1 and "same video" in err
+
+
+def test_the_commented_task_factors_are_valid_settings():
+    """Uncommented, the [defaults] example of a new settings.toml reads as task factors, the
+    wrist posture in degrees included."""
+    from ergopose.commands.session import EXAMPLES
+    from ergopose.session import FACTOR_KEYS, TaskFactors, _Reader
+
+    block = EXAMPLES.split("# [defaults]\n", 1)[1].split("\n#\n", 1)[0]
+    table = tomllib.loads("\n".join(line[2:] for line in block.splitlines()))
+    assert set(table) <= set(FACTOR_KEYS) and {"wrist_flexion_deg", "wrist_deviation_deg"} <= set(table)
+    factors = _Reader(Path("settings.toml")).factors(table, "defaults", set(FACTOR_KEYS))
+    assert factors.wrist_flexion == pytest.approx(np.radians(table["wrist_flexion_deg"]))
+    assert isinstance(factors, TaskFactors) and factors.load_kg == table["load_kg"]

@@ -183,6 +183,9 @@ EXAMPLES = """
 # shock = false
 # arm_supported = false
 # wrist_twist_end_range = false
+# wrist_flexion_deg = -20.0     # the task's wrist posture, degrees (-90..90): + flexion (toward the
+# wrist_deviation_deg = 0.0     #   palm), - extension; deviation + toward the thumb. Used only in frames
+#                               #   where the cameras do not see the hand; the report says where.
 #
 # A time window for everyone (seconds from the first frame, or a clock time such as 10:30:00):
 # [[periods]]

@@ -20,6 +20,11 @@ angles in a frame; from a histogram of 0.01 degree bins up to 90 degrees, so exa
 degree whatever the chunking) and the share of the tracked frames in which one of its joints was placed by the body
 model (inferred) rather than seen by two cameras.
 
+Task inputs (the frames' ``inputs_from_settings`` column, ergopose.ergonomics.task_inputs): per
+input given by the settings in place of a hidden wrist angle, and per value used, the frames and
+seconds of the scored time (a RULA or REBA grand score present) in which it was used, and their
+percent of the scored time.
+
 Chunks: :class:`ShiftAccumulator` takes the shift in pieces (``add`` each chunk, in order) and
 gives exactly the answer of the whole series, because holds still open at the end of a chunk are
 carried into the next one. :func:`aggregate_shift` is the one-call form.
@@ -52,6 +57,8 @@ from ergopose.ergonomics.activity import check_time, frame_period
 from ergopose.ergonomics.posture import expand_sides
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, REPETITION_ANGLES
 from ergopose.ergonomics.settings import ScoringSettings
+from ergopose.ergonomics.task_inputs import COLUMN as TASK_INPUTS_COLUMN
+from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS, used_mask
 from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUP_JOINTS, INPUT_GROUPS
 from ergopose.errors import InputError
 from ergopose.progress import ProgressCallback, report
@@ -215,6 +222,23 @@ class InputCertainty:
 
 
 @dataclass(frozen=True)
+class SettingsInputTime:
+    """A task input given by the settings and scored in place of a hidden measurement.
+
+    input: the posture column (ergopose.ergonomics.task_inputs.SETTINGS_INPUTS, e.g.
+    "left_wrist_flexion"); value_rad: the value used (radians); frames / time_s: the scored frames
+    and seconds in which it was used; percent: of the scored time (frames with a RULA or REBA grand
+    score).
+    """
+
+    input: str
+    value_rad: float
+    frames: int
+    time_s: float
+    percent: float
+
+
+@dataclass(frozen=True)
 class ShiftSummary:
     """Everything reported for one worker over a shift (or any stretch of frames)."""
 
@@ -231,6 +255,8 @@ class ShiftSummary:
     exposure: tuple[ExposureFinding, ...]
     confidence: tuple[ConfidenceShare, ...] = ()
     inputs: tuple[InputCertainty, ...] = ()
+    from_settings: tuple[SettingsInputTime, ...] = ()
+    scored_frames: int = 0
 
     def confidence_of(self, level: str) -> ConfidenceShare | None:
         """The ConfidenceShare of a level ("confident", "low", "unscored"); None when the frames
@@ -499,6 +525,8 @@ class ShiftAccumulator:
         self.input_measured = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
         self.input_inferred = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
         self.input_known = 0
+        self.settings_frames: dict[tuple[str, float], int] = {}  # (input, value used) -> scored frames
+        self.scored_frames = 0
 
     def add(self, frames: pd.DataFrame, inferred: np.ndarray | None = None) -> None:
         """Take the next chunk of frames (time order, after the previous chunk).
@@ -564,6 +592,7 @@ class ShiftAccumulator:
             self.exposure_runs[key].add(t, _codes(z))
 
         self._add_certainty(frames, inferred)
+        self._add_task_inputs(frames)
 
         minutes = np.floor((t - self.shift_start_s) / 60.0).astype(np.int64)
         for angle in REPETITION_ANGLES:
@@ -604,6 +633,37 @@ class ShiftAccumulator:
                 self.input_inferred[g] += int(np.asarray(inferred)[:, INPUT_GROUP_JOINTS[g]].any(axis=1).sum())
         if inferred is not None:
             self.input_known += len(frames)
+
+    def _add_task_inputs(self, frames: pd.DataFrame) -> None:
+        """Count the scored frames, and per task input and value those that used the settings."""
+        grand = [x for x in (_col(frames, "rula_grand"), _col(frames, "reba_score")) if x is not None]
+        if not grand:
+            return
+        scored = np.fmax.reduce(np.stack(grand), axis=0)
+        scored = np.isfinite(scored)
+        self.scored_frames += int(scored.sum())
+        if TASK_INPUTS_COLUMN not in frames.columns:
+            return
+        column = frames[TASK_INPUTS_COLUMN]
+        for name in SETTINGS_INPUTS:
+            x = _col(frames, name)
+            if x is None:
+                continue
+            sel = used_mask(column, name) & scored
+            if not sel.any():
+                continue
+            values, counts = np.unique(x[sel], return_counts=True)
+            for v, k in zip(values.tolist(), counts.tolist()):
+                key = (name, float(v))
+                self.settings_frames[key] = self.settings_frames.get(key, 0) + int(k)
+
+    def _settings_result(self, period: float) -> tuple[SettingsInputTime, ...]:
+        order = {name: i for i, name in enumerate(SETTINGS_INPUTS)}
+        out = []
+        for (name, value), k in sorted(self.settings_frames.items(), key=lambda kv: (order[kv[0][0]], kv[0][1])):
+            out.append(SettingsInputTime(name, value, k, k * period,
+                                         100.0 * k / self.scored_frames if self.scored_frames else math.nan))
+        return tuple(out)
 
     def _confidence_result(self, period: float, pct) -> tuple[ConfidenceShare, ...]:
         if not self.confidence_frames:
@@ -728,7 +788,8 @@ class ShiftAccumulator:
                             start_s=self.start_s, end_s=self.end_s,
                             distributions=MappingProxyType(distributions), hourly=tuple(hourly),
                             episodes=MappingProxyType(episodes), repetitions=tuple(reps), exposure=tuple(exposure),
-                            confidence=self._confidence_result(period, pct), inputs=self._inputs_result())
+                            confidence=self._confidence_result(period, pct), inputs=self._inputs_result(),
+                            from_settings=self._settings_result(period), scored_frames=self.scored_frames)
 
 
 def aggregate_shift(frames: pd.DataFrame, worker: str = "", *, chunk_frames: int | None = None,
@@ -760,7 +821,7 @@ def aggregate_session(frames: pd.DataFrame, *, by: str = "worker", progress: Pro
 
 __all__ = [
     "ValueTime", "Distribution", "HourStats", "Episode", "Repetitions", "ExposureFinding", "ShiftSummary",
-    "CauseTime", "ConfidenceShare", "InputCertainty", "NOT_RECORDED",
+    "CauseTime", "ConfidenceShare", "InputCertainty", "SettingsInputTime", "NOT_RECORDED",
     "ShiftAccumulator", "aggregate_shift", "aggregate_session", "DISTRIBUTION_COLUMNS", "EPISODE_COLUMNS",
     "REPETITION_PREFIX", "ISO_VERDICTS", "EN_VERDICTS",
 ]

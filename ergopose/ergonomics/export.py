@@ -21,6 +21,8 @@ from ergopose.ergonomics.aggregate import REPETITION_PREFIX, ShiftSummary
 from ergopose.ergonomics.posture import (ANGLE_COLUMNS, DISTANCE_COLUMNS, FLAG_COLUMNS, IDENTITY, POSTURE_COLUMNS,
                                          expand_sides, to_csv_units)
 from ergopose.ergonomics.scoring import reba_columns, rula_columns
+from ergopose.ergonomics.task_inputs import COLUMN as TASK_INPUTS_COLUMN
+from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS
 from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUPS, SD_COLUMNS
 from ergopose.ergonomics.uncertainty import SCORE_COLUMNS as UNCERTAINTY_SCORE_COLUMNS
 
@@ -72,7 +74,8 @@ def scores_table(frames: pd.DataFrame, *, include_posture: bool = False) -> pd.D
     ident = [c for c in (*IDENTITY, "time_s") if c in frames.columns]
     posture = [c for c in POSTURE_COLUMNS if include_posture and c in frames.columns and c not in ident]
     scores = _score_columns(frames.columns)
-    spread = [c for c in (*SD_COLUMNS, *UNCERTAINTY_SCORE_COLUMNS) if include_posture and c in frames.columns]
+    spread = [c for c in (*SD_COLUMNS, *UNCERTAINTY_SCORE_COLUMNS, TASK_INPUTS_COLUMN)
+              if include_posture and c in frames.columns]
     table = frames[ident + posture + scores + spread]
     out = _rounded(to_csv_units(table))
     for c in spread:
@@ -198,6 +201,9 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
         if i.known_frames:
             row(section="inputs", item=i.body_part, value="inferred", count=i.inferred_frames,
                 percent=i.inferred_percent)
+    for u in summary.from_settings:
+        row(section="inputs", item=u.input, value=f"from settings: {math.degrees(u.value_rad):g} deg",
+            count=u.frames, time_s=u.time_s, percent=u.percent)
     table = pd.DataFrame(rows, columns=list(WORKER_SUMMARY_COLUMNS))
     table["sd_deg"] = table["sd_deg"].astype(np.float64).round(_DECIMALS["angle"])
     for c in ("hour", "holds", "peak_score", "count"):
@@ -245,6 +251,9 @@ def _confidence_columns(s: ShiftSummary) -> dict[str, float]:
         i = inputs.get(part)
         r[f"{_slug(part)}_median_sd_deg"] = math.degrees(i.median_sd_rad) if i is not None else math.nan
         r[f"{_slug(part)}_inferred_pct"] = i.inferred_percent if i is not None else math.nan
+    for name in SETTINGS_INPUTS:
+        used = sum(u.frames for u in s.from_settings if u.input == name)
+        r[f"{name}_from_settings_pct"] = 100.0 * used / s.scored_frames if s.scored_frames else math.nan
     return r
 
 

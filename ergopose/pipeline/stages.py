@@ -22,6 +22,7 @@ import pyarrow.parquet as pq
 from ergopose import __version__
 from ergopose.atomic import atomic_path
 from ergopose.calibration import check
+from ergopose.ergonomics import task_inputs as T
 from ergopose.ergonomics import uncertainty as U
 from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
@@ -203,7 +204,13 @@ class ScoredWorker:
 def score_rows(session: Session, rows, worker_id: str, scoring,
                shoulder_reference_m: float | None = None) -> pd.DataFrame:
     """One worker's consecutive rows -> joint angles, the task factors of the settings, RULA and
-    REBA: one row per row of ``rows`` (worker, frame, posture in radians, every score column).
+    REBA: one row per row of ``rows`` (worker, frame, posture in radians, every score column, and
+    ``inputs_from_settings``).
+
+    Where a wrist angle cannot be seen (NaN, or the hand points all placed by the body model:
+    ``rows.inferred``; rows without it count as seen) and the settings give the task's wrist
+    posture for the worker and time, the settings' value is scored instead
+    (:mod:`ergopose.ergonomics.task_inputs`).
 
     shoulder_reference_m: the reference of shoulder elevation (the median shoulder height along
     the trunk over the worker's whole shift, :class:`ergopose.pipeline.scoring.ShiftReferences`);
@@ -213,26 +220,34 @@ def score_rows(session: Session, rows, worker_id: str, scoring,
     settings = AngleSettings(trunk_length_m=float(ref)) if ref is not None and np.isfinite(ref) and ref > 0 else None
     angles = joint_angles(rows.points_world, rows.time_s, settings)
     posture = angles.to_frame().reset_index(drop=True)
+    task = session.task_angles(worker_id, rows.time_s)
+    use = T.settings_use(T.hidden_inputs(posture, getattr(rows, "inferred", None)), task)
+    posture = T.apply_settings(posture, use, task)
     factors = session.factor_table(worker_id, rows.time_s)
     posture = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])],
                         axis=1)
     scores = score_posture(posture, settings=scoring, with_events=True)
     ident = pd.DataFrame({"worker": worker_id, "frame": np.asarray(rows.frame, dtype=np.int64)})
-    spread = score_uncertainty(rows, posture, scores, factors, settings, scoring)
-    return pd.concat([ident, posture, scores, spread], axis=1)
+    spread = score_uncertainty(rows, posture, scores, factors, settings, scoring, task_use=(use, task))
+    return pd.concat([ident, posture, scores, spread, T.inputs_column(use, len(posture)).to_frame()], axis=1)
 
 
 def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors: pd.DataFrame,
-                      angle_settings, scoring) -> pd.DataFrame:
+                      angle_settings, scoring, task_use: tuple[dict, pd.DataFrame] | None = None) -> pd.DataFrame:
     """Angle deviations, score probabilities and ranges, confidence and its cause per frame
     (:mod:`ergopose.ergonomics.uncertainty`): the joints resampled within the reconstruction's
-    deviations and scored again with the same task inputs."""
+    deviations and scored again with the same task inputs.
+
+    task_use: (inputs used from the settings, Session.task_angles) as in :func:`score_rows`: every
+    draw gets the settings' value in those inputs, so they add no spread."""
     n = len(rows)
     draws_world = U.sample_points(rows.points_world, rows.std_world, rows.frame)
     extra = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
     angle_draws, rula, reba = [], [], []
     for pts in draws_world:
         a = joint_angles(pts, rows.time_s, angle_settings).to_frame().reset_index(drop=True)
+        if task_use is not None:
+            a = T.apply_settings(a, *task_use)
         angle_draws.append(a)
         s = score_posture(pd.concat([a, extra], axis=1), settings=scoring)
         rula.append(s["rula_grand"])
@@ -245,7 +260,7 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
         out[f"{name}_high"] = pd.array(np.where(np.isfinite(high), high, np.nan), dtype="Float64").round().astype("Int16")
     seen = rows.views.max(axis=1) if n else np.zeros(0, np.int8)
     conf, cause = U.frame_confidence(out["rula_grand_p"].to_numpy(np.float64), out["reba_score_p"].to_numpy(np.float64),
-                                     rows.views, rows.inferred, seen)
+                                     rows.views, getattr(rows, "inferred", None), seen)
     out["confidence"] = pd.array(conf, dtype="string")
     out["cause"] = pd.array(cause, dtype="string")
     return out

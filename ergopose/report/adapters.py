@@ -37,6 +37,7 @@ from ergopose.report.context import (
     Hold,
     HourLevels,
     InputQuality,
+    SettingsValue,
     LevelTime,
     LimbFrequency,
     LimbStats,
@@ -279,8 +280,12 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
                                       causes=tuple(CauseSeconds(ca.cause, float(ca.time_s)) for ca in c.causes))
                        for c in getattr(summary, "confidence", ()))
     period = float(summary.frame_period_s)
+    scored_s = float(getattr(summary, "scored_frames", 0)) * period
+    used = tuple(getattr(summary, "from_settings", ()))
     inputs = tuple(InputQuality(body_part=i.body_part, angles=tuple(i.angles), median_sd_rad=float(i.median_sd_rad),
-                                inferred_s=i.inferred_frames * period, known_s=i.known_frames * period)
+                                inferred_s=i.inferred_frames * period, known_s=i.known_frames * period,
+                                from_settings=tuple(SettingsValue(u.input, float(u.value_rad), float(u.time_s), scored_s)
+                                                    for u in used if u.input in i.angles))
                    for i in getattr(summary, "inputs", ()))
     return WorkerSummary(worker_id=str(summary.worker), observed_s=float(summary.observed_s), levels=tuple(levels),
                          unscored_s=unscored, body_parts=tuple(body_parts), holds=tuple(holds[:holds_limit]),
@@ -417,22 +422,39 @@ FACTOR_USE = {
     "seated": "RULA trunk (step 10), REBA legs (step 3)",
     "legs_supported": "RULA legs (step 11)",
     "wrist_twist_end_range": "RULA wrist twist (step 4)",
+    "wrist_flexion": "RULA wrist (step 3), REBA wrist (step 9), where the cameras do not see the hand",
+    "wrist_deviation": "RULA wrist deviation (step 3), REBA wrist deviation (step 9), where the cameras do not see the hand",
 }
 FACTOR_WORDS = {
     "load_kg": "load", "load_mode": "load held", "shock": "shock or rapid build-up of force", "coupling": "hand coupling",
     "arm_supported": "arm supported or leaning", "seated": "seated", "legs_supported": "legs and feet supported",
     "wrist_twist_end_range": "wrist twisted near the end of its range",
+    "wrist_flexion": "wrist flexion of the task", "wrist_deviation": "wrist deviation of the task",
 }
 
 
 def _factor_value(name: str, value: Any) -> str:
+    if value is None and name in ("wrist_flexion", "wrist_deviation"):
+        return "not given: the measured angle is scored"
     if value is None:
         return "not given: scored as unknown"
     if isinstance(value, bool):
         return "yes" if value else "no"
     if name == "load_kg":
         return f"{value:g} kg"
+    if name in ("wrist_flexion", "wrist_deviation"):
+        return _wrist_words(name, float(value))
     return str(value)
+
+
+def _wrist_words(name: str, value_rad: float) -> str:
+    """A wrist angle of the settings in words: "20° (flexion)", "-15° (extension)"."""
+    deg = math.degrees(value_rad)
+    if name.endswith("wrist_flexion"):
+        way = "flexion" if deg > 0 else "extension" if deg < 0 else "neutral"
+    else:
+        way = "radial, toward the thumb" if deg > 0 else "ulnar, toward the little finger" if deg < 0 else "neutral"
+    return f"{deg:g}° ({way})"
 
 
 def _clock(shift_s: float, start: Any) -> str:

@@ -431,13 +431,28 @@ class ConfidenceTime:
 
 
 @dataclass(frozen=True)
+class SettingsValue:
+    """A task input of the settings scored in place of a hidden measurement (ergopose.ergonomics.
+    task_inputs): input (the posture-table angle, "left_wrist_flexion"), value_rad (the value used,
+    radians), seconds (scored time in which it was used), scored_s (the worker's scored time: a
+    RULA or REBA grand score present; the base of the share)."""
+
+    input: str
+    value_rad: float
+    seconds: float
+    scored_s: float
+
+
+@dataclass(frozen=True)
 class InputQuality:
     """How well one body part's RULA/REBA inputs were measured over the shift.
 
     body_part: in words ("left wrist"). angles: the posture-table angles. median_sd_rad: median
     over the shift of the per-frame standard deviation of its angles (radians; NaN when unknown).
     inferred_s: time in which one of its joints was placed by the body model rather than seen by
-    two cameras; known_s: time for which that was recorded (0 = unknown).
+    two cameras; known_s: time for which that was recorded (0 = unknown). from_settings: its
+    angles' values taken from the settings where the cameras did not see them, with the time each
+    was used (empty when none).
     """
 
     body_part: str
@@ -445,6 +460,7 @@ class InputQuality:
     median_sd_rad: float
     inferred_s: float
     known_s: float
+    from_settings: tuple[SettingsValue, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -297,7 +297,10 @@ class InputRow:
     the shift of the angles' standard deviation, degrees), inferred (share of the tracked time in
     which its joints were placed by the body model), verdict ("measured", "uncertain", "mostly
     inferred", "mostly inferred, uncertain"), concern (true when the verdict is not "measured"; for
-    styling), task_input (the settings key that can give the input instead, or why none can)."""
+    styling), task_input (the settings key that can give the input instead, or why none can),
+    from_settings (the values the settings gave in place of unseen angles and the share of the
+    scored time each was used, e.g. "flexion 20° in 35.0 % of the scored time"; "none" when the
+    measurement was always used)."""
 
     body_part: str
     median_sd: str
@@ -305,6 +308,7 @@ class InputRow:
     verdict: str
     concern: bool
     task_input: str
+    from_settings: str = "none"
 
 
 @dataclass(frozen=True)
@@ -462,7 +466,8 @@ MOSTLY_INFERRED_PCT = 50.0
 #: the cameras; body parts not listed can only be measured.
 TASK_INPUTS = {
     "left upper arm": "arm_supported", "right upper arm": "arm_supported",
-    "left wrist": "wrist_twist_end_range (twist only)", "right wrist": "wrist_twist_end_range (twist only)",
+    "left wrist": "wrist_flexion_deg, wrist_deviation_deg (where the hand is not seen); wrist_twist_end_range",
+    "right wrist": "wrist_flexion_deg, wrist_deviation_deg (where the hand is not seen); wrist_twist_end_range",
     "legs": "seated, legs_supported",
 }
 REGION_NAMES = {"all": "whole field of view", "central": "central", "outer": "outer", "edge": "lens edge"}
@@ -735,7 +740,8 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
         rows.append(InputRow(body_part=i.body_part, median_sd=f"{sd:.1f}°" if math.isfinite(sd) else "n/a",
                              inferred=fmt_percent(i.inferred_s, i.known_s), verdict=verdict,
                              concern=verdict != "measured",
-                             task_input=TASK_INPUTS.get(i.body_part, "none: measured only")))
+                             task_input=TASK_INPUTS.get(i.body_part, "none: measured only"),
+                             from_settings=_settings_words(i.from_settings)))
     if not rows:
         return (), ""
     weak = [r.body_part for r in rows if r.concern]
@@ -746,10 +752,23 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
             f"(the largest of them in each frame); 'uncertain' from {UNCERTAIN_SD_DEG:g}° (posture bands are "
             f"10-25° wide). Inferred: share of the tracked time in which its joints were placed by the body model, "
             f"not seen by two cameras; 'mostly inferred' from {MOSTLY_INFERRED_PCT:g} %. Where the cameras cannot "
-            "settle an input, the session's settings.toml can give it as a task input (the keys in the last "
-            "column; [defaults], [workers.ID] or [[periods]], docs/session-format.md); angles themselves "
-            "cannot be given.")
+            "settle an input, the session's settings.toml can give it as a task input (the keys in the column "
+            "'Task input in settings'; [defaults], [workers.ID] or [[periods]], docs/session-format.md). The wrist "
+            "angles given there (wrist_flexion_deg, wrist_deviation_deg) replace the measurement only in frames "
+            "where the angle could not be measured or the hand points were all placed by the body model; the last "
+            "column gives each value used and its share of the scored time, and the frames CSV names them per "
+            "frame (inputs_from_settings). The neck, trunk, arm and knee angles can only be measured.")
     return tuple(rows), note
+
+
+def _settings_words(values: Sequence) -> str:
+    """The settings' values used in place of a body part's unseen angles, with the share of the
+    scored time each was used; "none" when there were none."""
+    parts = []
+    for v in values:
+        angle = "flexion" if v.input.endswith("wrist_flexion") else "deviation"
+        parts.append(f"{angle} {math.degrees(v.value_rad):g}° in {fmt_percent(v.seconds, v.scored_s)} of the scored time")
+    return "; ".join(parts) or "none"
 
 
 def _level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time") -> tuple:

@@ -24,7 +24,7 @@ from ergopose.ergonomics.methods import load_method
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records
-from ergopose.report.context import (Assumption, BandTime, CauseSeconds, ConfidenceTime, InputQuality, DataFile,
+from ergopose.report.context import (Assumption, BandTime, CauseSeconds, ConfidenceTime, InputQuality, DataFile, SettingsValue,
                                      CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
                                      LimbStats, ModelInfo, RegionAccuracy, Repetition, SessionInfo, StandardFlag,
                                      WorkerDiagnostics, WorkerInfo, WorkerSummary, WorstMoment)
@@ -223,7 +223,8 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
     inputs = (
         InputQuality("neck", ("neck_flexion", "neck_side_bend", "neck_twist"), math.radians(6.4), 0.2 * observed, observed),
         InputQuality("left wrist", ("left_wrist_flexion", "left_wrist_deviation"), math.radians(14.5), 0.7 * observed,
-                     observed),
+                     observed, (SettingsValue("left_wrist_flexion", math.radians(-20.0), 0.35 * observed, 0.9 * observed),
+                                SettingsValue("left_wrist_deviation", 0.0, 0.3 * observed, 0.9 * observed))),
         InputQuality("trunk", ("trunk_flexion",), math.radians(2.1), 0.0, observed),
     )
     return WorkerSummary(worker_id=worker_id, observed_s=observed, levels=tuple(levels), unscored_s=unscored,

@@ -141,8 +141,9 @@ def test_assumptions_from_session_settings(tmp_path):
 
     session = Session(path=tmp_path, format_version=1, recorded_at=dt.datetime(2024, 3, 4, 8, 0, 0), fps=12.0,
                       frame_count=100, cameras=(), defaults=TaskFactors(load_kg=0.0, coupling="good"),
-                      periods=(FactorPeriod(600.0, 900.0, TaskFactors(load_kg=12.0)),),
-                      workers=(SessionWorker("w1", "Worker A", TaskFactors(load_kg=2.0),
+                      periods=(FactorPeriod(600.0, 900.0, TaskFactors(load_kg=12.0)),
+                               FactorPeriod(900.0, 960.0, TaskFactors(wrist_deviation=math.radians(-10.0)))),
+                      workers=(SessionWorker("w1", "Worker A", TaskFactors(load_kg=2.0, wrist_flexion=math.radians(-20.0)),
                                              (FactorPeriod(120.0, 180.0, TaskFactors(load_kg=15.0, load_mode="static")),)),),
                       scoring={}, description="Line 3", ground_truth_dir=None, settings_path=tmp_path / "settings.toml",
                       calibration_path=tmp_path / "calibration.toml")
@@ -156,6 +157,11 @@ def test_assumptions_from_session_settings(tmp_path):
     assert by_item["load, 08:02:00 to 08:03:00"].value == "15 kg"
     assert by_item["load held, 08:02:00 to 08:03:00"].value == "static"
     assert by_item["load, 08:10:00 to 08:15:00"].source == "settings.toml [[periods]]"
+    assert by_item["wrist flexion of the task"].value == "-20° (extension)"
+    assert by_item["wrist flexion of the task"].source == "settings.toml [workers.w1]"
+    assert "where the cameras do not see the hand" in by_item["wrist flexion of the task"].applies_to
+    assert by_item["wrist deviation of the task"].value == "not given: the measured angle is scored"
+    assert by_item["wrist deviation of the task, 08:15:00 to 08:16:00"].value == "-10° (ulnar, toward the little finger)"
     assert {a.item for a in w2.assumptions} >= {"load", "load, 08:10:00 to 08:15:00"}
     assert w1.csv_files[0].path == "csv/w1.csv"
 

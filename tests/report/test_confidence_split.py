@@ -182,3 +182,44 @@ def test_results_without_confidence_still_render(tmp_path: Path):
     render_report(tmp_path, session_results(session, [(rec, diag, frames)]))
     page = (tmp_path / "worker-W1.html").read_text(encoding="utf-8")
     assert "Not recorded with these results." in page and 'data-input=' not in page
+
+
+def test_wrist_flexion_from_the_settings_is_counted_once_and_shown_alike(tmp_path: Path):
+    """The first 80 frames take the left wrist flexion from the settings (-20 degrees); the share is
+    of the scored time (160 frames), counting only the scored frames among the 80."""
+    frames, inferred = _frames()
+    first = np.arange(len(frames)) < 80
+    frames["left_wrist_flexion"] = np.where(first, np.radians(-20.0), np.radians(10.0))
+    frames["inputs_from_settings"] = pd.array(np.where(first, "left_wrist_flexion", ""), dtype="string")
+    scored = (frames["confidence"] != "unscored").to_numpy()
+    used = int((first & scored).sum())
+    assert 0 < used < 80 and scored.sum() == 160
+    summary = aggregate_shift(frames, "W1", frame_period_s=1.0 / FPS, chunk_frames=37, inferred=inferred)
+    (u,) = summary.from_settings
+    assert (u.input, u.frames) == ("left_wrist_flexion", used) and math.degrees(u.value_rad) == pytest.approx(-20.0)
+    assert u.time_s == pytest.approx(used / FPS) and u.percent == pytest.approx(100.0 * used / 160)
+    assert aggregate_shift(frames, "W1", frame_period_s=1.0 / FPS).from_settings == summary.from_settings
+
+    long = worker_summary_table(summary)
+    row = long[(long["section"] == "inputs") & (long["item"] == "left_wrist_flexion")]
+    assert row["value"].tolist() == ["from settings: -20 deg"]
+    assert row["percent"].tolist() == [round(100.0 * used / 160, 2)] and row["count"].tolist() == [used]
+    table = session_summary_table([summary])
+    assert table.loc[0, "left_wrist_flexion_from_settings_pct"] == round(100.0 * used / 160, 2)
+    assert table.loc[0, "right_wrist_flexion_from_settings_pct"] == 0.0
+
+    session, workers = synthetic_session(n_workers=1, duration_s=20.0, fps=FPS, gaps=False, csv=False)
+    _, diag, timeline = workers[0]
+    record = adapters.worker_summary(summary)
+    wrist = next(i for i in record.inputs if i.body_part == "left wrist")
+    assert [(v.input, v.seconds, v.scored_s) for v in wrist.from_settings] == [
+        ("left_wrist_flexion", pytest.approx(used / FPS), pytest.approx(16.0))]
+    assert all(not i.from_settings for i in record.inputs if i.body_part != "left wrist")
+    save_results(tmp_path, session, [(record, diag, timeline)])
+    render_report(tmp_path, session_results(session, [(record, diag, timeline)]))
+    page = (tmp_path / "worker-W1.html").read_text(encoding="utf-8")
+    cells = re.search(r'<tr data-input="left wrist">(.*?)</tr>', page).group(1)
+    assert f"flexion -20° in {100.0 * used / 160:.1f} % of the scored time" in cells
+    assert "wrist_flexion_deg" in cells
+    neck = re.search(r'<tr data-input="neck">(.*?)</tr>', page).group(1)
+    assert neck.endswith("<td>none</td>")
