@@ -501,7 +501,13 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
     """
     measured = {name: info.get("stature_estimate_m") for name, info in tracks.worker_summary.items()}
     tracked = [identity_name(w) for w in sorted(set(tracks.workers) | set(tracks.groups))]
-    naming = resolve_naming(session, tracked, load_names(session.path), measured)
+    given = load_names(session.path)
+    stale = [t for t in given if t not in tracked]
+    if stale:
+        warn(progress, f"{NAMES_FILE}: {', '.join(stale)} {'is' if len(stale) == 1 else 'are'} not a tracked id of "
+                       f"these results (tracked: {', '.join(tracked) or 'nobody'}); the name is not used; check "
+                       f"with 'ergopose workers --session {session.path}'")
+    naming = resolve_naming(session, tracked, given, measured)
     tracks = regroup(tracks, naming.groups())
     session = naming.session(session)
     unused = unused_task_inputs(session, sorted(naming.members))

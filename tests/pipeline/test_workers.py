@@ -228,3 +228,14 @@ def test_rows_of_one_person_in_two_ids_keep_the_better_seen_row_per_frame():
     merged = names.merge_rows(rows, {1: 1, 3: 1})
     assert merged.worker.tolist() == [1, 1, 1] and merged.frame.tolist() == [0, 1, 2]
     assert merged.points_world[:, 0, 0].tolist() == [1.0, 2.0, 3.0]  # frame 0: worker_3's row, seen by 2 cameras
+
+
+def test_names_of_ids_these_results_do_not_have_are_named_in_a_warning(copy):
+    session, out, _ = copy
+    names.write_names(session, {"worker_1": "w1", "worker_7": "w2"})
+    events = []
+    rescore.rescore(load_session(session, check_videos=False), out, progress=events.append)
+    notes = [e.message for e in events if e.unit == "note"]
+    assert any("worker_7 is not a tracked id" in n for n in notes)
+    assert any("[workers.w2]" in n and "applied to nobody" in n for n in notes)
+    assert (_frames(out, "w1")["reba_load"].dropna() == W1_REBA_LOAD).all()
