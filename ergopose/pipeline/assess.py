@@ -91,12 +91,12 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
         guard.check_output_folder(options.out_dir)  # before any video is read
     report(progress, "session", 0, 1, unit="step", message="checking videos, calibration and settings")
     session = load_session(session_dir)
-    unreachable = names.unreachable_task_inputs(session, names.load_names(session.path))
-    if unreachable:  # before the long work, so the user can stop and name the workers
-        warn(progress, names.unused_message(session, unreachable))
     report(progress, "session", 1, 1, unit="step")
     out_dir = Path(options.out_dir) if options.out_dir is not None else default_out_dir(session)
     guard.check_before_work(out_dir, session, options.force, progress)
+    unreachable = names.unreachable_task_inputs(session, names.load_names(session.path))
+    if unreachable:  # before the long work, so the user can stop and name the workers
+        warn(progress, names.unused_message(session, unreachable))
     scoring = stages.scoring_settings(session)
 
     t0 = time.perf_counter()
