@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.score",
     "ergopose.commands.simulate",
     "ergopose.commands.report",
+    "ergopose.commands.workers",
     "ergopose.commands.evaluate",
 )
 

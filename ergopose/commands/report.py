@@ -17,8 +17,10 @@ from pathlib import Path
 from ergopose.cli_progress import ProgressBars, warnings_only
 from ergopose.errors import InputError
 from ergopose.pipeline.guard import check_results_session
+from ergopose.pipeline.names import unused_message, unused_task_inputs
+from ergopose.progress import warn
 from ergopose.report.render import render_report
-from ergopose.report.results import RESULTS_DIR, SESSION_FILE
+from ergopose.report.results import RESULTS_DIR, SESSION_FILE, load_results
 from ergopose.session import SETTINGS_FILE, load_session
 
 DEFAULT_REPORTS_DIR = "reports"
@@ -52,6 +54,19 @@ def check_session(session: str | Path, folder: Path, force: bool, progress=None)
                                  "them anyway")
 
 
+def warn_unused_inputs(session: str | Path, folder: Path, progress) -> None:
+    """Before rendering: warn when task inputs of the session's settings name ids that none of the
+    stored workers has (the report re-renders stored scores; 'ergopose workers --name' scores again)."""
+    session = Path(session)
+    if not (session / SETTINGS_FILE).is_file():
+        return
+    loaded = load_session(session, check_videos=False)
+    stored = [w.info.worker_id for w in load_results(folder).workers]
+    unused = unused_task_inputs(loaded, stored)
+    if unused:
+        warn(progress, unused_message(loaded, unused, tracked_ids=stored))
+
+
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "report", help="re-render the HTML report of a session from its stored results",
@@ -72,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
     folder = report_folder(args.session, args.out)
     progress = None if args.quiet else ProgressBars()
     check_session(args.session, folder, args.force, progress or warnings_only)
+    warn_unused_inputs(args.session, folder, progress or warnings_only)
     files = render_report(folder, progress=progress)
     for path in (files.index, *files.workers):
         size = files.sizes[path.name]

@@ -46,7 +46,7 @@ from ergopose.errors import InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
 from ergopose.evaluation.bar import bar_section
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMB_INDEX, LIMBS, NUM_JOINTS
-from ergopose.pipeline.identify import identify_by_stature
+from ergopose.pipeline.names import load_names, resolve_naming
 from ergopose.pipeline.stages import scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.diagnostics import (
@@ -214,12 +214,13 @@ def reported_ids(session, tracks, metadata: Mapping) -> tuple[dict[str, str], tu
     """{tracked id: the id the results use}: ``ergopose assess`` names a tracked person after the
     settings' worker whose given stature matches its measured one
     (:func:`ergopose.pipeline.identify.identify_by_stature`, on the stature estimates stored in the
-    tracks table) and keeps the pseudonym otherwise; the same decision is re-made here."""
+    tracks table) and keeps the pseudonym otherwise, after the names of the session's names.toml
+    (:mod:`ergopose.pipeline.names`); the same decision is re-made here."""
     names = [identity_name(w) for w in tracks.workers]
     workers = metadata.get("workers") or {}
     measured = {n: (workers.get(n) or {}).get("stature_estimate_m") for n in names}
-    ident = identify_by_stature(measured, session)
-    return {n: ident.rename(n) for n in names}, tuple(ident.notes)
+    naming = resolve_naming(session, names, load_names(session.path), measured)
+    return {n: naming.rename(n) for n in names}, tuple(naming.notes)
 
 
 # ------------------------------------------------------------------------------------ lens regions

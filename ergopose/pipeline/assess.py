@@ -29,11 +29,11 @@ from pathlib import Path
 from typing import Sequence
 
 from ergopose.errors import ConfigError
-from ergopose.pipeline import detect, guard, stages
+from ergopose.pipeline import detect, guard, names, stages
 from ergopose.pipeline.detect import detect_chunk
 from ergopose.pipeline.stages import WorkerOutput
 from ergopose.pipeline.store import ResultStore
-from ergopose.progress import ProgressCallback, report
+from ergopose.progress import ProgressCallback, report, warn
 from ergopose.session import Session, load_session
 
 #: Frames per chunk = CHUNK_SECONDS x fps.
@@ -94,6 +94,9 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     report(progress, "session", 1, 1, unit="step")
     out_dir = Path(options.out_dir) if options.out_dir is not None else default_out_dir(session)
     guard.check_before_work(out_dir, session, options.force, progress)
+    unreachable = names.unreachable_task_inputs(session, names.load_names(session.path))
+    if unreachable:  # before the long work, so the user can stop and name the workers
+        warn(progress, names.unused_message(session, unreachable))
     scoring = stages.scoring_settings(session)
 
     t0 = time.perf_counter()

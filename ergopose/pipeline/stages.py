@@ -9,6 +9,9 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as dt
+import os
+import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -29,18 +32,21 @@ from ergopose.ergonomics.angles import AngleSettings, joint_angles
 from ergopose.ergonomics.export import FramesCsvWriter, write_session_summary_csv, write_worker_summary_csv
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import from_mapping
-from ergopose.errors import InputError
+from ergopose.errors import ConfigError, InputError
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pipeline.identify import identify_by_stature
+from ergopose.pipeline.names import (NAMES_FILE, load_names, merge_rows, resolve_naming, tracker_number,
+                                     unused_message, unused_task_inputs)
 from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, block_sizes
 from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
 from ergopose.pipeline.store import ResultStore, file_fingerprint
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, model_card
-from ergopose.progress import ProgressCallback, report
+from ergopose.progress import ProgressCallback, report, warn
 from ergopose.recon.pipeline import ShiftReconstruction
 from ergopose.recon.session import worker_summary
-from ergopose.recon.table import TracksWriter, table_to_frames
+from ergopose.recon.settings import ReconSettings
+from ergopose.recon.settings import from_mapping as recon_from_mapping
+from ergopose.recon.table import TracksWriter, read_metadata, table_to_frames
 from ergopose.recon.tracking import identity_name
 from ergopose.report import adapters
 from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
@@ -135,6 +141,9 @@ class Tracks:
     references: Any  # ShiftReferences
     workers: tuple[int, ...]
     rows: int
+    #: tracker numbers scored as one worker: {member: the group's first member}
+    #: (ergopose.pipeline.names.Naming.groups); ``workers`` then holds the groups' first members
+    groups: dict = dataclasses.field(default_factory=dict)
 
 
 def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon,
@@ -162,6 +171,33 @@ def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], re
     report(progress, "tracking", len(ranges) + 1, len(ranges) + 1, unit="chunk")
     return Tracks(path=store.tracks_path, worker_summary=summary, references=refs,
                   workers=tuple(refs.limbs.workers()), rows=rows)
+
+
+def stored_tracks(path: Path, groups: dict | None = None, progress: ProgressCallback | None = None) -> Tracks:
+    """The Tracks of a stored tracks table (the tracking stage's output) without the video work: the
+    whole-shift references are gathered again in one pass over the table, with the tracker numbers
+    of ``groups`` merged (:func:`ergopose.pipeline.names.merge_rows`)."""
+    meta = read_metadata(path)
+    try:
+        recon = recon_from_mapping(meta.get("settings") or {}, source=path)
+    except (ConfigError, TypeError, ValueError):
+        recon = ReconSettings()
+    groups = dict(groups or {})
+    refs = ShiftReferences(recon)
+    rows = 0
+    for part in read_track_parts(path):
+        refs.add(merge_rows(part, groups))
+        rows += len(part)
+    return Tracks(path=Path(path), worker_summary=dict(meta.get("workers") or {}), references=refs,
+                  workers=tuple(refs.limbs.workers()), rows=rows, groups=groups)
+
+
+def regroup(tracks: Tracks, groups: dict) -> Tracks:
+    """``tracks`` with the tracker numbers of ``groups`` scored as one worker (the same object when
+    there is nothing to merge)."""
+    if groups == tracks.groups:
+        return tracks
+    return dataclasses.replace(stored_tracks(tracks.path, groups), worker_summary=tracks.worker_summary)
 
 
 def read_track_parts(path: Path):
@@ -375,6 +411,7 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
         report(progress, "scoring", 0, total, unit="frame")
         if tracks.workers:
             for part in read_track_parts(tracks.path):
+                part = merge_rows(part, tracks.groups)
                 for w in np.unique(part.worker):
                     scorers[int(w)].add(part.worker_rows(int(w)))
                 frontier = int(part.frame[-1])  # frames before the last one of a part are complete
@@ -390,9 +427,11 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
         tracked = identity_name(w)
         summary = sink.acc.result()
         peaks = _peak_frames(sink, summary)
-        out.append(ReportWorker(worker_id=sink.worker_id, summary=summary, diagnostics=diagnostics[tracked],
+        # the diagnostics under the reported id (a stature match or names.toml renames the tracked id)
+        diag = dataclasses.replace(diagnostics[tracked], worker=sink.worker_id)
+        out.append(ReportWorker(worker_id=sink.worker_id, summary=summary, diagnostics=diag,
                                 timeline=_timeline(sink), peak_frames=peaks,
-                                joints_at=_joints_at(tracks.path, tracked, peaks, session.fps),
+                                joints_at=_joints_at(tracks.path, _members(tracks, w), peaks, session.fps),
                                 reliable_frames=int(sink.column("reliable").sum())))
     return out
 
@@ -424,9 +463,9 @@ def _peak_frames(sink: _WorkerSink, summary) -> pd.DataFrame:
     return table.to_pandas().sort_values("time_s", kind="stable").reset_index(drop=True)
 
 
-def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, str] | None = None):
+def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, Sequence[str]] | None = None):
     """The rows of a Parquet file (ordered by frame) whose frame is in ``frames`` (and whose column
-    where[0] equals where[1]), reading only the row groups whose frame range holds one of them."""
+    where[0] is one of where[1]), reading only the row groups whose frame range holds one of them."""
     col = f.schema_arrow.get_field_index("frame")
     found = [f.schema_arrow.empty_table()]
     for g in range(f.num_row_groups):  # one row group in memory at a time
@@ -438,17 +477,25 @@ def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, str] | None = None)
         table = f.read_row_group(g)
         mask = pc.is_in(table.column("frame"), value_set=pa.array(frames))
         if where is not None:
-            mask = pc.and_(mask, pc.equal(table.column(where[0]), where[1]))
+            mask = pc.and_(mask, pc.is_in(table.column(where[0]), value_set=pa.array(list(where[1]))))
         found.append(table.filter(mask))
     return pa.concat_tables(found)
 
 
-def _joints_at(tracks_path: Path, tracked: str, peaks: pd.DataFrame, fps: float):
-    """callable(seconds) -> (33, 3) joints (metres) at the nearest peak frame, from the tracks table."""
+def _members(tracks: Tracks, worker: int) -> tuple[str, ...]:
+    """The tracked ids scored as ``worker`` (itself, or every member of its group)."""
+    return tuple(identity_name(m) for m, g in tracks.groups.items() if g == worker) or (identity_name(worker),)
+
+
+def _joints_at(tracks_path: Path, tracked: tuple[str, ...], peaks: pd.DataFrame, fps: float):
+    """callable(seconds) -> (33, 3) joints (metres) at the nearest peak frame, from the tracks table
+    (the rows of the tracked ids ``tracked``, merged as for scoring)."""
     if not len(peaks):
         return None
     frames = np.array(sorted(int(f) for f in peaks["frame"]), dtype=np.int64)
     tf = table_to_frames(_rows_of_frames(pq.ParquetFile(tracks_path), frames, ("worker", tracked)).to_pandas())
+    tf = merge_rows(tf, {tracker_number(t): tracker_number(tracked[0]) for t in tracked[1:]} if len(tracked) > 1
+                    else {})
     times, points = tf.time_s, tf.points_world
 
     def joints_at(t: float):
@@ -460,40 +507,99 @@ def _joints_at(tracks_path: Path, tracked: str, peaks: pd.DataFrame, fps: float)
 
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
                      progress: ProgressCallback | None) -> Outputs:
-    """Score every tracked worker, write the CSV files, the stored results and the HTML report."""
+    """Score every tracked worker, write the CSV files, the stored results and the HTML report.
+
+    Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
+    (:mod:`ergopose.pipeline.names`); settings ids whose task inputs reach nobody are named in a
+    warning and in the report. Everything is written to a folder beside the outputs and swapped
+    into place when complete (:func:`swap_outputs`): a failure leaves the earlier outputs whole.
+    """
     measured = {name: info.get("stature_estimate_m") for name, info in tracks.worker_summary.items()}
-    ident = identify_by_stature({identity_name(w): measured.get(identity_name(w)) for w in tracks.workers}, session)
-    scored = score_tracks(session, tracks, out_dir, scoring, ident, progress)
+    tracked = [identity_name(w) for w in sorted(set(tracks.workers) | set(tracks.groups))]
+    given = load_names(session.path)
+    stale = [t for t in given if t not in tracked]
+    if stale:
+        warn(progress, f"{NAMES_FILE}: {', '.join(stale)} {'is' if len(stale) == 1 else 'are'} not a tracked id of "
+                       f"these results (tracked: {', '.join(tracked) or 'nobody'}); the name is not used; check "
+                       f"with 'ergopose workers --session {session.path}'")
+    naming = resolve_naming(session, tracked, given, measured)
+    tracks = regroup(tracks, naming.groups())
+    session = naming.session(session)
+    unused = unused_task_inputs(session, sorted(naming.members))
+    if unused:
+        warn(progress, unused_message(session, unused, tracked_ids=tracked))
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".outputs.", suffix=".tmp", dir=out_dir))
+    try:
+        scored = score_tracks(session, tracks, stage, scoring, naming, progress)
+        csv_dir = stage / CSV_DIR
+        csv_dir.mkdir(parents=True, exist_ok=True)
+        csv_files: dict[str, list[tuple[str, str]]] = {}
+        outputs = []
+        for s in scored:
+            frames_csv = out_dir / CSV_DIR / f"{s.worker_id}_frames.csv"
+            summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}_summary.csv", s.summary)
+            csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
+                                      ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
+            outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
+                                        summary=s.summary,
+                                        csv_files=(frames_csv, out_dir / CSV_DIR / summary_csv.name)))
+        write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
+        skipped = _skipped_frames(session, out_dir, stage)
+        index = write_report(session, scored, stage, scoring, models, csv_files, naming, progress, skipped,
+                             unused=unused)
+        swap_outputs(stage, out_dir)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return Outputs(index_html=out_dir / index.name, session_csv=out_dir / CSV_DIR / SESSION_CSV,
+                   workers=tuple(outputs))
 
-    csv_dir = out_dir / CSV_DIR
-    csv_files: dict[str, list[tuple[str, str]]] = {}
-    outputs = []
-    for s in scored:
-        frames_csv = csv_dir / f"{s.worker_id}_frames.csv"
-        summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}_summary.csv", s.summary)
-        csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
-                                  ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
-        outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
-                                    summary=s.summary, csv_files=(frames_csv, summary_csv)))
-    session_csv = write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
-    skipped = _skipped_frames(session, out_dir)
-    index = write_report(session, scored, out_dir, scoring, models, csv_files, ident, progress, skipped)
-    return Outputs(index_html=index, session_csv=session_csv, workers=tuple(outputs))
+
+#: What score_and_report writes, relative to the output folder: folders, then pages.
+OUTPUT_DIRS = (CSV_DIR, f"pipeline/{SCORED_DIR}", "results")
 
 
-def _skipped_frames(session: Session, out_dir: Path) -> tuple:
-    """csv/frames_skipped.csv from the stored chunks; the report's records of them."""
+def swap_outputs(stage: Path, out_dir: Path) -> None:
+    """Move the complete outputs of ``stage`` (the layout of the output folder) into ``out_dir``:
+    each folder of OUTPUT_DIRS replaces the earlier one whole (the earlier one is moved aside as
+    ``.<name>.old`` first, so ergopose.atomic.clean_up puts it back after a crash between the two
+    renames), then the pages; pages of workers no longer reported are removed."""
+    for rel in OUTPUT_DIRS:
+        new, final = stage / rel, out_dir / rel
+        if not new.is_dir():
+            new.mkdir(parents=True)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        old = final.with_name(f".{final.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        if final.exists():
+            os.replace(final, old)
+        os.replace(new, final)
+        shutil.rmtree(old, ignore_errors=True)
+    pages = {p.name for p in stage.glob("*.html")}
+    for p in out_dir.glob("worker-*.html"):
+        if p.name not in pages:
+            p.unlink()
+    for name in sorted(pages, key=lambda n: n == "index.html"):  # the index last
+        os.replace(stage / name, out_dir / name)
+
+
+def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = None) -> tuple:
+    """csv/frames_skipped.csv (under ``write_to``, default ``out_dir``) from the stored chunks of
+    ``out_dir``; the report's records of them."""
     rows = skipped_in_store(ResultStore(out_dir))
-    write_skipped_csv(out_dir / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps)
+    write_skipped_csv((write_to or out_dir) / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps)
     return skipped_records(rows, session.camera_names, session.fps)
 
 
 def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
                  models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None,
-                 skipped: tuple = ()) -> Path:
+                 skipped: tuple = (), unused: Sequence[str] = ()) -> Path:
     """Store the report results (ergopose.report.results) and render the pages.
 
     skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
+    unused: settings ids whose task inputs reach no reported worker (every worker's assumptions
+    say so).
     """
     worker_records = []
     for s in scored:
@@ -513,7 +619,7 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
         calibration=adapters.calibration_info(session.calibration_path, session.camera_names,
                                               check=calibration_check(session)),
         floor=floor, workers=_with_identities(adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
-                                              ident, session),
+                                              ident, session, unused),
         csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
                    DataFile("Skipped video frames (CSV)", f"{CSV_DIR}/{SKIPPED_CSV}")),
         fingerprint=fingerprint_of(session), skipped_frames=tuple(skipped))
@@ -532,23 +638,42 @@ def calibration_check(session: Session):
     return check.measure_bar(session.calibrated_cameras, pixels, spec.length_m, labels=labels)
 
 
-def _with_identities(infos, ident, session: Session):
-    """Each worker's assumptions, plus how the tracked person was matched to the settings' worker."""
+def _with_identities(infos, ident, session: Session, unused: Sequence[str] = ()):
+    """Each worker's assumptions, plus how the tracked person was matched to the settings' worker
+    (names.toml or stature; ident: ergopose.pipeline.names.Naming or identify.Identification) and
+    which settings ids' task inputs reach nobody."""
+    members = getattr(ident, "members", {})
+    named = getattr(ident, "named", frozenset())
     out = []
     for info in infos:
+        extras = []
         m = ident.match_of(info.worker_id)
-        if m is not None:
-            extra = Assumption(item="who this is",
-                               value=f"the person tracked as {m.tracked_id}: measured stature {m.measured_m:.2f} m, "
-                                     f"given {m.given_m:.2f} m",
-                               applies_to="the name, task factors and periods of this worker",
-                               source=f"{session.settings_path.name} [workers.{m.worker_id}] stature_m")
-            info = dataclasses.replace(info, assumptions=(extra,) + tuple(info.assumptions))
+        tracked = members.get(info.worker_id, ())
+        if any(t in named for t in tracked):
+            extras.append(Assumption(item="who this is",
+                                     value="the person tracked as " + " and ".join(tracked)
+                                     + (" (scored as one worker)" if len(tracked) > 1 else ""),
+                                     applies_to="the name, task factors and periods of this worker",
+                                     source=f"{NAMES_FILE} (ergopose workers --name)"))
+        elif m is not None:
+            extras.append(Assumption(item="who this is",
+                                     value=f"the person tracked as {m.tracked_id}: measured stature "
+                                           f"{m.measured_m:.2f} m, given {m.given_m:.2f} m",
+                                     applies_to="the name, task factors and periods of this worker",
+                                     source=f"{session.settings_path.name} [workers.{m.worker_id}] stature_m"))
         elif ident.notes:
-            extra = Assumption(item="who this is", value="not matched to a worker of the settings: "
-                               + "; ".join(ident.notes), applies_to="the defaults and periods for everyone apply",
-                               source=f"{session.settings_path.name} stature_m")
-            info = dataclasses.replace(info, assumptions=(extra,) + tuple(info.assumptions))
+            extras.append(Assumption(item="who this is", value="not matched to a worker of the settings: "
+                                     + "; ".join(ident.notes), applies_to="the defaults and periods for everyone apply",
+                                     source=f"{session.settings_path.name} stature_m"))
+        if unused:
+            extras.append(Assumption(item="task inputs applied to nobody",
+                                     value=", ".join(f"[workers.{u}]" for u in unused)
+                                     + ": no tracked person has that id; name the tracked people with "
+                                       "'ergopose workers --name'",
+                                     applies_to="nobody (these loads, couplings and periods are not in any score)",
+                                     source=session.settings_path.name))
+        if extras:
+            info = dataclasses.replace(info, assumptions=tuple(extras) + tuple(info.assumptions))
         out.append(info)
     return tuple(out)
 

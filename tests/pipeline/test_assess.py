@@ -84,6 +84,12 @@ def _temp_in(folder: str):
     return lambda out: any(".tmp" in p.name for p in (out / folder).glob(".*")) if (out / folder).is_dir() else False
 
 
+def _staged(pattern: str):
+    """A file or folder matching ``pattern`` inside the folder the scoring stage writes its outputs
+    to before they are moved into place (ergopose.pipeline.stages.score_and_report)."""
+    return lambda out: any(True for stage in out.glob(".outputs.*.tmp") for _ in stage.glob(pattern))
+
+
 @pytest.mark.slow
 def test_runs_killed_in_every_stage_resume_to_identical_csv_files(reference, tiny_session, fetched_model_dir,
                                                                   tmp_path):
@@ -98,9 +104,9 @@ def test_runs_killed_in_every_stage_resume_to_identical_csv_files(reference, tin
     moments = {
         f"{k} chunks stored": lambda o: len(list((o / "pipeline" / "chunks").glob("chunk_*.npz"))) >= k,
         "tracks table": _temp_in("pipeline"),
-        "scored frames": _temp_in("pipeline/scored"),
-        "CSV files": _temp_in("csv"),
-        "stored results": lambda o: any(p.name.startswith(".results.") for p in o.glob(".results.*")),
+        "scored frames": _staged("pipeline/scored/.*.tmp*"),
+        "CSV files": _staged("csv/.*.tmp*"),
+        "stored results": _staged(".results.*"),
     }
     killed = [name for name, appeared in moments.items() if _kill_when(args, env, out, appeared)]
     assert len(killed) >= 3, f"killed only at {killed}"  # the late moments are short: most must be hit
