@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import re
-import tomllib
 from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError, InputError
-from ergopose.geometry.calibration_file import cameras_from_dict, load_calibration, read_pose2sim_calibration
+from ergopose.geometry.calibration_file import camera_for_video, read_any_calibration
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.image_circle import nominal_fisheye_camera, nominal_pinhole_camera
 from ergopose.pipeline.pose_video import circle_from_video, pose_video, write_pose_csv
@@ -26,9 +24,6 @@ MODELS: tuple[str, ...] = ("full",)
 #: (fisheye) or across the image's width (pinhole).
 FOV_RANGE_DEG = {"fisheye": (100.0, 280.0), "pinhole": (10.0, 150.0)}
 DEFAULT_FOV_DEG = {"fisheye": 180.0, "pinhole": 60.0}
-#: A calibration's image size may differ from the video's by this many pixels per side (encoders
-#: pad frames to blocks of 16 pixels, e.g. 1088 for 1080); the pixels are taken as the same.
-SIZE_SLACK_PX = 16
 
 HELP = """\
 Find the people in one video and write their 2D keypoints (33 body points per person, in the
@@ -157,23 +152,12 @@ def _camera_from_video(args: argparse.Namespace, width: int, height: int, start:
     return nominal_fisheye_camera(name, width, height, search.circle, fov)
 
 
-def _read_cameras(path: Path) -> tuple[Camera, ...]:
-    """The cameras of an ergopose calibration file, or of a Pose2Sim/anipose calibration TOML."""
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        return load_calibration(path)  # its one-line error names the file and what is wrong
-    if "format_version" in data or "cameras" in data:
-        return cameras_from_dict(data, path=path)
-    return read_pose2sim_calibration(path)
-
-
 def _key(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", name.lower())
 
 
 def _camera_from_file(path: Path, name: str | None, video: Path, width: int, height: int, progress) -> Camera:
-    cameras = _read_cameras(path)
+    cameras, _ = read_any_calibration(path)
     names = [c.name for c in cameras]
     if name is not None:
         if name not in names:
@@ -187,12 +171,13 @@ def _camera_from_file(path: Path, name: str | None, video: Path, width: int, hei
             raise ConfigError(f"{path} holds {len(cameras)} cameras ({', '.join(names)}): say which one filmed "
                               f"{video.name}", field="--camera-name")
         camera = like[0]
-    if (camera.width, camera.height) == (width, height):
-        return camera
-    if abs(camera.width - width) <= SIZE_SLACK_PX and abs(camera.height - height) <= SIZE_SLACK_PX:
-        warn(progress, f"camera {camera.name} is calibrated for {camera.width}x{camera.height} px, the video is "
-                       f"{width}x{height} px; taken as the same pixels (encoder padding)")
-        return dataclasses.replace(camera, width=width, height=height)
+    fitted = camera_for_video(camera, width, height)
+    if fitted is not None:
+        if fitted is not camera:
+            warn(progress, f"camera {camera.name} is calibrated for {camera.width}x{camera.height} px, the video is "
+                           f"{width}x{height} px; taken as the calibrated image cropped at the right/bottom "
+                           "(encoder padding)")
+        return fitted
     raise InputError(f"the video is {width}x{height} px but camera {camera.name} of {path} is calibrated for "
                      f"{camera.width}x{camera.height} px: wrong camera or wrong video?", path=video)
 

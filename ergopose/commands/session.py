@@ -8,14 +8,12 @@ import datetime as dt
 import math
 import os
 import shutil
-import tomllib
 from pathlib import Path
 
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, InputError
-from ergopose.geometry.calibration_file import (load_calibration, read_pose2sim_calibration, save_calibration,
+from ergopose.geometry.calibration_file import (camera_for_video, read_any_calibration, save_calibration,
                                                 world_frame_warnings)
-from ergopose.geometry.camera import Camera
 from ergopose.session import CALIBRATION_FILE, FPS_TOLERANCE, SETTINGS_FILE, load_session, settings_to_toml
 from ergopose.video import probe_video
 
@@ -32,10 +30,6 @@ folder gets calibration.toml, a commented settings.toml and the videos (copied, 
 A video up to 15 pixels narrower or lower than its calibration (an encoder's padding to a
 multiple of 16, e.g. 1080 recorded as 1088) is taken as the calibrated image cropped at the
 right/bottom: the session's calibration gets the video's size, the pixel coordinates are kept."""
-
-#: Largest crop (pixels per dimension) taken as an encoder's padding rather than a wrong video.
-MAX_PADDING_PX = 15
-
 
 def register(subparsers) -> argparse.ArgumentParser:
     parser = subparsers.add_parser("session", help="make a session folder from videos and a calibration",
@@ -61,23 +55,11 @@ def register(subparsers) -> argparse.ArgumentParser:
     return parser
 
 
-def _read_calibration(path: Path, units: str):
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError("calibration file not found", path=path) from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise ConfigError(f"cannot read the calibration file ({exc})", path=path) from None
-    if "format_version" in data:
-        return load_calibration(path), "ergopose"
-    return read_pose2sim_calibration(path, units=units), "Pose2Sim/anipose"
-
-
 def run_new(args: argparse.Namespace) -> int:
     root: Path = args.dir
     if root.exists() and (not root.is_dir() or any(root.iterdir())):
         raise InputError("already exists and is not an empty folder: choose a new session folder", path=root)
-    cameras, kind = _read_calibration(args.calibration, args.units)
+    cameras, kind = read_any_calibration(args.calibration, args.units)
     if args.cameras:
         wanted = [n.strip() for n in args.cameras.split(",") if n.strip()]
         names = [c.name for c in cameras]
@@ -112,17 +94,14 @@ def run_new(args: argparse.Namespace) -> int:
     notes = []
     session_cameras = []
     for cam, video, info in zip(cameras, args.videos, infos):
-        size = (info.width, info.height)
-        if size != (cam.width, cam.height):
-            dw, dh = cam.width - info.width, cam.height - info.height
-            if not (0 <= dw <= MAX_PADDING_PX and 0 <= dh <= MAX_PADDING_PX):
-                raise InputError(f"camera {cam.name!r} is calibrated for {cam.width} x {cam.height} pixels but the "
-                                 f"video is {info.width} x {info.height} (a scaled or different video?)", path=video)
+        fitted = camera_for_video(cam, info.width, info.height)
+        if fitted is None:
+            raise InputError(f"camera {cam.name!r} is calibrated for {cam.width} x {cam.height} pixels but the "
+                             f"video is {info.width} x {info.height} (a scaled or different video?)", path=video)
+        if fitted is not cam:
             notes.append(f"{cam.name}: video {info.width} x {info.height}, calibrated {cam.width} x {cam.height}: "
                          "taken as the calibrated image cropped at the right/bottom (encoder padding)")
-            cam = Camera(cam.name, cam.lens, info.width, info.height, cam.rotation_world_from_cam,
-                         cam.position_world, cam.calibration)
-        session_cameras.append(cam)
+        session_cameras.append(fitted)
     if args.recorded_at:
         try:
             recorded_at = dt.datetime.fromisoformat(args.recorded_at)

@@ -33,6 +33,7 @@ R, t), :func:`read_opencv_fisheye_file` (K and D from a cv2.FileStorage YAML/XML
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import math
 import os
@@ -532,6 +533,41 @@ def _has_bool(value: Any) -> bool:
     return isinstance(value, bool)
 
 
+#: Largest crop (pixels per dimension) taken as an encoder's padding rather than a wrong video:
+#: encoders pad frames to blocks of 16 pixels, so a calibration of 1088 x 1920 px can belong to a
+#: video of 1080 x 1920 (the calibrated image cropped at the right/bottom).
+MAX_PADDING_PX = 15
+
+
+def read_any_calibration(path: str | os.PathLike, units: str = "m") -> tuple[tuple[Camera, ...], str]:
+    """The cameras of an ergopose calibration file or of a Pose2Sim/anipose calibration TOML, and
+    which of the two it was ("ergopose" or "Pose2Sim/anipose"). ``units``: the length unit of a
+    Pose2Sim/anipose file's translations."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError("calibration file not found", path=p) from None
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read the calibration file ({exc})", path=p) from None
+    if "format_version" in data or "cameras" in data:
+        return load_calibration(p), "ergopose"
+    return read_pose2sim_calibration(p, units=units), "Pose2Sim/anipose"
+
+
+def camera_for_video(camera: Camera, width: int, height: int) -> Camera | None:
+    """``camera`` for a video of width x height pixels: itself when the sizes agree; with the
+    video's size when the video is the calibrated image cropped by an encoder's padding (0 to
+    MAX_PADDING_PX pixels at the right/bottom; the pixel coordinates are kept); None when the video
+    cannot be this camera's image (a scaled or different video)."""
+    if (width, height) == (camera.width, camera.height):
+        return camera
+    dw, dh = camera.width - width, camera.height - height
+    if 0 <= dw <= MAX_PADDING_PX and 0 <= dh <= MAX_PADDING_PX:
+        return dataclasses.replace(camera, width=int(width), height=int(height))
+    return None
+
+
 def world_frame_warnings(cameras: Sequence[Camera]) -> list[str]:
     """Sentences for a user whose imported world frame does not look like floor z = 0, z up:
     a camera below the floor or looking more than 30 degrees upwards (with z up, cameras in a work
@@ -564,6 +600,9 @@ __all__ = [
     "read_opencv_fisheye_file",
     "rotation_from_rodrigues",
     "read_pose2sim_calibration",
+    "read_any_calibration",
+    "camera_for_video",
+    "MAX_PADDING_PX",
     "world_frame_warnings",
     "LENGTH_UNITS",
 ]
