@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
+import tomli_w
 
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, InputError
@@ -90,16 +91,9 @@ def write_names(session_dir: str | Path, names: Mapping[str, str]) -> Path:
     if not names:
         path.unlink(missing_ok=True)
         return path
-    lines = [_HEADER, f"format_version = {NAMES_FORMAT_VERSION}\n", "\n[names]\n"]
-    for tracked in sorted(names, key=tracker_number):
-        lines.append(f"{tracked} = {_toml_string(names[tracked])}\n")
-    return write_text(path, "".join(lines))
-
-
-def _toml_string(text: str) -> str:
-    escaped = text.replace("\\", "\\\\").replace('"', '\\"')
-    escaped = "".join(c if c >= " " or c == "\t" else f"\\u{ord(c):04x}" for c in escaped)
-    return f'"{escaped}"'
+    body = tomli_w.dumps({"format_version": NAMES_FORMAT_VERSION,
+                          "names": {t: names[t] for t in sorted(names, key=tracker_number)}})
+    return write_text(path, _HEADER + body)
 
 
 def tracker_number(tracked: str) -> int:
