@@ -30,6 +30,10 @@ BLAZEPOSE33: tuple[str, ...] = (
 )
 NUM_JOINTS = len(BLAZEPOSE33)
 JOINT_INDEX: dict[str, int] = {name: i for i, name in enumerate(BLAZEPOSE33)}
+#: Each keypoint's mirror partner (left <-> right, mouth_left <-> mouth_right); the nose is its
+#: own. ``keypoints[..., MIRROR, :]`` is the same skeleton with its left and right exchanged.
+MIRROR = np.array([JOINT_INDEX[n.replace("left", "#").replace("right", "left").replace("#", "right")]
+                   for n in BLAZEPOSE33], dtype=np.int64)
 
 #: COCO's 17 keypoints in COCO order; each is also a BlazePose landmark of the same name.
 COCO17: tuple[str, ...] = (

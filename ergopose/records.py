@@ -22,7 +22,7 @@ import numpy as np
 
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
-from ergopose.keypoints import NUM_JOINTS
+from ergopose.keypoints import MIRROR, NUM_JOINTS
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -120,6 +120,20 @@ class Detections2D:
         h = np.concatenate([self.pixels_view, np.ones(self.pixels_view.shape[:-1] + (1,))], axis=-1)
         d = np.linalg.solve(M[:, None], h[..., None])[..., 0]
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def with_sides_exchanged(self, people: np.ndarray) -> "Detections2D":
+        """The same detections with the left and right keypoints of ``people`` ((N,) bool)
+        exchanged (keypoints.MIRROR): the labelling a 2D network that took a person's back for
+        their front (or the reverse) should have given."""
+        people = np.asarray(people, dtype=bool)
+        if not people.any():
+            return self
+        flip = people[:, None]
+        px = np.where(flip[..., None], self.pixels_view[:, MIRROR], self.pixels_view)
+        conf = np.where(flip, self.confidence[:, MIRROR], self.confidence)
+        rays = None if self.rays_world is None else \
+            np.where(flip[..., None], self.rays_world[:, MIRROR], self.rays_world)
+        return Detections2D(self.camera, self.frame, self.time_s, px, conf, self.projection, rays)
 
     @classmethod
     def empty(cls, camera: str, frame: int, time_s: float) -> "Detections2D":

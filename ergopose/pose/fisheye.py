@@ -31,9 +31,13 @@ The paper's steps 1-3 for one camera. Per frame:
 4. *Left and right.* Each person's skeleton is compared with their previous frame's: a
    skeleton whose left and right limbs match it the other way round is swapped back; when the
    network keeps the other labelling for most of the last ``left_right_window`` frames it is
-   followed, and frames around such a change, and limbs whose own left/right disagrees with
-   the body's, are passed on with their confidence lowered (``uncertain_confidence``), never as
-   a confident pose.
+   followed. Frames around such a change, and limbs whose own left/right disagrees with the
+   body's, are flagged (``left_right_uncertain``); with ``uncertain_confidence`` set their
+   confidence is lowered too. By default it is not: one camera's history cannot tell which
+   labelling is right, while the reconstruction can (the other cameras, the worker's previous
+   fitted body limb by limb, the face: docs/reconstruction.md, "Left and right"), and a lowered
+   torso takes the person out of the association altogether (measured on the real recording,
+   docs/evaluation.md).
 
 The target is a direction and an angular radius, both in the camera frame, so nothing here
 depends on the world or on the other camera.
@@ -51,7 +55,7 @@ import numpy as np
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import ViewMap, VirtualView, upright_rotation
-from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.keypoints import JOINT_INDEX, MIRROR, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D, PersonDetection
 from ergopose.progress import ProgressCallback, warn
 from ergopose.records import Detections2D
@@ -68,8 +72,6 @@ _BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
 #: Every left/right pair of the 33 keypoints (swapping a skeleton exchanges all of them).
 _LR_PAIRS = np.array([(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")])
                       for n in JOINT_INDEX if "left" in n], dtype=np.int64)
-_MIRROR = np.arange(NUM_JOINTS)
-_MIRROR[_LR_PAIRS[:, 0]], _MIRROR[_LR_PAIRS[:, 1]] = _LR_PAIRS[:, 1], _LR_PAIRS[:, 0]
 #: The pairs that decide a skeleton's left and right, and the two limb groups checked on their own.
 _LR_DECIDE = np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n])
                        for n in ("shoulder", "hip", "elbow", "wrist", "knee", "ankle")], dtype=np.int64)
@@ -197,7 +199,7 @@ class PoseSettings:
     align_views: bool = True
     refocus_on_alignment: bool = True
     min_axis_fraction: float = 0.15
-    max_body_roll: float = 0.0
+    max_body_roll: float = np.radians(45.0)
     upright_undefined_angle: float = np.radians(10.0)
     recheck_roll: float | None = np.radians(110.0)
     merge_prefers_upright: bool = True
@@ -205,7 +207,7 @@ class PoseSettings:
     left_right_check: bool = True
     left_right_ratio: float = 0.5
     left_right_window: int = 9
-    uncertain_confidence: float = 0.1
+    uncertain_confidence: float | None = None
     view_cache_px: float = 0.0
     max_people: int = 8
 
@@ -789,10 +791,10 @@ class FisheyePoseEstimator:
             if best is not None:
                 # Limbs whose own left and right disagree with the body's are not trusted.
                 for check, joints in _LR_LIMB_PAIRS.values():
-                    if self._lr_verdict(tracks[best[1]], rays, conf, check) == 1:
+                    if self._lr_verdict(tracks[best[1]], rays, conf, check) == 1 and s.uncertain_confidence is not None:
                         p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, joints,
                                                                       s.uncertain_confidence))
-            if uncertain:
+            if uncertain and s.uncertain_confidence is not None:
                 paired = _LR_PAIRS.ravel()
                 p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, paired, s.uncertain_confidence))
             p["left_right_uncertain"] = uncertain
@@ -809,11 +811,11 @@ class FisheyePoseEstimator:
         """Exchange the left and right keypoints of a detection (in place)."""
         kp = person["kp"]
         person["kp"] = replace(
-            kp, pixels=kp.pixels[_MIRROR], confidence=kp.confidence[_MIRROR],
-            depth=None if kp.depth is None else kp.depth[_MIRROR],
-            landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[_MIRROR],
-            world_m=None if kp.world_m is None else kp.world_m[_MIRROR])
-        person["rays_cam"] = person["rays_cam"][_MIRROR]
+            kp, pixels=kp.pixels[MIRROR], confidence=kp.confidence[MIRROR],
+            depth=None if kp.depth is None else kp.depth[MIRROR],
+            landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[MIRROR],
+            world_m=None if kp.world_m is None else kp.world_m[MIRROR])
+        person["rays_cam"] = person["rays_cam"][MIRROR]
         person["left_right_swapped"] = True
 
     def _record(self, people: list[dict], frame_index: int) -> FrameDetections:

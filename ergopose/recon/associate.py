@@ -53,7 +53,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ergopose.geometry.triangulation import triangulate_midpoint
-from ergopose.keypoints import NUM_JOINTS
+from ergopose.keypoints import MIRROR, NUM_JOINTS
 from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS
 from ergopose.recon.settings import ReconSettings
 from ergopose.records import Detections2D
@@ -169,6 +169,82 @@ def _masked_mean(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
     s = np.where(mask[..., None], points, 0.0).sum(axis=-2)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n[..., None] > 0, s / n[..., None], np.nan)
+
+
+#: Two cameras' detections of one person have their left and right crossed when pairing them with
+#: one of the two mirrored (keypoints.MIRROR) costs less than this fraction of pairing them as
+#: reported; as reported when the reverse holds; undecided in between (a person seen side-on).
+SIDE_MARGIN = 0.6
+
+
+def canonical_sides(dets: Sequence[Detections2D], settings: ReconSettings | None = None) -> list[Detections2D]:
+    """The detections of one frame with every person's left and right agreeing across cameras.
+
+    A 2D network can take a person's back for their front and hold that labelling for many
+    frames (BlazePose on one camera of the real recording, docs/pose-in-fisheye.md); the camera
+    then contradicts the others on every limb, its torso rays miss theirs and the association
+    rejects the pair, so the person is left with one camera. Here, for every two cameras, the
+    people are paired on the cheaper of the two labellings (pair_costs as reported and with the
+    second camera's people mirrored, within the gate, globally optimal); each pair whose cheaper
+    labelling is clearly cheaper (:data:`SIDE_MARGIN`) says whether the two detections agree or
+    are crossed. Those statements, cheapest first, join the detections into groups with a known
+    relative labelling (a union-find that keeps each member's parity to its root; a statement
+    within a group already joined is ignored); in each group the labelling most of its members
+    report is kept (on a tie, that of the detection of the first camera) and the others are
+    mirrored. Which labelling is the body's true one is decided later, against the body's face
+    (:func:`ergopose.recon.bodyfit.correct_chirality`).
+    """
+    settings = settings or ReconSettings()
+    C = len(dets)
+    if C < 2:
+        return list(dets)
+    gate = settings.association_max_distance_m
+    offset = np.concatenate([[0], np.cumsum([d.count for d in dets])]).astype(np.int64)
+    mirrored = [d.with_sides_exchanged(np.ones(d.count, bool)) for d in dets]
+    rays = [(d.world_rays(), d.centres_world()) for d in dets]
+    rays_m = [(r[:, MIRROR], o) for r, o in rays]
+    edges = []  # (cost, node a, node b, crossed)
+    for a in range(C):
+        for b in range(a + 1, C):
+            if dets[a].count == 0 or dets[b].count == 0:
+                continue
+            as_is = pair_costs(dets[a], dets[b], settings, (rays[a], rays[b]))
+            crossed = pair_costs(dets[a], mirrored[b], settings, (rays[a], rays_m[b]))
+            best = np.minimum(as_is, crossed)
+            for i, j in zip(*gated_assignment(best, gate)):
+                if crossed[i, j] < SIDE_MARGIN * as_is[i, j]:
+                    edges.append((float(best[i, j]), offset[a] + i, offset[b] + j, 1))
+                elif as_is[i, j] < SIDE_MARGIN * crossed[i, j]:
+                    edges.append((float(best[i, j]), offset[a] + i, offset[b] + j, 0))
+    if not any(e[3] for e in edges):
+        return list(dets)
+    n = int(offset[-1])
+    parent = np.arange(n)
+    parity = np.zeros(n, np.int64)  # labelling relative to the parent
+
+    def root(x: int) -> tuple[int, int]:
+        p = 0
+        while parent[x] != x:
+            p ^= int(parity[x])
+            x = int(parent[x])
+        return x, p
+
+    for _, u, v, c in sorted(edges):
+        (ru, pu), (rv, pv) = root(int(u)), root(int(v))
+        if ru != rv:  # join: v's labelling is u's, crossed if c
+            hi, lo = max(ru, rv), min(ru, rv)
+            parent[hi] = lo
+            parity[hi] = pu ^ pv ^ c
+    roots, par = zip(*(root(x) for x in range(n)))
+    roots_a, par_a = np.array(roots), np.array(par)
+    flip = np.zeros(n, bool)
+    for r in np.unique(roots_a):
+        members = np.flatnonzero(roots_a == r)
+        ones = int(par_a[members].sum())
+        # The root is the group's lowest node, i.e. its detection of the first camera.
+        keep = 1 if ones * 2 > len(members) else 0
+        flip[members] = par_a[members] != keep
+    return [d.with_sides_exchanged(flip[offset[c]:offset[c + 1]]) for c, d in enumerate(dets)]
 
 
 def associate(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings | None = None) -> Association:

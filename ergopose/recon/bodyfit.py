@@ -50,7 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ergopose.keypoints import JOINT_INDEX, LIMBS, NUM_JOINTS
+from ergopose.keypoints import JOINT_INDEX, LIMBS, MIRROR, NUM_JOINTS
 from ergopose.recon.tracking import LimbHistogram
 
 J = NUM_JOINTS
@@ -412,22 +412,24 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
                    cost=r["cost"], noise_scale=noise)
 
 
-def _mirror_index() -> np.ndarray:
-    out = np.arange(J)
-    for name, j in JOINT_INDEX.items():
-        for a, b in (("left_", "right_"), ("right_", "left_")):
-            if name.startswith(a):
-                out[j] = JOINT_INDEX[b + name[len(a):]]
-        if name in ("mouth_left", "mouth_right"):
-            out[j] = JOINT_INDEX["mouth_right" if name == "mouth_left" else "mouth_left"]
-    return out
-
-
-#: Each keypoint's mirror partner (left <-> right); the nose is its own.
-MIRROR = _mirror_index()
 _LATERAL = MIRROR != np.arange(J)
 #: Largest distance (view pixels) one keypoint counts with when choosing left/right.
 SWAP_CAP_PX = 60.0
+
+
+def _side_group(*parts: str) -> np.ndarray:
+    """The left and right keypoints of some body parts: a (J,) mask of the joints whose labels an
+    exchange of these parts moves."""
+    mask = np.zeros(J, bool)
+    for part in parts:
+        mask[[JOINT_INDEX["left_" + part], JOINT_INDEX["right_" + part]]] = True
+    return mask
+
+
+#: Limbs a 2D network can label the wrong way round on their own, the rest of the body right (legs
+#: crossing as a person turns, arms seen side-on): checked one by one after the whole body.
+LIMB_SIDE_GROUPS = (_side_group("elbow", "wrist", "pinky", "index", "thumb"),
+                    _side_group("knee", "ankle", "heel", "foot_index"))
 
 
 def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
@@ -437,10 +439,13 @@ def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confide
     The reference (R, 33, 3) -- the worker's previous fitted pose -- is projected into each
     camera's view; a camera's keypoints are exchanged left for right when the exchanged set lies
     closer to the projection, by the cost sum_j confidence_j min(|u_j - pi_j|, SWAP_CAP_PX)^2 over
-    the sided keypoints, than ``margin`` x the cost as reported. A network that swaps sides in one
-    camera makes the two cameras contradict each other on every limb; a triangulation can only
-    reject those joints, the body model would be pulled between two bodies.
-    Returns (pixels, confidence, swapped (R, C) bool). Rows whose reference is NaN are left as they are.
+    the sided keypoints, than ``margin`` x the cost as reported. Then the same for the arms and
+    for the legs on their own (:data:`LIMB_SIDE_GROUPS`): a network that takes a turning person's
+    legs the wrong way round while the rest is right. A network that swaps sides in one camera
+    makes the two cameras contradict each other on every limb; a triangulation can only reject
+    those joints, the body model would be pulled between two bodies.
+    Returns (pixels, confidence, swapped (R, C) bool: the whole body or a limb exchanged). Rows
+    whose reference is NaN are left as they are.
     """
     P = np.asarray(projections, dtype=np.float64)
     Xh = np.concatenate([reference_world, np.ones(reference_world.shape[:-1] + (1,))], axis=-1)
@@ -449,18 +454,55 @@ def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confide
         proj = x[..., :2] / x[..., 2:3]
         ok_ref = (x[..., 2] > 0) & np.isfinite(proj).all(axis=-1)
 
-        def cost(px, conf):
+        def cost(px, conf, group):
             d = np.minimum(np.linalg.norm(px - proj, axis=-1), SWAP_CAP_PX)
-            use = ok_ref & _LATERAL & (conf > 0) & np.isfinite(d)
+            use = ok_ref & group & (conf > 0) & np.isfinite(d)
             return np.where(use, conf * d * d, 0.0).sum(axis=-1), use.sum(axis=-1)
 
-        c_as, n_as = cost(pixels_view, confidence)
-        px_sw, conf_sw = pixels_view[:, :, MIRROR], confidence[:, :, MIRROR]
-        c_sw, _ = cost(px_sw, conf_sw)
-    swap = (n_as >= 4) & (c_sw < margin * c_as)
-    px = np.where(swap[..., None, None], px_sw, pixels_view)
-    conf = np.where(swap[..., None], conf_sw, confidence)
-    return px, conf, swap
+        px, conf = pixels_view, confidence
+        swapped = np.zeros(P.shape[:2], bool)
+        for group, least in ((_LATERAL, 4), *((g, 2) for g in LIMB_SIDE_GROUPS)):
+            c_as, n_as = cost(px, conf, group)
+            mirror = np.where(group, MIRROR, np.arange(J))
+            px_sw, conf_sw = px[:, :, mirror], conf[:, :, mirror]
+            c_sw, _ = cost(px_sw, conf_sw, group)
+            swap = (n_as >= least) & (c_sw < margin * c_as)
+            px = np.where(swap[..., None, None], px_sw, px)
+            conf = np.where(swap[..., None], conf_sw, conf)
+            swapped |= swap
+    return px, conf, swapped
+
+
+_NOSE, _EARS = JOINT_INDEX["nose"], [JOINT_INDEX["left_ear"], JOINT_INDEX["right_ear"]]
+_SIDES = [(JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]), (JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"])]
+#: A body is mirrored when its face points this far or further from the way its left and right
+#: say it faces (cosine; -0.5: 120 degrees, beyond any neck's turn), with the face's forward
+#: offset (nose ahead of the mid-ears) and the shoulders-plus-hips' width at least these long.
+MIRRORED_COS = -0.5
+MIN_FACE_OFFSET_M = 0.03
+MIN_SIDE_WIDTH_M = 0.10
+
+
+def mirrored_bodies(points_world: np.ndarray) -> np.ndarray:
+    """(R, 33, 3) fitted bodies -> (R,) True where the body's left and right are the wrong way
+    round for its face.
+
+    With z up, a body whose right side points along r faces up x r (horizontal parts). The nose
+    lies ahead of the mid-point of the ears whatever the labels say (neither point has a side),
+    so a body facing away from its own nose has its left and right exchanged: what happens when
+    every camera's 2D network took the person's back for their front, or when the cameras were
+    made to agree (:func:`ergopose.recon.associate.canonical_sides`) on the wrong labelling.
+    NaN points give False.
+    """
+    X = np.asarray(points_world, dtype=np.float64)
+    right = sum(X[:, r] - X[:, l] for l, r in _SIDES)
+    forward = np.stack([-right[:, 1], right[:, 0], np.zeros(len(X))], axis=-1)  # up x right
+    face = X[:, _NOSE] - X[:, _EARS].mean(axis=1)
+    face[:, 2] = 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        nf, nb = np.linalg.norm(face, axis=-1), np.linalg.norm(forward, axis=-1)
+        cos = np.einsum("rk,rk->r", face, forward) / (nf * nb)
+        return (cos <= MIRRORED_COS) & (nf >= MIN_FACE_OFFSET_M) & (nb >= MIN_SIDE_WIDTH_M)
 
 
 def raw_noise_scale(reprojection_error_px: np.ndarray, confidence: np.ndarray, views: np.ndarray) -> np.ndarray:
@@ -531,6 +573,7 @@ class ShiftBodies:
         self.lengths: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.last: dict[int, tuple[int, np.ndarray]] = {}
         self.swaps = 0  # camera-frames whose left and right were exchanged (correct_left_right)
+        self.mirrored = 0  # worker-frames fitted mirrored and relabelled (mirrored_bodies)
         self.fitted_rows = 0  # worker-frames fitted, and the seconds spent (for the benchmark)
         self.fit_seconds = 0.0
         self.noise: dict[int, float] = {}  # keypoint noise measured per worker, x keypoint_sigma_px
@@ -644,9 +687,19 @@ class ShiftBodies:
         for k, ident in enumerate(ids):
             self.noise[int(ident)] = float(new_scale[k])
         var = fit.variance_world * np.maximum(new_scale / used_scale, 1.0)[:, None, None] ** 2
-        rows["fit"][idx] = fit.points_world
+        points, inferred, err = fit.points_world, fit.inferred, fit.reprojection_error_px
+        # A body fitted with its left and right the wrong way round for its face is relabelled;
+        # the next frame's correct_left_right then turns each camera's labels to it.
+        flip = mirrored_bodies(points)
+        if flip.any():
+            self.mirrored += int(flip.sum())
+            points = np.where(flip[:, None, None], points[:, MIRROR], points)
+            var = np.where(flip[:, None, None], var[:, MIRROR], var)
+            inferred = np.where(flip[:, None], inferred[:, MIRROR], inferred)
+            err = np.where(flip[:, None], err[:, MIRROR], err)
+        rows["fit"][idx] = points
         rows["fit_var"][idx] = var
-        rows["inferred"][idx] = fit.inferred
-        rows["fit_err"][idx] = fit.reprojection_error_px
+        rows["inferred"][idx] = inferred
+        rows["fit_err"][idx] = err
         for k, ident in enumerate(ids):
-            self.last[int(ident)] = (f, fit.points_world[k].copy())
+            self.last[int(ident)] = (f, points[k].copy())

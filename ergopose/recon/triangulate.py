@@ -23,7 +23,7 @@ from ergopose.errors import InputError
 from ergopose.geometry.triangulation import reject_outliers, triangulate_dlt
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
-from ergopose.recon.associate import associate_views
+from ergopose.recon.associate import associate_views, canonical_sides
 from ergopose.recon.records import TORSO_JOINTS, People3D, body_centres
 from ergopose.recon.settings import ReconSettings
 from ergopose.records import Detections2D
@@ -64,6 +64,7 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
         if last is not None and a.frame <= last:
             raise InputError(f"frame indices must increase (frame {a.frame} after {last})", field="frames")
         last = a.frame
+        dets = canonical_sides(dets, settings)
         assoc = associate_views(dets, settings)
         g = assoc.groups
         if len(g):

@@ -159,7 +159,7 @@ class _SwappingLandmarker:
     """The real network, with left and right exchanged in the given calls (counted from 0)."""
 
     def __init__(self, landmarker, swap_calls):
-        from ergopose.pose.fisheye import _MIRROR
+        from ergopose.keypoints import MIRROR as _MIRROR
 
         self.inner, self.swap_calls, self.calls, self.mirror = landmarker, set(swap_calls), 0, _MIRROR
         self.input_size = landmarker.input_size
@@ -202,18 +202,23 @@ def test_a_left_right_swap_in_a_sequence_is_put_back(camera, landmarker):
     before, _ = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints,
                      dataclasses.replace(PoseSettings(), left_right_check=False), 10)
     assert [not c for c in before] == [f in swaps for f in range(10)]  # passed on unchecked
-    after, conf = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, PoseSettings(), 10)
+    lowering = PoseSettings(uncertain_confidence=0.1)
+    after, conf = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, lowering, 10)
     assert all(after), after
-    # Two swaps in the recent frames: the frames after the second are flagged uncertain.
-    assert conf[2] > 0.5 and conf[7] <= PoseSettings().uncertain_confidence
+    # Two swaps in the recent frames: the frames after the second are flagged uncertain (and,
+    # with uncertain_confidence set, lowered; by default they keep their confidence).
+    assert conf[2] > 0.5 and conf[7] <= lowering.uncertain_confidence
+    _, conf_default = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, PoseSettings(), 10)
+    assert min(conf_default) > 0.5, conf_default
 
 
 def test_a_swap_the_network_keeps_is_followed_and_flagged(camera, landmarker):
     """From frame 2 on the network labels the person the other way round for good: the stage
     corrects the first frames of it, then follows the network (one labelling change, not one
-    per frame), and the frames in between carry lowered confidence, never a confident swap."""
+    per frame), and with ``uncertain_confidence`` set the frames in between carry lowered
+    confidence."""
     frame, joints = fisheye_with_person(camera, (1.2, 0.8, 1.0))
-    s = PoseSettings()
+    s = PoseSettings(uncertain_confidence=0.1)
     frames = 2 + 2 * s.left_right_window + 2
     swapped = _SwappingLandmarker(landmarker, range(2, frames))
     correct, conf = _run(camera, swapped, frame, joints, s, frames)

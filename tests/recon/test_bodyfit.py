@@ -177,3 +177,46 @@ def test_segments_cover_every_joint_and_the_limbs_come_first():
     touched = (B.SEGMENT_MATRIX != 0).any(axis=0)
     assert touched.all()
     assert np.allclose(B.SEGMENT_MATRIX.sum(axis=1), 0.0)  # differences of points
+
+
+def test_a_body_facing_away_from_its_own_face_is_mirrored():
+    """The simulator's walking and working people (every direction they face): none is mirrored;
+    the same bodies with left and right exchanged all are, except where the head is bowed so far
+    that the nose is not ahead of the ears (no verdict)."""
+    from ergopose.keypoints import MIRROR
+    from ergopose.recon.bodyfit import MIN_FACE_OFFSET_M, mirrored_bodies
+    from ergopose.sim.synthetic import walk_workers
+    from tests.recon.conftest import FPS, crossing_scripts
+
+    truth = walk_workers(crossing_scripts(), int(6 * FPS), FPS).reshape(-1, 33, 3)
+    face = truth[:, JOINT_INDEX["nose"], :2] - truth[:, [JOINT_INDEX["left_ear"], JOINT_INDEX["right_ear"]], :2].mean(1)
+    ahead = np.linalg.norm(face, axis=-1) >= MIN_FACE_OFFSET_M
+    assert ahead.mean() > 0.5
+    assert not mirrored_bodies(truth).any()
+    np.testing.assert_array_equal(mirrored_bodies(truth[:, MIRROR]), ahead)
+    hidden = truth.copy()
+    hidden[:, JOINT_INDEX["nose"]] = np.nan  # no face: no verdict
+    assert not mirrored_bodies(hidden[:, MIRROR]).any()
+
+
+def test_a_camera_that_crossed_the_legs_or_the_whole_body_is_turned_back(rng):
+    """Against the previous pose, a camera whose network labelled the whole body the wrong way
+    round is exchanged whole; one that crossed only the legs (or only the arms) gets those limbs
+    exchanged and nothing else; a camera that got it right is left alone."""
+    from ergopose.keypoints import MIRROR
+
+    truth = _bodies(30, rng)
+    P, px, conf = _views(truth, rng, noise_px=1.0)
+    previous = truth + rng.normal(0.0, 0.01, truth.shape)  # last frame's fit: close to now
+    legs, arms = B.LIMB_SIDE_GROUPS[1], B.LIMB_SIDE_GROUPS[0]
+    wrong = px.copy()
+    wrong[:10, 1] = px[:10, 1][:, MIRROR]                                  # whole body, camera 2
+    wrong[10:20, 1] = np.where(legs[:, None], px[10:20, 1][:, MIRROR], px[10:20, 1])  # legs only
+    wrong[20:, 0] = np.where(arms[:, None], px[20:, 0][:, MIRROR], px[20:, 0])  # arms only, camera 1
+    fixed, _, swapped = B.correct_left_right(P, wrong, conf, previous)
+    np.testing.assert_allclose(fixed, px)
+    assert swapped[:20, 1].all() and not swapped[:20, 0].any()
+    assert swapped[20:, 0].all() and not swapped[20:, 1].any()
+    # As reported, the right views are untouched.
+    _, _, none = B.correct_left_right(P, px, conf, previous)
+    assert not none.any()
