@@ -8,6 +8,7 @@ Usage: python bench/run.py [SUBSTRING ...] runs only the files whose names conta
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -20,8 +21,12 @@ def main(argv: list[str]) -> int:
     if argv:
         files = [f for f in files if any(s in f.name for s in argv)]
     failed = []
+    # One OpenBLAS thread, as the product runs (ergopose/__init__.py sets it unless the user did), also
+    # in the benches that import numpy before ergopose (bench_recon's body fit and aniposelib alike).
+    env = dict(os.environ)
+    env.setdefault("OPENBLAS_NUM_THREADS", "1")
     for f in files:
-        proc = subprocess.run([sys.executable, str(f)], capture_output=True, text=True, cwd=HERE.parent)
+        proc = subprocess.run([sys.executable, str(f)], capture_output=True, text=True, cwd=HERE.parent, env=env)
         for line in proc.stdout.splitlines():
             line = line.strip()
             if not line:

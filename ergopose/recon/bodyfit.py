@@ -103,8 +103,14 @@ for _s, (_n, _a, _b, _k) in enumerate(_SEGMENT_DEFS):
     for _j, _w in _b.items():
         SEGMENT_MATRIX[_s, _j] += _w
 SEGMENT_MATRIX.setflags(write=False)
-#: (S, 33 * 33) outer products of the segment rows (the segment terms of the normal matrix).
-_DD = (SEGMENT_MATRIX[:, :, None] * SEGMENT_MATRIX[:, None, :]).reshape(len(SEGMENT_MATRIX), -1)
+#: The segment terms of the normal matrix couple only the joint pairs (j, k) that share a segment:
+#: _PAIR_J, _PAIR_K list those pairs (j, k) and _PAIR_W (pairs, S) holds sum_s D[s, j] D[s, k] per
+#: segment, so the pairs' 3 x 3 blocks are _PAIR_W @ (the segments' 3 x 3 blocks) -- a few hundred
+#: pairs instead of all 33 x 33.
+_DD_FULL = SEGMENT_MATRIX[:, :, None] * SEGMENT_MATRIX[:, None, :]  # (S, 33, 33)
+_PAIR_J, _PAIR_K = np.nonzero((_DD_FULL != 0).any(axis=0))
+_PAIR_W = np.ascontiguousarray(_DD_FULL[:, _PAIR_J, _PAIR_K].T)  # (pairs, S)
+del _DD_FULL
 SEGMENT_KIND = tuple(s[3] for s in _SEGMENT_DEFS)
 
 #: Play of a segment's length around the worker's median (metres + fraction of the length):
@@ -253,15 +259,19 @@ def _yaw_frames(X: np.ndarray) -> np.ndarray:
     x[:, 2] = 0.0
     n = np.linalg.norm(x, axis=-1, keepdims=True)
     x = np.where(n > 1e-6, x / np.maximum(n, 1e-12), np.array([1.0, 0.0, 0.0]))
-    z = np.broadcast_to(np.array([0.0, 0.0, 1.0]), x.shape)
-    y = np.cross(x, z)  # forward = left x up (as ergonomics.angles' pelvis frame)
-    return np.stack([x, y, z], axis=-1)
+    out = np.zeros(x.shape[:-1] + (3, 3))
+    out[..., :, 0] = x
+    # forward = left x up (as ergonomics.angles' pelvis frame): (x1, -x0, 0) for up = (0, 0, 1)
+    out[..., 0, 1] = x[..., 1]
+    out[..., 1, 1] = -x[..., 0]
+    out[..., 2, 2] = 1.0
+    return out
 
 
 def template_pose(pelvis_world: np.ndarray, rotation: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
     """(R, 3), (R, 3, 3) -> (R, 33, 3) the neutral pose placed at the pelvis, rotated and scaled."""
     scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (len(pelvis_world),))
-    return pelvis_world[:, None, :] + scale[:, None, None] * np.einsum("rab,jb->rja", rotation, TEMPLATE_BODY)
+    return pelvis_world[:, None, :] + scale[:, None, None] * np.matmul(TEMPLATE_BODY, np.swapaxes(rotation, -1, -2))
 
 
 def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
@@ -309,32 +319,48 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     else:
         sig_turn = opt.temporal_sigma_m + opt.turn_rate_rad_s * L * np.asarray(previous_dt_s, dtype=np.float64)[:, None]
         w_turn = np.where((w_prev > 0)[:, None] & np.isfinite(sig_turn), 1.0 / sig_turn ** 2, 0.0)
-    d_prev = np.einsum("sj,rjk->rsk", SEGMENT_MATRIX, prev0)
-    turn_H = np.einsum("rs,sj,sk->rjk", w_turn, SEGMENT_MATRIX, SEGMENT_MATRIX)  # (R, J, J)
+    D = SEGMENT_MATRIX
+    d_prev = np.matmul(D, prev0)  # (R, S, 3)
+    turn_H = np.matmul(np.swapaxes(w_turn[:, :, None] * D, 1, 2), D)  # (R, J, J)
     w_pose = 1.0 / opt.pose_prior_sigma_m ** 2
     scale = L[:, _TRUNK_SIDE] / PRIOR_LENGTH_VECTOR[_TRUNK_SIDE]
+    n = 3 * J
+    idx = np.arange(J)
+    diag_n = np.arange(n)
+    # The normal matrix's terms that do not depend on X, made once: segment turning (linear in X)
+    # and the previous-pose and pose-prior terms (diagonal; the template's dependence on X is not
+    # differentiated).
+    H_const = np.zeros((R, J, 3, J, 3))
+    for a in range(3):
+        H_const[:, :, a, :, a] = turn_H
+    H_const[:, idx, :, idx, :] += (w_pose + w_prev)[None, :, None, None] * np.eye(3)
+    P_uv = P[:, :, None, :2, :3]  # (R, C, 1, 2, 3)
+    P_w = P[:, :, None, 2:3, :3]  # (R, C, 1, 1, 3)
+    P_t = np.swapaxes(P, -1, -2)  # (R, C, 4, 3)
+    ones = np.ones((R, J, 1))
 
     X = np.array(initial_world, dtype=np.float64)
     lam = np.full(R, 1e-3)
-    D = SEGMENT_MATRIX
     k = opt.huber_k
 
     def residuals(X):
         """Parts of the cost and what the normal equations need."""
-        Xh = np.concatenate([X, np.ones((R, J, 1))], axis=-1)
-        xp = np.einsum("rcab,rjb->rcja", P, Xh)  # (R, C, J, 3)
+        Xh = np.concatenate([X, ones], axis=-1)
+        xp = np.matmul(Xh[:, None], P_t)  # (R, C, J, 3)
         depth = xp[..., 2]
         front = depth > 1e-6
         dsafe = np.where(front, depth, 1.0)
         u = xp[..., :2] / dsafe[..., None]
         e = u - u_obs  # (R, C, J, 2)
-        s = np.sqrt(np.einsum("rcjk,rcjk->rcj", e, e) * w_obs)  # normalised error
+        e2 = (e * e).sum(axis=-1)
+        s = np.sqrt(e2 * w_obs)  # normalised error
         use = seen & front
-        hub = np.where(s <= k, 1.0, k / np.maximum(s, 1e-12))
+        inner = s <= k
+        hub = np.where(inner, 1.0, k / np.maximum(s, 1e-12))
         wr = np.where(use, w_obs * hub, 0.0)
-        rho = np.where(use, np.where(s <= k, s * s, 2 * k * s - k * k), 0.0)
-        d = np.einsum("sj,rjk->rsk", D, X)
-        ln = np.linalg.norm(d, axis=-1)
+        rho = np.where(use, np.where(inner, s * s, 2 * k * s - k * k), 0.0)
+        d = np.matmul(D, X)  # (R, S, 3)
+        ln = np.sqrt((d * d).sum(axis=-1))
         rs = ln - L
         cost_seg = w_seg * rs * rs
         tmpl = template_pose(0.5 * (X[:, _LHIP] + X[:, _RHIP]), _yaw_frames(X), scale)
@@ -342,35 +368,28 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
         dt = X - prev0
         zf = np.minimum(X[:, _FOOT, 2], 0.0)
         dturn = d - d_prev
-        cost = (rho.sum(axis=(1, 2)) + cost_seg.sum(axis=1) + w_pose * np.einsum("rjk,rjk->r", dp, dp)
-                + np.einsum("rs,rsk,rsk->r", w_turn, dturn, dturn)
-                + w_prev * np.einsum("rjk,rjk->r", dt, dt) + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M ** 2)
-        return dict(xp=xp, dsafe=dsafe, u=u, e=e, wr=wr, d=d, ln=ln, rs=rs, dp=dp, dt=dt, zf=zf,
+        cost = (rho.sum(axis=(1, 2)) + cost_seg.sum(axis=1) + w_pose * (dp * dp).sum(axis=(1, 2))
+                + (w_turn * (dturn * dturn).sum(axis=-1)).sum(axis=1)
+                + w_prev * (dt * dt).sum(axis=(1, 2)) + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M ** 2)
+        return dict(dsafe=dsafe, u=u, e=e, e2=e2, wr=wr, d=d, ln=ln, rs=rs, dp=dp, dt=dt, zf=zf,
                     dturn=dturn, cost=cost, use=use)
 
     def normal_equations(X, r):
-        n = 3 * J
-        H = np.zeros((R, J, 3, J, 3))
-        g = np.zeros((R, J, 3))
+        H = H_const.copy()
         # reprojection: du/dX = (P[:2, :3] - u P[2, :3]) / depth
-        Jp = (P[:, :, None, :2, :3] - r["u"][..., :, None] * P[:, :, None, 2:3, :3]) / r["dsafe"][..., None, None]
-        Hjj = np.einsum("rcj,rcjai,rcjak->rjik", r["wr"], Jp, Jp)
-        gj = np.einsum("rcj,rcjai,rcja->rji", r["wr"], Jp, r["e"])
-        idx = np.arange(J)
-        H[:, idx, :, idx, :] += np.moveaxis(Hjj, 1, 0)
-        g += gj
-        # segments: d(|d|)/dX_j = D[s, j] n^T
+        Jp = (P_uv - r["u"][..., :, None] * P_w) / r["dsafe"][..., None, None]  # (R, C, J, 2, 3)
+        Jw = Jp * r["wr"][..., None, None]
+        Hjj = np.einsum("rcjai,rcjak->jrik", Jw, Jp)
+        g = np.einsum("rcjai,rcja->rji", Jw, r["e"])
+        H[:, idx, :, idx, :] += Hjj
+        # segments: d(|d|)/dX_j = D[s, j] n^T; only joint pairs sharing a segment (_PAIR_*)
         nvec = r["d"] / np.maximum(r["ln"], 1e-9)[..., None]
         M = (w_seg[..., None, None] * nvec[..., :, None] * nvec[..., None, :]).reshape(R, NUM_SEGMENTS, 9)
-        Hs = np.matmul(np.swapaxes(M, 1, 2), _DD).reshape(R, 3, 3, J, J)
-        H += Hs.transpose(0, 3, 1, 4, 2)
-        g += np.einsum("rs,si,rsa->ria", w_seg * r["rs"], D, nvec)
-        # segment turning (linear in X)
-        H += turn_H[:, :, None, :, None] * np.eye(3)[None, None, :, None, :]
-        g += np.einsum("rs,sj,rsk->rjk", w_turn, D, r["dturn"])
-        # priors (diagonal; the template's dependence on X is not differentiated)
-        diag = w_pose + w_prev
-        H[:, idx, :, idx, :] += (diag[None, :, None, None] * np.eye(3))
+        blocks = np.matmul(_PAIR_W, M).reshape(R, len(_PAIR_J), 3, 3)
+        H[:, _PAIR_J, :, _PAIR_K, :] += np.swapaxes(blocks, 0, 1)
+        # segment lengths and turning (the turning's matrix is in H_const)
+        g += np.matmul(D.T, (w_seg * r["rs"])[..., None] * nvec + w_turn[..., None] * r["dturn"])
+        # priors
         g += w_pose * r["dp"] + w_prev[:, None, None] * r["dt"]
         # floor
         fl = np.where(X[:, _FOOT, 2] < 0.0, 1.0 / _FLOOR_SIGMA_M ** 2, 0.0)
@@ -380,15 +399,17 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
 
     r = residuals(X)
     for _ in range(opt.iterations):
-        H, g = normal_equations(X, r)
-        dgn = np.einsum("rii->ri", H)
-        A = H + lam[:, None, None] * np.eye(3 * J) * np.maximum(dgn, 1e-9)[:, :, None]
+        A, g = normal_equations(X, r)
+        A[:, diag_n, diag_n] += lam[:, None] * np.maximum(A[:, diag_n, diag_n], 1e-9)
         step = -np.linalg.solve(A, g[..., None])[..., 0]
         Xn = X + step.reshape(R, J, 3)
         rn = residuals(Xn)
         better = rn["cost"] <= r["cost"]
-        X = np.where(better[:, None, None], Xn, X)
-        r = {key: (np.where(better.reshape((R,) + (1,) * (val.ndim - 1)), rn[key], val)) for key, val in r.items()}
+        if better.all():
+            X, r = Xn, rn
+        elif better.any():
+            X = np.where(better[:, None, None], Xn, X)
+            r = {key: (np.where(better.reshape((R,) + (1,) * (val.ndim - 1)), rn[key], val)) for key, val in r.items()}
         lam = np.where(better, np.maximum(lam / 3.0, 1e-7), lam * 4.0)
 
     H, _ = normal_equations(X, r)
@@ -398,13 +419,13 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     strong = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)
     # The keypoint noise this frame shows, from the joints two or more cameras saw.
     multi = used.sum(axis=1) >= 2  # (R, J)
-    z2 = np.minimum(np.einsum("rcjk,rcjk->rcj", r["e"], r["e"]) * w_obs, 16.0)  # clipped at 4 sigma
+    e2 = r["e2"]  # squared reprojection error (view pixels^2)
+    z2 = np.minimum(e2 * w_obs, 16.0)  # clipped at 4 sigma
     chi = np.where(used & multi[:, None, :], z2, 0.0).sum(axis=(1, 2))
     n_res = 2.0 * np.where(multi[:, None, :], used, False).sum(axis=(1, 2))
     dof = n_res - 3.0 * multi.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         noise = np.where(dof > 0, np.sqrt(chi / np.maximum(dof, 1e-9)), np.nan)
-    e2 = np.einsum("rcjk,rcjk->rcj", r["e"], r["e"])
     n_used = used.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         rms = np.where(n_used > 0, np.sqrt(np.where(used, e2, 0.0).sum(axis=1) / n_used), np.nan)
