@@ -46,7 +46,8 @@ def shared_data() -> Path:
 
 @pytest.fixture(scope="session")
 def fetched_model_dir(tmp_path_factory):
-    """A model cache filled by a real fetch (pip download of the mediapipe wheel), once per session.
+    """A model cache filled by a real fetch (pip download of the mediapipe wheel and the npm
+    registry's @mediapipe/pose tarball), once per session.
 
     Returns (model folder, progress events of the fetch).
     """

@@ -8,6 +8,7 @@ from pathlib import Path
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
 from ergopose.pipeline.assess import AssessOptions, assess
+from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.report.pages import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
@@ -33,6 +34,8 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="video is processed and stored in pieces of this length (default 10)")
     p.add_argument("--model-dir", default=None, metavar="DIR",
                    help="pose model cache (default: $ERGOPOSE_MODEL_DIR or the user cache)")
+    p.add_argument("--model", choices=tuple(LANDMARK_MODELS), default=DEFAULT_LANDMARK_MODEL,
+                   help=f"the pose model (default {DEFAULT_LANDMARK_MODEL}; 'ergopose models list', docs/models.md)")
     p.add_argument("--force", action="store_true",
                    help="write into an output folder that holds the results of another recording, replacing them")
     p.add_argument("--max-bad-frames", type=float, default=0.2, metavar="SHARE",
@@ -48,7 +51,8 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 <= args.max_bad_frames <= 1.0:
         raise ConfigError(f"expected a share between 0 and 1, got {args.max_bad_frames}", field="--max-bad-frames")
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,
-                            model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames)
+                            model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames,
+                            model=args.model)
     result = assess(args.session, options, progress=ProgressBars())
     print_result(result)
     return 0

@@ -1,4 +1,4 @@
-"""``ergopose camera show | import | import-opencv``: look at and create calibration files."""
+"""``ergopose camera show | import | import-opencv | guess``: look at and create calibration files."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ergopose.errors import ConfigError
+from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import (
     camera_from_opencv_fisheye,
     LENGTH_UNITS,
@@ -19,6 +19,19 @@ from ergopose.geometry.calibration_file import (
     world_frame_warnings,
 )
 from ergopose.geometry.camera import CalibrationInfo, Camera, ceiling_rotation
+from ergopose.geometry.image_circle import (
+    NOMINAL_FISHEYE_LENSES,
+    NOMINAL_FOV_RANGE,
+    CircleSearch,
+    find_image_circle,
+    max_image,
+    nominal_fisheye_camera,
+    nominal_max_fov,
+)
+
+#: Files ``camera guess`` reads as one still image (anything else is opened as a video).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+DEFAULT_GUESS_HEIGHT_M = 3.0
 
 HELP = """\
 Camera calibration files (TOML, docs/calibration-file.md) hold, per camera, the lens model,
@@ -46,6 +59,20 @@ file's order and names.
 The world frame is kept as it is: ergopose needs the floor at z = 0 and z up (Pose2Sim with a
 Qualisys or floor-board calibration usually is; anipose's world is its first camera's frame and
 is not). The command warns when the cameras' poses do not look like that."""
+
+
+GUESS_HELP = """\
+Write a calibration file for one fisheye camera that has never been calibrated: the image
+circle (the disc of light the lens throws on the sensor) is found in the footage, the lens
+model's focal length is set so that the circle's edge lies at half the nominal field of view
+(--fov, from the lens's data sheet), and the camera looks straight down from --height metres
+above the world origin, image x along world +x.
+
+The result is good enough for the 2D stage ('ergopose pose --camera FILE') and for a first look;
+it is not a calibration: the real lens differs from its nominal model and the camera is rarely
+exactly level. Calibrate with a board for an assessment (docs/calibration.md). The footage must
+show the dark border around the image circle: a video lit to its corners (a pinhole camera, or a
+fisheye cropped inside its circle) is refused."""
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -88,6 +115,24 @@ def register(subparsers) -> argparse.ArgumentParser:
                      help="with --position: image x axis direction in the floor plane, degrees (default 0: world +x)")
     imp.add_argument("--replace", action="store_true", help="replace a camera of the same name in --out")
     imp.set_defaults(func=run_import_opencv)
+
+    guess = actions.add_parser(
+        "guess", help="an approximate calibration for uncalibrated ceiling fisheye footage",
+        description=GUESS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    guess.add_argument("footage", metavar="VIDEO_OR_IMAGE", type=Path,
+                       help="a video of the camera, or one image (.png, .jpg, ...)")
+    low, high = (math.degrees(x) for x in NOMINAL_FOV_RANGE)
+    guess.add_argument("--fov", metavar="DEG", type=float, required=True,
+                       help=f"the lens's nominal field of view across its image circle, degrees ({low:g}-{high:g}; "
+                            "from the lens's data sheet, e.g. 180)")
+    guess.add_argument("--lens", choices=tuple(NOMINAL_FISHEYE_LENSES), default="equidistant",
+                       help="the lens's projection (default equidistant, r = f theta)")
+    guess.add_argument("--height", metavar="M", type=float, default=DEFAULT_GUESS_HEIGHT_M,
+                       help=f"the camera's height above the floor in metres (default {DEFAULT_GUESS_HEIGHT_M:g})")
+    guess.add_argument("--name", default=None, help="camera name (default: the file name without its extension)")
+    guess.add_argument("--out", metavar="FILE", type=Path, required=True, help="calibration file to write (.toml)")
+    guess.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    guess.set_defaults(func=run_guess)
 
     parser.set_defaults(func=lambda args: _usage(parser))
     return parser
@@ -194,4 +239,58 @@ def run_import_opencv(args: argparse.Namespace) -> int:
         print(f"note: {camera.name} has the identity pose (camera frame = world frame); "
               "set its real pose before using the file in a session")
     print(f"wrote {out} ({len(cameras)} camera{'s' if len(cameras) != 1 else ''})")
+    return 0
+
+
+def _circle_of_footage(path: Path) -> tuple[CircleSearch, int, int]:
+    """The image circle of an image or a video (frames spread over it), and the image size."""
+    if not path.is_file():
+        raise InputError("no such file", path=path)
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        import cv2
+
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if image is None:
+            raise InputError("cannot be read as an image", path=path)
+        return find_image_circle(max_image([image])), int(image.shape[1]), int(image.shape[0])
+    from ergopose.pipeline.pose_video import circle_from_video
+    from ergopose.video import probe_video
+
+    info = probe_video(path)
+    return circle_from_video(path, 0, info.frames), info.width, info.height
+
+
+def run_guess(args: argparse.Namespace) -> int:
+    low, high = NOMINAL_FOV_RANGE
+    fov = math.radians(args.fov) if math.isfinite(args.fov) else math.nan
+    if not low <= fov <= high:
+        raise ConfigError(f"a fisheye's field of view must be between {math.degrees(low):g} and "
+                          f"{math.degrees(high):g} degrees, got {args.fov:g}", field="--fov")
+    reach = nominal_max_fov(args.lens)
+    if fov > reach + 1e-12:
+        raise ConfigError(f"a {args.lens} lens spans at most {math.degrees(reach):g} degrees, got {args.fov:g}",
+                          field="--fov")
+    if not (math.isfinite(args.height) and args.height > 0):
+        raise ConfigError(f"expected a height above the floor in metres, got {args.height:g}", field="--height")
+    out = Path(args.out)
+    if out.is_dir():
+        raise ConfigError("is a folder: --out names the calibration file to write", path=out)
+    if out.exists() and not args.force:
+        raise ConfigError("already exists: choose another --out or add --force", path=out)
+    search, width, height = _circle_of_footage(args.footage)
+    if search.circle is None:
+        raise InputError(f"no fisheye image circle found ({search.reason}); 'camera guess' needs footage of a "
+                         "fisheye lens whose dark border shows", path=args.footage)
+    name = args.name or args.footage.stem
+    camera = nominal_fisheye_camera(name, width, height, search.circle, fov, args.height, args.lens)
+    camera = Camera(camera.name, camera.lens, width, height, camera.rotation_world_from_cam, camera.position_world,
+                    calibration=CalibrationInfo(method=f"{camera.calibration.method} (ergopose camera guess on "
+                                                       f"{args.footage.name}, circle fit {search.fit_rms_px:.2f} px RMS)"),
+                    image_circle=camera.image_circle)
+    save_calibration(out, [camera], description=f"guessed from {args.footage.name}: nominal {args.lens} lens, "
+                                                f"{args.fov:g} deg, {args.height:g} m, straight down")
+    print(describe(camera))
+    u, v, r = search.circle
+    print(f"image circle at ({u:.1f}, {v:.1f}), r = {r:.1f} px (fit {search.fit_rms_px:.2f} px RMS)")
+    print(f"wrote {out} (approximate: calibrate with a board for an assessment)")
     return 0

@@ -9,8 +9,12 @@ from pathlib import Path
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ErgoposeError, ModelError
 from ergopose.pose.models import (
+    DEFAULT_LANDMARK_MODEL,
     ENV_MODEL_DIR,
+    ENV_NPM_REGISTRY,
+    LANDMARK_MODELS,
     MODEL_CARDS,
+    NpmSource,
     corrupt_message,
     fetch_models,
     model_status,
@@ -23,10 +27,15 @@ USER_ONNX_FOLDER = "onnx"
 
 HELP = f"""\
 The 2D pose models live in a cache folder: --model-dir, else ${ENV_MODEL_DIR}, else
-~/.cache/ergopose/models. The BlazePose models come from the mediapipe 0.10.14 wheel on PyPI
-(Apache-2.0), downloaded with pip; only the two model files are kept, each checked against its
-pinned SHA-256. Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's
-'{USER_ONNX_FOLDER}' folder (docs/models.md)."""
+~/.cache/ergopose/models. The BlazePose models (Apache-2.0) come from two packages: the person
+detector and the full landmark model from the mediapipe 0.10.14 wheel on PyPI (downloaded with
+pip), the lite and heavy landmark models from the @mediapipe/pose 0.5.1675469404 package
+tarball on the npm registry (downloaded over HTTPS; ${ENV_NPM_REGISTRY} names a mirror). Each
+download is checked against its pinned digest and only the model files are kept, each checked
+against its pinned SHA-256. 'ergopose assess' and 'ergopose pose' choose the landmark model with
+--model {'|'.join(LANDMARK_MODELS)} (default {DEFAULT_LANDMARK_MODEL}) and fetch it on first use.
+Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's '{USER_ONNX_FOLDER}'
+folder (docs/models.md)."""
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -39,11 +48,14 @@ def register(subparsers) -> argparse.ArgumentParser:
     def common(p):
         p.add_argument("--model-dir", metavar="DIR", help=f"model cache folder (default: ${ENV_MODEL_DIR} or ~/.cache/ergopose/models)")
 
-    fetch = actions.add_parser("fetch", help="download the models (with pip) and check them")
+    fetch = actions.add_parser("fetch", help="download the models (pip, npm registry) and check them")
     common(fetch)
     fetch.add_argument("names", nargs="*", metavar="NAME", help=f"models to fetch (default: all: {', '.join(MODEL_CARDS)})")
     fetch.add_argument("--force", action="store_true", help="download again even if the cached files are fine")
     fetch.add_argument("--wheel", metavar="FILE", help="take the files from a local copy of the wheel instead of downloading")
+    fetch.add_argument("--tarball", metavar="FILE",
+                       help="take the lite/heavy files from a local copy of the npm package tarball "
+                            "(npm pack @mediapipe/pose@0.5.1675469404) instead of downloading")
     fetch.set_defaults(func=run_fetch)
 
     lst = actions.add_parser("list", help="show the model cards and what is in the cache")
@@ -66,7 +78,8 @@ def _usage(parser: argparse.ArgumentParser) -> int:
 
 def run_fetch(args: argparse.Namespace) -> int:
     names = args.names or None
-    paths = fetch_models(names, ProgressBars(), model_dir=args.model_dir, force=args.force, wheel=args.wheel)
+    paths = fetch_models(names, ProgressBars(), model_dir=args.model_dir, force=args.force, wheel=args.wheel,
+                         tarball=args.tarball)
     for path in paths:
         print(f"ok  {path}")
     return 0
@@ -99,15 +112,22 @@ def run_list(args: argparse.Namespace) -> int:
     for name, card in MODEL_CARDS.items():
         status = model_status(name, model_dir)
         w, h = card.input_size
-        out.write(f"{name}  [{status.state}]\n")
+        short = next((k for k, v in LANDMARK_MODELS.items() if v == name), None)
+        label = f"  (--model {short}{', the default' if short == DEFAULT_LANDMARK_MODEL else ''})" if short else ""
+        out.write(f"{name}  [{status.state}]{label}\n")
         out.write(f"  {card.title}\n")
         out.write(f"  file     {status.path}\n")
         out.write(f"  sha256   {card.file.sha256}\n")
-        out.write(f"  source   {card.source.requirement} wheel (PyPI), {card.file.path_in_source}\n")
+        kind = "package tarball (npm)" if isinstance(card.source, NpmSource) else "wheel (PyPI)"
+        out.write(f"  source   {card.source.requirement} {kind}, {card.file.path_in_source}\n")
         out.write(f"  licence  {card.licence}\n")
         out.write(f"  input    {w} x {h} {card.channel_order}, range {card.normalisation.range[0]:g}..{card.normalisation.range[1]:g}\n")
         schema = sum(i >= 0 for i in card.keypoint_schema)
-        out.write(f"  output   {len(card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n")
+        out.write(f"  output   {len(card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n")
+        if card.gates is not None:
+            out.write(f"  gates    person when the pose flag >= {card.gates.min_presence:g}; keypoints steer the "
+                      f"next view when visibility >= {card.gates.min_keypoint_confidence:g}\n")
+        out.write("\n")
     for path, card in _user_cards(model_dir):
         if isinstance(card, ErgoposeError):
             out.write(f"{path.stem}  [invalid card]\n  {card}\n\n")

@@ -15,11 +15,12 @@ from ergopose.geometry.image_circle import nominal_fisheye_camera, nominal_pinho
 from ergopose.pipeline.pose_video import circle_from_video, pose_video, write_pose_csv
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.progress import warn
 from ergopose.video import probe_video
 
 #: Pose models --model accepts (the BlazePose landmark model cards of docs/models.md).
-MODELS: tuple[str, ...] = ("full",)
+MODELS: tuple[str, ...] = tuple(LANDMARK_MODELS)
 #: Accepted --fov-deg per lens (degrees): the whole field of view across the image circle
 #: (fisheye) or across the image's width (pinhole).
 FOV_RANGE_DEG = {"fisheye": (100.0, 280.0), "pinhole": (10.0, 150.0)}
@@ -65,7 +66,8 @@ def register(subparsers) -> argparse.ArgumentParser:
                         f"{DEFAULT_FOV_DEG['fisheye']:g}) or across the image's width for a pinhole "
                         f"({FOV_RANGE_DEG['pinhole'][0]:g}-{FOV_RANGE_DEG['pinhole'][1]:g}, default "
                         f"{DEFAULT_FOV_DEG['pinhole']:g})")
-    p.add_argument("--model", choices=MODELS, default="full", help="the pose model (default full; docs/models.md)")
+    p.add_argument("--model", choices=MODELS, default=DEFAULT_LANDMARK_MODEL,
+                   help=f"the pose model (default {DEFAULT_LANDMARK_MODEL}; 'ergopose models list', docs/models.md)")
     p.add_argument("--model-dir", default=None, metavar="DIR",
                    help="pose model cache (default: $ERGOPOSE_MODEL_DIR or the user cache)")
     p.add_argument("--max-people", type=int, default=PoseSettings().max_people, metavar="N",
@@ -88,9 +90,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         camera = _camera_from_video(args, info.width, info.height, start, stop)
     print(f"camera {_describe(camera)}", flush=True)
-    landmarker = BlazePoseLandmarker(model_dir=args.model_dir, progress=progress)
+    landmarker = BlazePoseLandmarker(model=args.model, model_dir=args.model_dir, progress=progress)
     detector = BlazePoseDetector(model_dir=args.model_dir, progress=progress)
-    settings = PoseSettings(max_people=args.max_people)
+    settings = PoseSettings(max_people=args.max_people).with_gates(landmarker.card.gates)
     result = pose_video(args.video, camera, info.fps, start, stop, landmarker, detector, settings, progress)
     write_pose_csv(args.out, result.table)
     read = result.frames_read

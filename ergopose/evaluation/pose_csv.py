@@ -112,7 +112,8 @@ def score_csv(csv: str | Path, camera: Camera, number: int, root: Path = DEFAULT
     return {"camera": camera.name, "counted": counted, "found": found,
             "found_share": found / counted if counted else float("nan"),
             "median": float(np.median(err)) if err.size else float("nan"),
-            "p90": float(np.percentile(err, 90)) if err.size else float("nan"), "keypoints": int(err.size)}
+            "p90": float(np.percentile(err, 90)) if err.size else float("nan"), "keypoints": int(err.size),
+            "errors": err}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -124,11 +125,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     cameras = read_pose2sim_calibration(args.root / "Calib_qualisys.toml")
     print("| camera | reference | found | keypoints | median torso | p90 torso |")
     print("|---|---|---|---|---|---|")
+    pooled: dict[str, list] = {"openpose": [], "trc": []}
     for number, camera in enumerate(cameras, start=1):
         for reference in ("openpose", "trc"):
             s = score_csv(args.csv_dir / f"cam{number:02d}.csv", camera, number, args.root, args.frames, reference)
+            pooled[reference].append(s)
             print(f"| {s['camera']} | {reference} | {100 * s['found_share']:.0f} % ({s['found']}/{s['counted']}) | "
                   f"{s['keypoints']} | {s['median']:.3f} | {s['p90']:.3f} |")
+    for reference, rows in pooled.items():
+        err = np.concatenate([r["errors"] for r in rows])
+        found, counted = sum(r["found"] for r in rows), sum(r["counted"] for r in rows)
+        print(f"| all four | {reference} | {100 * found / max(counted, 1):.1f} % ({found}/{counted}) | {err.size} | "
+              f"{np.median(err):.3f} | {np.percentile(err, 90):.3f} |")
     return 0
 
 

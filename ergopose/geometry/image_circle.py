@@ -9,8 +9,10 @@ cut by the frame, as in "full-frame" fisheye videos, still has its arcs). It ref
 reason, footage where no such disc is seen: a black video, a frame lit to its corners (not a
 fisheye image with a visible circle), a lit region whose border is not round.
 
-:func:`nominal_fisheye_camera` puts an equidistant lens (r = f theta) in the circle with the
-given field of view, looking straight down (a ceiling camera); :func:`nominal_pinhole_camera`
+:func:`nominal_fisheye_camera` puts a radially symmetric lens (equidistant r = f theta by
+default; equisolid, stereographic or orthographic) in the circle with the given field of view,
+looking straight down (a ceiling camera; ``ergopose camera guess`` writes it as a calibration
+file); :func:`nominal_pinhole_camera`
 a pinhole lens of the given horizontal field of view, looking level. Neither knows the
 camera's place in the room: they serve the 2D stage, which needs the lens and which way is up.
 """
@@ -19,14 +21,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Callable, Iterable
 
 import cv2
 import numpy as np
 
 from ergopose.geometry.camera import CalibrationInfo, Camera, ceiling_rotation
+from ergopose.geometry.lenses._radial import RadialLens
 from ergopose.geometry.lenses.equidistant import Equidistant
+from ergopose.geometry.lenses.equisolid import Equisolid
+from ergopose.geometry.lenses.orthographic import Orthographic
 from ergopose.geometry.lenses.rectilinear import Rectilinear
+from ergopose.geometry.lenses.stereographic import Stereographic
 
 #: A pixel whose brightest value over the sampled frames (8-bit grey) is above this is lit.
 LIT_LEVEL = 24
@@ -115,17 +121,51 @@ def find_image_circle(brightest: np.ndarray, lit_level: int = LIT_LEVEL) -> Circ
     return CircleSearch((u, v, r), "", share, rms)
 
 
-def nominal_fisheye_camera(name: str, width: int, height: int, circle: tuple[float, float, float],
-                           fov: float, height_m: float = 3.0) -> Camera:
-    """An equidistant fisheye whose image circle (u, v, radius) spans ``fov`` radians (the whole
-    field of view across the circle), looking straight down from ``height_m`` metres."""
+#: The lens models a nominal fisheye can have: radially symmetric models r = f g(theta) with no
+#: other parameter, so that the image circle's radius and the field of view fix f.
+NOMINAL_FISHEYE_LENSES: dict[str, Callable[[float, float, float, float], RadialLens]] = {
+    cls.kind: cls for cls in (Equidistant, Equisolid, Stereographic, Orthographic)
+}
+#: The whole field of view (radians) a nominal fisheye may span across its image circle.
+NOMINAL_FOV_RANGE = (math.radians(100.0), math.radians(280.0))
+
+
+def nominal_max_fov(kind: str) -> float:
+    """The widest field of view (radians, across the image circle) a nominal lens of ``kind`` has."""
+    return 2.0 * NOMINAL_FISHEYE_LENSES[kind](1.0, 1.0, 0.0, 0.0).max_theta
+
+
+def nominal_fisheye_lens(kind: str, circle: tuple[float, float, float], fov: float) -> RadialLens:
+    """A lens of ``kind`` (a key of NOMINAL_FISHEYE_LENSES) centred on the image circle (u, v,
+    radius) whose radius is the image of half the field of view ``fov`` (radians).
+
+    ValueError when the kind is unknown or cannot reach half of ``fov`` (an orthographic lens
+    ends at 90 degrees off-axis)."""
+    cls = NOMINAL_FISHEYE_LENSES.get(kind)
+    if cls is None:
+        raise ValueError(f"unknown lens {kind!r}; choose one of {', '.join(NOMINAL_FISHEYE_LENSES)}")
     u, v, r = circle
-    f = r / (0.5 * fov)
-    lens = Equidistant(f, f, u, v)
-    info = CalibrationInfo(method=f"nominal: equidistant lens, {math.degrees(fov):g} deg across the image circle "
-                                  "found in the video, looking straight down")
-    return Camera(name, lens, width, height, ceiling_rotation(0.0), np.array([0.0, 0.0, height_m]),
-                  calibration=info, image_circle=(u, v, r))
+    unit = cls(1.0, 1.0, 0.0, 0.0)
+    half = 0.5 * fov
+    if not half <= unit.max_theta + 1e-12:
+        raise ValueError(f"a {kind} lens reaches at most {math.degrees(2 * unit.max_theta):g} deg across its "
+                         f"image circle, not {math.degrees(fov):g}")
+    g = float(unit.radius_of_theta(np.array(min(half, unit.max_theta))))
+    f = r / g
+    return cls(f, f, u, v)
+
+
+def nominal_fisheye_camera(name: str, width: int, height: int, circle: tuple[float, float, float],
+                           fov: float, height_m: float = 3.0, lens: str = "equidistant") -> Camera:
+    """A fisheye of the given lens model (default equidistant, r = f theta) whose image circle
+    (u, v, radius) spans ``fov`` radians (the whole field of view across the circle), looking
+    straight down from ``height_m`` metres above the world origin, image x along world +x."""
+    model = nominal_fisheye_lens(lens, circle, fov)
+    u, v, r = circle
+    info = CalibrationInfo(method=f"nominal: {lens} lens, {math.degrees(fov):g} deg across the image circle "
+                                  "found in the footage, looking straight down")
+    return Camera(name, model, width, height, ceiling_rotation(0.0), np.array([0.0, 0.0, height_m]),
+                  calibration=info, image_circle=(float(u), float(v), float(r)))
 
 
 #: rotation_world_from_cam of a camera looking level along world +y, image up = world up.

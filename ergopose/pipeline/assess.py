@@ -22,6 +22,7 @@ resumed run writes the same bytes as an uninterrupted one.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import multiprocessing
 import time
 from dataclasses import dataclass, field
@@ -33,6 +34,8 @@ from ergopose.pipeline import detect, guard, names, stages
 from ergopose.pipeline.detect import detect_chunk
 from ergopose.pipeline.stages import WorkerOutput
 from ergopose.pipeline.store import ResultStore
+from ergopose.pose.fisheye import PoseSettings
+from ergopose.recon.settings import ReconSettings
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.session import Session, load_session
 
@@ -51,6 +54,8 @@ class AssessOptions:
     force: write into an output folder holding the results of another recording (replacing them).
     max_bad_frame_share: the share of a chunk's frames of one video that may be unreadable and
         skipped; more is an error naming the video and the time.
+    model: the landmark model (lite, full, heavy; None: the default), run with its card's
+        confidence gates.
     """
 
     out_dir: Path | None = None
@@ -59,6 +64,7 @@ class AssessOptions:
     model_dir: str | None = None
     force: bool = False
     max_bad_frame_share: float = 0.2
+    model: str | None = None
 
 
 @dataclass(frozen=True)
@@ -76,6 +82,12 @@ class AssessResult:
     chunks_reused: int
     seconds: float
     stage_seconds: dict = field(default_factory=dict)
+
+
+def _recon_for(gates) -> ReconSettings:
+    """The reconstruction's settings with the landmark card's triangulation gate."""
+    recon = ReconSettings()
+    return recon if gates is None else dataclasses.replace(recon, min_confidence=gates.min_triangulation_confidence)
 
 
 def default_out_dir(session: Session) -> Path:
@@ -100,7 +112,7 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     scoring = stages.scoring_settings(session)
 
     t0 = time.perf_counter()
-    models = stages.ensure_models(options.model_dir, progress)
+    models = stages.ensure_models(options.model_dir, progress, options.model)
     timings["models"] = time.perf_counter() - t0
 
     processes = options.processes or detect.default_workers()
@@ -110,6 +122,8 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     job = detect.DetectJob(cameras=session.calibrated_cameras,
                            videos=tuple(str(c.video_path) for c in session.cameras),
                            fps=session.fps, model_dir=options.model_dir, max_bad_share=options.max_bad_frame_share,
+                           model=options.model, pose=PoseSettings().with_gates(models[-1].card.gates),
+                           recon=_recon_for(models[-1].card.gates),
                            num_threads=1)  # one thread per process: the same numbers whatever the process count
     store = ResultStore(out_dir)
     with guard.output_faults(out_dir), store.lock():

@@ -32,6 +32,8 @@ class DetectJob:
     cameras, videos: the session's cameras and their video files, in the session's order.
     fps: frame rate; time of frame i is i / fps.
     model_dir: the pose model cache (None: the default cache).
+    model: the landmark model ("lite", "full", "heavy"; None: the default); ``pose`` should carry
+        its card's confidence gates (PoseSettings.with_gates).
     num_threads: LiteRT threads per network in one worker process.
     max_bad_share: the share of a chunk's frames of one video that may be skipped (undecodable or
         of the wrong size); more is an error naming the video and the time.
@@ -41,6 +43,7 @@ class DetectJob:
     videos: tuple[str, ...]
     fps: float
     model_dir: str | None = None
+    model: str | None = None
     num_threads: int = 1
     max_bad_share: float = 0.2
     pose: PoseSettings = PoseSettings()
@@ -68,10 +71,10 @@ _NETWORKS: dict[tuple, tuple] = {}
 
 def _networks(job: DetectJob):
     """The pose networks of this process, loaded once and reused for every chunk."""
-    key = (job.model_dir, job.num_threads)
+    key = (job.model_dir, job.model, job.num_threads)
     if key not in _NETWORKS:
         _NETWORKS[key] = (
-            BlazePoseLandmarker(model_dir=job.model_dir, num_threads=job.num_threads),
+            BlazePoseLandmarker(model=job.model, model_dir=job.model_dir, num_threads=job.num_threads),
             BlazePoseDetector(model_dir=job.model_dir, num_threads=job.num_threads),
         )
     return _NETWORKS[key]

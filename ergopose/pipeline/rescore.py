@@ -11,6 +11,7 @@ inputs of the settings reach the people they were meant for. Nothing here reads 
 from __future__ import annotations
 
 import datetime as dt
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +25,7 @@ from ergopose.atomic import write_text
 from ergopose.errors import InputError
 from ergopose.pipeline import guard, names, stages
 from ergopose.pipeline.store import ResultStore
-from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, model_card
+from ergopose.pose.models import BLAZEPOSE_DETECTOR, DEFAULT_LANDMARK_MODEL, MODEL_CARDS, landmark_card
 from ergopose.progress import ProgressCallback, warn
 from ergopose.recon.table import read_metadata
 from ergopose.report.adapters import load_floor_plan
@@ -132,13 +133,21 @@ def tracked_ids(folder: Path) -> list[str]:
     return sorted((str(w) for w in pc.unique(table.column("worker")).to_pylist()), key=names.tracker_number)
 
 
-def _models() -> tuple:
-    """The pose models the report names (the ones the stored tracks were made with; no fetch)."""
-    out = []
-    for name in (BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL):
-        card = model_card(name)
-        out.append(stages.ModelUse(card=card, sha256=card.file.sha256, path=Path(name)))
-    return tuple(out)
+def _models(folder: Path | None = None) -> tuple:
+    """The pose models the report names: the ones the stored tracks were made with (their SHA-256
+    in the results' manifest), else the detector and the default landmark model; no fetch."""
+    by_digest = {card.file.sha256: card for card in MODEL_CARDS.values()}
+    cards = []
+    if folder is not None:
+        try:
+            manifest = json.loads(ResultStore(folder).manifest_path.read_text())
+            digests = manifest["inputs"]["models"]
+            cards = [by_digest[d] for d in digests]
+        except (OSError, ValueError, KeyError, TypeError):
+            cards = []
+    if not cards:
+        cards = [MODEL_CARDS[BLAZEPOSE_DETECTOR], landmark_card(DEFAULT_LANDMARK_MODEL)]
+    return tuple(stages.ModelUse(card=card, sha256=card.file.sha256, path=Path(card.name)) for card in cards)
 
 
 def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Path | None = None,
@@ -184,7 +193,7 @@ def rescore(session: Session, folder: Path, progress: ProgressCallback | None = 
     store = ResultStore(folder)
     with guard.output_faults(folder), store.lock():
         tracks = stages.stored_tracks(store.tracks_path)
-        return stages.score_and_report(session, tracks, folder, stages.scoring_settings(session), _models(), None,
+        return stages.score_and_report(session, tracks, folder, stages.scoring_settings(session), _models(folder), None,
                                        progress)
 
 

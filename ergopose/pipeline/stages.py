@@ -40,7 +40,7 @@ from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, block_sizes
 from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
 from ergopose.pipeline.store import ResultStore, file_fingerprint
-from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, model_card
+from ergopose.pose.models import BLAZEPOSE_DETECTOR, ensure_model, landmark_card, model_card
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.recon.pipeline import ShiftReconstruction
 from ergopose.recon.session import worker_summary
@@ -94,10 +94,12 @@ class ModelUse:
     path: Path
 
 
-def ensure_models(model_dir: str | None, progress: ProgressCallback | None) -> tuple[ModelUse, ...]:
-    """Both BlazePose networks in the cache (fetched with a progress bar on first use), verified."""
+def ensure_models(model_dir: str | None, progress: ProgressCallback | None,
+                  model: str | None = None) -> tuple[ModelUse, ...]:
+    """The BlazePose detector and the landmark model ``model`` (lite, full, heavy; None: the
+    default) in the cache (fetched with a progress bar on first use), verified."""
     out = []
-    names = (BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL)
+    names = (BLAZEPOSE_DETECTOR, landmark_card(model).name)
     for k, name in enumerate(names):
         report(progress, "models", k, len(names), unit="model", message=name)
         path = ensure_model(name, progress, model_dir=model_dir)

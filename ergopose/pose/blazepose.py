@@ -33,9 +33,9 @@ from ergopose.errors import InputError, ModelError
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.pose.models import (
     BLAZEPOSE_DETECTOR,
-    BLAZEPOSE_LANDMARK_FULL,
     ModelCard,
     ensure_model,
+    landmark_card,
     model_card,
 )
 from ergopose.progress import ProgressCallback
@@ -422,10 +422,13 @@ def refine_with_heatmap(
 
 
 class BlazePoseLandmarker:
-    """The 33 BlazePose landmarks of the person in a 256 x 256 BGR crop (pose_landmark_full).
+    """The 33 BlazePose landmarks of the person in a 256 x 256 BGR crop.
 
     The crop should hold one person, hips near the centre, body axis up, the body filling about
     80 % of the side (:meth:`PersonDetection.roi` gives such a crop).
+    model: the landmark model, "lite", "full" or "heavy" (or its card name); None: the default
+        (ergopose.pose.models.DEFAULT_LANDMARK_MODEL). Its card's confidence gates are
+        ``self.card.gates``.
     refine: refine positions with the heatmap (MediaPipe's default). world: keep world landmarks.
     """
 
@@ -433,14 +436,15 @@ class BlazePoseLandmarker:
         self,
         model_path: str | os.PathLike | None = None,
         *,
+        model: str | None = None,
         model_dir: str | os.PathLike | None = None,
         num_threads: int = DEFAULT_THREADS,
         refine: bool = True,
         world: bool = False,
         progress: ProgressCallback | None = None,
     ):
-        self.card = model_card(BLAZEPOSE_LANDMARK_FULL)
-        path = Path(model_path) if model_path is not None else ensure_model(BLAZEPOSE_LANDMARK_FULL, progress, model_dir=model_dir)
+        self.card = landmark_card(model)
+        path = Path(model_path) if model_path is not None else ensure_model(self.card.name, progress, model_dir=model_dir)
         self.model_path = path
         self._interp, self._input, outs = _load_interpreter(path, self.card, num_threads)
         self._landmarks, self._flag, _segmentation, self._heatmap, self._world = outs

@@ -211,6 +211,14 @@ class PoseSettings:
     view_cache_px: float = 0.0
     max_people: int = 8
 
+    def with_gates(self, gates) -> "PoseSettings":
+        """These settings with a landmark model card's confidence gates
+        (:class:`ergopose.pose.models.ConfidenceGates`; None: unchanged)."""
+        if gates is None:
+            return self
+        return replace(self, min_presence=float(gates.min_presence),
+                       min_keypoint_confidence=float(gates.min_keypoint_confidence))
+
 
 @dataclass(frozen=True)
 class Target:

