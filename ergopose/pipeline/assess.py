@@ -110,6 +110,7 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     job = detect.DetectJob(cameras=session.calibrated_cameras,
                            videos=tuple(str(c.video_path) for c in session.cameras),
                            fps=session.fps, model_dir=options.model_dir, max_bad_share=options.max_bad_frame_share,
+                           pose=session.pose, recon=session.reconstruction,  # [pose], [reconstruction] of settings.toml
                            num_threads=1)  # one thread per process: the same numbers whatever the process count
     store = ResultStore(out_dir)
     with guard.output_faults(out_dir), store.lock():
