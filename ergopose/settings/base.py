@@ -107,7 +107,7 @@ def allowed(annotation: Any, field: FieldInfo | None = None, name: str = "") -> 
         inner = typing.get_args(annotation)[0]
         if isinstance(inner, type) and issubclass(inner, Table):
             return f"a list of tables ({', '.join(inner.model_fields)})"
-        return f"a list of {allowed(inner, None, name)}s"
+        return f"a list, each {allowed(inner, None, name)}"
     if origin is dict:
         inner = typing.get_args(annotation)[1]
         return f"tables, one per id ({', '.join(inner.model_fields)})"
