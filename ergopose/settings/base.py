@@ -29,7 +29,7 @@ class Table(BaseModel):
 
     def given(self) -> dict[str, Any]:
         """The keys the file gave (not the defaults), with their validated values."""
-        return {k: getattr(self, k) for k in self.model_fields_set}
+        return {k: getattr(self, k) for k in type(self).model_fields if k in self.model_fields_set}
 
 
 T = TypeVar("T", bound=Table)

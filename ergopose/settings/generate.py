@@ -2,8 +2,8 @@
 ergopose writes) and docs/settings.md.
 
 Both walk :class:`ergopose.settings.model.SettingsFile`, so a key added to the model appears in
-the template and the docs at once (tests/settings/test_generate.py fails when docs/settings.md
-is not what :func:`settings_markdown` gives; ``python -m ergopose.settings`` writes it).
+the template and the docs at once (tests/settings/test_settings_generate.py fails when
+docs/settings.md is not what :func:`settings_markdown` gives; ``make settings-docs`` writes it).
 """
 
 from __future__ import annotations
@@ -220,8 +220,9 @@ def _sections(cls: type[Table], path: str, title: str) -> list[str]:
 DOCS_HEADER = """\
 # settings.toml: every key
 
-Generated from the settings model (`ergopose/settings/`) by `python -m ergopose.settings`; do
-not edit by hand (tests/settings/test_generate.py fails when this page and the model differ).
+Generated from the settings model (`ergopose/settings/`) by `make settings-docs` (`python -m
+ergopose.settings`); do not edit by hand (tests/settings/test_settings_generate.py fails when
+this page and the model differ).
 docs/session-format.md explains the file; `ergopose settings template` writes a settings.toml
 with every key, its default and a one-line explanation as comments.
 
