@@ -1,10 +1,10 @@
-# ergopose: make test | make test-fast | make check | make demo | make bench
+# ergopose: make test | make test-fast | make check | make demo | make bench | make settings-docs
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.deps-installed
 
-.PHONY: test test-fast check demo bench install clean
+.PHONY: test test-fast check demo bench install clean settings-docs
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -32,6 +32,10 @@ test: check install
 # The edit-run loop: everything but the tests marked slow, browser or network (under a minute).
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow and not browser and not network"
+
+# docs/settings.md from the settings model (ergopose/settings/); a test fails while it is stale.
+settings-docs: $(STAMP)
+	$(PY) -m ergopose.settings
 
 demo: install
 	$(PY) -m ergopose demo

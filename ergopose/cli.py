@@ -23,6 +23,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "ergopose.commands.demo",
     "ergopose.commands.models",
     "ergopose.commands.session",
+    "ergopose.commands.settings",
     "ergopose.commands.camera",
     "ergopose.commands.calibrate",
     "ergopose.commands.score",

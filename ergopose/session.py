@@ -48,6 +48,11 @@ settings.toml (format_version 1)::
     load_mode = "static"
 
     [scoring]                                   # optional scoring settings (docs/scoring.md)
+    [pose]                                      # optional 2D stage settings (docs/settings.md)
+    [reconstruction]                            # optional 3D settings (docs/reconstruction.md)
+
+Every key, its type, range and default: docs/settings.md, generated from the settings model
+(ergopose.settings.model.SettingsFile), which validates the file.
 
 Task factors (all optional; absent = not given, and scoring treats it as unknown):
 load_kg (kg >= 0), load_mode (intermittent | static | repeated), coupling (good | fair | poor |
@@ -62,11 +67,10 @@ everyone, then the worker's own value, then [defaults].
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
-import difflib
 import math
 import os
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -74,44 +78,29 @@ from typing import Any, Iterable, Mapping, Sequence
 import cv2
 import numpy as np
 import pandas as pd
-import tomli_w
 
 from ergopose import video
-from ergopose.ergonomics.settings import from_mapping
-from ergopose.errors import ConfigError, ErgoposeError, InputError
+from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import load_calibration
 from ergopose.geometry.camera import Camera
+from ergopose.pose.fisheye import PoseSettings
+from ergopose.recon.settings import ReconSettings
+from ergopose.recon.settings import from_table as recon_from_table
+from ergopose.settings.model import CALIBRATION_FILE as CALIBRATION_FILE  # re-exported: the folder's names
+from ergopose.settings.generate import TEMPLATE_HEADER, TEMPLATE_HOWTO, settings_text
+from ergopose.settings.model import FORMAT_VERSION, read_settings
+from ergopose.settings.tasks import FACTOR_KEYS, PeriodTable, TaskFactorsTable
 
-#: The settings format this code writes; it reads exactly the versions in SUPPORTED_VERSIONS.
-FORMAT_VERSION = 1
-SUPPORTED_VERSIONS = (1,)
 SETTINGS_FILE = "settings.toml"
-CALIBRATION_FILE = "calibration.toml"
 GROUND_TRUTH_DIR = "ground_truth"
 #: Optional plan of the monitored area (area and furniture) for the report's floor map.
 FLOOR_PLAN_FILE = "floor.toml"
 
-LOAD_MODES = ("intermittent", "static", "repeated")
-COUPLINGS = ("good", "fair", "poor", "unacceptable")
 FLAG_FACTORS = ("shock", "arm_supported", "seated", "legs_supported", "wrist_twist_end_range")
 #: Task factors that are angles: field of TaskFactors (radians) -> key in settings.toml (degrees).
 ANGLE_FACTORS = {"wrist_flexion": "wrist_flexion_deg", "wrist_deviation": "wrist_deviation_deg"}
-#: The accepted range of an angle factor, degrees (inclusive).
-ANGLE_FACTOR_RANGE_DEG = (-90.0, 90.0)
 #: The fields of TaskFactors.
 FACTOR_NAMES = ("load_kg", "load_mode", "coupling") + FLAG_FACTORS + tuple(ANGLE_FACTORS)
-#: The task factors' keys in settings.toml.
-FACTOR_KEYS = tuple(ANGLE_FACTORS.get(f, f) for f in FACTOR_NAMES)
-
-_TOP_KEYS = {"format_version", "recorded_at", "fps", "description", "calibration", "cameras", "defaults",
-             "periods", "workers", "scoring", "identification", "calibration_check"}
-_IDENTIFICATION_KEYS = {"by_stature", "stature_tolerance_m", "stature_margin_m"}
-_CHECK_KEYS = {"observations", "length_m"}
-#: Plausible adult statures (metres) for a worker's given stature.
-STATURE_RANGE_M = (1.2, 2.3)
-_CAMERA_KEYS = {"name", "video"}
-_WORKER_KEYS = {"name", "stature_m", "periods", *FACTOR_KEYS}
-_PERIOD_KEYS = {"start", "end", *FACTOR_KEYS}
 _ANGLE_KEYS = {key: name for name, key in ANGLE_FACTORS.items()}
 #: Largest accepted relative difference between the settings' fps and a video's frame rate.
 FPS_TOLERANCE = 0.01
@@ -232,6 +221,8 @@ class Session:
     ground_truth_dir: the ground_truth/ folder of a simulated session, else None.
     identification: how tracked people are matched to workers with a given stature.
     calibration_check: the reference-bar observations for the accuracy check, or None.
+    pose, reconstruction: the settings of the 2D stage and of the 3D reconstruction ([pose] and
+        [reconstruction] over the defaults; angles in radians).
     """
 
     path: Path
@@ -250,6 +241,8 @@ class Session:
     calibration_path: Path
     identification: Identification = Identification()
     calibration_check: CalibrationCheck | None = None
+    pose: PoseSettings = PoseSettings()
+    reconstruction: ReconSettings = ReconSettings()
 
     @property
     def duration_s(self) -> float:
@@ -362,8 +355,10 @@ class Session:
 def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Session:
     """Read and check a session folder (see the module docstring); raise one clear error otherwise.
 
-    check_videos: open every video with OpenCV, read its first and last frame and compare frame
-    counts and sizes (the default); False only reads the container headers' frame counts.
+    The settings are validated by the settings model (ergopose.settings.model.SettingsFile: keys,
+    types, ranges); what needs the folder (calibration, videos, the recording's length) is checked
+    here. check_videos: open every video with OpenCV, read its first and last frame and compare
+    frame counts and sizes (the default); False only reads the container headers' frame counts.
     """
     root = Path(path)
     if not root.exists():
@@ -371,55 +366,20 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
     if not root.is_dir():
         raise InputError("expected a session folder (with settings.toml, calibration.toml and the videos)", path=root)
     settings_path = root / SETTINGS_FILE
-    data = _read_toml(settings_path, "settings file")
-    r = _Reader(settings_path)
-    r.no_unknown(data, _TOP_KEYS, "")
-    version = r.require(data, "format_version", "")
-    if isinstance(version, bool) or not isinstance(version, int) or version not in SUPPORTED_VERSIONS:
-        raise ConfigError(f"unsupported format version {version!r} (this ergopose reads {SUPPORTED_VERSIONS})",
-                          path=settings_path, field="format_version")
-    recorded_at = r.datetime(r.require(data, "recorded_at", ""), "recorded_at")
-    description = r.optional_str(data, "description", "description")
-    fps_setting = None
-    if "fps" in data:
-        fps_setting = r.positive(data["fps"], "fps")
-    calibration_name = r.optional_str(data, "calibration", "calibration") or CALIBRATION_FILE
-    calibration_path = root / calibration_name
-
-    cams = r.require(data, "cameras", "")
-    if not isinstance(cams, list) or not all(isinstance(c, dict) for c in cams):
-        raise r.fail("cameras", "expected [[cameras]] tables, each with a name and a video")
-    if len(cams) < 1:
-        raise r.fail("cameras", "expected at least one [[cameras]] table (name and video)")
-    entries: list[tuple[str, Path]] = []
-    for i, c in enumerate(cams):
-        where = f"cameras[{i}]"
-        r.no_unknown(c, _CAMERA_KEYS, where)
-        name = r.string(r.require(c, "name", where), f"{where}.name")
-        video = r.string(r.require(c, "video", where), f"{where}.video")
-        if any(name == e[0] for e in entries):
-            raise r.fail(f"{where}.name", f"camera {name!r} is listed twice")
-        vpath = root / video
-        if any(vpath == e[1] for e in entries):
-            raise r.fail(f"{where}.video", f"video {video!r} is listed for two cameras")
-        entries.append((name, vpath))
-
-    defaults = r.factors(data.get("defaults", {}), "defaults", set(FACTOR_KEYS))
-    scoring = data.get("scoring", {})
-    if not isinstance(scoring, dict):
-        raise r.fail("scoring", "expected a table of scoring settings")
-    if scoring:
-        _check_scoring(scoring, settings_path)
+    model, data = read_settings(settings_path)
+    recorded_at = model.recorded_at
+    calibration_path = root / model.calibration
 
     # calibration and videos (the duration is needed to check the periods)
     if not calibration_path.is_file():
         raise ConfigError("the calibration file does not exist", path=calibration_path)
     calibrated = {cam.name: cam for cam in load_calibration(calibration_path)}
     session_cams: list[SessionCamera] = []
-    for i, (name, vpath) in enumerate(entries):
+    for i, entry in enumerate(model.cameras):
+        name, vpath = entry.name, root / entry.video
         if name not in calibrated:
-            raise r.fail(f"cameras[{i}].name", f"camera {name!r} is not in {calibration_path.name} "
-                                               f"(it has {', '.join(map(repr, calibrated))})")
+            raise ConfigError(f"camera {name!r} is not in {calibration_path.name} (it has "
+                              f"{', '.join(map(repr, calibrated))})", path=settings_path, field=f"cameras[{i}].name")
         cam = calibrated[name]
         count, fps_video, size = probe_video(vpath, full=check_videos)
         if size != (cam.width, cam.height):
@@ -432,7 +392,7 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
         listing = ", ".join(f"{c.video_path.name}: {c.frame_count}" for c in session_cams)
         raise InputError(f"the videos have different numbers of frames ({listing}); the cameras must be "
                          "recorded in sync, frame for frame", path=root)
-    fps = fps_setting
+    fps = model.fps
     for c in session_cams:
         if not (c.video_fps > 0 and math.isfinite(c.video_fps)):
             if fps is None:
@@ -445,218 +405,73 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
             raise ConfigError(f"fps = {fps:g} but {c.video_path.name} plays at {c.video_fps:g} frames per second",
                               path=settings_path, field="fps")
     assert fps is not None
-    duration = counts[0] / fps
-    periods = r.periods(data.get("periods", []), "periods", recorded_at, duration)
-    workers_table = data.get("workers", {})
-    if not isinstance(workers_table, dict):
-        raise r.fail("workers", "expected [workers.<id>] tables")
-    workers: list[WorkerInfo] = []
-    for wid, table in workers_table.items():
-        where = f"workers.{wid}"
-        if not isinstance(table, dict):
-            raise r.fail(where, "expected a table (name, task factors, periods)")
-        r.no_unknown(table, _WORKER_KEYS, where)
-        name = r.optional_str(table, "name", f"{where}.name")
-        stature = None
-        if "stature_m" in table:
-            stature = r.number(table["stature_m"], f"{where}.stature_m")
-            lo, hi = STATURE_RANGE_M
-            if not lo <= stature <= hi:
-                raise r.fail(f"{where}.stature_m", f"expected a body height in metres between {lo} and {hi}, "
-                                                   f"got {table['stature_m']!r}")
-        factors = r.factors({k: v for k, v in table.items() if k in FACTOR_KEYS}, where, set(FACTOR_KEYS))
-        wperiods = r.periods(table.get("periods", []), f"{where}.periods", recorded_at, duration)
-        workers.append(WorkerInfo(worker_id=str(wid), name=name, factors=factors, periods=wperiods,
-                                  stature_m=stature))
-    identification = _identification(r, data.get("identification", {}))
-    check = _calibration_check(r, root, data.get("calibration_check"))
+    times = _Times(settings_path, recorded_at, counts[0] / fps)
+    workers = tuple(WorkerInfo(worker_id=wid, name=w.name, factors=task_factors(w),
+                               periods=times.periods(w.periods, f"workers.{wid}.periods"), stature_m=w.stature_m)
+                    for wid, w in model.workers.items())
+    check = None
+    if model.calibration_check is not None:
+        check = CalibrationCheck(observations_path=root / model.calibration_check.observations,
+                                 length_m=model.calibration_check.length_m)
+        if not check.observations_path.is_file():
+            raise ConfigError(f"the file {model.calibration_check.observations!r} does not exist in the session "
+                              "folder", path=settings_path, field="calibration_check.observations")
     gt = root / GROUND_TRUTH_DIR
-    return Session(path=root, format_version=version, recorded_at=recorded_at, fps=float(fps),
-                   frame_count=counts[0], cameras=tuple(session_cams), defaults=defaults, periods=periods,
-                   workers=tuple(workers), scoring=dict(scoring), description=description,
-                   ground_truth_dir=gt if gt.is_dir() else None, settings_path=settings_path,
-                   calibration_path=calibration_path, identification=identification, calibration_check=check)
+    return Session(path=root, format_version=model.format_version, recorded_at=recorded_at, fps=float(fps),
+                   frame_count=counts[0], cameras=tuple(session_cams), defaults=task_factors(model.defaults),
+                   periods=times.periods(model.periods, "periods"), workers=workers,
+                   scoring={k: getattr(model.scoring, k) for k in data.get("scoring", {})},
+                   description=model.description, ground_truth_dir=gt if gt.is_dir() else None,
+                   settings_path=settings_path, calibration_path=calibration_path,
+                   identification=Identification(**model.identification.model_dump()), calibration_check=check,
+                   pose=dataclasses.replace(PoseSettings(), **model.pose.record_values()),
+                   reconstruction=recon_from_table(model.reconstruction))
 
 
-def _identification(r: "_Reader", table: Any) -> Identification:
-    if not isinstance(table, dict):
-        raise r.fail("identification", "expected a table (stature_tolerance_m, stature_margin_m)")
-    r.no_unknown(table, _IDENTIFICATION_KEYS, "identification")
-    values: dict[str, Any] = {}
-    for k, v in table.items():
-        if k == "by_stature":
-            if not isinstance(v, bool):
-                raise r.fail("identification.by_stature", f"expected true or false, got {v!r}")
-            values[k] = v
-        else:
-            values[k] = r.positive(v, f"identification.{k}")
-    return Identification(**values)
+def task_factors(table: TaskFactorsTable) -> TaskFactors:
+    """The TaskFactors of a validated table of task factors (the wrist angles in radians)."""
+    given = table.given()
+    return TaskFactors(**{_ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
+                          for k, v in given.items() if k in FACTOR_KEYS})
 
 
-def _calibration_check(r: "_Reader", root: Path, table: Any) -> CalibrationCheck | None:
-    if table is None:
-        return None
-    if not isinstance(table, dict):
-        raise r.fail("calibration_check", "expected a table (observations, length_m)")
-    r.no_unknown(table, _CHECK_KEYS, "calibration_check")
-    name = r.string(r.require(table, "observations", "calibration_check"), "calibration_check.observations")
-    length = r.positive(r.require(table, "length_m", "calibration_check"), "calibration_check.length_m")
-    path = root / name
-    if not path.is_file():
-        raise r.fail("calibration_check.observations", f"the file {name!r} does not exist in the session folder")
-    return CalibrationCheck(observations_path=path, length_m=length)
+class _Times:
+    """Period times -> seconds from the first frame, and the checks that need the recording."""
 
+    def __init__(self, path: Path, recorded_at: dt.datetime, duration: float):
+        self.path, self.recorded_at, self.duration = path, recorded_at, duration
 
-def _check_scoring(table: dict[str, Any], path: Path) -> None:
-    """The [scoring] table must be valid scoring settings (checked by the scoring module)."""
-    try:
-        from_mapping(table, source=path)
-    except ConfigError as exc:
-        raise ConfigError(f"in [scoring]: {_bare(exc)}", path=path, field=exc.field and f"scoring.{exc.field}") from None
-
-
-def _bare(exc: ErgoposeError) -> str:
-    text = str(exc)
-    for prefix in (f"{exc.path}: {exc.field}: ", f"{exc.path}: ", f"{exc.field}: "):
-        if text.startswith(prefix):
-            return text[len(prefix):]
-    return text
-
-
-def _read_toml(path: Path, what: str) -> dict[str, Any]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"the {what} does not exist", path=path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the {what} ({exc})", path=path) from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML ({exc})", path=path) from None
-
-
-class _Reader:
-    """Typed access to a settings table with errors naming the file and the field."""
-
-    def __init__(self, path: Path):
-        self.path = path
-
-    def fail(self, field: str, message: str) -> ConfigError:
-        return ConfigError(message, path=self.path, field=field or None)
-
-    def require(self, table: dict[str, Any], key: str, where: str) -> Any:
-        if key not in table:
-            raise self.fail(f"{where}.{key}" if where else key, "missing")
-        return table[key]
-
-    def no_unknown(self, table: dict[str, Any], allowed: set[str], where: str) -> None:
-        for key in table:
-            if key not in allowed:
-                close = difflib.get_close_matches(key, sorted(allowed), n=1)
-                hint = f"; did you mean {close[0]!r}?" if close else f" (allowed: {', '.join(sorted(allowed))})"
-                raise self.fail(f"{where}.{key}" if where else key, f"unknown key{hint}")
-
-    def string(self, value: Any, field: str) -> str:
-        if not isinstance(value, str) or not value.strip():
-            raise self.fail(field, f"expected a non-empty text, got {value!r}")
-        return value
-
-    def optional_str(self, table: dict[str, Any], key: str, field: str) -> str | None:
-        return self.string(table[key], field) if key in table else None
-
-    def number(self, value: Any, field: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise self.fail(field, f"expected a number, got {value!r}")
-        return float(value)
-
-    def positive(self, value: Any, field: str) -> float:
-        v = self.number(value, field)
-        if v <= 0:
-            raise self.fail(field, f"expected a number greater than 0, got {value!r}")
-        return v
-
-    def datetime(self, value: Any, field: str) -> dt.datetime:
+    def seconds(self, value: float | dt.time | dt.datetime, field: str) -> float:
+        """Seconds from the first frame of a number, a clock time (time of day) or a date-time."""
+        at = self.recorded_at
         if isinstance(value, dt.datetime):
-            return value
-        if isinstance(value, str):
-            try:
-                return dt.datetime.fromisoformat(value)
-            except ValueError:
-                pass
-        raise self.fail(field, f"expected an ISO 8601 date and time (e.g. 2024-03-04T08:00:00+01:00), got {value!r}")
-
-    def factors(self, table: Any, where: str, allowed: set[str]) -> TaskFactors:
-        if not isinstance(table, dict):
-            raise self.fail(where, "expected a table of task factors")
-        self.no_unknown(table, allowed, where)
-        out: dict[str, Any] = {}
-        for key, value in table.items():
-            field = f"{where}.{key}"
-            if key == "load_kg":
-                v = self.number(value, field)
-                if v < 0:
-                    raise self.fail(field, f"expected a load in kilograms >= 0, got {value!r}")
-                out[key] = v
-            elif key == "load_mode":
-                if value not in LOAD_MODES:
-                    raise self.fail(field, f"expected one of {', '.join(LOAD_MODES)}, got {value!r}")
-                out[key] = value
-            elif key == "coupling":
-                if value not in COUPLINGS:
-                    raise self.fail(field, f"expected one of {', '.join(COUPLINGS)}, got {value!r}")
-                out[key] = value
-            elif key in _ANGLE_KEYS:
-                v = self.number(value, field)
-                lo, hi = ANGLE_FACTOR_RANGE_DEG
-                if not lo <= v <= hi:
-                    raise self.fail(field, f"expected an angle in degrees from {lo:g} to {hi:g}, got {value!r}")
-                out[_ANGLE_KEYS[key]] = math.radians(v)
-            else:
-                if not isinstance(value, bool):
-                    raise self.fail(field, f"expected true or false, got {value!r}")
-                out[key] = value
-        return TaskFactors(**out)
-
-    def time(self, value: Any, field: str, recorded_at: dt.datetime) -> float:
-        """Seconds from the first frame: a number, a clock time (time of day) or a date-time."""
-        if isinstance(value, bool):
-            raise self.fail(field, f"expected seconds, a clock time or a date-time, got {value!r}")
-        if isinstance(value, (int, float)):
-            return self.number(value, field)
-        if isinstance(value, dt.datetime):
-            if (value.tzinfo is None) != (recorded_at.tzinfo is None):
-                raise self.fail(field, "give a time zone offset on both this time and recorded_at, or on neither")
-            return (value - recorded_at).total_seconds()
+            if (value.tzinfo is None) != (at.tzinfo is None):
+                raise ConfigError("give a time zone offset on both this time and recorded_at, or on neither",
+                                  path=self.path, field=field)
+            return (value - at).total_seconds()
         if isinstance(value, dt.time):
             if value.tzinfo is not None:
-                raise self.fail(field, "a clock time cannot carry a time zone; use a full date-time")
-            moment = dt.datetime.combine(recorded_at.date(), value, tzinfo=recorded_at.tzinfo)
-            return (moment - recorded_at).total_seconds()
-        raise self.fail(field, f"expected seconds from the start (a number), a clock time (10:15:00) or a "
-                               f"date-time (2024-03-04T10:15:00+01:00), got {value!r}")
+                raise ConfigError("a clock time cannot carry a time zone; use a full date-time",
+                                  path=self.path, field=field)
+            return (dt.datetime.combine(at.date(), value, tzinfo=at.tzinfo) - at).total_seconds()
+        return float(value)
 
-    def periods(self, items: Any, where: str, recorded_at: dt.datetime, duration: float) -> tuple[FactorPeriod, ...]:
-        if not isinstance(items, list) or not all(isinstance(p, dict) for p in items):
-            raise self.fail(where, "expected [[...periods]] tables, each with start, end and task factors")
+    def periods(self, items: Sequence[PeriodTable], where: str) -> tuple[FactorPeriod, ...]:
         out: list[FactorPeriod] = []
         for i, item in enumerate(items):
             at = f"{where}[{i}]"
-            self.no_unknown(item, _PERIOD_KEYS, at)
-            start = self.time(self.require(item, "start", at), f"{at}.start", recorded_at)
-            end = self.time(self.require(item, "end", at), f"{at}.end", recorded_at)
+            start = self.seconds(item.start, f"{at}.start")
+            end = self.seconds(item.end, f"{at}.end")
             if not end > start:
-                raise self.fail(at, f"ends ({end:g} s) before it starts ({start:g} s)")
-            if end <= 0 or start >= duration:
-                raise self.fail(at, f"lies outside the recording ({start:g} s to {end:g} s; the videos last "
-                                    f"{duration:g} s)")
-            factors = self.factors({k: v for k, v in item.items() if k not in ("start", "end")}, at, set(FACTOR_KEYS))
-            if not factors.given():
-                raise self.fail(at, "gives no task factor (load_kg, load_mode, coupling, shock, ...)")
+                raise ConfigError(f"ends ({end:g} s) before it starts ({start:g} s)", path=self.path, field=at)
+            if end <= 0 or start >= self.duration:
+                raise ConfigError(f"lies outside the recording ({start:g} s to {end:g} s; the videos last "
+                                  f"{self.duration:g} s)", path=self.path, field=at)
             for j, other in enumerate(out):
                 if start < other.end_s and other.start_s < end:
-                    raise self.fail(at, f"overlaps {where}[{j}] ({other.start_s:g} s to {other.end_s:g} s)")
-            out.append(FactorPeriod(start_s=start, end_s=end, factors=factors))
+                    raise ConfigError(f"overlaps {where}[{j}] ({other.start_s:g} s to {other.end_s:g} s)",
+                                      path=self.path, field=at)
+            out.append(FactorPeriod(start_s=start, end_s=end, factors=task_factors(item)))
         return tuple(out)
 
 
@@ -696,7 +511,9 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
                      periods: Sequence[FactorPeriod] = (), workers: Sequence[WorkerInfo] = (),
                      scoring: Mapping[str, Any] | None = None, header: str = "",
                      calibration_check: tuple[str, float] | None = None) -> str:
-    """The text of a settings.toml (format_version 1) for these values; load_session reads it back."""
+    """The text of a settings.toml (format_version 1) for these values, every other key commented
+    with its default and a one-line explanation (ergopose.settings.generate); load_session reads
+    it back. ``header``: comment lines to start with."""
     data: dict[str, Any] = {"format_version": FORMAT_VERSION, "recorded_at": recorded_at}
     if fps is not None:
         data["fps"] = float(fps)
@@ -724,7 +541,7 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
         data["scoring"] = dict(scoring)
     if calibration_check is not None:
         data["calibration_check"] = {"observations": calibration_check[0], "length_m": float(calibration_check[1])}
-    return header + tomli_w.dumps(data)
+    return settings_text(data, header=header + TEMPLATE_HOWTO if header else TEMPLATE_HEADER)
 
 
 def _period_dict(p: FactorPeriod) -> dict[str, Any]:

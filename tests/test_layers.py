@@ -24,6 +24,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
               "ergopose.resources", "ergopose.video", "ergopose.cli_progress")),
     ("geometry", ("ergopose.geometry",)),
     ("records", ("ergopose.records",)),
+    ("settings", ("ergopose.settings",)),
     ("calibration", ("ergopose.calibration",)),
     ("pose", ("ergopose.pose",)),
     ("recon", ("ergopose.recon",)),

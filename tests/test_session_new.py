@@ -123,15 +123,18 @@ def test_the_same_video_for_two_cameras(tmp_path, capsys):
     assert err.count("ergopose: error") == 1 and "same video" in err
 
 
-def test_the_commented_task_factors_are_valid_settings():
-    """Uncommented, the [defaults] example of a new settings.toml reads as task factors, the
-    wrist posture in degrees included."""
-    from ergopose.commands.session import EXAMPLES
-    from ergopose.session import FACTOR_KEYS, TaskFactors, _Reader
+def test_the_commented_task_factors_are_valid_settings(tmp_path):
+    """Uncommented, the [defaults] block of a new settings.toml (written by the settings model's
+    generator) reads as task factors, the wrist posture in degrees included."""
+    from ergopose.session import FACTOR_KEYS, TaskFactors, task_factors
+    from ergopose.settings.base import validate
+    from ergopose.settings.generate import settings_text
+    from ergopose.settings.tasks import TaskFactorsTable
 
-    block = EXAMPLES.split("# [defaults]\n", 1)[1].split("\n#\n", 1)[0]
-    table = tomllib.loads("\n".join(line[2:] for line in block.splitlines()))
-    assert set(table) <= set(FACTOR_KEYS) and {"wrist_flexion_deg", "wrist_deviation_deg"} <= set(table)
-    factors = _Reader(Path("settings.toml")).factors(table, "defaults", set(FACTOR_KEYS))
+    text = settings_text()
+    block = text.split("# [defaults]\n", 1)[1].split("\n\n", 1)[0]
+    table = tomllib.loads("\n".join(line[2:] for line in block.splitlines() if not line.startswith("#   ")))
+    assert set(table) == set(FACTOR_KEYS) and {"wrist_flexion_deg", "wrist_deviation_deg"} <= set(table)
+    factors = task_factors(validate(TaskFactorsTable, table, path=Path("settings.toml"), prefix=("defaults",)))
     assert factors.wrist_flexion == pytest.approx(np.radians(table["wrist_flexion_deg"]))
     assert isinstance(factors, TaskFactors) and factors.load_kg == table["load_kg"]

@@ -14,7 +14,9 @@ from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import (camera_for_video, read_any_calibration, save_calibration,
                                                 world_frame_warnings)
-from ergopose.session import CALIBRATION_FILE, FPS_TOLERANCE, SETTINGS_FILE, load_session, settings_to_toml
+from ergopose.session import CALIBRATION_FILE, FPS_TOLERANCE, SETTINGS_FILE, load_session
+from ergopose.settings.generate import TEMPLATE_HOWTO, settings_text
+from ergopose.settings.model import FORMAT_VERSION
 from ergopose.video import probe_video
 
 HELP = """\
@@ -124,7 +126,9 @@ def run_new(args: argparse.Namespace) -> int:
     save_calibration(root / CALIBRATION_FILE, session_cameras,
                      description=f"from {args.calibration.name} ({kind})")
     header = _settings_header(args, kind, when, rates[0], counts[0], notes)
-    text = settings_to_toml(recorded_at=recorded_at, cameras=files, header=header) + EXAMPLES
+    values = {"format_version": FORMAT_VERSION, "recorded_at": recorded_at,
+              "cameras": [{"name": name, "video": video} for name, video in files]}
+    text = settings_text(values, header=header + TEMPLATE_HOWTO)
     write_text(root / SETTINGS_FILE, text)
     session = load_session(root)  # everything written is read back and checked
     print(f"wrote {root}: {len(session.cameras)} camera(s) "
@@ -140,7 +144,7 @@ def run_new(args: argparse.Namespace) -> int:
 
 def _settings_header(args, kind: str, when: str, fps: float, frames: int, notes: list[str]) -> str:
     lines = [
-        "# ergopose session settings (docs/session-format.md).",
+        "# ergopose session settings (docs/session-format.md explains the file, docs/settings.md lists every key).",
         f"# Made by 'ergopose session new' from {args.calibration.name} ({kind} calibration) and",
         f"# {len(args.videos)} video(s): {', '.join(v.name for v in args.videos)}; {frames} frames at {fps:g} fps.",
         f"# recorded_at: {when}.",
@@ -148,35 +152,4 @@ def _settings_header(args, kind: str, when: str, fps: float, frames: int, notes:
         "# without reordering the videos.",
     ]
     lines += [f"# {n}" for n in notes]
-    return "\n".join(lines) + "\n\n"
-
-
-#: Commented examples appended to a new settings.toml (the values are illustrations, not defaults).
-EXAMPLES = """
-# --- What the cameras cannot see (remove the leading '#' and edit) -------------------------------
-# Task factors for everyone, whole session (absent = unknown; scoring says so):
-# [defaults]
-# load_kg = 0.0                 # kg handled
-# load_mode = "intermittent"    # intermittent | static | repeated
-# coupling = "good"             # good | fair | poor | unacceptable
-# shock = false
-# arm_supported = false
-# wrist_twist_end_range = false
-# wrist_flexion_deg = -20.0     # the task's wrist posture, degrees (-90..90): + flexion (toward the
-# wrist_deviation_deg = 0.0     #   palm), - extension; deviation + toward the thumb. Used only in frames
-#                               #   where the cameras do not see the hand; the report says where.
-#
-# A time window for everyone (seconds from the first frame, or a clock time such as 10:30:00):
-# [[periods]]
-# start = 600.0
-# end = 900.0
-# load_kg = 12.0
-#
-# One table per worker id (names for the report, stature to keep ids across the shift):
-# [workers.w1]
-# name = "Worker A"
-# stature_m = 1.75
-#
-# Scoring settings (docs/scoring.md):
-# [scoring]
-"""
+    return "\n".join(lines) + "\n"

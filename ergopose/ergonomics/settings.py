@@ -10,24 +10,23 @@ Values a user types are in degrees, seconds, kilograms and metres (the names say
 scoring converts degrees to radians where it compares them with measured angles.
 
 A settings file is TOML: either top-level keys, or a ``[scoring]`` table inside a larger
-session settings file (then only that table is read). Unknown names are an error.
+session settings file (then only that table is read). Names, defaults, allowed values and the
+one-line errors come from the typed table ergopose.settings.scoring.ScoringTable; this record
+holds the same fields (a test holds the two together).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
-import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Mapping
 
 from ergopose.errors import ConfigError
-
-BOUNDARY_CHOICES = ("higher", "lower")
-VARIANT_CHOICES = ("single", "separate")
-UNKNOWN_FLAG_CHOICES = ("absent", "missing")
+from ergopose.settings.base import validate
+from ergopose.settings.model import read_toml
+from ergopose.settings.scoring import ScoringTable
 
 
 @dataclass(frozen=True)
@@ -115,7 +114,7 @@ class ScoringSettings:
     unknown_flags: str = "absent"
 
     def __post_init__(self) -> None:
-        _validate(dataclasses.asdict(self), source=None)
+        validate(ScoringTable, dataclasses.asdict(self))
 
     def replace(self, **changes: Any) -> "ScoringSettings":
         """A copy with some settings changed (unknown names raise ConfigError)."""
@@ -125,70 +124,15 @@ class ScoringSettings:
         return dataclasses.asdict(self)
 
 
-_CHOICES: dict[str, tuple[str, ...]] = {
-    "rula_open_boundary": BOUNDARY_CHOICES,
-    "reba_open_boundary": BOUNDARY_CHOICES,
-    "rula_lower_arm_adjust": VARIANT_CHOICES,
-    "reba_twist_side_adjust": VARIANT_CHOICES,
-    "unknown_flags": UNKNOWN_FLAG_CHOICES,
-}
-
-#: Settings that must be > 0 (the rest of the numbers must be >= 0).
-_POSITIVE = {
-    "rula_static_hold_s", "reba_static_hold_s", "repetition_amplitude_deg", "repetition_window_s",
-    "rula_repetitions_per_min", "reba_repetitions_per_min", "rapid_change_deg",
-    "rapid_change_window_s", "max_gap_s",
-}
-
-#: Angles that must stay below 90 degrees to mean anything.
-_BELOW_90 = {
-    "wrist_neutral_deg", "trunk_upright_deg", "neck_extension_deg", "shoulder_raised_deg",
-    "upper_arm_abducted_deg", "trunk_twisted_deg", "trunk_side_bent_deg", "neck_twisted_deg",
-    "neck_side_bent_deg", "wrist_deviated_deg",
-}
-
-
-def _validate(values: Mapping[str, Any], source: str | None) -> None:
-    kinds = {f.name: f.type for f in fields(ScoringSettings)}
-    for name, value in values.items():
-        if name in _CHOICES:
-            if value not in _CHOICES[name]:
-                raise ConfigError(f"expected one of {', '.join(_CHOICES[name])}, got {value!r}",
-                                  path=source, field=name)
-        elif kinds[name] in ("bool", bool):
-            if not isinstance(value, bool):
-                raise ConfigError(f"expected true or false, got {value!r}", path=source, field=name)
-        else:
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ConfigError(f"expected a number, got {value!r}", path=source, field=name)
-            if name in _POSITIVE and value <= 0:
-                raise ConfigError(f"must be greater than 0, got {value}", path=source, field=name)
-            if value < 0:
-                raise ConfigError(f"must not be negative, got {value}", path=source, field=name)
-            if name in _BELOW_90 and value >= 90:
-                raise ConfigError(f"must be below 90 degrees, got {value}", path=source, field=name)
-
-
 def setting_names() -> tuple[str, ...]:
     return tuple(f.name for f in fields(ScoringSettings))
 
 
-def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None) -> ScoringSettings:
-    """Settings from a mapping of names to values; unknown names raise one ConfigError naming them."""
-    src = None if source is None else str(source)
-    known = set(setting_names())
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise ConfigError(f"unknown scoring setting(s): {', '.join(unknown)} (known: {', '.join(sorted(known))})",
-                          path=src)
-    kinds = {f.name: f.type for f in fields(ScoringSettings)}
-    clean: dict[str, Any] = {}
-    for name, value in values.items():
-        if kinds[name] in ("float", float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        clean[name] = value
-    _validate(clean, source=src)
-    return ScoringSettings(**clean)
+def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None,
+                 prefix: tuple[str, ...] = ()) -> ScoringSettings:
+    """Settings from a mapping of names to values; a problem raises one ConfigError naming the
+    file (``source``), the key (under ``prefix``), the value and what is allowed."""
+    return ScoringSettings(**validate(ScoringTable, dict(values), source, prefix).model_dump())
 
 
 def load_settings(path: str | os.PathLike | None) -> ScoringSettings:
@@ -196,17 +140,9 @@ def load_settings(path: str | os.PathLike | None) -> ScoringSettings:
     if path is None:
         return ScoringSettings()
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError("the settings file does not exist", path=p) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the settings file ({exc})", path=p) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML ({exc})", path=p) from None
+    data = read_toml(p, "settings file")
     if "scoring" in data:
-        section = data["scoring"]
-        if not isinstance(section, dict):
+        if not isinstance(data["scoring"], dict):
             raise ConfigError("expected a table", path=p, field="scoring")
-        return from_mapping(section, source=p)
+        return from_mapping(data["scoring"], source=p, prefix=("scoring",))
     return from_mapping(data, source=p)

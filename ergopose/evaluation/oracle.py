@@ -32,7 +32,6 @@ from ergopose.pipeline.stages import score_worker, scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.diagnostics import limb_diagnostics
 from ergopose.recon.session import reconstruct_session
-from ergopose.recon.settings import ReconSettings
 from ergopose.recon.table import TracksWriter
 from ergopose.recon.tracking import identity_name
 from ergopose.session import load_session
@@ -109,7 +108,7 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
     if tuple(gt.camera_names) != tuple(session.camera_names):
         raise InputError(f"the ground truth's cameras ({', '.join(gt.camera_names)}) differ from the session's "
                          f"({', '.join(session.camera_names)})", path=gt.path)
-    recon = recon or ReconSettings()
+    recon = recon or session.reconstruction  # the session's [reconstruction] table over the defaults
     scoring = scoring_settings(session)
     layout = oracle_layout(out_dir)
     summary, tracks = reconstruct_session(oracle_frames(session, gt, options, progress), None, fps=session.fps,

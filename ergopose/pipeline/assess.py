@@ -84,10 +84,25 @@ class AssessResult:
     stage_seconds: dict = field(default_factory=dict)
 
 
-def _recon_for(gates) -> ReconSettings:
-    """The reconstruction's settings with the landmark card's triangulation gate."""
-    recon = ReconSettings()
-    return recon if gates is None else dataclasses.replace(recon, min_confidence=gates.min_triangulation_confidence)
+def _pose_for(pose: PoseSettings, gates) -> PoseSettings:
+    """The 2D stage's settings ([pose] of settings.toml) with the landmark card's confidence
+    gates, except where settings.toml gives a gate a value other than its default."""
+    if gates is None:
+        return pose
+    default = PoseSettings()
+    return dataclasses.replace(
+        pose,
+        min_presence=float(gates.min_presence) if pose.min_presence == default.min_presence else pose.min_presence,
+        min_keypoint_confidence=float(gates.min_keypoint_confidence)
+        if pose.min_keypoint_confidence == default.min_keypoint_confidence else pose.min_keypoint_confidence)
+
+
+def _recon_for(recon: ReconSettings, gates) -> ReconSettings:
+    """The reconstruction's settings ([reconstruction] of settings.toml) with the landmark card's
+    triangulation gate, except where settings.toml gives min_confidence another value."""
+    if gates is None or recon.min_confidence != ReconSettings().min_confidence:
+        return recon
+    return dataclasses.replace(recon, min_confidence=gates.min_triangulation_confidence)
 
 
 def default_out_dir(session: Session) -> Path:
@@ -122,8 +137,8 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     job = detect.DetectJob(cameras=session.calibrated_cameras,
                            videos=tuple(str(c.video_path) for c in session.cameras),
                            fps=session.fps, model_dir=options.model_dir, max_bad_share=options.max_bad_frame_share,
-                           model=options.model, pose=PoseSettings().with_gates(models[-1].card.gates),
-                           recon=_recon_for(models[-1].card.gates),
+                           model=options.model, pose=_pose_for(session.pose, models[-1].card.gates),
+                           recon=_recon_for(session.reconstruction, models[-1].card.gates),
                            num_threads=1)  # one thread per process: the same numbers whatever the process count
     store = ResultStore(out_dir)
     with guard.output_faults(out_dir), store.lock():

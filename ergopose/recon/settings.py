@@ -4,7 +4,9 @@ and the diagnostics, with documented defaults (docs/reconstruction.md explains e
 Values a user types are in metres, seconds, pixels and degrees (the names say which); the code
 converts degrees to radians where it compares them with measured angles. A settings file is
 TOML: top-level keys, or a ``[reconstruction]`` table inside a larger session settings file.
-Unknown names are an error.
+Names, defaults, allowed values and the one-line errors come from the typed table
+ergopose.settings.reconstruction.ReconstructionTable (a test holds the two together); its one key
+in other units is ``fit_turn_rate_deg_s`` (degrees per second; here ``fit_turn_rate_rad_s``).
 """
 
 from __future__ import annotations
@@ -12,14 +14,16 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Mapping
 
-from ergopose.errors import ConfigError
+from ergopose.settings.base import validate
+from ergopose.settings.model import read_toml
+from ergopose.settings.reconstruction import RECORD_NAMES, ReconstructionTable
 
-MOTION_MODELS = ("constant_velocity", "constant_acceleration")
+#: ReconSettings field -> (key of the [reconstruction] table, factor from the field to the key).
+_TABLE_NAMES = {name: (key, 1.0 / factor) for key, (name, factor) in RECORD_NAMES.items()}
 
 
 @dataclass(frozen=True)
@@ -163,7 +167,7 @@ class ReconSettings:
     lens_region_limits_deg: tuple[float, float] = (30.0, 60.0)
 
     def __post_init__(self) -> None:
-        _validate(self, None)
+        validate(ReconstructionTable, to_table(self.as_dict()))
 
     def replace(self, **changes: Any) -> "ReconSettings":
         """A copy with some settings changed (unknown names raise ConfigError)."""
@@ -175,100 +179,45 @@ class ReconSettings:
         return d
 
 
-_BOOLS = {"smoothing", "bone_length_constraint", "body_model"}
-_INTS = {"association_min_joints", "max_gated_run", "fit_iterations"}
-#: Numbers that may be zero or negative (everything else must be > 0).
-_ANY_SIGN = {"torso_min_z_m", "torso_max_z_m"}
-_MAY_BE_ZERO = {"outlier_gate_chi2", "relink_margin_m", "min_confidence", "min_track_s", "contact_distance_m"}
-
-
-def _validate(s: ReconSettings, source: str | None) -> None:
-    for f in fields(ReconSettings):
-        name = f.name
-        value = getattr(s, name)
-        if name in _BOOLS:
-            if not isinstance(value, bool):
-                raise ConfigError(f"expected true or false, got {value!r}", path=source, field=name)
-            continue
-        if name == "motion_model":
-            if value not in MOTION_MODELS:
-                raise ConfigError(f"expected one of {', '.join(MOTION_MODELS)}, got {value!r}",
-                                  path=source, field=name)
-            continue
-        if name == "lens_region_limits_deg":
-            ok = (isinstance(value, tuple) and len(value) == 2
-                  and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-                  and 0 < value[0] < value[1] < 180)
-            if not ok:
-                raise ConfigError(f"expected two increasing angles between 0 and 180 degrees, got {value!r}",
-                                  path=source, field=name)
-            continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise ConfigError(f"expected a number, got {value!r}", path=source, field=name)
-        if name in _INTS and int(value) != value:
-            raise ConfigError(f"expected a whole number, got {value!r}", path=source, field=name)
-        if name in _ANY_SIGN:
-            continue
-        if name in _MAY_BE_ZERO:
-            if value < 0:
-                raise ConfigError(f"must not be negative, got {value}", path=source, field=name)
-        elif value <= 0:
-            raise ConfigError(f"must be greater than 0, got {value}", path=source, field=name)
-    if s.min_confidence >= 1:
-        raise ConfigError(f"must be below 1, got {s.min_confidence}", path=source, field="min_confidence")
-    if s.torso_min_z_m >= s.torso_max_z_m:
-        raise ConfigError("torso_min_z_m must be below torso_max_z_m", path=source, field="torso_min_z_m")
-    if s.trunk_min_length_m >= s.trunk_max_length_m:
-        raise ConfigError("trunk_min_length_m must be below trunk_max_length_m", path=source,
-                          field="trunk_min_length_m")
-
-
 def setting_names() -> tuple[str, ...]:
     return tuple(f.name for f in fields(ReconSettings))
 
 
-def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None) -> ReconSettings:
-    """Settings from a mapping of names to values; unknown names raise one ConfigError naming them."""
-    src = None if source is None else str(source)
-    known = set(setting_names())
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise ConfigError(f"unknown reconstruction setting(s): {', '.join(unknown)} "
-                          f"(known: {', '.join(sorted(known))})", path=src)
-    kinds = {f.name: f.type for f in fields(ReconSettings)}
-    clean: dict[str, Any] = {}
+def to_table(values: Mapping[str, Any]) -> dict[str, Any]:
+    """Field values -> the keys and units of the [reconstruction] table."""
+    out = {}
     for name, value in values.items():
-        if kinds[name] in ("float", float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if name == "lens_region_limits_deg" and isinstance(value, list):
-            value = tuple(value)
-        clean[name] = value
-    defaults = ReconSettings()
-    merged = {f.name: getattr(defaults, f.name) for f in fields(ReconSettings)}
-    merged.update(clean)
-    obj = object.__new__(ReconSettings)
-    for k, v in merged.items():
-        object.__setattr__(obj, k, v)
-    _validate(obj, src)
-    return obj
+        key, factor = _TABLE_NAMES.get(name, (name, 1.0))
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        out[key] = value * factor if factor != 1.0 and ok else value
+    return out
+
+
+def from_table(table: ReconstructionTable) -> ReconSettings:
+    """The record of a validated [reconstruction] table (the defaults where it gives nothing)."""
+    return dataclasses.replace(ReconSettings(), **table.record_values())
+
+
+def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None,
+                 prefix: tuple[str, ...] = ()) -> ReconSettings:
+    """Settings from a mapping of field names to values (as_dict's names; the tracks table stores
+    them so); a problem raises one ConfigError naming the key, the value and what is allowed."""
+    table = validate(ReconstructionTable, to_table(values), source, prefix)
+    record = table.record_values()
+    for name in _TABLE_NAMES:  # the exact value given, not its round trip through other units
+        if name in values:
+            record[name] = float(values[name])
+    return dataclasses.replace(ReconSettings(), **record)
 
 
 def load_settings(path: str | os.PathLike | None) -> ReconSettings:
-    """Read a TOML settings file (top-level keys or a [reconstruction] table); None gives the defaults."""
+    """Read a TOML settings file (top-level keys or a [reconstruction] table, in the table's keys
+    and units); None gives the defaults."""
     if path is None:
         return ReconSettings()
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError("the settings file does not exist", path=p) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the settings file ({exc})", path=p) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML ({exc})", path=p) from None
+    data = read_toml(p, "settings file")
+    prefix: tuple[str, ...] = ()
     if "reconstruction" in data:
-        section = data["reconstruction"]
-        if not isinstance(section, dict):
-            raise ConfigError("expected a table", path=p, field="reconstruction")
-        return from_mapping(section, source=p)
-    return from_mapping(data, source=p)
+        data, prefix = data["reconstruction"], ("reconstruction",)
+    return from_table(validate(ReconstructionTable, data, p, prefix))

@@ -88,7 +88,7 @@ def test_unknown_setting(tmp_path, capsys):
     settings.write_text("rula_open_boundry = 'lower'\n")
     code, _ = _run(tmp_path, GOOD, "--method", "rula", "--settings", str(settings))
     assert code == 2
-    assert "unknown scoring setting(s): rula_open_boundry" in capsys.readouterr().err
+    assert "rula_open_boundry: unknown key; did you mean 'rula_open_boundary'?" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("missing", ["angles.csv"])

@@ -42,16 +42,17 @@ def test_unknown_names_are_one_error_naming_them(tmp_path):
     with pytest.raises(ConfigError) as exc:
         load_settings(p)
     msg = str(exc.value)
-    assert msg.startswith(f"{p}: unknown scoring setting(s): rula_boundary, wrist_neutral")
-    with pytest.raises(ConfigError, match="unknown scoring setting"):
+    assert msg.startswith(f"{p}: wrist_neutral: unknown key; did you mean 'wrist_neutral_deg'?")
+    assert msg.endswith("(and 1 more problem: rula_boundary)")
+    with pytest.raises(ConfigError, match="nope: unknown key"):
         ScoringSettings().replace(nope=1)
 
 
 @pytest.mark.parametrize("name,value,fragment", [
     ("rula_open_boundary", "upper", "expected one of higher, lower"),
     ("unknown_flags", "ignore", "expected one of absent, missing"),
-    ("wrist_neutral_deg", -1, "must not be negative"),
-    ("trunk_twisted_deg", 95, "below 90 degrees"),
+    ("wrist_neutral_deg", -1, "expected a number >= 0 and below 90 (degrees), got -1"),
+    ("trunk_twisted_deg", 95, "below 90 (degrees), got 95"),
     ("rula_static_hold_s", 0, "greater than 0"),
     ("static_includes_neutral", 1, "true or false"),
     ("rapid_change_deg", "30", "expected a number"),

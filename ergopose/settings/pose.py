@@ -1,0 +1,68 @@
+"""The [pose] table: the knobs of the fisheye 2D stage a user may want to turn
+(docs/pose-in-fisheye.md explains the stage).
+
+ergopose.pose.fisheye.PoseSettings is the record the stage uses, with angles in radians: a key
+ending in ``_deg`` here is the field without that ending there, converted (degrees at the edge,
+radians inside). The stage's other fields are measured choices, not settings.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any
+
+from pydantic import BeforeValidator, Field, field_validator, model_validator
+
+from ergopose.settings.base import Table
+
+
+def _as_tuple(value: Any) -> Any:
+    return tuple(value) if isinstance(value, list) else value
+
+
+class PoseTable(Table):
+    """The user-settable part of the 2D stage's settings, with the stage's defaults."""
+
+    search_every: int = Field(12, gt=0, description="frames between searches for new people while someone is followed")
+    idle_search_every: int = Field(4, gt=0, description="frames between searches while nobody is followed")
+    search_where_lost: bool = Field(True, description="search again where a followed person was lost")
+    coast_frames: int = Field(2, ge=0, description="frames a person not found is still looked for in the same view")
+    max_people: int = Field(8, gt=0, description="most people followed per camera (more are counted and reported)")
+    min_presence: float = Field(0.5, ge=0, le=1, description="a view whose pose flag is below this holds no person")
+    min_keypoint_confidence: float = Field(0.3, ge=0, le=1, description="keypoints below this do not steer the next view")
+    min_detector_score: float = Field(0.5, ge=0, le=1, description="detector score to accept a search cue")
+    body_margin: float = Field(1.3, gt=0, description="a person view's half field of view is the body's angular radius times this")
+    min_half_fov_deg: float = Field(8.0, gt=0, lt=90, description="smallest half field of view of a person view")
+    max_half_fov_deg: float = Field(55.0, gt=0, lt=90, description="largest half field of view of a person view")
+    search_half_fov_deg: float = Field(42.0, gt=0, lt=90, description="half field of view of the detector's search views")
+    search_rings_deg: Annotated[tuple[float, ...], BeforeValidator(_as_tuple)] = Field(
+        (0.0, 45.0, 75.0), description="angles off the lens axis of the rings of search views (the first at 0 is one view)",
+        json_schema_extra={"allowed": "increasing angles from 0 to 90 (degrees)"})
+    search_views_per_ring: int = Field(8, gt=0, description="search views on each ring after the first")
+    align_views: bool = Field(True, description="roll each person view towards the body axis (false: every view upright)")
+    max_body_roll_deg: float = Field(45.0, ge=0, le=180, description="the body axis rolls a view at most this far from upright")
+    left_right_check: bool = Field(True, description="keep each person's left and right consistent from frame to frame")
+
+    @model_validator(mode="after")
+    def _fov(self) -> "PoseTable":
+        if not self.min_half_fov_deg < self.max_half_fov_deg:
+            raise ValueError(f"min_half_fov_deg ({self.min_half_fov_deg:g}) must be below max_half_fov_deg "
+                             f"({self.max_half_fov_deg:g})")
+        return self
+
+    @field_validator("search_rings_deg")
+    @classmethod
+    def _rings(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if not v or not all(0 <= a <= 90 for a in v) or any(b <= a for a, b in zip(v, v[1:])):
+            raise ValueError(f"expected increasing angles from 0 to 90 degrees, got {list(v)!r}")
+        return v
+
+    def record_values(self) -> dict[str, Any]:
+        """The given keys as PoseSettings fields (radians inside)."""
+        out: dict[str, Any] = {}
+        for key, value in self.given().items():
+            if key.endswith("_deg"):
+                key = key.removesuffix("_deg")
+                value = tuple(math.radians(a) for a in value) if isinstance(value, tuple) else math.radians(value)
+            out[key] = value
+        return out
