@@ -8,6 +8,7 @@ from pathlib import Path
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
 from ergopose.pipeline.assess import AssessOptions, assess
+from ergopose.ergonomics.shares import HIGH_WORDS, format_percent, shift_high_risk
 from ergopose.report.pages import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
@@ -77,8 +78,10 @@ def worker_lines(w) -> list[str]:
         causes = "; ".join(f"{ca.cause} {fmt_duration(ca.time_s)} ({fmt_percent(ca.time_s, total)})" for ca in c.causes)
         lines.append(f"    {CONFIDENCE_WORDS[c.level]}: {fmt_duration(c.time_s)} ({fmt_percent(c.time_s, total)} of "
                      f"tracked time)" + (f": {causes}" if causes else ""))
-    for label, col in (("RULA action level 3-4", "rula_action_level"), ("REBA high/very high", "reba_risk_level")):
-        high, scored = s.high_time_s(col), s.scored_time_s(col)
-        lines.append(f"    {label}: {fmt_duration(high)} = {fmt_percent(high, total)} of tracked time, "
-                     f"{fmt_percent(high, scored)} of scored time ({fmt_duration(scored)} scored)")
+    for method in ("rula", "reba"):  # the shares of the report's headline and session_summary.csv
+        r = shift_high_risk(s, method)
+        lines.append(f"    {HIGH_WORDS[method]}: {fmt_duration(r.high_s)} = {format_percent(r.pct_of_tracked)} of tracked "
+                     f"time, {format_percent(r.pct_of_scored)} of scored time ({fmt_duration(r.scored_s)} scored; "
+                     f"not scored {fmt_duration(r.unscored_s)} = {format_percent(r.unscored_pct_of_tracked)} of "
+                     f"tracked time" + (", causes above)" if r.unscored_s > 0 and s.confidence else ")"))
     return lines

@@ -40,6 +40,7 @@ from scipy.optimize import linear_sum_assignment
 from ergopose.atomic import write_text
 from ergopose.calibration.check import DEFAULT_RING_BOUNDS_DEG
 from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
@@ -96,8 +97,9 @@ NETWORK_SOURCE = "pose network (ergopose assess)"
 class ResultsLayout:
     """Where an assessment's outputs are.
 
-    root: the results folder; tracks: the tracks table (Parquet); csv_dir: the per-worker frames
-    CSV files, named ``<csv_prefix><worker>_frames.csv``.
+    root: the results folder; tracks: the tracks table (Parquet); csv_dir: the per-worker steps
+    CSV files (every angle and RULA/REBA step per frame; docs/csv-columns.md), named
+    ``<csv_prefix><worker>_steps.csv``.
     """
 
     root: Path
@@ -112,7 +114,7 @@ class ResultsLayout:
         return cls(root=root, tracks=root / "pipeline" / "tracks.parquet", csv_dir=root / "csv")
 
     def frames_csv(self, worker: str) -> Path:
-        return self.csv_dir / f"{self.csv_prefix}{worker}_frames.csv"
+        return self.csv_dir / f"{self.csv_prefix}{worker}{STEPS_SUFFIX}"
 
 
 @dataclass(frozen=True)

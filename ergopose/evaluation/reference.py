@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import ScoringSettings
@@ -183,7 +184,7 @@ def _reference_joints(trc: TrcData) -> tuple[np.ndarray, dict[str, str]]:
 def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None) -> dict[int, pd.DataFrame]:
     """{tracked worker number: its frames CSV}: by the tracked name (worker_N), by the session's
     naming (``names``), else by the unique CSV whose frames are exactly the worker's."""
-    files = sorted(layout.csv_dir.glob(f"{layout.csv_prefix}*_frames.csv"))
+    files = sorted(layout.csv_dir.glob(f"{layout.csv_prefix}*{STEPS_SUFFIX}"))
     by_frames: dict[tuple, list[str]] = {}
     cache: dict[str, pd.DataFrame] = {}
     out: dict[int, pd.DataFrame] = {}
@@ -195,7 +196,7 @@ def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None)
             continue
         if not by_frames:
             for f in files:
-                wid = f.name[len(layout.csv_prefix):-len("_frames.csv")]
+                wid = f.name[len(layout.csv_prefix):-len(STEPS_SUFFIX)]
                 csv = cache.setdefault(wid, _read_frames_csv(layout, wid))
                 by_frames.setdefault(tuple(csv["frame"].to_numpy(np.int64)), []).append(wid)
         key = tuple(np.asarray(tracks.frame[tracks.worker == w], np.int64))

@@ -179,13 +179,14 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
         raise
 
 
-def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None):
-    """Score the stored tracks of ``folder`` again with the session's settings and names (no video)."""
+def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None, *, bom: bool = False):
+    """Score the stored tracks of ``folder`` again with the session's settings and names (no video);
+    bom: CSV files with a UTF-8 byte order mark (Excel)."""
     store = ResultStore(folder)
     with guard.output_faults(folder), store.lock():
         tracks = stages.stored_tracks(store.tracks_path)
         return stages.score_and_report(session, tracks, folder, stages.scoring_settings(session), _models(), None,
-                                       progress)
+                                       progress, bom=bom)
 
 
 def warn_unused(session: Session, people, progress: ProgressCallback | None) -> list[str]:

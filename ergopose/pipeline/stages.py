@@ -29,7 +29,8 @@ from ergopose.ergonomics import task_inputs as T
 from ergopose.ergonomics import uncertainty as U
 from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
-from ergopose.ergonomics.export import FramesCsvWriter, write_session_summary_csv, write_worker_summary_csv
+from ergopose.ergonomics.export import (FRAMES_SUFFIX, SUMMARY_SUFFIX, FramesCsvWriter, StepsCsvWriter, steps_path,
+                                        write_session_summary_csv, write_worker_summary_csv)
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import from_mapping
 from ergopose.errors import ConfigError, InputError
@@ -330,9 +331,13 @@ class _WorkerSink:
     (eight numbers per frame, the only per-frame data kept in memory)."""
 
     def __init__(self, stack, worker_id: str, csv_path: Path, scored_path: Path, scoring, fps: float,
-                 limb_medians_m: np.ndarray) -> None:
+                 limb_medians_m: np.ndarray, *, recorded_at: dt.datetime | None = None, name: str | None = None,
+                 bom: bool = False) -> None:
         self.worker_id = worker_id
-        self.csv = stack.enter_context(FramesCsvWriter(csv_path))
+        csv_path = Path(csv_path)
+        self.csv = stack.enter_context(FramesCsvWriter(csv_path, recorded_at=recorded_at, name=name, bom=bom,
+                                                       parquet=csv_path.with_suffix(".parquet")))
+        self.steps = stack.enter_context(StepsCsvWriter(steps_path(csv_path), bom=bom))
         self.scored_path = scored_path
         self._scored_tmp = stack.enter_context(atomic_path(scored_path))
         self._stack = stack
@@ -346,6 +351,7 @@ class _WorkerSink:
 
     def write(self, frames: pd.DataFrame, rows) -> None:
         self.csv.write(frames)
+        self.steps.write(frames)
         self.acc.add(frames, getattr(rows, "inferred", None))
         if self._schema is None:
             self._schema = pa.Schema.from_pandas(frames, preserve_index=False)
@@ -384,7 +390,7 @@ class ReportWorker:
 
 
 def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident,
-                 progress: ProgressCallback | None) -> list[ReportWorker]:
+                 progress: ProgressCallback | None, *, bom: bool = False) -> list[ReportWorker]:
     """Every tracked worker scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
     from one pass over the tracks table: the per-frame CSV files are written as it goes; returns
     what the report needs."""
@@ -400,8 +406,9 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
             tracked = identity_name(w)
             wid = ident.rename(tracked)
             ref = tracks.references.shoulder_reference_m(w)
-            sink = _WorkerSink(stack, wid, csv_dir / f"{wid}_frames.csv", scored_dir / f"{tracked}.parquet",
-                               scoring, session.fps, tracks.references.limb_medians_m(w))
+            sink = _WorkerSink(stack, wid, csv_dir / f"{wid}{FRAMES_SUFFIX}", scored_dir / f"{tracked}.parquet",
+                               scoring, session.fps, tracks.references.limb_medians_m(w),
+                               recorded_at=session.recorded_at, name=session.display_name(wid), bom=bom)
             sinks[w] = sink
 
             def score(rows, wid=wid, ref=ref):
@@ -506,7 +513,7 @@ def _joints_at(tracks_path: Path, tracked: tuple[str, ...], peaks: pd.DataFrame,
 
 
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
-                     progress: ProgressCallback | None) -> Outputs:
+                     progress: ProgressCallback | None, *, bom: bool = False) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report.
 
     Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
@@ -532,20 +539,25 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
     out_dir.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".outputs.", suffix=".tmp", dir=out_dir))
     try:
-        scored = score_tracks(session, tracks, stage, scoring, naming, progress)
+        scored = score_tracks(session, tracks, stage, scoring, naming, progress, bom=bom)
         csv_dir = stage / CSV_DIR
         csv_dir.mkdir(parents=True, exist_ok=True)
         csv_files: dict[str, list[tuple[str, str]]] = {}
         outputs = []
         for s in scored:
-            frames_csv = out_dir / CSV_DIR / f"{s.worker_id}_frames.csv"
-            summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}_summary.csv", s.summary)
-            csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
+            frames_csv = out_dir / CSV_DIR / f"{s.worker_id}{FRAMES_SUFFIX}"
+            summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}{SUMMARY_SUFFIX}", s.summary, bom=bom)
+            csv_files[s.worker_id] = [("Angles and scores per frame, with clock time and confidence (CSV)",
+                                       f"{CSV_DIR}/{frames_csv.name}"),
+                                      ("Every RULA/REBA step per frame (CSV)", f"{CSV_DIR}/{steps_path(frames_csv).name}"),
                                       ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
             outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
                                         summary=s.summary,
-                                        csv_files=(frames_csv, out_dir / CSV_DIR / summary_csv.name)))
-        write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
+                                        csv_files=(frames_csv, frames_csv.with_suffix(".parquet"), steps_path(frames_csv),
+                                                   out_dir / CSV_DIR / summary_csv.name)))
+        write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored},
+                                  names={s.worker_id: session.display_name(s.worker_id) for s in scored},
+                                  recorded_at=session.recorded_at, bom=bom)
         skipped = _skipped_frames(session, out_dir, stage)
         index = write_report(session, scored, stage, scoring, models, csv_files, naming, progress, skipped,
                              unused=unused)
