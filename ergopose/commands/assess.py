@@ -39,6 +39,13 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--max-bad-frames", type=float, default=0.2, metavar="SHARE",
                    help="share of a piece of video (--chunk-seconds) that may be unreadable and skipped; "
                         "more is an error naming the video and the time (default 0.2)")
+    p.add_argument("--start", default=None, metavar="TIME",
+                   help="assess from this time on: clock time HH:MM[:SS] of the session's day (its recorded_at), "
+                        "or seconds from its start (default: the start)")
+    p.add_argument("--end", default=None, metavar="TIME",
+                   help="assess up to this time (same forms as --start; default: the end)")
+    p.add_argument("--csv-bom", action="store_true",
+                   help="write the CSV files with a UTF-8 byte order mark, so Excel reads names in any script")
     p.set_defaults(func=run)
     return p
 
@@ -49,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 <= args.max_bad_frames <= 1.0:
         raise ConfigError(f"expected a share between 0 and 1, got {args.max_bad_frames}", field="--max-bad-frames")
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,
-                            model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames)
+                            model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames,
+                            start=args.start, end=args.end, csv_bom=args.csv_bom)
     result = assess(args.session, options, progress=ProgressBars())
     print_result(result)
     return 0
