@@ -212,24 +212,29 @@ def clock_times(recorded_at: dt.datetime | None, time_s) -> pd.DatetimeIndex | N
 
 
 def iso_strings(times: pd.DatetimeIndex | None, n: int) -> np.ndarray:
-    """ISO 8601 with milliseconds and the UTC offset (2024-03-04T08:00:00.083+01:00); empty
-    strings without times."""
+    """ISO 8601 with milliseconds and the UTC offset (2024-03-04T08:00:00.083+01:00; no offset for
+    times without a zone); empty strings without times. Vectorised (numpy's datetime strings)."""
     if times is None:
         return np.full(n, "", dtype=object)
-    fmt = "%Y-%m-%dT%H:%M:%S.%f" + ("%z" if times.tz is not None else "")
-    s = pd.Series(times.strftime(fmt))
-    if times.tz is not None:  # +0100 -> +01:00; microseconds -> milliseconds
-        s = s.str.replace(r"(\.\d{3})\d{3}([+-]\d\d)(\d\d)$", r"\1\2:\3", regex=True)
-    else:
-        s = s.str.slice(0, -3)
-    return s.to_numpy(dtype=object)
+    wall = times.tz_localize(None) if times.tz is not None else times  # the local clock
+    text = np.datetime_as_string(wall.to_numpy().astype("datetime64[ms]"), unit="ms")
+    if times.tz is None:
+        return text.astype(object)
+    utc = times.tz_convert("UTC").tz_localize(None)
+    offsets = np.round((wall - utc).total_seconds().to_numpy() / 60.0).astype(np.int64)  # minutes
+    suffix = np.empty(len(offsets), dtype="U6")
+    for m in np.unique(offsets):  # one offset, or two across a change of daylight saving time
+        h, mm = divmod(abs(int(m)), 60)
+        suffix[offsets == m] = f"{'-' if m < 0 else '+'}{h:02d}:{mm:02d}"
+    return np.char.add(text, suffix).astype(object)
 
 
 def _int_column(frames: pd.DataFrame, col: str) -> pd.Series:
     if col not in frames.columns:
-        return pd.Series(pd.array([pd.NA] * len(frames), dtype="Int16"))
+        return pd.Series(pd.arrays.IntegerArray(np.zeros(len(frames), np.int16), np.ones(len(frames), bool)))
     x = pd.to_numeric(frames[col], errors="coerce").to_numpy(np.float64, na_value=np.nan)
-    return pd.Series(pd.array(np.where(np.isfinite(x), np.round(x), np.nan), dtype="Float64").astype("Int16"))
+    ok = np.isfinite(x)
+    return pd.Series(pd.arrays.IntegerArray(np.where(ok, np.round(x), 0).astype(np.int16), ~ok))
 
 
 def _float_column(frames: pd.DataFrame, col: str) -> np.ndarray:

@@ -200,7 +200,7 @@ def rescore_window(session: Session, folder: Path, window, progress: ProgressCal
     with guard.output_faults(out), store.lock():
         tracks = stages.stored_tracks(store.tracks_path)
         return stages.score_and_report(session, tracks, out, stages.scoring_settings(session), _models(), None,
-                                       progress, bom=bom, window=window)
+                                       progress, bom=bom, window=window, store_dir=Path(folder))
 
 
 def warn_unused(session: Session, people, progress: ProgressCallback | None) -> list[str]:

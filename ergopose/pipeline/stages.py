@@ -539,7 +539,8 @@ def _joints_at(tracks_path: Path, tracked: tuple[str, ...], peaks: pd.DataFrame,
 
 
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
-                     progress: ProgressCallback | None, *, bom: bool = False, window: Window | None = None) -> Outputs:
+                     progress: ProgressCallback | None, *, bom: bool = False, window: Window | None = None,
+                     store_dir: Path | None = None) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report.
 
     Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
@@ -549,7 +550,8 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
 
     bom: CSV files with a UTF-8 byte order mark (Excel). window: score only the frames of this part
     of the day (default: the tracks' own window, ``ergopose assess --start/--end``; else all);
-    only the workers tracked within it are reported.
+    only the workers tracked within it are reported. store_dir: the folder whose stored chunks name
+    the skipped video frames (default ``out_dir``).
     """
     if window is not None:
         tracks = dataclasses.replace(tracks, window=window)
@@ -592,7 +594,8 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
         write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored},
                                   names={s.worker_id: session.display_name(s.worker_id) for s in scored},
                                   recorded_at=session.recorded_at, bom=bom)
-        skipped = _skipped_frames(session, out_dir, stage)
+        skipped = _skipped_frames(session, Path(store_dir) if store_dir is not None else out_dir, stage, bom=bom,
+                                  window=tracks.window)
         index = write_report(session, scored, stage, scoring, models, csv_files, naming, progress, skipped,
                              unused=unused, window=tracks.window)
         swap_outputs(stage, out_dir)
@@ -630,11 +633,14 @@ def swap_outputs(stage: Path, out_dir: Path) -> None:
         os.replace(stage / name, out_dir / name)
 
 
-def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = None) -> tuple:
+def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = None, bom: bool = False,
+                    window: Window | None = None) -> tuple:
     """csv/frames_skipped.csv (under ``write_to``, default ``out_dir``) from the stored chunks of
-    ``out_dir``; the report's records of them."""
+    ``out_dir`` (those within ``window`` when given); the report's records of them."""
     rows = skipped_in_store(ResultStore(out_dir))
-    write_skipped_csv((write_to or out_dir) / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps)
+    if window is not None:
+        rows = rows[window.mask(rows[:, 0], session.fps)]
+    write_skipped_csv((write_to or out_dir) / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps, bom=bom)
     return skipped_records(rows, session.camera_names, session.fps)
 
 
