@@ -34,11 +34,15 @@ def user_lines(err: str) -> list[str]:
             and TASK_INPUTS_WARNING not in ln]
 
 
-def ground_truth_tracks(session: Path, out: Path) -> int:
+def ground_truth_tracks(session: Path, out: Path, headless_frames: int = 0) -> int:
     """A tracks table written from the simulated session's ground truth (every worker seen by two
     cameras in every frame, joints known to 1 cm) into ``out``, as ``ergopose assess`` would have
-    tracked it: the stages after tracking then run without the pose network. Returns the frames."""
+    tracked it: the stages after tracking then run without the pose network. The first worker's
+    head joints are unknown in its first ``headless_frames`` frames (neck angles missing: those
+    frames are not scored). Returns the frames."""
     import numpy as np
+
+    from ergopose.keypoints import JOINT_INDEX
 
     from ergopose.pipeline.store import ResultStore
     from ergopose.recon.pipeline import TrackFrames
@@ -49,7 +53,11 @@ def ground_truth_tracks(session: Path, out: Path) -> int:
     n_frames, n_workers = gt.joints_world.shape[:2]
     frame = np.repeat(np.arange(n_frames), n_workers)
     index = np.tile(np.arange(n_workers), n_frames)
-    pts = gt.joints_world[frame, index]
+    pts = gt.joints_world[frame, index].copy()
+    head = [JOINT_INDEX[k] for k in ("nose", "left_eye", "right_eye", "left_ear", "right_ear", "mouth_left",
+                                     "mouth_right", "left_eye_inner", "left_eye_outer", "right_eye_inner",
+                                     "right_eye_outer")]
+    pts[np.ix_((index == 0) & (frame < headless_frames), head)] = np.nan
     n, j = pts.shape[:2]
     tf = TrackFrames(worker=(index + 1).astype(np.int64), frame=frame.astype(np.int64), time_s=frame / gt.fps,
                      points_world=pts, raw_points_world=pts.copy(), confidence=np.full((n, j), 0.9),
