@@ -9,6 +9,7 @@ from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
 from ergopose.pipeline.assess import AssessOptions, assess
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
+from ergopose.ergonomics.shares import HIGH_WORDS, format_percent, shift_high_risk
 from ergopose.report.pages import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
@@ -41,6 +42,13 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--max-bad-frames", type=float, default=0.2, metavar="SHARE",
                    help="share of a piece of video (--chunk-seconds) that may be unreadable and skipped; "
                         "more is an error naming the video and the time (default 0.2)")
+    p.add_argument("--start", default=None, metavar="TIME",
+                   help="assess from this time on: clock time HH:MM[:SS] of the session's day (its recorded_at), "
+                        "or seconds from its start (default: the start)")
+    p.add_argument("--end", default=None, metavar="TIME",
+                   help="assess up to this time (same forms as --start; default: the end)")
+    p.add_argument("--csv-bom", action="store_true",
+                   help="write the CSV files with a UTF-8 byte order mark, so Excel reads names in any script")
     p.set_defaults(func=run)
     return p
 
@@ -52,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"expected a share between 0 and 1, got {args.max_bad_frames}", field="--max-bad-frames")
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,
                             model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames,
-                            model=args.model)
+                            model=args.model, start=args.start, end=args.end, csv_bom=args.csv_bom)
     result = assess(args.session, options, progress=ProgressBars())
     print_result(result)
     return 0
@@ -81,8 +89,10 @@ def worker_lines(w) -> list[str]:
         causes = "; ".join(f"{ca.cause} {fmt_duration(ca.time_s)} ({fmt_percent(ca.time_s, total)})" for ca in c.causes)
         lines.append(f"    {CONFIDENCE_WORDS[c.level]}: {fmt_duration(c.time_s)} ({fmt_percent(c.time_s, total)} of "
                      f"tracked time)" + (f": {causes}" if causes else ""))
-    for label, col in (("RULA action level 3-4", "rula_action_level"), ("REBA high/very high", "reba_risk_level")):
-        high, scored = s.high_time_s(col), s.scored_time_s(col)
-        lines.append(f"    {label}: {fmt_duration(high)} = {fmt_percent(high, total)} of tracked time, "
-                     f"{fmt_percent(high, scored)} of scored time ({fmt_duration(scored)} scored)")
+    for method in ("rula", "reba"):  # the shares of the report's headline and session_summary.csv
+        r = shift_high_risk(s, method)
+        lines.append(f"    {HIGH_WORDS[method]}: {fmt_duration(r.high_s)} = {format_percent(r.pct_of_tracked)} of tracked "
+                     f"time, {format_percent(r.pct_of_scored)} of scored time ({fmt_duration(r.scored_s)} scored; "
+                     f"not scored {fmt_duration(r.unscored_s)} = {format_percent(r.unscored_pct_of_tracked)} of "
+                     f"tracked time" + (", causes above)" if r.unscored_s > 0 and s.confidence else ")"))
     return lines

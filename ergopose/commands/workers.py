@@ -37,6 +37,8 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="name a tracked id (repeatable): a [workers.<id>] key of settings.toml, its name, or any name")
     p.add_argument("--rescore", action="store_true",
                    help="score the stored tracks again with the current settings (no video work)")
+    p.add_argument("--csv-bom", action="store_true",
+                   help="with --name/--rescore: CSV files with a UTF-8 byte order mark (Excel)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
     return p
@@ -47,10 +49,11 @@ def run(args: argparse.Namespace) -> int:
     if args.name or args.rescore:
         given = names.parse_name_args(args.name)
         if given:
-            outputs = rescore.rename(args.session, given, args.results, progress)
+            outputs = rescore.rename(args.session, given, args.results, progress, bom=args.csv_bom)
         else:
             session = load_session(args.session, check_videos=False)
-            outputs = rescore.rescore(session, rescore.results_folder(args.session, args.results), progress)
+            outputs = rescore.rescore(session, rescore.results_folder(args.session, args.results), progress,
+                                      bom=args.csv_bom)
         for w in outputs.workers:
             shown = f" ({w.name})" if w.name != w.worker_id else ""
             print(f"  {w.worker_id}{shown}")

@@ -1,7 +1,7 @@
 """Compare an assessed simulated session with its ground truth (docs/evaluation.md).
 
 :func:`evaluate_results` reads what ``ergopose assess`` wrote (the tracks table and the per-worker
-frames CSV files, :class:`ResultsLayout`), the session and its ``ground_truth/`` folder, and returns
+steps CSV files, :class:`ResultsLayout`), the session and its ``ground_truth/`` folder, and returns
 an :class:`Evaluation`: identity matching and switches, detection rate, 3D joint errors (MPJPE) per
 joint and lens region, limb-length errors and reconstruction frequencies, joint-angle errors, the
 agreement of RULA and REBA with the scores of the ground-truth angles, and the reference-bar check.
@@ -40,6 +40,7 @@ from scipy.optimize import linear_sum_assignment
 from ergopose.atomic import write_text
 from ergopose.calibration.check import DEFAULT_RING_BOUNDS_DEG
 from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
@@ -96,8 +97,9 @@ NETWORK_SOURCE = "pose network (ergopose assess)"
 class ResultsLayout:
     """Where an assessment's outputs are.
 
-    root: the results folder; tracks: the tracks table (Parquet); csv_dir: the per-worker frames
-    CSV files, named ``<csv_prefix><worker>_frames.csv``.
+    root: the results folder; tracks: the tracks table (Parquet); csv_dir: the per-worker steps
+    CSV files (every angle and RULA/REBA step per frame; docs/csv-columns.md), named
+    ``<csv_prefix><worker>_steps.csv``.
     """
 
     root: Path
@@ -112,7 +114,7 @@ class ResultsLayout:
         return cls(root=root, tracks=root / "pipeline" / "tracks.parquet", csv_dir=root / "csv")
 
     def frames_csv(self, worker: str) -> Path:
-        return self.csv_dir / f"{self.csv_prefix}{worker}_frames.csv"
+        return self.csv_dir / f"{self.csv_prefix}{worker}{STEPS_SUFFIX}"
 
 
 @dataclass(frozen=True)
@@ -570,17 +572,17 @@ def _length_error(e: np.ndarray) -> dict:
             "rmse_mm": _r(np.sqrt(np.mean(v * v)), 2), "p95_abs_mm": _r(np.percentile(np.abs(v), 95), 2)}
 
 
-# --------------------------------------------------------------------------------- frames CSV files
+# --------------------------------------------------------------------------------- steps CSV files
 
 
 def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
     path = layout.frames_csv(worker)
     if not path.is_file():
-        raise InputError(f"the frames CSV of {worker} is missing (the tracks table has this worker)", path=path)
+        raise InputError(f"the steps CSV of {worker} is missing (the tracks table has this worker)", path=path)
     try:
         frame = pd.read_csv(path, low_memory=False)
     except (OSError, ValueError) as exc:
-        raise InputError(f"cannot read the frames CSV ({exc})", path=path) from None
+        raise InputError(f"cannot read the steps CSV ({exc})", path=path) from None
     for col in ("frame",) + tuple(SCORE_SCALES):
         if col not in frame.columns:
             raise InputError(f"column {col!r} is missing (docs/csv-columns.md)", path=path)
@@ -589,7 +591,7 @@ def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
 
 def _worker_frames(inp: _Inputs, layout: ResultsLayout,
                    person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
-    """{worker: (frames CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
+    """{worker: (steps CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
     every tracked worker matched to a simulated worker in at least one frame."""
     tf = inp.tracks
     out = {}
@@ -642,7 +644,7 @@ def _built_angles(gt, columns: Sequence[str]) -> dict[str, np.ndarray]:
 
 
 def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
-    """Tracked posture angles (frames CSV, degrees) against the angles the motion was built from."""
+    """Tracked posture angles (steps CSV, degrees) against the angles the motion was built from."""
     gt = inp.gt
     columns = [c for c in ANGLE_COLUMNS if c in gt.postures.columns]
     built = _built_angles(gt, columns)
@@ -673,7 +675,7 @@ def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
         pooled.append(d[np.isfinite(d)])
     allv = np.concatenate(pooled) if pooled else np.zeros(0)
     return {
-        "definition": ("frames CSV angle (degrees, 2 decimals) minus the angle the simulated motion was built from "
+        "definition": ("steps CSV angle (degrees, 2 decimals) minus the angle the simulated motion was built from "
                        "(ground_truth/postures.parquet) of the simulated worker the row is matched to in that "
                        "frame; differences wrapped to [-180, 180); angles NaN in the CSV (not measured) are counted "
                        "as missing; rows matched to nobody are left out (rows_unmatched)"),
@@ -775,7 +777,7 @@ def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
                 pairs[c][2].append(edge[frames])
     reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
     out: dict[str, Any] = {
-        "definition": ("scores of the frames CSV (the pipeline's) against the scores of the ground-truth posture of "
+        "definition": ("scores of the steps CSV (the pipeline's) against the scores of the ground-truth posture of "
                        "the matched worker (built angles; stance flags and the other unrecorded inputs from the true "
                        "joints) of the simulated worker the row is matched to in that frame, scored by "
                        "ergopose.ergonomics.scoring.score_posture (over that worker's whole simulated shift) with the "

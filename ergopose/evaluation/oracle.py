@@ -9,7 +9,7 @@ and RULA/REBA with :func:`ergopose.pipeline.stages.score_worker`) measures geome
 smoothing apart from the network.
 
 Everything written is labelled ORACLE: the folder ``OUT/oracle/``, a ``README_ORACLE.txt`` in it,
-the file names (``ORACLE_tracks.parquet``, ``ORACLE_<worker>_frames.csv``), the tracks table's
+the file names (``ORACLE_tracks.parquet``, ``ORACLE_<worker>_steps.csv``), the tracks table's
 metadata (``source``) and the evaluation JSON. These numbers describe the stages after 2D pose
 with a known 2D error; they are never a measurement of ergopose on video.
 """
@@ -23,7 +23,7 @@ from typing import Iterator
 import numpy as np
 
 from ergopose.atomic import atomic_dir, write_text
-from ergopose.ergonomics.export import write_worker_frames_csv
+from ergopose.ergonomics.export import write_worker_steps_csv
 from ergopose.errors import InputError
 from ergopose.evaluation.compare import ResultsLayout
 from ergopose.pipeline.guard import fingerprint_of
@@ -134,7 +134,7 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
             wid = ident.rename(tracked)
             report(progress, "oracle scoring", k, len(workers), unit="worker", message=wid)
             scored = score_worker(session, tracks.worker_rows(w), wid, scoring, diagnostics[tracked])
-            write_worker_frames_csv(tmp / "csv" / f"{PREFIX}{wid}_frames.csv", scored.frames)
+            write_worker_steps_csv(tmp / "csv" / f"{PREFIX}{wid}_steps.csv", scored.frames)
         report(progress, "oracle scoring", len(workers), len(workers), unit="worker")
         write_text(tmp / README, _readme(options, session, len(workers), summary.seconds))
     return layout
@@ -156,5 +156,5 @@ def _readme(options: OracleOptions, session, workers: int, seconds: float) -> st
         "those stages, never\nergopose on video.\n\n"
         f"session: {session.path}\ntracked workers: {workers}\nreconstruction time: {seconds:.1f} s\n\n"
         f"pipeline/{PREFIX}tracks.parquet   the tracks table (metadata source = \"oracle\")\n"
-        f"csv/{PREFIX}<worker>_frames.csv   posture and every RULA/REBA step per frame\n"
+        f"csv/{PREFIX}<worker>_steps.csv    posture and every RULA/REBA step per frame\n"
         "evaluation.json                   the comparison with the ground truth (ergopose evaluate --oracle)\n")

@@ -22,8 +22,8 @@ Steps:
 5. Angles and scores: the reference joints (aligned) go through the product's own
    :func:`ergopose.ergonomics.angles.joint_angles` and
    :func:`ergopose.ergonomics.scoring.score_posture`, with the task inputs the assessment applied
-   (read from its frames CSV) and the session's scoring settings when ``session_dir`` is given
-   (defaults otherwise, said in the notes). The assessment's side is its frames CSV, as written.
+   (read from its steps CSV) and the session's scoring settings when ``session_dir`` is given
+   (defaults otherwise, said in the notes). The assessment's side is its steps CSV, as written.
 
 The result is a JSON-ready dictionary in the layout of the simulated evaluation
 (``angles.by_angle.NAME.mae_deg``, ``scores.rula_grand.kappa_linear``, ...) with, in addition,
@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import ScoringSettings
@@ -181,9 +182,9 @@ def _reference_joints(trc: TrcData) -> tuple[np.ndarray, dict[str, str]]:
 
 
 def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None) -> dict[int, pd.DataFrame]:
-    """{tracked worker number: its frames CSV}: by the tracked name (worker_N), by the session's
+    """{tracked worker number: its steps CSV}: by the tracked name (worker_N), by the session's
     naming (``names``), else by the unique CSV whose frames are exactly the worker's."""
-    files = sorted(layout.csv_dir.glob(f"{layout.csv_prefix}*_frames.csv"))
+    files = sorted(layout.csv_dir.glob(f"{layout.csv_prefix}*{STEPS_SUFFIX}"))
     by_frames: dict[tuple, list[str]] = {}
     cache: dict[str, pd.DataFrame] = {}
     out: dict[int, pd.DataFrame] = {}
@@ -195,13 +196,13 @@ def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None)
             continue
         if not by_frames:
             for f in files:
-                wid = f.name[len(layout.csv_prefix):-len("_frames.csv")]
+                wid = f.name[len(layout.csv_prefix):-len(STEPS_SUFFIX)]
                 csv = cache.setdefault(wid, _read_frames_csv(layout, wid))
                 by_frames.setdefault(tuple(csv["frame"].to_numpy(np.int64)), []).append(wid)
         key = tuple(np.asarray(tracks.frame[tracks.worker == w], np.int64))
         found = by_frames.get(key, [])
         if len(found) != 1:
-            raise InputError(f"cannot tell which frames CSV belongs to tracked {identity_name(w)} "
+            raise InputError(f"cannot tell which steps CSV belongs to tracked {identity_name(w)} "
                              f"({'none' if not found else 'several'} with its frames): give --session DIR so "
                              "the names the assessment gave can be re-made", path=layout.csv_dir)
         out[w] = cache[found[0]]
@@ -417,7 +418,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
         index = pd.Index(csv["frame"].to_numpy(np.int64))
         pos = index.get_indexer(f)
         if (pos < 0).any():
-            raise InputError(f"the frames CSV of {identity_name(int(w))} lacks frames of its track "
+            raise InputError(f"the steps CSV of {identity_name(int(w))} lacks frames of its track "
                              f"(first: {int(f[pos < 0][0])})", path=layout.csv_dir)
         part = csv.iloc[pos].copy()
         part["_row"] = np.flatnonzero(sel)
@@ -454,7 +455,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
         pooled.append(d[np.isfinite(d)])
     allv = np.concatenate(pooled) if pooled else np.zeros(0)
     angles = {
-        "definition": ("frames CSV angle (degrees) minus the same angle computed by ergopose.ergonomics.angles from "
+        "definition": ("steps CSV angle (degrees) minus the same angle computed by ergopose.ergonomics.angles from "
                        "the aligned reference markers at the same frame; wrapped to [-180, 180); frames where either "
                        "is not measured are counted as missing (missing_assessment, missing_reference)"),
         "rows_compared": int(len(selected)),
@@ -465,7 +466,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
     # --- scores -----------------------------------------------------------------------------------
     report(progress, "evaluation", 4, steps, unit="step", message="agreement")
     scores: dict[str, Any] = {
-        "definition": ("scores of the frames CSV against the scores of the reference's angles by "
+        "definition": ("scores of the steps CSV against the scores of the reference's angles by "
                        "ergopose.ergonomics.scoring.score_posture with the task inputs the assessment applied (its "
                        "CSV) and the scoring settings named in settings_source; per-part columns are the RULA/REBA "
                        "step scores of docs/csv-columns.md"),

@@ -31,6 +31,7 @@ from typing import Sequence
 
 from ergopose.errors import ConfigError
 from ergopose.pipeline import detect, guard, names, stages
+from ergopose.pipeline import window as part_of_day
 from ergopose.pipeline.detect import detect_chunk
 from ergopose.pipeline.stages import WorkerOutput
 from ergopose.pipeline.store import ResultStore
@@ -56,6 +57,10 @@ class AssessOptions:
         skipped; more is an error naming the video and the time.
     model: the landmark model (lite, full, heavy; None: the default), run with its card's
         confidence gates.
+    start, end: the part of the day to assess (clock time HH:MM[:SS] of the session's day, or
+        seconds from its start; :mod:`ergopose.pipeline.window`): only the chunks around it go
+        through the video work and only its frames are scored. None = the session's start / end.
+    csv_bom: write the CSV files with a UTF-8 byte order mark (Excel).
     """
 
     out_dir: Path | None = None
@@ -65,6 +70,9 @@ class AssessOptions:
     force: bool = False
     max_bad_frame_share: float = 0.2
     model: str | None = None
+    start: str | None = None
+    end: str | None = None
+    csv_bom: bool = False
 
 
 @dataclass(frozen=True)
@@ -118,6 +126,7 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
         guard.check_output_folder(options.out_dir)  # before any video is read
     report(progress, "session", 0, 1, unit="step", message="checking videos, calibration and settings")
     session = load_session(session_dir)
+    window = part_of_day.resolve(options.start, options.end, session.recorded_at, session.duration_s)
     report(progress, "session", 1, 1, unit="step")
     out_dir = Path(options.out_dir) if options.out_dir is not None else default_out_dir(session)
     guard.check_before_work(out_dir, session, options.force, progress)
@@ -143,13 +152,18 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     store = ResultStore(out_dir)
     with guard.output_faults(out_dir), store.lock():
         return _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes,
-                              progress, t_start, timings)
+                              progress, t_start, timings, window, options.csv_bom)
 
 
 def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes, progress,
-                   t_start, timings) -> AssessResult:
+                   t_start, timings, window=None, bom=False) -> AssessResult:
     store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
     ranges = detect.chunk_ranges(session.frame_count, chunk_frames)
+    frames = session.frame_count
+    if window is not None:  # the chunks that hold a frame of the window (stored as in a whole-day run)
+        first, stop = window.frame_range(session.fps)
+        ranges = [r for r in ranges if r[1] > first and r[0] < stop]
+        frames = min(stop, session.frame_count) - first
     done = store.finished(ranges, progress)
     todo = [r for r in ranges if r[0] not in done]
 
@@ -158,16 +172,16 @@ def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, 
     timings["pose"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    tracks = stages.track_session(session, store, ranges, job.recon, progress)
+    tracks = stages.track_session(session, store, ranges, job.recon, progress, window=window)
     timings["tracking"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    outputs = stages.score_and_report(session, tracks, out_dir, scoring, models, job.recon, progress)
+    outputs = stages.score_and_report(session, tracks, out_dir, scoring, models, job.recon, progress, bom=bom)
     timings["scoring_and_report"] = time.perf_counter() - t0
 
     return AssessResult(session=session.path, report_dir=out_dir, index_html=outputs.index_html,
                         session_csv=outputs.session_csv, tracks=tracks.path, workers=outputs.workers,
-                        frames=session.frame_count, chunks_total=len(ranges), chunks_reused=len(done),
+                        frames=frames, chunks_total=len(ranges), chunks_reused=len(done),
                         seconds=time.perf_counter() - t_start, stage_seconds=timings)
 
 
@@ -180,7 +194,7 @@ def _chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
 
 def _run_chunks(job, store, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int,
                 progress: ProgressCallback | None) -> None:
-    total_frames = ranges[-1][1] if ranges else 0
+    total_frames = sum(stop - start for start, stop in ranges)  # the chunks of this run (a window: some)
     done_frames = sum(stop - start for start, stop in ranges) - sum(stop - start for start, stop in todo)
     msg = f"{already} of {len(ranges)} chunks already done" if already else ""
     report(progress, "pose", done_frames, total_frames, unit="frame", message=msg)

@@ -24,6 +24,7 @@ import pyarrow.parquet as pq
 from ergopose.atomic import write_text
 from ergopose.errors import InputError
 from ergopose.pipeline import guard, names, stages
+from ergopose.pipeline import window as part_of_day
 from ergopose.pipeline.store import ResultStore
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, DEFAULT_LANDMARK_MODEL, MODEL_CARDS, landmark_card
 from ergopose.progress import ProgressCallback, warn
@@ -151,7 +152,7 @@ def _models(folder: Path | None = None) -> tuple:
 
 
 def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Path | None = None,
-           progress: ProgressCallback | None = None):
+           progress: ProgressCallback | None = None, *, bom: bool = False):
     """Store names for tracked ids (``{tracked id: alias}``; an empty alias removes the name) in
     the session's names.toml and score the stored tracks again under them.
 
@@ -179,7 +180,7 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
             mapping.pop(t, None)
     names.write_names(session.path, mapping)
     try:
-        return rescore(session, folder, progress)
+        return rescore(session, folder, progress, bom=bom)
     except BaseException:
         if before is None:
             path.unlink(missing_ok=True)
@@ -188,13 +189,27 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
         raise
 
 
-def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None):
-    """Score the stored tracks of ``folder`` again with the session's settings and names (no video)."""
+def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None, *, bom: bool = False):
+    """Score the stored tracks of ``folder`` again with the session's settings and names (no video);
+    bom: CSV files with a UTF-8 byte order mark (Excel)."""
     store = ResultStore(folder)
     with guard.output_faults(folder), store.lock():
         tracks = stages.stored_tracks(store.tracks_path)
         return stages.score_and_report(session, tracks, folder, stages.scoring_settings(session), _models(folder), None,
-                                       progress)
+                                       progress, bom=bom)
+
+
+def rescore_window(session: Session, folder: Path, window, progress: ProgressCallback | None = None, *,
+                   bom: bool = False):
+    """Score the stored tracks of ``folder`` again for a part of the day (``window``: an
+    :class:`ergopose.pipeline.window.Window`) into ``folder/part-HHMM-HHMM`` (CSV files, stored
+    results, pages; replaced whole), leaving the whole day's outputs as they are. No video."""
+    store = ResultStore(folder)
+    out = Path(folder) / part_of_day.folder_name(window, session.recorded_at)
+    with guard.output_faults(out), store.lock():
+        tracks = stages.stored_tracks(store.tracks_path)
+        return stages.score_and_report(session, tracks, out, stages.scoring_settings(session), _models(folder), None,
+                                       progress, bom=bom, window=window, store_dir=Path(folder))
 
 
 def warn_unused(session: Session, people, progress: ProgressCallback | None) -> list[str]:
@@ -206,5 +221,6 @@ def warn_unused(session: Session, people, progress: ProgressCallback | None) -> 
     return unused
 
 
-__all__ = ["TrackedPerson", "tracked_people", "results_folder", "rename", "rescore", "tracked_ids", "clock",
+__all__ = ["TrackedPerson", "tracked_people", "results_folder", "rename", "rescore", "rescore_window", "tracked_ids",
+           "clock",
            "warn_unused"]

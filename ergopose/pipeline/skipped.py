@@ -40,8 +40,10 @@ def skipped_in_store(store) -> np.ndarray:
     return np.concatenate(rows)
 
 
-def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Sequence[str], fps: float) -> Path:
-    """csv/frames_skipped.csv from :func:`skipped_in_store` rows (written atomically)."""
+def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Sequence[str], fps: float, *,
+                      bom: bool = False) -> Path:
+    """csv/frames_skipped.csv from :func:`skipped_in_store` rows (written atomically; bom: with a UTF-8
+    byte order mark)."""
     table = pd.DataFrame({
         "camera": [camera_names[int(c)] for c in skipped[:, 1]],
         "frame": skipped[:, 0],
@@ -49,7 +51,7 @@ def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Seque
         "reason": [_REASONS.get(int(k), "cannot be read") for k in skipped[:, 2]],
     })
     with atomic_path(path) as tmp:
-        table.to_csv(tmp, index=False, lineterminator="\n")
+        table.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8-sig" if bom else "utf-8")
     return Path(path)
 
 

@@ -29,18 +29,20 @@ from ergopose.ergonomics import task_inputs as T
 from ergopose.ergonomics import uncertainty as U
 from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
-from ergopose.ergonomics.export import FramesCsvWriter, write_session_summary_csv, write_worker_summary_csv
+from ergopose.ergonomics.export import (FRAMES_SUFFIX, SUMMARY_SUFFIX, FramesCsvWriter, StepsCsvWriter, steps_path,
+                                        write_session_summary_csv, write_worker_summary_csv)
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import from_mapping
 from ergopose.errors import ConfigError, InputError
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.names import (NAMES_FILE, load_names, merge_rows, resolve_naming, tracker_number,
                                      unused_message, unused_task_inputs)
-from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, block_sizes
+from ergopose.pipeline.scoring import ShiftReferences, WorkerScorer, _take, block_sizes
 from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
 from ergopose.pipeline.store import ResultStore, file_fingerprint
-from ergopose.pose.models import BLAZEPOSE_DETECTOR, ensure_model, landmark_card, model_card
+from ergopose.pipeline.window import Window, describe
+from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, landmark_card, model_card
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.recon.pipeline import ShiftReconstruction
 from ergopose.recon.session import worker_summary
@@ -146,15 +148,24 @@ class Tracks:
     #: tracker numbers scored as one worker: {member: the group's first member}
     #: (ergopose.pipeline.names.Naming.groups); ``workers`` then holds the groups' first members
     groups: dict = dataclasses.field(default_factory=dict)
+    #: the part of the day assessed (``ergopose assess --start/--end``; stored in the table's
+    #: metadata): scoring keeps the frames within it; None = every frame of the table
+    window: Window | None = None
 
 
 def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon,
-                  progress: ProgressCallback | None) -> Tracks:
-    """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet)."""
-    shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras)
+                  progress: ProgressCallback | None, window: Window | None = None) -> Tracks:
+    """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet).
+
+    ranges: consecutive chunks (all of the session, or those around ``window``: the part of the
+    day assessed, stored in the table's metadata for the scoring)."""
+    shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras,
+                                first_frame=ranges[0][0] if ranges else 0)
     refs = ShiftReferences(recon)
     with TracksWriter(store.tracks_path, fps=session.fps, cameras=session.camera_names,
                       settings=recon.as_dict()) as writer:
+        if window is not None:
+            writer.meta["window"] = window.as_dict()
         for k, (start, stop) in enumerate(ranges):
             chunk = store.load_chunk(start, stop)
             if chunk is None:
@@ -172,7 +183,7 @@ def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], re
         rows = writer.rows
     report(progress, "tracking", len(ranges) + 1, len(ranges) + 1, unit="chunk")
     return Tracks(path=store.tracks_path, worker_summary=summary, references=refs,
-                  workers=tuple(refs.limbs.workers()), rows=rows)
+                  workers=tuple(refs.limbs.workers()), rows=rows, window=window)
 
 
 def stored_tracks(path: Path, groups: dict | None = None, progress: ProgressCallback | None = None) -> Tracks:
@@ -191,7 +202,8 @@ def stored_tracks(path: Path, groups: dict | None = None, progress: ProgressCall
         refs.add(merge_rows(part, groups))
         rows += len(part)
     return Tracks(path=Path(path), worker_summary=dict(meta.get("workers") or {}), references=refs,
-                  workers=tuple(refs.limbs.workers()), rows=rows, groups=groups)
+                  workers=tuple(refs.limbs.workers()), rows=rows, groups=groups,
+                  window=Window.from_dict(meta.get("window")))
 
 
 def regroup(tracks: Tracks, groups: dict) -> Tracks:
@@ -199,7 +211,8 @@ def regroup(tracks: Tracks, groups: dict) -> Tracks:
     there is nothing to merge)."""
     if groups == tracks.groups:
         return tracks
-    return dataclasses.replace(stored_tracks(tracks.path, groups), worker_summary=tracks.worker_summary)
+    return dataclasses.replace(stored_tracks(tracks.path, groups), worker_summary=tracks.worker_summary,
+                               window=tracks.window)
 
 
 def read_track_parts(path: Path):
@@ -332,9 +345,13 @@ class _WorkerSink:
     (eight numbers per frame, the only per-frame data kept in memory)."""
 
     def __init__(self, stack, worker_id: str, csv_path: Path, scored_path: Path, scoring, fps: float,
-                 limb_medians_m: np.ndarray) -> None:
+                 limb_medians_m: np.ndarray, *, recorded_at: dt.datetime | None = None, name: str | None = None,
+                 bom: bool = False) -> None:
         self.worker_id = worker_id
-        self.csv = stack.enter_context(FramesCsvWriter(csv_path))
+        csv_path = Path(csv_path)
+        self.csv = stack.enter_context(FramesCsvWriter(csv_path, recorded_at=recorded_at, name=name, bom=bom,
+                                                       parquet=csv_path.with_suffix(".parquet")))
+        self.steps = stack.enter_context(StepsCsvWriter(steps_path(csv_path), bom=bom))
         self.scored_path = scored_path
         self._scored_tmp = stack.enter_context(atomic_path(scored_path))
         self._stack = stack
@@ -348,6 +365,7 @@ class _WorkerSink:
 
     def write(self, frames: pd.DataFrame, rows) -> None:
         self.csv.write(frames)
+        self.steps.write(frames)
         self.acc.add(frames, getattr(rows, "inferred", None))
         if self._schema is None:
             self._schema = pa.Schema.from_pandas(frames, preserve_index=False)
@@ -385,8 +403,18 @@ class ReportWorker:
     reliable_frames: int
 
 
+def _within(tracks: Tracks, fps: float) -> Tracks:
+    """``tracks`` with only the workers that have a row within its window."""
+    first, stop = tracks.window.frame_range(fps)
+    table = pq.read_table(tracks.path, columns=["worker"], filters=[("frame", ">=", first), ("frame", "<", stop)])
+    present = {tracker_number(str(w)) for w in pc.unique(table.column("worker")).to_pylist()}
+    keep = tuple(w for w in tracks.workers if w in present or any(g == w for m, g in tracks.groups.items()
+                                                                   if m in present))
+    return dataclasses.replace(tracks, workers=keep)
+
+
 def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident,
-                 progress: ProgressCallback | None) -> list[ReportWorker]:
+                 progress: ProgressCallback | None, *, bom: bool = False) -> list[ReportWorker]:
     """Every tracked worker scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
     from one pass over the tracks table: the per-frame CSV files are written as it goes; returns
     what the report needs."""
@@ -402,8 +430,9 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
             tracked = identity_name(w)
             wid = ident.rename(tracked)
             ref = tracks.references.shoulder_reference_m(w)
-            sink = _WorkerSink(stack, wid, csv_dir / f"{wid}_frames.csv", scored_dir / f"{tracked}.parquet",
-                               scoring, session.fps, tracks.references.limb_medians_m(w))
+            sink = _WorkerSink(stack, wid, csv_dir / f"{wid}{FRAMES_SUFFIX}", scored_dir / f"{tracked}.parquet",
+                               scoring, session.fps, tracks.references.limb_medians_m(w),
+                               recorded_at=session.recorded_at, name=session.display_name(wid), bom=bom)
             sinks[w] = sink
 
             def score(rows, wid=wid, ref=ref):
@@ -414,6 +443,10 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
         if tracks.workers:
             for part in read_track_parts(tracks.path):
                 part = merge_rows(part, tracks.groups)
+                if tracks.window is not None:
+                    part = _take(part, tracks.window.mask(part.frame, session.fps))
+                    if not len(part):
+                        continue
                 for w in np.unique(part.worker):
                     scorers[int(w)].add(part.worker_rows(int(w)))
                 frontier = int(part.frame[-1])  # frames before the last one of a part are complete
@@ -508,14 +541,22 @@ def _joints_at(tracks_path: Path, tracked: tuple[str, ...], peaks: pd.DataFrame,
 
 
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
-                     progress: ProgressCallback | None) -> Outputs:
+                     progress: ProgressCallback | None, *, bom: bool = False, window: Window | None = None,
+                     store_dir: Path | None = None) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report.
 
     Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
     (:mod:`ergopose.pipeline.names`); settings ids whose task inputs reach nobody are named in a
     warning and in the report. Everything is written to a folder beside the outputs and swapped
     into place when complete (:func:`swap_outputs`): a failure leaves the earlier outputs whole.
+
+    bom: CSV files with a UTF-8 byte order mark (Excel). window: score only the frames of this part
+    of the day (default: the tracks' own window, ``ergopose assess --start/--end``; else all);
+    only the workers tracked within it are reported. store_dir: the folder whose stored chunks name
+    the skipped video frames (default ``out_dir``).
     """
+    if window is not None:
+        tracks = dataclasses.replace(tracks, window=window)
     measured = {name: info.get("stature_estimate_m") for name, info in tracks.worker_summary.items()}
     tracked = [identity_name(w) for w in sorted(set(tracks.workers) | set(tracks.groups))]
     given = load_names(session.path)
@@ -526,6 +567,8 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
                        f"with 'ergopose workers --session {session.path}'")
     naming = resolve_naming(session, tracked, given, measured)
     tracks = regroup(tracks, naming.groups())
+    if tracks.window is not None:
+        tracks = _within(tracks, session.fps)
     session = naming.session(session)
     unused = unused_task_inputs(session, sorted(naming.members))
     if unused:
@@ -534,23 +577,29 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
     out_dir.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".outputs.", suffix=".tmp", dir=out_dir))
     try:
-        scored = score_tracks(session, tracks, stage, scoring, naming, progress)
+        scored = score_tracks(session, tracks, stage, scoring, naming, progress, bom=bom)
         csv_dir = stage / CSV_DIR
         csv_dir.mkdir(parents=True, exist_ok=True)
         csv_files: dict[str, list[tuple[str, str]]] = {}
         outputs = []
         for s in scored:
-            frames_csv = out_dir / CSV_DIR / f"{s.worker_id}_frames.csv"
-            summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}_summary.csv", s.summary)
-            csv_files[s.worker_id] = [("Scores and angles per frame (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
+            frames_csv = out_dir / CSV_DIR / f"{s.worker_id}{FRAMES_SUFFIX}"
+            summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}{SUMMARY_SUFFIX}", s.summary, bom=bom)
+            csv_files[s.worker_id] = [("Angles and scores per frame, with clock time and confidence (CSV)",
+                                       f"{CSV_DIR}/{frames_csv.name}"),
+                                      ("Every RULA/REBA step per frame (CSV)", f"{CSV_DIR}/{steps_path(frames_csv).name}"),
                                       ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
             outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
                                         summary=s.summary,
-                                        csv_files=(frames_csv, out_dir / CSV_DIR / summary_csv.name)))
-        write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored})
-        skipped = _skipped_frames(session, out_dir, stage)
+                                        csv_files=(frames_csv, frames_csv.with_suffix(".parquet"), steps_path(frames_csv),
+                                                   out_dir / CSV_DIR / summary_csv.name)))
+        write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored},
+                                  names={s.worker_id: session.display_name(s.worker_id) for s in scored},
+                                  recorded_at=session.recorded_at, bom=bom)
+        skipped = _skipped_frames(session, Path(store_dir) if store_dir is not None else out_dir, stage, bom=bom,
+                                  window=tracks.window)
         index = write_report(session, scored, stage, scoring, models, csv_files, naming, progress, skipped,
-                             unused=unused)
+                             unused=unused, window=tracks.window)
         swap_outputs(stage, out_dir)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
@@ -586,18 +635,23 @@ def swap_outputs(stage: Path, out_dir: Path) -> None:
         os.replace(stage / name, out_dir / name)
 
 
-def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = None) -> tuple:
+def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = None, bom: bool = False,
+                    window: Window | None = None) -> tuple:
     """csv/frames_skipped.csv (under ``write_to``, default ``out_dir``) from the stored chunks of
-    ``out_dir``; the report's records of them."""
+    ``out_dir`` (those within ``window`` when given); the report's records of them."""
     rows = skipped_in_store(ResultStore(out_dir))
-    write_skipped_csv((write_to or out_dir) / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps)
+    if window is not None:
+        rows = rows[window.mask(rows[:, 0], session.fps)]
+    write_skipped_csv((write_to or out_dir) / CSV_DIR / SKIPPED_CSV, rows, session.camera_names, session.fps, bom=bom)
     return skipped_records(rows, session.camera_names, session.fps)
 
 
 def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
                  models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None,
-                 skipped: tuple = (), unused: Sequence[str] = ()) -> Path:
+                 skipped: tuple = (), unused: Sequence[str] = (), window: Window | None = None) -> Path:
     """Store the report results (ergopose.report.results) and render the pages.
+
+    window: the part of the day scored (named in the report's title).
 
     skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
     unused: settings ids whose task inputs reach no reported worker (every worker's assumptions
@@ -612,7 +666,7 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
         worker_records.append((summary, diag, s.timeline))
     floor = _floor_plan(session)
     info = SessionInfo(
-        session_id=session.path.resolve().name, title=session.description or "", site="",
+        session_id=session.path.resolve().name, title=_title(session, window), site="",
         start=session.recorded_at.isoformat() if session.recorded_at else None, fps=float(session.fps),
         frames=int(session.frame_count), duration_s=float(session.duration_s), ergopose_version=__version__,
         created=dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
@@ -628,6 +682,15 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, session_results(info, worker_records), progress=progress)
     return files.index
+
+
+def _title(session: Session, window: Window | None) -> str:
+    """The report's title: the session's description, and the part of the day when not all of it."""
+    title = session.description or ""
+    if window is None:
+        return title
+    part = f"part of the day: {describe(window, session.recorded_at)}"
+    return f"{title} ({part})" if title else part[0].upper() + part[1:]
 
 
 def calibration_check(session: Session):

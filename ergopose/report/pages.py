@@ -24,6 +24,8 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
+from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
+from ergopose.ergonomics.shares import format_percent, high_risk, percent
 from ergopose.keypoints import LIMBS
 from ergopose.report import svg
 from ergopose.report.context import (
@@ -447,8 +449,8 @@ LEVEL_COLOURS = {
 #: Colours of posture band scores 1, 2, 3, 4, 5+ (band score, lower is better).
 BAND_COLOURS = ("#a6d96a", "#fee08b", "#fdae61", "#f46d43", "#d73027")
 METHOD_TITLES = {"rula": "RULA", "reba": "REBA"}
-#: The levels counted as "high" on the index page and in the floor maps, per method.
-HIGH_LEVELS = {"rula": (3, 4), "reba": (3, 4)}
+#: The levels counted as "high" on the index page and in the floor maps, per method (ergopose.ergonomics.shares).
+HIGH_LEVELS = SHARE_HIGH_LEVELS
 #: Timeline bin widths (seconds) the report chooses from: the smallest giving at most MAX_BINS bins.
 BIN_CHOICES_S = (1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600)
 MAX_BINS = 480
@@ -522,9 +524,7 @@ def fmt_duration(seconds: float) -> str:
 
 def fmt_percent(part: float, whole: float) -> str:
     """A share as "12.3 %" (one decimal; "0.0 %" for nothing, "n/a" when whole is 0)."""
-    if not (whole > 0) or not math.isfinite(part):
-        return "n/a"
-    return f"{100.0 * part / whole:.1f} %"
+    return format_percent(percent(part, whole))
 
 
 def _parse_start(start: str | None) -> _dt.datetime | None:
@@ -696,12 +696,12 @@ def headline(summary: WorkerSummary, method: MethodInfo) -> MethodHeadline:
                              time=fmt_duration(t), percent=fmt_percent(t, total), colour=colours[lv.level]))
     unscored = summary.unscored_s.get(method.name, 0.0)
     high = [lv for lv in method.action_levels if lv.level in HIGH_LEVELS[method.name]]
-    high_s = sum(secs.get(lv.level, 0.0) for lv in high)
+    risk = high_risk(method.name, total, secs, unscored)  # the terminal's and session_summary.csv's figures
     names = " or ".join(lv.label for lv in high)
-    scored = total - unscored
-    key = (f"{fmt_percent(high_s, total)} of the tracked time ({fmt_duration(high_s)}) at {METHOD_TITLES[method.name]} "
-           f"level {names}, {fmt_percent(high_s, scored)} of the scored time ({fmt_duration(scored)} scored, "
-           f"{fmt_duration(unscored)} not scored): {high[0].wording}." if high else "")
+    key = (f"{format_percent(risk.pct_of_tracked)} of the tracked time ({fmt_duration(risk.high_s)}) at "
+           f"{METHOD_TITLES[method.name]} level {names}, {format_percent(risk.pct_of_scored)} of the scored time "
+           f"({fmt_duration(risk.scored_s)} scored, {fmt_duration(risk.unscored_s)} not scored): {high[0].wording}."
+           if high else "")
     return MethodHeadline(method=METHOD_TITLES[method.name], title=method.title, levels=tuple(rows),
                           unscored_time=fmt_duration(unscored), unscored_percent=fmt_percent(unscored, total),
                           key_fact=key)
@@ -1164,10 +1164,8 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
         info, summ, d = res.info, res.summary, res.diagnostics
         who = display_name(info.worker_id, info.name)
         verdict = quality_verdict(d, session.calibration)
-        highs = {}
-        for m in ("rula", "reba"):
-            secs = level_seconds(summ, m)
-            highs[m] = fmt_percent(sum(secs.get(lv, 0.0) for lv in HIGH_LEVELS[m]), summ.observed_s)
+        highs = {m: format_percent(high_risk(m, summ.observed_s, level_seconds(summ, m),
+                                             summ.unscored_s.get(m, 0.0)).pct_of_tracked) for m in ("rula", "reba")}
         conf = {c.level: fmt_percent(c.seconds, summ.observed_s) for c in summ.confidence}
         rows.append(WorkerRow(
             display_name=who, page=Link(href=quote(worker_page_name(info.worker_id)), text=who, note=""),

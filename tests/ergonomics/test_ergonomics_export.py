@@ -12,7 +12,7 @@ import pytest
 from ergopose.ergonomics.aggregate import aggregate_shift
 from ergopose.ergonomics.export import (WORKER_SUMMARY_COLUMNS, session_summary_table, write_scores_csv,
                                         write_session_summary_csv, write_worker_frames_csv,
-                                        write_worker_summary_csv)
+                                        write_worker_steps_csv, write_worker_summary_csv)
 from ergopose.ergonomics.scoring import reba_columns, rula_columns, score_posture
 
 REPO = Path(__file__).resolve().parents[2]
@@ -35,9 +35,9 @@ def _frames(seconds: float = 130.0) -> pd.DataFrame:
     return pd.concat([frame, scores], axis=1).assign(worker="w7")
 
 
-def test_worker_frames_csv_in_degrees_with_every_score(tmp_path):
+def test_worker_steps_csv_in_degrees_with_every_score(tmp_path):
     frames = _frames()
-    path = write_worker_frames_csv(tmp_path / "w7.csv", frames)
+    path = write_worker_steps_csv(tmp_path / "w7.csv", frames)
     back = pd.read_csv(path)
     assert list(back.columns[:2]) == ["worker", "time_s"]
     assert "left_upper_arm_flexion" in back.columns and "right_upper_arm_flexion" in back.columns
@@ -81,9 +81,13 @@ def test_worker_and_session_summaries(tmp_path):
     assert dist["percent"].sum() == pytest.approx(100.0, abs=0.05)
     session = pd.read_csv(write_session_summary_csv(tmp_path / "session.csv", {"w7": summary, "w8": summary}))
     assert session["worker"].tolist() == ["w7", "w7"]
-    level_pct = [c for c in session.columns if c.startswith("rula_level") and c.endswith("_pct")]
-    assert session.loc[0, level_pct].sum() + session.loc[0, "rula_missing_pct"] == pytest.approx(100.0, abs=0.05)
-    assert session.loc[0, "observed_s"] == pytest.approx(130.0)
+    level_pct = [c for c in session.columns if c.startswith("rula_level") and c.endswith("_pct_of_tracked")]
+    assert session.loc[0, level_pct].sum() + session.loc[0, "rula_unscored_pct_of_tracked"] == pytest.approx(
+        100.0, abs=0.05)
+    of_scored = [c for c in session.columns if c.startswith("rula_level") and c.endswith("_pct_of_scored")]
+    assert session.loc[0, of_scored].sum() == pytest.approx(100.0, abs=0.05)
+    assert session.loc[0, "tracked_s"] == pytest.approx(130.0)
+    assert session.loc[0, "rula_scored_s"] + session.loc[0, "rula_unscored_s"] == pytest.approx(130.0, abs=0.002)
     assert session.loc[0, "en_1005_4_trunk_side_bend_or_twist"] in ("conditionally acceptable", "not acceptable")
 
 

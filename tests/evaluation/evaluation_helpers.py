@@ -44,7 +44,7 @@ def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = 
     metres}, stored as the table's stature estimates) the workers are named after the settings'
     workers by stature, as assess does."""
     from ergopose.pipeline.identify import identify_by_stature
-    from ergopose.ergonomics.export import write_worker_frames_csv
+    from ergopose.ergonomics.export import write_worker_steps_csv
     from ergopose.pipeline.stages import score_worker, scoring_settings
     from ergopose.recon.settings import ReconSettings
     from ergopose.recon.table import TracksWriter
@@ -62,5 +62,5 @@ def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = 
     for w in tracks.workers:
         wid = ident.rename(identity_name(w))
         scored = score_worker(session, tracks.worker_rows(w), wid, scoring, None)
-        write_worker_frames_csv(out / "csv" / f"{wid}_frames.csv", scored.frames)
+        write_worker_steps_csv(out / "csv" / f"{wid}_steps.csv", scored.frames)
     return out

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.ergonomics.angles import joint_angles
-from ergopose.ergonomics.export import write_worker_frames_csv
+from ergopose.ergonomics.export import write_worker_steps_csv
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.evaluation.markers import map_markers
 from ergopose.evaluation.trc import read_trc
@@ -31,7 +31,7 @@ def trc_joints(path) -> tuple[np.ndarray, np.ndarray]:
 def make_results(out: Path, people: list[tuple[int, np.ndarray, np.ndarray]], fps: float,
                  names: dict[int, str] | None = None) -> Path:
     """people: (worker number, frames (n,), points_world (n, 33, 3)); writes OUT/pipeline/tracks.parquet
-    and OUT/csv/<name>_frames.csv (name: names[worker] or worker_<n>)."""
+    and OUT/csv/<name>_steps.csv (name: names[worker] or worker_<n>)."""
     rows = []
     for w, frames, pts in people:
         order = np.argsort(frames)
@@ -57,5 +57,5 @@ def make_results(out: Path, people: list[tuple[int, np.ndarray, np.ndarray]], fp
         scores = score_posture(posture, with_events=True)
         name = (names or {}).get(w, identity_name(w))
         ident = pd.DataFrame({"worker": name, "frame": f})
-        write_worker_frames_csv(out / "csv" / f"{name}_frames.csv", pd.concat([ident, posture, scores], axis=1))
+        write_worker_steps_csv(out / "csv" / f"{name}_steps.csv", pd.concat([ident, posture, scores], axis=1))
     return out

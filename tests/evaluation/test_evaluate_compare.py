@@ -130,7 +130,7 @@ def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_se
     tracks = ground_truth_tracks(gt, worker_order=[1, 0])
     out = write_results(small_session, tmp_path / "right", tracks,
                         statures={"worker_1": statures["w2"], "worker_2": statures["w1"]})
-    assert sorted(p.name for p in (out / "csv").iterdir()) == ["w1_frames.csv", "w2_frames.csv"]
+    assert sorted(p.name for p in (out / "csv").iterdir()) == ["w1_steps.csv", "w2_steps.csv"]
     ev = _evaluate(small_session, out)
     m = ev["matching"]
     assert m["reported_as"] == {"worker_1": "w2", "worker_2": "w1"}
@@ -205,7 +205,7 @@ def test_changes_to_the_frames_csv_are_measured(perfect, small_session, tmp_path
     src, reference = perfect
     out = tmp_path / "out"
     shutil.copytree(src, out)
-    path = out / "csv" / "worker_1_frames.csv"
+    path = out / "csv" / "worker_1_steps.csv"
     frames = pd.read_csv(path)
     n = len(frames)
     frames["trunk_flexion"] = frames["trunk_flexion"] + 3.0
@@ -237,8 +237,8 @@ def test_missing_inputs_are_named(perfect, small_session, tmp_path):
     src, _ = perfect
     out = tmp_path / "out"
     shutil.copytree(src, out)
-    (out / "csv" / "worker_2_frames.csv").unlink()
-    with pytest.raises(InputError, match="worker_2_frames.csv"):
+    (out / "csv" / "worker_2_steps.csv").unlink()
+    with pytest.raises(InputError, match="worker_2_steps.csv"):
         _evaluate(small_session, out)
     with pytest.raises(InputError, match="tracks"):
         _evaluate(small_session, tmp_path / "nothing")

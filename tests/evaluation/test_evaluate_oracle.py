@@ -39,7 +39,7 @@ def test_oracle_outputs_are_labelled(exact_run):
     assert meta["source"] == "oracle" and meta["oracle"]["noise_px"] == 0.0
     csvs = sorted(p.name for p in (layout.root / "csv").iterdir())
     # named after the settings' workers by stature, as assess does (the simulator gives the statures)
-    assert csvs == ["ORACLE_w1_frames.csv", "ORACLE_w2_frames.csv"]
+    assert csvs == ["ORACLE_w1_steps.csv", "ORACLE_w2_steps.csv"]
     assert ev["source"].startswith("ORACLE 2D") and ev["oracle"]["banner"] == ev["source"]
 
 

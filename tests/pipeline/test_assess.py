@@ -33,8 +33,11 @@ def test_assess_writes_the_report_and_csv_files(reference, capsys):
     frames = [name for name in csvs if name.endswith("_frames.csv")]
     assert frames, "no worker was tracked"
     header = csvs[frames[0]].split(b"\n", 1)[0].decode()
-    for column in ("time_s", "trunk_flexion", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level"):
+    for column in ("time", "time_s", "name", "trunk_flexion_deg", "trunk_flexion_sd_deg", "rula_grand", "rula_grand_p",
+                   "rula_action_level", "reba_score", "reba_risk_level", "scored", "cause"):
         assert column in header.split(",")
+    steps = csvs[frames[0].replace("_frames.csv", "_steps.csv")].split(b"\n", 1)[0].decode().split(",")
+    assert "trunk_flexion" in steps and "left_rula_upper_arm_band" in steps
     html = (out / "index.html").read_text()
     assert "worker_1" in html and "<script" not in html
     assert (out / "pipeline" / "tracks.parquet").exists()
@@ -212,3 +215,21 @@ def test_assessed_report_in_chromium(reference, tmp_path):
             cell = result["shares"][f"{method}-{k}"]
             assert cell["text"] == f"{100.0 * np.sum(lv == k) / len(lv):.1f} %"
             assert cell["shown"]
+
+
+def test_assess_a_part_of_the_day(reference, tiny_session, fetched_model_dir, tmp_path):
+    """--start/--end: only the chunks around the window go through the video work (stored as a
+    whole-day run stores them), and only the window's frames are scored."""
+    import pandas as pd
+
+    out = tmp_path / "report"
+    assert cli.main(_assess_args(tiny_session, out, fetched_model_dir[0], "--start", "1", "--end", "2")) == 0
+    chunks = sorted(p.name for p in (out / "pipeline" / "chunks").glob("chunk_*.npz"))
+    assert chunks == ["chunk_000000012.npz", "chunk_000000018.npz"]  # chunks of 6 frames; frames 12-23
+    frames = sorted((out / "csv").glob("*_frames.csv"))
+    assert frames
+    for path in frames:
+        table = pd.read_csv(path, parse_dates=["time"])
+        assert table["frame"].between(12, 23).all() and table["time_s"].between(1.0, 2.0 - 1e-9).all()
+    summary = pd.read_csv(out / "csv" / "session_summary.csv")
+    assert (summary["tracked_s"] <= 1.0 + 1e-9).all()

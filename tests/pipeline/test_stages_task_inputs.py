@@ -140,5 +140,5 @@ def test_the_shift_summary_gives_the_share_of_the_scored_time(given):
     row = rows[(rows["section"] == "inputs") & (rows["item"] == "left_wrist_flexion")]
     assert row["value"].tolist() == ["from settings: 20 deg"] and row["count"].tolist() == [left.frames]
     table = session_summary_table([summary])
-    assert table["left_wrist_flexion_from_settings_pct"][0] == pytest.approx(round(left.percent, 2))
-    assert table["left_wrist_deviation_from_settings_pct"][0] == 0.0
+    assert table["left_wrist_flexion_from_settings_pct_of_scored"][0] == pytest.approx(round(left.percent, 2))
+    assert table["left_wrist_deviation_from_settings_pct_of_scored"][0] == 0.0

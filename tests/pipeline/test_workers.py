@@ -83,7 +83,7 @@ def copy(assessed, tmp_path):
 
 
 def _frames(out: Path, worker: str) -> pd.DataFrame:
-    return pd.read_csv(out / "csv" / f"{worker}_frames.csv", comment="#")
+    return pd.read_csv(out / "csv" / f"{worker}_steps.csv", comment="#")
 
 
 def _csv_bytes(out: Path) -> dict[str, bytes]:

@@ -116,17 +116,18 @@ def test_summary_csvs_carry_the_split(summary):
     assert wrist.loc["inferred", "percent"] == pytest.approx(60.0)
 
     row = session_summary_table([summary]).iloc[0]
-    assert (row["confident_s"], row["confident_pct"]) == pytest.approx((10.0, 50.0))
-    assert (row["low_confidence_s"], row["low_confidence_pct"]) == pytest.approx((6.0, 30.0))
-    assert (row["low_confidence_one_camera_s"], row["low_confidence_occluded_limbs_pct"]) == pytest.approx((4.0, 10.0))
+    assert (row["confident_s"], row["confident_pct_of_tracked"]) == pytest.approx((10.0, 50.0))
+    assert (row["low_confidence_s"], row["low_confidence_pct_of_tracked"]) == pytest.approx((6.0, 30.0))
+    assert (row["low_confidence_one_camera_s"], row["low_confidence_occluded_limbs_s"]) == pytest.approx((4.0, 2.0))
+    assert (row["scored_s"], row["scored_pct_of_tracked"]) == pytest.approx((16.0, 80.0))
     assert row["low_confidence_not_seen_s"] == 0.0
-    assert (row["unscored_s"], row["unscored_pct"], row["unscored_not_seen_s"]) == pytest.approx((4.0, 20.0, 3.0))
-    assert row["left_wrist_inferred_pct"] == pytest.approx(60.0)
+    assert (row["unscored_s"], row["unscored_pct_of_tracked"], row["unscored_not_seen_s"]) == pytest.approx((4.0, 20.0, 3.0))
+    assert row["left_wrist_inferred_pct_of_tracked"] == pytest.approx(60.0)
     # high risk with both bases: RULA level 3 in the frames with grand score 6
     frames, _ = _frames()
     high = float((frames["rula_action_level"] >= 3).sum()) / FPS
     assert row["rula_high_s"] == pytest.approx(high)
-    assert row["rula_high_pct"] == pytest.approx(100 * high / 20.0, abs=0.006)
+    assert row["rula_high_pct_of_tracked"] == pytest.approx(100 * high / 20.0, abs=0.006)
     assert row["rula_high_pct_of_scored"] == pytest.approx(100 * high / 16.0, abs=0.006)
 
 
@@ -171,7 +172,7 @@ def test_report_and_terminal_show_the_same_figures(summary, tmp_path: Path):
            "occluded limbs 2.0 s (10.0 %)" in terminal
     assert "not scored: 4.0 s (20.0 % of tracked time): not seen 3.0 s (15.0 %); one camera 1.0 s (5.0 %)" in terminal
     assert f"RULA action level 3-4: {'%.1f s' % rula_high} = {tracked_pct} of tracked time, {scored_pct} of scored " \
-           "time (16 s scored)" in terminal
+           "time (16 s scored; not scored 4.0 s = 20.0 % of tracked time, causes above)" in terminal
 
 
 def test_results_without_confidence_still_render(tmp_path: Path):
@@ -205,8 +206,8 @@ def test_wrist_flexion_from_the_settings_is_counted_once_and_shown_alike(tmp_pat
     assert row["value"].tolist() == ["from settings: -20 deg"]
     assert row["percent"].tolist() == [round(100.0 * used / 160, 2)] and row["count"].tolist() == [used]
     table = session_summary_table([summary])
-    assert table.loc[0, "left_wrist_flexion_from_settings_pct"] == round(100.0 * used / 160, 2)
-    assert table.loc[0, "right_wrist_flexion_from_settings_pct"] == 0.0
+    assert table.loc[0, "left_wrist_flexion_from_settings_pct_of_scored"] == round(100.0 * used / 160, 2)
+    assert table.loc[0, "right_wrist_flexion_from_settings_pct_of_scored"] == 0.0
 
     session, workers = synthetic_session(n_workers=1, duration_s=20.0, fps=FPS, gaps=False, csv=False)
     _, diag, timeline = workers[0]
