@@ -42,7 +42,7 @@ from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
 from ergopose.pipeline.store import ResultStore, file_fingerprint
 from ergopose.pipeline.window import Window, describe
-from ergopose.pose.models import BLAZEPOSE_DETECTOR, BLAZEPOSE_LANDMARK_FULL, ensure_model, landmark_card, model_card
+from ergopose.pose.models import BLAZEPOSE_DETECTOR, ensure_model, landmark_card, model_card
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.recon.pipeline import ShiftReconstruction
 from ergopose.recon.session import worker_summary
