@@ -70,7 +70,7 @@ def test_headline_numbers_come_from_the_frames(rendered_report):
 
 def test_pages_are_self_contained_and_small(rendered_report):
     folder, session, workers, files = rendered_report
-    assert set(files.sizes) == {"index.html"} | {worker_page_name(w.worker_id) for w in session.workers}
+    assert set(files.sizes) == {"index.html", "print.html"} | {worker_page_name(w.worker_id) for w in session.workers}
     for name, size in files.sizes.items():
         text = (folder / name).read_text(encoding="utf-8")
         assert len(text.encode()) == size < 3_000_000
