@@ -34,6 +34,7 @@ from ergopose.report.context import (
     MethodInfo,
     ModelInfo,
     SessionInfo,
+    WorkerInfo,
     WorkerResults,
     WorkerSummary,
 )
@@ -439,7 +440,8 @@ class WorkerRow:
     at RULA action level 3-4), reba_high (share of the tracked time at REBA high or very high),
     reliable (share with a reliable skeleton), verdict_label (confidence in words), verdict_rating
     ("good"/"fair"/"poor", for styling), csv (links to the worker's CSV files), periods (the
-    sustained periods of high risk: how many and their time at high risk)."""
+    sustained periods of high risk shown: how many, with their time at high risk in brackets;
+    "none")."""
 
     display_name: str
     page: Link
@@ -486,13 +488,15 @@ class IndexPage:
 
 @dataclass(frozen=True)
 class PrintRow:
-    """A worker in the print version's summary table: display_name, tracked (time), confident /
+    """A worker in the print version's summary table: worker_id, name (from the settings, or empty),
+    tracked (time), confident /
     low_confidence / unscored (shares of the tracked time as on the index), rula_high, reba_high
     (share of the tracked time at the high levels), periods (sustained periods of high risk: how
     many and their time at high risk), verdict_label / verdict_rating (reconstruction quality in
     words, and "good"/"fair"/"poor" for styling)."""
 
-    display_name: str
+    worker_id: str
+    name: str
     tracked: str
     confident: str
     low_confidence: str
@@ -1324,6 +1328,8 @@ def _spread(s) -> str:
     """A limb's length spread in one region: "1.2 cm (n = 3,456)", or "no data"."""
     if s is None or s.n == 0 or not (math.isfinite(s.q1_m) and math.isfinite(s.q3_m)):
         return "no data"
+    if s.n == 1:
+        return "one frame: no spread"
     return f"{100 * (s.q3_m - s.q1_m):.1f} cm (n = {s.n:,})"
 
 
@@ -1404,7 +1410,7 @@ def worker_row(res: WorkerResults, session: SessionInfo, report_dir: Path | None
     conf = {c.level: fmt_percent(c.seconds, summ.observed_s) for c in summ.confidence}
     shown = summ.worst[:MAX_PERIODS]
     if shown and all(math.isfinite(w.high_s) for w in shown):
-        periods_text = f"{len(shown)}: {fmt_duration(sum(w.high_s for w in shown))} at high risk"
+        periods_text = f"{len(shown)} ({fmt_duration(sum(w.high_s for w in shown))})"
     else:
         periods_text = f"{len(shown)}" if shown else "none"
     return WorkerRow(
@@ -1419,7 +1425,7 @@ def worker_row(res: WorkerResults, session: SessionInfo, report_dir: Path | None
 
 def session_risk_figure(workers: Sequence[WorkerResults], session: SessionInfo) -> Figure:
     """Every worker's shift by time of day, one strip each (the worse of RULA and REBA)."""
-    rows = [(display_name(r.info.worker_id, r.info.name), r.frames, None) for r in workers]
+    rows = [(f"{r.info.worker_id} {r.info.name}" if r.info.name else r.info.worker_id, r.frames, None) for r in workers]
     return risk_figure(rows, session, Clock(session.start), fig_id="fig-risk-all", label_width=170,  # type: ignore[misc]
                        title="Each worker's shift by time of day: high, medium and low risk (the worse of RULA "
                              "and REBA)")
@@ -1452,8 +1458,8 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
                      print_link=print_link(), glossary=glossary(session))
 
 
-def _print_row(r: WorkerRow) -> PrintRow:
-    return PrintRow(display_name=r.display_name, tracked=r.tracked, confident=r.confident,
+def _print_row(r: WorkerRow, info: WorkerInfo) -> PrintRow:
+    return PrintRow(worker_id=info.worker_id, name=info.name or "", tracked=r.tracked, confident=r.confident,
                     low_confidence=r.low_confidence, unscored=r.unscored, rula_high=r.rula_high, reba_high=r.reba_high,
                     periods=r.periods, verdict_label=r.verdict_label, verdict_rating=r.verdict_rating)
 
@@ -1478,7 +1484,7 @@ def build_print_page(workers: Sequence[WorkerResults], session: SessionInfo,
             worst=cards, more=(f"{left} more period{'s' if left != 1 else ''} on the worker's page." if left > 0
                                else "")))
     return PrintPage(page_title=f"Ergonomic report (print): {header.title}", session=header,
-                     workers_table=tuple(_print_row(worker_row(res, session, report_dir)) for res in workers),
+                     workers_table=tuple(_print_row(worker_row(res, session, report_dir), res.info) for res in workers),
                      risk_figure=session_risk_figure(workers, session), worst_note=worst_note(session),
                      workers=tuple(out), glossary=glossary(session))
 

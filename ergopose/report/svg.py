@@ -710,6 +710,10 @@ def risk_strips(rows: Sequence[StripRow], bin_s: float, *, x_ticks: Sequence[tup
     label) brackets above the strips (e.g. the numbered sustained periods). legend: the text of
     each category (RISK_FILLS order, then "not tracked"), drawn under the time axis."""
     n_bins = max((r.shares.shape[0] for r in rows), default=1)
+    if len(rows) > 12:  # many workers: thin strips, so a summary page holds twenty
+        strip_h, gap = min(strip_h, 8.0), min(gap, 2.0)
+    elif len(rows) > 4:
+        strip_h, gap = min(strip_h, 11.0), min(gap, 3.0)
     right = 10
     plot_w = width - label_width - right
     mark_h = 16 if marks else 0
@@ -761,7 +765,7 @@ def risk_strips(rows: Sequence[StripRow], bin_s: float, *, x_ticks: Sequence[tup
         out.append(f'<rect x="{_n(x)}" y="{_n(legend_y - 9)}" width="11" height="11" fill="{_fill(colour, id_prefix)}" '
                    f'stroke="{MUTED}" stroke-width="0.5"/>')
         out.append(f'<text x="{_n(x + 15)}" y="{_n(legend_y)}" font-size="11">{_e(text)}</text>')
-        x += 15 + _text_width(text, 11) * 0.9 + 14
+        x += 15 + _text_width(text, 11) + 12
     return _svg(max(width, x), height, title, desc, id_prefix, out, css_class="fig strips")
 
 

@@ -286,7 +286,7 @@ def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: f
     infos, results = [], []
     for k in range(n_workers):
         wid = f"W{k + 1}"
-        body = BodyMeasurements.from_stature(1.62 + 0.08 * k)
+        body = BodyMeasurements.from_stature(1.62 + 0.08 * (k % 4))
         frames = _worker_frames(rng, duration_s, fps, stations, gaps)
         summary = _summary(wid, frames, fps, duration_s, rng, body)
         diag = _diagnostics(wid, frames, rng, body)
