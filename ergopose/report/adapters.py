@@ -363,7 +363,8 @@ def _secs(seconds: float) -> str:
 
 def _drivers(rows: Any, methods: Mapping[str, Method], frame_period_s: float, high_s: float) -> tuple[Driver, ...]:
     """Per RULA body part, its high band held longest in ``rows`` (the period's high frames); those
-    held for at least periods.DRIVER_SHARE of the period's high time, longest first."""
+    held for at least periods.DRIVER_SHARE of the period's high time, highest band score first (it
+    adds most to the score), then longest."""
     found = []
     for col in BODY_PART_COLUMNS["rula"]:
         if col not in rows.columns or not len(rows):
@@ -384,7 +385,7 @@ def _drivers(rows: Any, methods: Mapping[str, Method], frame_period_s: float, hi
         if secs >= periods.DRIVER_SHARE * high_s - 1e-9:
             crit = band_criteria(methods["rula"], part).get(band, f"score {band}")
             found.append(Driver("rula", words, band, int(top), crit, secs))
-    found.sort(key=lambda d: (-d.seconds, -d.score / d.top))
+    found.sort(key=lambda d: (-d.score, -d.seconds))  # the band adding most to the score first
     return tuple(found[:periods.MAX_DRIVERS])
 
 

@@ -227,7 +227,8 @@ class MomentCard:
     """A sustained period of high risk (ergopose.report.periods): rank (1 = most time at high
     risk), start / end (clock times), duration (start to end), high_time (time at high risk within
     it, with its share of the duration), when (clock time of the frame drawn: the posture held
-    longest), rula / reba (score at that frame with its level in words, and the period's peak),
+    longest), rula / reba (score at that frame with its level's name, "6 (AL3), up to 7" when the
+    period's highest score differs),
     drivers (the body parts in their high bands for most of it; empty when unknown), reason (the
     same in a sentence, or why there is none), figure (front and side view of the skeleton at the
     frame drawn)."""
@@ -389,8 +390,9 @@ class WorkerPage:
     timeline_note: how the timeline was downsampled. body_part_figures / body_part_rows: time per
     body part and band. holds: longest holds. repetitions: repetitive movements. worst: the
     sustained periods of high risk (what to act on), ranked, with skeleton drawings; worst_note:
-    the rule that finds them. risk_figure: the shift by time of day at high, medium and low risk
-    and not scored, with the periods marked. hourly_figures / hourly_tables: hourly breakdown.
+    the rule that finds them. act_summary: in a sentence, how much of the high-risk time the
+    periods hold and the body parts that drove most of them. risk_figure: the shift by time of
+    day at high, medium and low risk and not scored, with the periods marked. hourly_figures / hourly_tables: hourly breakdown.
     flags: ISO 11226 / EN 1005-4 judgements. floor_figures / floor_note: where on the floor the
     risky postures happened. quality: the quality section. assumptions: what was assumed for this
     worker. methods: the methods section. downloads: the worker's CSV and the session summary.
@@ -415,6 +417,7 @@ class WorkerPage:
     repetitions: tuple[RepetitionRow, ...]
     worst: tuple[MomentCard, ...]
     worst_note: str
+    act_summary: str
     risk_figure: Figure
     hourly_figures: tuple[Figure, ...]
     hourly_tables: tuple[HourTable, ...]
@@ -511,7 +514,8 @@ class PrintRow:
 @dataclass(frozen=True)
 class PrintWorker:
     """One worker in the print version (at most two A4 pages): worker_id, display_name, tracked
-    (sentence), headline (per method, share at each level, with its key fact), confidence_rows (tracked time by confidence), risk_figure (the shift by time of day), worst
+    (sentence), headline (per method, share at each level, with its key fact), act_summary (the
+    periods' share of the high-risk time and what drove them, a sentence), confidence_rows (tracked time by confidence), risk_figure (the shift by time of day), worst
     (the sustained periods, at most PRINT_PERIODS), more (sentence naming the periods left out,
     or empty)."""
 
@@ -519,6 +523,7 @@ class PrintWorker:
     display_name: str
     tracked: str
     headline: tuple[MethodHeadline, ...]
+    act_summary: str
     confidence_rows: tuple[ConfidenceRow, ...]
     risk_figure: Figure
     worst: tuple[MomentCard, ...]
@@ -1021,9 +1026,9 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
             text = "not scored"
         else:
             lv = next((x for x in meth.action_levels if x.level == level), None)
-            text = f"{score} (level {level}, {lv.label}: {lv.wording})" if lv else f"{score}"
+            text = f"{score} ({lv.label})" if lv else f"{score}"
         if peak is not None and peak != score:
-            text += f"; highest in the period {peak}"
+            text += f", up to {peak}"
         return text
 
     for k, w in enumerate(summary.worst[:limit], start=1):
@@ -1049,6 +1054,33 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
                           caption=f"Period {k} at {clock(w.peak_s)}: front view (worker's right on the left) and side "
                                   "view (seen from the worker's right). No video images are kept.")))
     return tuple(cards)
+
+
+def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIODS) -> str:
+    """How much of the worker's high-risk time the periods shown hold, and the body parts that
+    drove most of them (summed over the periods), in a sentence."""
+    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    shown = res.summary.worst[:limit]
+    high = periods.high_frames(frames["rula_action_level"].to_numpy(dtype=np.float64, na_value=np.nan),
+                               frames["reba_risk_level"].to_numpy(dtype=np.float64, na_value=np.nan))
+    high_s = float(high.sum()) / session.fps
+    if not shown:
+        return (f"No sustained period of high risk: {fmt_duration(high_s)} at high risk in all, in stretches "
+                f"shorter than {periods.MIN_DURATION_S:g} s.")
+    if not all(math.isfinite(w.high_s) for w in shown):
+        return f"{len(shown)} periods of high risk (results written before sustained periods were found)."
+    in_periods = sum(w.high_s for w in shown)
+    parts: dict[tuple, list[float]] = {}
+    for w in shown:
+        for d in w.drivers:
+            parts.setdefault((d.body_part, d.criterion, d.score, d.top), []).append(d.seconds)
+    ranked = sorted(parts.items(), key=lambda kv: (-sum(kv[1]), kv[0]))[:3]
+    drivers = "; ".join(f"{bp} {crit} (band {sc} of {top}) for {fmt_duration(sum(v))} in {len(v)} of them"
+                        for (bp, crit, sc, top), v in ranked)
+    n = len(shown)
+    return (f"The {n} sustained period{'s' if n != 1 else ''} shown hold {fmt_duration(in_periods)} of the worker's "
+            f"{fmt_duration(high_s)} at high risk ({fmt_percent(in_periods, high_s)})."
+            + (f" Body parts in a high band in them: {drivers}." if drivers else ""))
 
 
 def worst_note(session: SessionInfo) -> str:
@@ -1379,7 +1411,7 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
         headline=tuple(headline(summ, m) for m in session.methods),
         headline_figure=headline_figure(summ, session, who), timeline_figures=timeline, timeline_note=tl_note,
         body_part_figures=part_figs, body_part_rows=part_rows, holds=holds, repetitions=reps,
-        worst=worst, worst_note=worst_note(session), risk_figure=worker_risk_figure(res, session, clock),
+        worst=worst, worst_note=worst_note(session), act_summary=act_summary(res, session), risk_figure=worker_risk_figure(res, session, clock),
         hourly_figures=hourly_figs, hourly_tables=hourly_tables,
         flags=flags, floor_figures=floor_figs, floor_note=floor_note, quality=quality_section(res, session, who),
         assumptions=info.assumptions, methods=methods_section(session), downloads=downloads, print_link=print_link(),
@@ -1479,7 +1511,7 @@ def build_print_page(workers: Sequence[WorkerResults], session: SessionInfo,
             worker_id=res.info.worker_id, display_name=who,
             tracked=(f"Tracked for {fmt_duration(summ.observed_s)} of the {fmt_duration(session.duration_s)} recorded "
                      f"({fmt_percent(summ.observed_s, session.duration_s)}); shares are of the tracked time."),
-            headline=tuple(headline(summ, m) for m in session.methods),
+            headline=tuple(headline(summ, m) for m in session.methods), act_summary=act_summary(res, session),
             confidence_rows=confidence_rows(summ)[0], risk_figure=worker_risk_figure(res, session, clock, f"w{n}-"),
             worst=cards, more=(f"{left} more period{'s' if left != 1 else ''} on the worker's page." if left > 0
                                else "")))

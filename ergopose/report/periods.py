@@ -35,7 +35,8 @@ MAX_GAP_S = 2.0
 #: Periods reported per worker.
 MAX_PERIODS = 6
 #: A body part drives a period when it is in one of its two highest RULA posture bands (from band
-#: 2) for at least this share of the period's high-risk time; at most MAX_DRIVERS per period.
+#: 2) for at least this share of the period's high-risk time; at most MAX_DRIVERS per period, the
+#: highest band score first.
 DRIVER_SHARE = 0.25
 MAX_DRIVERS = 3
 _EPS = 1e-6

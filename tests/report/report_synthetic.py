@@ -182,8 +182,10 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
 
     worst = []
     for k, w in enumerate(worst_periods(frames, None, {"rula": rm, "reba": bm}, dt, joints_at)):
-        drivers = (Driver("rula", "trunk", 3, 4, "20-60 flexion", round(0.8 * w.high_s, 3)),
-                   Driver("rula", "left upper arm", 4, 4, "90 or more flexion", round(0.4 * w.high_s, 3)))[: 1 + k % 2]
+        drivers = (Driver("rula", "left upper arm", 4, 4, "90 or more flexion", round(0.4 * w.high_s, 3)),
+                   Driver("rula", "trunk", 3, 4, "20-60 flexion", round(0.8 * w.high_s, 3)),
+                   Driver("rula", "right wrist", 3, 3, "15 or more flexion or extension", round(0.3 * w.high_s, 3))
+                   )[: 1 + k % 3]
         joints = w.joints_world_m
         if k == 4 and joints is not None:  # one period with a missing forearm, as happens behind shelves
             joints = tuple((math.nan,) * 3 if j in (15, 17, 19, 21) else p for j, p in enumerate(joints))

@@ -236,3 +236,9 @@ def test_pages_show_the_sustained_periods(rendered_report):
             assert clock(w.start_s) in row and clock(w.end_s) in row and fmt_duration(w.high_s) in row
             assert w.drivers[0].body_part in row
         assert len(re.findall(r'<article class="moment" data-period=', html)) == len(summary.worst)
+        # the periods' share of all the high-risk time, counted here from the frames
+        _, _, frames = workers[session.workers.index(info)]
+        high = (frames["rula_action_level"].isin([3, 4]) | frames["reba_risk_level"].isin([3, 4])).sum() / session.fps
+        held = sum(w.high_s for w in summary.worst)
+        assert markupsafe.escape(f"hold {fmt_duration(held)} of the worker's {fmt_duration(high)} at high risk "
+                                 f"({100 * held / high:.1f} %)") in html
