@@ -48,6 +48,14 @@ def _n(x: float) -> str:
     return "0" if s in ("-0", "") else s
 
 
+def _ns(values: np.ndarray) -> list[str]:
+    """Many coordinates as _n would write them (at most two decimals, no trailing zeros), at once."""
+    v = np.round(np.asarray(values, dtype=np.float64), 2) + 0.0  # + 0.0: no "-0"
+    if not np.all(np.isfinite(v)):
+        raise ValueError("non-finite coordinate")
+    return [f"{x:.2f}".rstrip("0").rstrip(".") for x in v.tolist()]
+
+
 def relative_luminance(colour: str) -> float:
     """WCAG 2 relative luminance of a ``#rrggbb`` colour."""
     c = colour.lstrip("#")
@@ -729,16 +737,17 @@ def risk_strips(rows: Sequence[StripRow], bin_s: float, *, x_ticks: Sequence[tup
 
     out = [_hatch(id_prefix)]
     bw = plot_w / n_bins
+    bws = _n(bw)
     for c, (name, colour) in enumerate(RISK_FILLS):
         parts = []
         for i, r in enumerate(rows):
             y0 = top + i * (strip_h + gap)
             sh = np.asarray(r.shares, dtype=np.float64)
-            above = sh[:, :c].sum(axis=1) if c else np.zeros(sh.shape[0])
-            for b in np.flatnonzero(sh[:, c] > 0).tolist():
-                h = strip_h * float(sh[b, c])
-                parts.append(f"M{_n(label_width + b * bw)} {_n(y0 + strip_h * float(above[b]))}h{_n(bw)}v{_n(h)}"
-                             f"h{_n(-bw)}Z")
+            ys = y0 + strip_h * (sh[:, :c].sum(axis=1) if c else np.zeros(sh.shape[0]))
+            hs = strip_h * sh[:, c]
+            k = np.flatnonzero(hs > 0)
+            parts += [f"M{x} {y}h{bws}v{h}h-{bws}Z" for x, y, h in
+                      zip(_ns(label_width + k * bw), _ns(ys[k]), _ns(hs[k]))]
         if parts:
             out.append(f'<path d="{"".join(parts)}" fill="{_fill(colour, id_prefix)}" stroke="none">'
                        f'<title>{_e(name)}</title></path>')
