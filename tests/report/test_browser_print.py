@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from ergopose.report.pages import PRINT_FILE, worker_page_name
-from test_browser import console_messages, run_chromium
+from tests.report.test_browser import console_messages, run_chromium
 
 pytestmark = pytest.mark.browser
 
