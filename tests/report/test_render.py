@@ -137,7 +137,7 @@ def hostile_report(tmp_path_factory):
     return folder
 
 
-@pytest.mark.parametrize("page_name", ["index.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
+@pytest.mark.parametrize("page_name", ["index.html", "print.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
 def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
     text = (hostile_report / page_name).read_text(encoding="utf-8")
     page = Page(text)
