@@ -31,7 +31,7 @@ from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
 from ergopose.ergonomics.export import (FRAMES_SUFFIX, SUMMARY_SUFFIX, FramesCsvWriter, StepsCsvWriter, steps_path,
                                         write_session_summary_csv, write_worker_summary_csv)
-from ergopose.ergonomics.scoring import score_posture
+from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, score_posture
 from ergopose.ergonomics.settings import from_mapping
 from ergopose.errors import ConfigError, InputError
 from ergopose.keypoints import JOINT_INDEX
@@ -50,7 +50,7 @@ from ergopose.recon.settings import ReconSettings
 from ergopose.recon.settings import from_mapping as recon_from_mapping
 from ergopose.recon.table import TracksWriter, read_metadata, table_to_frames
 from ergopose.recon.tracking import identity_name
-from ergopose.report import adapters
+from ergopose.report import adapters, periods
 from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
 from ergopose.report.context import Assumption, DataFile, SessionInfo
 from ergopose.report.quality import reliable_frames, reliable_rule
@@ -391,14 +391,15 @@ class _WorkerSink:
 @dataclass(frozen=True)
 class ReportWorker:
     """What the report needs of one scored worker: id, shift summary, limb diagnostics, the
-    timeline (report.results.frames_table), the scored frames at the peaks of the worst episodes
-    and their joints (seconds -> (33, 3) metres), and the count of reliable frames."""
+    timeline (report.results.frames_table), the scored frames of its sustained periods of high risk
+    (ergopose.report.periods) and the joints of the frames drawn for them (seconds -> (33, 3)
+    metres), and the count of reliable frames."""
 
     worker_id: str
     summary: Any
     diagnostics: Any
     timeline: pd.DataFrame
-    peak_frames: pd.DataFrame
+    period_frames: pd.DataFrame
     joints_at: Any
     reliable_frames: int
 
@@ -461,12 +462,12 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
     for w, sink in sinks.items():
         tracked = identity_name(w)
         summary = sink.acc.result()
-        peaks = _peak_frames(sink, summary)
+        rows, drawn = _period_frames(sink, summary)
         # the diagnostics under the reported id (a stature match or names.toml renames the tracked id)
         diag = dataclasses.replace(diagnostics[tracked], worker=sink.worker_id)
         out.append(ReportWorker(worker_id=sink.worker_id, summary=summary, diagnostics=diag,
-                                timeline=_timeline(sink), peak_frames=peaks,
-                                joints_at=_joints_at(tracks.path, _members(tracks, w), peaks, session.fps),
+                                timeline=_timeline(sink), period_frames=rows,
+                                joints_at=_joints_at(tracks.path, _members(tracks, w), drawn),
                                 reliable_frames=int(sink.column("reliable").sum())))
     return out
 
@@ -479,23 +480,27 @@ def _timeline(sink: _WorkerSink) -> pd.DataFrame:
                         reliable=c("reliable").astype(bool))
 
 
-def _peak_frames(sink: _WorkerSink, summary) -> pd.DataFrame:
-    """The scored frames at the highest score of each episode the report may show (read back from
-    the scored-frames file): enough for the worst moments to be chosen as from all frames."""
-    t = sink.column("time_s")
-    frame = sink.column("frame")
-    wanted = set()
-    for col, score_col in (("rula_action_level", "rula_grand"), ("reba_risk_level", "reba_score")):
-        sc = sink.column(score_col)
-        for e in summary.episodes.get(col, ()):
-            sel = np.flatnonzero((t >= e.start_s) & (t <= e.end_s))
-            if sel.size:
-                i = int(sel[np.nanargmax(sc[sel])]) if np.isfinite(sc[sel]).any() else int(sel[0])
-                wanted.add(int(frame[i]))
-    if not wanted or not sink.scored_path.exists():
-        return pd.DataFrame()
-    table = _rows_of_frames(pq.ParquetFile(sink.scored_path), np.array(sorted(wanted), dtype=np.int64))
-    return table.to_pandas().sort_values("time_s", kind="stable").reset_index(drop=True)
+#: Columns of the scored frames the report reads for the sustained periods.
+_PERIOD_COLUMNS = ("time_s", "frame", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level",
+                   *BODY_PART_COLUMNS["rula"])
+
+
+def _period_frames(sink: _WorkerSink, summary) -> tuple[pd.DataFrame, np.ndarray]:
+    """The scored frames of the worker's sustained periods of high risk (ergopose.report.periods,
+    found on every frame of the timeline; read back from the scored-frames file, only the columns
+    the report reads) and the frame numbers drawn for them: the periods are then described as from
+    every frame."""
+    c = sink.column
+    found = periods.worker_periods(c("time_s"), c("rula_grand"), c("rula_action_level"), c("reba_score"),
+                                   c("reba_risk_level"), float(summary.frame_period_s))
+    if not found or not sink.scored_path.exists():
+        return pd.DataFrame(), np.zeros(0, dtype=np.int64)
+    frame = c("frame").astype(np.int64)
+    wanted = np.unique(np.concatenate([frame[p.start:p.stop] for p in found]))
+    table = _rows_of_frames(pq.ParquetFile(sink.scored_path), wanted).to_pandas()
+    table = table.loc[:, [k for k in _PERIOD_COLUMNS if k in table.columns]]
+    table = table.sort_values("time_s", kind="stable").reset_index(drop=True)
+    return table, np.sort(frame[[p.drawn for p in found]])
 
 
 def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, Sequence[str]] | None = None):
@@ -522,20 +527,22 @@ def _members(tracks: Tracks, worker: int) -> tuple[str, ...]:
     return tuple(identity_name(m) for m, g in tracks.groups.items() if g == worker) or (identity_name(worker),)
 
 
-def _joints_at(tracks_path: Path, tracked: tuple[str, ...], peaks: pd.DataFrame, fps: float):
-    """callable(seconds) -> (33, 3) joints (metres) at the nearest peak frame, from the tracks table
-    (the rows of the tracked ids ``tracked``, merged as for scoring)."""
-    if not len(peaks):
+def _joints_at(tracks_path: Path, tracked: tuple[str, ...], frames: np.ndarray):
+    """callable(seconds) -> (33, 3) joints (metres) at the nearest of ``frames`` (ascending frame
+    numbers), from the tracks table (the rows of the tracked ids ``tracked``, merged as for scoring)."""
+    if not len(frames):
         return None
-    frames = np.array(sorted(int(f) for f in peaks["frame"]), dtype=np.int64)
-    tf = table_to_frames(_rows_of_frames(pq.ParquetFile(tracks_path), frames, ("worker", tracked)).to_pandas())
+    tf = table_to_frames(_rows_of_frames(pq.ParquetFile(tracks_path), np.asarray(frames, dtype=np.int64),
+                                         ("worker", tracked)).to_pandas())
     tf = merge_rows(tf, {tracker_number(t): tracker_number(tracked[0]) for t in tracked[1:]} if len(tracked) > 1
                     else {})
     times, points = tf.time_s, tf.points_world
 
     def joints_at(t: float):
-        i = int(np.clip(np.searchsorted(times, t), 0, len(times) - 1))
-        return points[i] if len(times) else None
+        if not len(times):
+            return None
+        i = int(np.argmin(np.abs(times - t)))
+        return points[i]
 
     return joints_at
 
@@ -659,7 +666,8 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
     """
     worker_records = []
     for s in scored:
-        summary = adapters.worker_summary(s.summary, frames=s.peak_frames if len(s.peak_frames) else None,
+        summary = adapters.worker_summary(s.summary, timeline=s.timeline,
+                                          frames=s.period_frames if len(s.period_frames) else None,
                                           joints_at=s.joints_at)
         diag = adapters.worker_diagnostics(s.diagnostics, frames_reliable=s.reliable_frames,
                                            reliable_rule=reliable_rule())

@@ -23,7 +23,9 @@ from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError
 from ergopose.keypoints import LIMBS
+from ergopose.report import periods
 from ergopose.report.context import (
+    Driver,
     ActionLevelInfo,
     Assumption,
     BandTime,
@@ -230,13 +232,15 @@ def _flag_from_finding(f: Any) -> Any:
 
 
 def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *, frames: Any = None,
-                   joints_at: Any = None, worst_limit: int = 6, holds_limit: int = 12) -> Any:
+                   timeline: Any = None, joints_at: Any = None, worst_limit: int = 6, holds_limit: int = 12) -> Any:
     """A WorkerSummary from ergopose.ergonomics.aggregate.ShiftSummary.
 
-    frames: the worker's scored frames (time_s and the score columns) to find the peak frame of
-    each worst episode and what drove it; joints_at: callable(time_s) -> (33, 3) joints in the world
-    frame (or None) for the skeleton drawing. Without them the worst moments are drawn at the
-    middle of the episode, without a skeleton.
+    timeline: every frame of the worker (time_s and the level and score columns: the report's
+    frames table) to find the sustained periods of high risk (ergopose.report.periods); frames:
+    scored frames holding at least those of the periods (time_s, the score and band columns), for
+    what drove each period; None: the timeline is used, or, without either, no periods.
+    joints_at: callable(time_s) -> (33, 3) joints in the world frame (or None) for the skeleton
+    drawn for each period.
     """
     methods = dict(methods or {n: load_method(n) for n in ("rula", "reba")})
     levels, unscored = [], {}
@@ -274,7 +278,8 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
                             per_minute=float(r.per_minute), max_in_one_minute=int(r.max_in_one_minute),
                             limit_per_min=s_limit, minutes_over_limit=int(r.minutes_at_or_above_4))
                  for r in summary.repetitions)
-    worst = _worst_moments(summary, methods, frames, joints_at, worst_limit)
+    worst = worst_periods(timeline if timeline is not None else frames, frames, methods,
+                          float(summary.frame_period_s), joints_at, worst_limit)
     flags = tuple(_flag_from_finding(f) for f in summary.exposure)
     confidence = tuple(ConfidenceTime(level=c.level, seconds=float(c.time_s),
                                       causes=tuple(CauseSeconds(ca.cause, float(ca.time_s)) for ca in c.causes))
@@ -301,68 +306,87 @@ def _angle_body_part(angle: str) -> str:
     return words.replace("elbow", "lower arm (elbow)")
 
 
-def _worst_moments(summary: Any, methods: Mapping[str, Method], frames: Any, joints_at: Any, limit: int) -> tuple:
-    episodes = list(summary.episodes.get("rula_action_level", ())) + list(summary.episodes.get("reba_risk_level", ()))
-    chosen: list[Any] = []
-    for e in episodes:
-        if all(e.end_s <= c.start_s or e.start_s >= c.end_s for c in chosen):
-            chosen.append(e)
-        if len(chosen) == limit:
-            break
+def _column(table: Any, name: str) -> np.ndarray:
+    """A column as float64 with NaN for missing values."""
+    return table[name].to_numpy(dtype=np.float64, na_value=np.nan)
+
+
+def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], frame_period_s: float,
+                  joints_at: Any = None, limit: int = 6) -> tuple:
+    """The sustained periods of high risk of a worker (ergopose.report.periods) as report records,
+    ranked: clock span, time at high risk, scores at the frame drawn and the period's peak, the
+    body parts in their high bands (from ``frames``, the scored frames with band columns) and the
+    skeleton at the frame drawn (``joints_at``)."""
+    if timeline is None or not len(timeline) or not frame_period_s > 0:
+        return ()
+    t = timeline["time_s"].to_numpy(dtype=np.float64)
+    cols = {c: _column(timeline, c) for c in ("rula_grand", "rula_action_level", "reba_score", "reba_risk_level")}
+    found = periods.worker_periods(t, cols["rula_grand"], cols["rula_action_level"], cols["reba_score"],
+                                   cols["reba_risk_level"], frame_period_s, limit)
+    ft = frames["time_s"].to_numpy(dtype=np.float64) if frames is not None and len(frames) else None
     out = []
-    for e in chosen:
-        peak, row = (e.start_s + e.end_s) / 2, None
-        if frames is not None and len(frames):
-            t = frames["time_s"].to_numpy(dtype=np.float64)
-            sel = np.flatnonzero((t >= e.start_s) & (t <= e.end_s))
-            if sel.size:
-                score_col = "rula_grand" if e.column.startswith("rula") else "reba_score"
-                sc = frames[score_col].to_numpy(dtype=np.float64, na_value=np.nan)[sel]
-                i = int(sel[np.nanargmax(sc)]) if np.isfinite(sc).any() else int(sel[0])
-                peak, row = float(t[i]), frames.iloc[i]
-        joints = joints_at(peak) if joints_at is not None else None
-        def val(col: str) -> int | None:
-            if row is None or col not in row.index:
-                return None
-            v = row[col]
-            return None if v is None or (isinstance(v, float) and np.isnan(v)) or str(v) == "<NA>" else int(v)
-        rula = val("rula_grand")
-        reba = val("reba_score")
-        if row is None:  # the episode's own level and peak score
-            if e.column.startswith("rula"):
-                rula = e.peak_score
-            else:
-                reba = e.peak_score
-        rl = val("rula_action_level") if row is not None else (e.level if e.column.startswith("rula") else None)
-        bl = val("reba_risk_level") if row is not None else (e.level if e.column.startswith("reba") else None)
-        out.append(WorstMoment(start_s=float(e.start_s), end_s=float(e.end_s), peak_s=float(peak), rula_grand=rula,
-                               rula_level=rl, reba_score=reba, reba_level=bl, reason=_reason(row, methods),
-                               joints_world_m=None if joints is None else tuple(tuple(float(x) for x in p)
-                                                                               for p in np.asarray(joints))))
+    for p in found:
+        sl = slice(p.start, p.stop)
+        high = periods.high_frames(cols["rula_action_level"][sl], cols["reba_risk_level"][sl])
+        drawn_s = float(t[p.drawn])
+
+        def score(name: str, i: int = p.drawn) -> int | None:
+            v = cols[name][i]
+            return None if np.isnan(v) else int(v)
+
+        def peak(name: str) -> int | None:
+            v = cols[name][sl]
+            return int(np.nanmax(v)) if np.isfinite(v).any() else None
+
+        drivers: tuple[Driver, ...] = ()
+        if ft is not None:
+            a, b = np.searchsorted(ft, [p.start_s, p.end_s - 0.5 * frame_period_s])
+            rows = frames.iloc[int(a):int(b) + 1] if b >= a else frames.iloc[0:0]
+            rows = rows[np.isin(rows["time_s"].to_numpy(dtype=np.float64), t[sl][high])] if len(rows) else rows
+            drivers = _drivers(rows, methods, frame_period_s, p.high_s)
+        joints = joints_at(drawn_s) if joints_at is not None else None
+        reason = ("; ".join(f"{d.body_part} {d.criterion} (band {d.score} of {d.top}) for {_secs(d.seconds)}"
+                            for d in drivers)
+                  or "no single body part in a high band for most of it: the combination of postures")
+        out.append(WorstMoment(
+            start_s=float(p.start_s), end_s=float(p.end_s), peak_s=drawn_s, rula_grand=score("rula_grand"),
+            rula_level=score("rula_action_level"), reba_score=score("reba_score"),
+            reba_level=score("reba_risk_level"), reason=reason,
+            joints_world_m=None if joints is None else tuple(tuple(float(x) for x in q) for q in np.asarray(joints)),
+            high_s=float(p.high_s), rula_peak=peak("rula_grand"), reba_peak=peak("reba_score"), drivers=drivers))
     return tuple(out)
 
 
-def _reason(row: Any, methods: Mapping[str, Method]) -> str:
-    """The (at most four) body parts in their highest bands at a frame, worst first, in words: what
-    drove the score ("trunk 20-60 flexion (band 3 of 4)"; angles in degrees)."""
-    if row is None:
-        return "the episode's level (no frame details stored)"
+def _secs(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds >= 10 else f"{seconds:.1f} s"
 
-    parts = []
+
+def _drivers(rows: Any, methods: Mapping[str, Method], frame_period_s: float, high_s: float) -> tuple[Driver, ...]:
+    """Per RULA body part, its high band held longest in ``rows`` (the period's high frames); those
+    held for at least periods.DRIVER_SHARE of the period's high time, highest band score first (it
+    adds most to the score), then longest."""
+    found = []
     for col in BODY_PART_COLUMNS["rula"]:
-        if col not in row.index:
-            continue
-        v = row[col]
-        if v is None or str(v) == "<NA>":
+        if col not in rows.columns or not len(rows):
             continue
         _, words, part = body_part_of(col)
         b = methods["rula"].bands.get(part)
         top = max(b.scores) if b is not None else 2
-        if int(v) > 1 and int(v) >= max(2, top - 1):
-            crit = band_criteria(methods["rula"], part).get(int(v), f"score {int(v)}")
-            parts.append((int(v) / top, f"{words} {crit} (band {int(v)} of {top})"))
-    parts = [text for _, text in sorted(parts, key=lambda p: -p[0])[:4]]
-    return "; ".join(parts) if parts else "no single body part in a high band: the combination of postures"
+        v = _column(rows, col)
+        v = v[np.isfinite(v)].astype(np.int64)
+        floor = max(2, top - 1)
+        v = v[v >= floor]
+        if not v.size:
+            continue
+        counts = np.bincount(v - floor)
+        band = int(np.argmax(counts[::-1]))  # most frequent high band; the higher on ties
+        band = floor + counts.size - 1 - band
+        secs = float(counts[band - floor]) * frame_period_s
+        if secs >= periods.DRIVER_SHARE * high_s - 1e-9:
+            crit = band_criteria(methods["rula"], part).get(band, f"score {band}")
+            found.append(Driver("rula", words, band, int(top), crit, secs))
+    found.sort(key=lambda d: (-d.score, -d.seconds))  # the band adding most to the score first
+    return tuple(found[:periods.MAX_DRIVERS])
 
 
 # ------------------------------------------------------------------ reconstruction quality
@@ -402,7 +426,7 @@ def calibration_info(path: str | Path, cameras: Sequence[str], *, reprojection_r
     regions = ()
     if check is not None:
         regions = tuple(RegionAccuracy(region=r.region, target_m=float(r.target), measured_m=float(r.mean),
-                                       spread_m=float(r.std), n=int(r.n),
+                                       spread_m=float(r.std) if int(r.n) >= 2 else float("nan"), n=int(r.n),
                                        angles=f"{r.angle_range_deg[0]:g}-{r.angle_range_deg[1]:g} deg")
                         for r in check.regions)
     return CalibrationInfo(file=Path(path).name, sha256=file_sha256(path), cameras=tuple(cameras),

@@ -360,13 +360,35 @@ class HourLevels:
 
 
 @dataclass(frozen=True)
-class WorstMoment:
-    """One of the worst episodes of the shift.
+class Driver:
+    """A body part that drove a sustained period of high risk.
 
-    start_s, end_s: the episode (shift time); peak_s: the frame drawn. rula_grand, rula_level,
-    reba_score, reba_level: scores at the peak (None if not scored). reason: what drove the score
-    in words ("trunk 65 deg flexed, both arms above shoulder"). joints_world_m: the 33 BlazePose
-    joints at the peak (world metres, NaN = missing joint), or None when no skeleton was stored.
+    method: "rula" (the posture bands of the RULA worksheet). body_part: in words ("trunk").
+    score: its band score. top: the highest band score of that body part. criterion: the band in
+    words ("20-60 flexion"; angles in degrees). seconds: time of the period's high frames with the
+    body part in that band.
+    """
+
+    method: str
+    body_part: str
+    score: int
+    top: int
+    criterion: str
+    seconds: float
+
+
+@dataclass(frozen=True)
+class WorstMoment:
+    """A sustained period of high risk (ergopose.report.periods; "worst moment" in results
+    written before periods existed, when it was one run of a level).
+
+    start_s, end_s: the period (shift time); peak_s: the frame drawn (the posture held longest).
+    rula_grand, rula_level, reba_score, reba_level: scores at that frame (None if not scored).
+    reason: what drove the score in words. joints_world_m: the 33 BlazePose joints at that frame
+    (world metres, NaN = missing joint), or None when no skeleton was stored. high_s: time at high
+    risk within the period (NaN in older results). rula_peak, reba_peak: highest score within the
+    period (None when unknown). drivers: the body parts in their high bands for most of the
+    period, longest first (empty when unknown).
     """
 
     start_s: float
@@ -378,6 +400,10 @@ class WorstMoment:
     reba_level: int | None
     reason: str
     joints_world_m: tuple[tuple[float, float, float], ...] | None = None
+    high_s: float = float("nan")
+    rula_peak: int | None = None
+    reba_peak: int | None = None
+    drivers: tuple[Driver, ...] = ()
 
     def __post_init__(self) -> None:
         if self.joints_world_m is not None and len(self.joints_world_m) != 33:
@@ -471,8 +497,8 @@ class WorkerSummary:
     method and level (every level of both methods, zeros included). unscored_s: per method,
     observed time without a score (missing joints). body_parts: time per body part and band.
     holds: longest holds. repetitions: repetitive movements. hourly: per hour and method.
-    worst: worst moments, worst first. flags: ISO 11226 / EN 1005-4 judgements. confidence: the
-    tracked time split into scored with confidence, scored with low confidence and unscored, with
+    worst: sustained periods of high risk, ranked (ergopose.report.periods). flags: ISO 11226 /
+    EN 1005-4 judgements. confidence: the tracked time split into scored with confidence, scored with low confidence and unscored, with
     causes (empty in results written before it existed). inputs: per body part, how well its
     inputs were measured (empty when unknown).
     """

@@ -27,7 +27,8 @@ from markupsafe import Markup
 from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
 from ergopose.ergonomics.shares import format_percent, high_risk, percent
 from ergopose.keypoints import LIMBS
-from ergopose.report import svg
+from ergopose.report import periods, svg
+from ergopose.report.periods import DRIVER_SHARE, MAX_PERIODS
 from ergopose.report.context import (
     FLAG_VERDICTS,
     MAX_SKIPPED_SPANS,
@@ -35,6 +36,7 @@ from ergopose.report.context import (
     MethodInfo,
     ModelInfo,
     SessionInfo,
+    WorkerInfo,
     WorkerResults,
     WorkerSummary,
 )
@@ -210,24 +212,54 @@ class RepetitionRow:
 
 
 @dataclass(frozen=True)
+class DriverRow:
+    """A body part that drove a sustained period: body_part, band (band score of the highest,
+    "3 of 4"), criterion (the band in words, angles in degrees), time (in that band during the
+    period's high-risk time), percent (share of the period's high-risk time)."""
+
+    body_part: str
+    band: str
+    criterion: str
+    time: str
+    percent: str
+
+
+@dataclass(frozen=True)
 class MomentCard:
-    """A worst moment: rank (1 = worst), when (clock time of the drawn frame), span (episode
-    start-end and length), rula / reba (score and level in words), reason (what drove it),
-    figure (front and side view of the skeleton)."""
+    """A sustained period of high risk (ergopose.report.periods): rank (1 = most time at high
+    risk), start / end (clock times), duration (start to end), high_time (time at high risk within
+    it, with its share of the duration), when (clock time of the frame drawn: the posture held
+    longest), rula / reba (score at that frame with its level's name, "6 (AL3), up to 7" when the
+    period's highest score differs),
+    drivers (the body parts in their high bands for most of it; empty when unknown), reason (the
+    same in a sentence, or why there is none), figure (front and side view of the skeleton at the
+    frame drawn)."""
 
     rank: int
+    start: str
+    end: str
+    duration: str
+    high_time: str
     when: str
-    span: str
     rula: str
     reba: str
+    drivers: tuple[DriverRow, ...]
     reason: str
     figure: Figure
 
 
 @dataclass(frozen=True)
+class Term:
+    """An abbreviation or coded word of the page and what it means: term, meaning."""
+
+    term: str
+    meaning: str
+
+
+@dataclass(frozen=True)
 class HourRow:
-    """One hour of an hourly table: hour (clock range), tracked (time tracked), cells (minutes
-    per level, in the order of HourTable.columns, then not scored)."""
+    """One hour of an hourly table: hour (clock range), tracked (time tracked), cells (time at
+    each level, in the order of HourTable.columns, then not scored; "-" for none)."""
 
     hour: str
     tracked: str
@@ -358,11 +390,15 @@ class WorkerPage:
     headline: per method, share of the shift at each action level; headline_figure: the same
     as stacked bars. timeline_figures: worst and median score per time bin, per method;
     timeline_note: how the timeline was downsampled. body_part_figures / body_part_rows: time per
-    body part and band. holds: longest holds. repetitions: repetitive movements. worst: worst
-    moments with skeleton drawings. hourly_figures / hourly_tables: hourly breakdown.
+    body part and band. holds: longest holds. repetitions: repetitive movements. worst: the
+    sustained periods of high risk (what to act on), ranked, with skeleton drawings; worst_note:
+    the rule that finds them. act_summary: in a sentence, how much of the high-risk time the
+    periods hold and the body parts that drove most of them. risk_figure: the shift by time of
+    day at high, medium and low risk and not scored, with the periods marked. hourly_figures / hourly_tables: hourly breakdown.
     flags: ISO 11226 / EN 1005-4 judgements. floor_figures / floor_note: where on the floor the
     risky postures happened. quality: the quality section. assumptions: what was assumed for this
     worker. methods: the methods section. downloads: the worker's CSV and the session summary.
+    print_link: the print version. glossary: every abbreviation of the page with its meaning.
     """
 
     page_title: str
@@ -382,6 +418,9 @@ class WorkerPage:
     holds: tuple[HoldRow, ...]
     repetitions: tuple[RepetitionRow, ...]
     worst: tuple[MomentCard, ...]
+    worst_note: str
+    act_summary: str
+    risk_figure: Figure
     hourly_figures: tuple[Figure, ...]
     hourly_tables: tuple[HourTable, ...]
     flags: tuple[FlagRow, ...]
@@ -391,6 +430,8 @@ class WorkerPage:
     assumptions: tuple[Assumption, ...]
     methods: MethodsSection
     downloads: tuple[Link, ...]
+    print_link: Link
+    glossary: tuple[Term, ...]
 
 
 # ------------------------------------------------------------------------------ index page
@@ -403,7 +444,9 @@ class WorkerRow:
     with low confidence, not scored; "n/a" when not recorded), rula_high (share of the tracked time
     at RULA action level 3-4), reba_high (share of the tracked time at REBA high or very high),
     reliable (share with a reliable skeleton), verdict_label (confidence in words), verdict_rating
-    ("good"/"fair"/"poor", for styling), csv (links to the worker's CSV files)."""
+    ("good"/"fair"/"poor", for styling), csv (links to the worker's CSV files), periods (the
+    sustained periods of high risk shown: how many, with their time at high risk in brackets;
+    "none")."""
 
     display_name: str
     page: Link
@@ -417,6 +460,7 @@ class WorkerRow:
     verdict_label: str
     verdict_rating: str
     csv: tuple[Link, ...]
+    periods: str
 
 
 @dataclass(frozen=True)
@@ -424,19 +468,85 @@ class IndexPage:
     """Context of templates/index.html.j2: the session overview.
 
     page_title: the HTML title. session: session header. workers: one row per worker.
+    risk_figure: the shift by time of day, one strip per worker (high, medium, low, not scored).
     overview_figures: per method, share of the shift at each level for every worker.
     calibration_rows / calibration_note: the calibration's accuracy. methods: the methods
-    section. downloads: the session summary CSV.
+    section. downloads: the session summary CSV. print_link: the print version. glossary: every
+    abbreviation of the page with its meaning.
     """
 
     page_title: str
     session: SessionHeader
     workers: tuple[WorkerRow, ...]
+    risk_figure: Figure
     overview_figures: tuple[Figure, ...]
     calibration_rows: tuple[CalibrationRow, ...]
     calibration_note: str
     methods: MethodsSection
     downloads: tuple[Link, ...]
+    print_link: Link
+    glossary: tuple[Term, ...]
+
+
+# ------------------------------------------------------------------------------ print page
+
+
+@dataclass(frozen=True)
+class PrintRow:
+    """A worker in the print version's summary table: worker_id, name (from the settings, or empty),
+    tracked (time), confident /
+    low_confidence / unscored (shares of the tracked time as on the index), rula_high, reba_high
+    (share of the tracked time at the high levels), periods (sustained periods of high risk: how
+    many and their time at high risk), verdict_label / verdict_rating (reconstruction quality in
+    words, and "good"/"fair"/"poor" for styling)."""
+
+    worker_id: str
+    name: str
+    tracked: str
+    confident: str
+    low_confidence: str
+    unscored: str
+    rula_high: str
+    reba_high: str
+    periods: str
+    verdict_label: str
+    verdict_rating: str
+
+
+@dataclass(frozen=True)
+class PrintWorker:
+    """One worker in the print version (at most two A4 pages): worker_id, display_name, tracked
+    (sentence), headline (per method, share at each level, with its key fact), act_summary (the
+    periods' share of the high-risk time and what drove them, a sentence), confidence_rows (tracked time by confidence), risk_figure (the shift by time of day), worst
+    (the sustained periods, at most PRINT_PERIODS), more (sentence naming the periods left out,
+    or empty)."""
+
+    worker_id: str
+    display_name: str
+    tracked: str
+    headline: tuple[MethodHeadline, ...]
+    act_summary: str
+    confidence_rows: tuple[ConfidenceRow, ...]
+    risk_figure: Figure
+    worst: tuple[MomentCard, ...]
+    more: str
+
+
+@dataclass(frozen=True)
+class PrintPage:
+    """Context of templates/print.html.j2: the print version (one summary page, then at most two
+    pages per worker). page_title: the HTML title. session: session header. workers_table: one
+    row per worker (the index's figures). risk_figure: the shift by time of day, one strip per worker.
+    worst_note: the rule that finds the sustained periods. workers: each worker's pages.
+    glossary: every abbreviation with its meaning."""
+
+    page_title: str
+    session: SessionHeader
+    workers_table: tuple[PrintRow, ...]
+    risk_figure: Figure
+    worst_note: str
+    workers: tuple[PrintWorker, ...]
+    glossary: tuple[Term, ...]
 
 
 # ------------------------------------------------------------------------------- formatting
@@ -613,12 +723,13 @@ def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
         return (), "No calibration information was stored with these results."
     rows = []
     for r in cal.regions:
-        spread = f" ± {100 * r.spread_m:.1f} cm" if math.isfinite(r.spread_m) else ""
+        spread = f" ± {100 * r.spread_m:.1f} cm" if r.n >= 2 and math.isfinite(r.spread_m) else ""
         err = (f"{100 * (r.measured_m - r.target_m) / r.target_m:+.1f} %"
                if math.isfinite(r.measured_m) and r.target_m > 0 else "n/a")
         region = REGION_NAMES.get(r.region, r.region) + (f" ({r.angles})" if r.angles else "")
         rows.append(CalibrationRow(region=region, target=f"{r.target_m:.3f} m",
-                                   measured=f"{r.measured_m:.3f} m{spread} (n = {r.n})", error=err))
+                                   measured=f"{r.measured_m:.3f} m{spread} ({_count(r.n, 'measurement')})",
+                                   error=err))
     rms = (f" The calibration's reprojection error is {cal.reprojection_rms_px:.2f} pixels (RMS)."
            if math.isfinite(cal.reprojection_rms_px) else "")
     if rows:
@@ -654,6 +765,11 @@ def methods_section(s: SessionInfo) -> MethodsSection:
                     f"{', '.join(cal.cameras)}.")
     return MethodsSection(measured=measured, methods=s.methods, settings=settings, models=s.models,
                           version=s.ergopose_version, calibration=cal_text)
+
+
+def _count(n: int, what: str) -> str:
+    """ "1 measurement", "12 measurements"."""
+    return f"{n:,} {what}{'' if n == 1 else 's'}"
 
 
 def _fmt_setting(v: bool | float | str) -> str:
@@ -779,7 +895,7 @@ def _level_segments(secs: dict[int, float], unscored: float, method: MethodInfo,
         short = lv.label if method.name == "rula" else str(lv.level)
         segs.append(svg.Segment(t, colours[lv.level], short,
                                 f"{METHOD_TITLES[method.name]} level {lv.level} ({lv.label}): {fmt_duration(t)}"))
-    segs.append(svg.Segment(unscored, None, "n/s", f"not scored: {fmt_duration(unscored)}"))
+    segs.append(svg.Segment(unscored, None, "", f"not scored: {fmt_duration(unscored)}"))
     return tuple(segs)
 
 
@@ -794,7 +910,7 @@ def headline_figure(summary: WorkerSummary, session: SessionInfo, who: str) -> F
                            id_prefix="fig-headline", total=summary.observed_s, label_width=70,
                            axis_label="share of the tracked time (%)")
     return Figure(id="fig-headline", svg=fig,
-                  caption="Share of the tracked time at each action level (RULA AL1-AL4, REBA 0-4; n/s = not "
+                  caption="Share of the tracked time at each action level (RULA AL1-AL4, REBA 0-4; hatched = not "
                           "scored). Exact numbers are in the tables.")
 
 
@@ -891,22 +1007,29 @@ def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, .
                                desc="One bar per body part; each segment is a posture band, labelled with its band "
                                     "score (1 = best). Hatched grey: the angle was not measured. Numbers in the table.",
                                id_prefix=f"fig-parts-{m}", total=total if total > 0 else None,
-                               axis_label="share of the tracked time (%)")
+                               axis_label="share of the tracked time (%)", hatch_label="angle not measured")
         figs.append(Figure(id=f"fig-parts-{m}", svg=fig,
                            caption=f"{METHOD_TITLES[m]} posture bands per body part (number = band score, higher is "
                                    "worse), as a share of the tracked time."))
     return tuple(figs), rows
 
 
-def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock, limit: int = 6) -> tuple[MomentCard, ...]:
+def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock,
+                  limit: int = MAX_PERIODS, prefix: str = "") -> tuple[MomentCard, ...]:
+    """The sustained periods of high risk of a worker as cards (ranked as stored); prefix: of the
+    figures' ids (unique when several workers share a page)."""
     cards = []
     rula, reba = session.method("rula"), session.method("reba")
 
-    def words(score: int | None, level: int | None, meth: MethodInfo) -> str:
+    def words(score: int | None, level: int | None, peak: int | None, meth: MethodInfo) -> str:
         if score is None:
-            return "not scored"
-        lv = next((x for x in meth.action_levels if x.level == level), None)
-        return f"{score} (level {level}, {lv.label}: {lv.wording})" if lv else f"{score}"
+            text = "not scored"
+        else:
+            lv = next((x for x in meth.action_levels if x.level == level), None)
+            text = f"{score} ({lv.label})" if lv else f"{score}"
+        if peak is not None and peak != score:
+            text += f", up to {peak}"
+        return text
 
     for k, w in enumerate(summary.worst[:limit], start=1):
         if w.joints_world_m is None:
@@ -916,16 +1039,160 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
         fig = svg.skeleton_views(joints, title=f"Posture of {who} at {clock(w.peak_s)}",
                                  desc=f"Front and side view of the 3D skeleton at {clock(w.peak_s)}: {w.reason}. "
                                       "Left limbs solid blue, right limbs dashed red; L and R mark the wrists.",
-                                 id_prefix=f"fig-moment-{k}")
+                                 id_prefix=f"{prefix}fig-moment-{k}")
+        length = w.end_s - w.start_s
+        high = (f"{fmt_duration(w.high_s)} ({fmt_percent(w.high_s, length)})" if math.isfinite(w.high_s)
+                else "not recorded")
+        drivers = tuple(DriverRow(body_part=d.body_part, band=f"{d.score} of {d.top}", criterion=d.criterion,
+                                  time=fmt_duration(d.seconds), percent=fmt_percent(d.seconds, w.high_s))
+                        for d in w.drivers)
         cards.append(MomentCard(
-            rank=k, when=clock(w.peak_s),
-            span=f"{clock(w.start_s)} to {clock(w.end_s)} ({fmt_duration(w.end_s - w.start_s)})",
-            rula=words(w.rula_grand, w.rula_level, rula), reba=words(w.reba_score, w.reba_level, reba),
-            reason=w.reason,
-            figure=Figure(id=f"fig-moment-{k}", svg=fig,
-                          caption=f"Skeleton at {clock(w.peak_s)}: front view (worker's right on the left) and side "
+            rank=k, start=clock(w.start_s), end=clock(w.end_s), duration=fmt_duration(length), high_time=high,
+            when=clock(w.peak_s), rula=words(w.rula_grand, w.rula_level, w.rula_peak, rula),
+            reba=words(w.reba_score, w.reba_level, w.reba_peak, reba), drivers=drivers, reason=w.reason,
+            figure=Figure(id=f"{prefix}fig-moment-{k}", svg=fig,
+                          caption=f"Period {k} at {clock(w.peak_s)}: front view (worker's right on the left) and side "
                                   "view (seen from the worker's right). No video images are kept.")))
     return tuple(cards)
+
+
+def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIODS) -> str:
+    """How much of the worker's high-risk time the periods shown hold, and the body parts that
+    drove most of them (summed over the periods), in a sentence."""
+    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    shown = res.summary.worst[:limit]
+    high = periods.high_frames(frames["rula_action_level"].to_numpy(dtype=np.float64, na_value=np.nan),
+                               frames["reba_risk_level"].to_numpy(dtype=np.float64, na_value=np.nan))
+    high_s = float(high.sum()) / session.fps
+    if not shown:
+        return (f"No sustained period of high risk: {fmt_duration(high_s)} at high risk in all, in stretches "
+                f"shorter than {periods.MIN_DURATION_S:g} s.")
+    if not all(math.isfinite(w.high_s) for w in shown):
+        return f"{len(shown)} periods of high risk (results written before sustained periods were found)."
+    in_periods = sum(w.high_s for w in shown)
+    parts: dict[tuple, list[float]] = {}
+    for w in shown:
+        for d in w.drivers:
+            parts.setdefault((d.body_part, d.criterion, d.score, d.top), []).append(d.seconds)
+    ranked = sorted(parts.items(), key=lambda kv: (-sum(kv[1]), kv[0]))[:3]
+    drivers = "; ".join(f"{bp} {crit} (band {sc} of {top}) for {fmt_duration(sum(v))} in {len(v)} of them"
+                        for (bp, crit, sc, top), v in ranked)
+    n = len(shown)
+    return (f"The {n} sustained period{'s' if n != 1 else ''} shown hold {fmt_duration(in_periods)} of the worker's "
+            f"{fmt_duration(high_s)} at high risk ({fmt_percent(in_periods, high_s)})."
+            + (f" Body parts in a high band in them: {drivers}." if drivers else ""))
+
+
+def worst_note(session: SessionInfo) -> str:
+    """The rule of the sustained periods, in words."""
+    rula, reba = session.method("rula"), session.method("reba")
+    hi = {m.name: " or ".join(lv.label for lv in m.action_levels if lv.level in periods.HIGH_LEVELS[m.name])
+          for m in (rula, reba)}
+    return (f"A sustained period of high risk is a stretch of frames at RULA {hi['rula']} or REBA {hi['reba']}, "
+            f"joined across gaps of at most {periods.MAX_GAP_S:g} s (lower scores, not scored or not tracked), "
+            f"lasting at least {periods.MIN_DURATION_S:g} s from its first to its last high-risk frame: one-frame "
+            f"spikes are left out. Periods are ranked by their time at high risk; at most {periods.MAX_PERIODS} are "
+            "shown. Each is drawn at the middle of the posture (the RULA and REBA scores) held longest in it. Body "
+            f"parts: those in one of their two highest RULA posture bands for at least "
+            f"{100 * DRIVER_SHARE:.0f} % of the period's high-risk time (band 3 of 4 = the third of four bands).")
+
+
+#: Risk categories of the timelines (high, medium, low), per method: the levels in each.
+RISK_LEVELS = {"rula": {"high": (3, 4), "medium": (2,), "low": (1,)},
+               "reba": {"high": (3, 4), "medium": (2,), "low": (0, 1)}}
+RISK_ORDER = ("high", "medium", "low")
+NOT_SCORED = len(RISK_ORDER)
+
+
+def risk_codes(frames: pd.DataFrame, method: str | None) -> np.ndarray:
+    """Per frame: 0 high, 1 medium, 2 low, 3 not scored, by one method's level, or (method None)
+    the worse of the two methods' scored categories (not scored when neither is scored)."""
+    if method is None:
+        return np.minimum(risk_codes(frames, "rula"), risk_codes(frames, "reba"))
+    col = {"rula": "rula_action_level", "reba": "reba_risk_level"}[method]
+    lv = frames[col].to_numpy(dtype=np.float64, na_value=np.nan)
+    code = np.full(lv.shape, NOT_SCORED, dtype=np.int64)
+    for k, cat in enumerate(RISK_ORDER):
+        code[np.isin(lv, RISK_LEVELS[method][cat])] = k
+    return code
+
+
+def risk_shares(time_s: np.ndarray, codes: np.ndarray, duration_s: float, bin_s: float, fps: float) -> np.ndarray:
+    """(bins, 4): share of each time bin at high, medium, low risk and not scored (one bincount);
+    the rest of a bin was not tracked. The last bin may be partial: its share is of its own length."""
+    n_bins = max(1, int(math.ceil(duration_s / bin_s)))
+    idx = np.clip((np.asarray(time_s) // bin_s).astype(np.int64), 0, n_bins - 1)
+    counts = np.bincount(idx * 4 + codes, minlength=n_bins * 4).reshape(n_bins, 4).astype(np.float64)
+    length = np.minimum(bin_s, duration_s - np.arange(n_bins) * bin_s) * fps
+    total = np.maximum(np.maximum(length, counts.sum(axis=1)), 1.0)
+    return counts / total[:, None]
+
+
+def risk_legend(session: SessionInfo) -> tuple[str, ...]:
+    """The words of each category of the risk timelines (RISK_FILLS order, then not tracked)."""
+    out = []
+    for cat in RISK_ORDER:
+        parts = []
+        for m in (session.method("rula"), session.method("reba")):
+            labels = [lv.label for lv in m.action_levels if lv.level in RISK_LEVELS[m.name][cat]]
+            parts.append(f"{METHOD_TITLES[m.name]} {'/'.join(labels)}")
+        out.append(f"{cat} ({', '.join(parts)})")
+    return (*out, "not scored", "not tracked")
+
+
+def risk_figure(rows: Sequence[tuple[str, pd.DataFrame, str | None]], session: SessionInfo, clock: Clock, *,
+                fig_id: str, title: str, marks: Sequence[tuple[float, float, str]] = (),
+                label_width: float = 60) -> Figure:
+    """The shift by time of day: a strip per (label, frames, method or None for either)."""
+    bin_s = choose_bin(session.duration_s)
+    strips = [svg.StripRow(label, risk_shares(f["time_s"].to_numpy(dtype=np.float64), risk_codes(f, m),
+                                              session.duration_s, bin_s, session.fps))
+              for label, f, m in rows]
+    legend = risk_legend(session)
+    fig = svg.risk_strips(strips, bin_s, x_ticks=_time_ticks(session.duration_s, clock), title=title,
+                          desc=f"Time runs left to right ({'clock time' if clock.known else 'time from the start'}); "
+                               f"each {fmt_duration(bin_s)} column is split by the share of it at "
+                               + "; ".join(legend) + ". Numbered brackets mark the sustained periods of high risk.",
+                          id_prefix=fig_id, legend=legend, marks=marks, label_width=label_width)
+    return Figure(id=fig_id, svg=fig,
+                  caption=f"The shift by time of day, in {fmt_duration(bin_s)} columns: red = high, yellow = medium, "
+                          "green = low risk, hatched = tracked but not scored, white = not tracked"
+                          + ("; numbered brackets = the sustained periods of high risk." if marks else "."))
+
+
+def glossary(session: SessionInfo) -> tuple[Term, ...]:
+    """Every abbreviation and coded word the pages use, with its meaning."""
+    rula, reba = session.method("rula"), session.method("reba")
+    terms = [Term("RULA", f"{rula.title}: final (grand) score {rula.score_low}-{rula.score_high}"),
+             Term("REBA", f"{reba.title}: final score {reba.score_low}-{reba.score_high}")]
+    terms += [Term(f"RULA {lv.label}", f"action level {lv.level}, scores {lv.low}-{lv.high}: {lv.wording}")
+              for lv in rula.action_levels]
+    terms += [Term(f"REBA {lv.level} {lv.label}", f"risk level {lv.level}, scores {lv.low}-{lv.high}: {lv.wording}")
+              for lv in reba.action_levels]
+    terms += [
+        Term("high, medium, low", "; ".join(risk_legend(session)[:3])),
+        Term("not scored", "the worker was tracked but a score could not be given (joints the score needs were "
+                           "missing or too uncertain)"),
+        Term("not tracked", "the worker was not found in the frames (out of view, or away)"),
+        Term("band", "the posture band of a body part on the RULA/REBA worksheet (1 = best); '3 of 4' = the "
+                     "third of its four bands"),
+        Term("n/a", "not applicable: nothing to take a share of (no time of that kind)"),
+        Term("SD", "standard deviation"),
+        Term("ISO 11226, EN 1005-4", "standards for static working postures and for postures and movements at "
+                                     "machinery"),
+        Term("°, deg", "degrees of angle"),
+    ]
+    return tuple(terms)
+
+
+PRINT_FILE = "print.html"
+#: Sustained periods in a worker's print pages (the second page holds their drawings).
+PRINT_PERIODS = 6
+
+
+def print_link() -> Link:
+    return Link(href=PRINT_FILE, text="Print version (one summary page, then at most two pages per worker)",
+                note="")
 
 
 def hourly_section(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock) -> tuple[tuple[Figure, ...], tuple[HourTable, ...]]:
@@ -945,17 +1212,22 @@ def hourly_section(summary: WorkerSummary, session: SessionInfo, who: str, clock
             end = min(h.start_s + 3600.0, session.duration_s)
             rows.append(HourRow(hour=f"{clock(max(h.start_s, 0.0), seconds=False)}-{clock(end, seconds=False)}",
                                 tracked=fmt_duration(h.observed_s),
-                                cells=tuple(f"{secs.get(lv.level, 0.0) / 60:.1f}" for lv in meth.action_levels)
-                                + (f"{h.unscored_s / 60:.1f}",)))
+                                cells=tuple(_hour_cell(secs.get(lv.level, 0.0)) for lv in meth.action_levels)
+                                + (_hour_cell(h.unscored_s),)))
         fig = svg.stacked_columns(cols, title=f"{METHOD_TITLES[m]} action levels per hour, {who}",
                                   desc="One column per hour; segments are minutes at each action level (labelled), "
                                        "hatched grey is time not scored. The table below gives the minutes.",
                                   id_prefix=f"fig-hourly-{m}", y_max=60, y_label="minutes", y_ticks=(0, 15, 30, 45, 60))
         figs.append(Figure(id=f"fig-hourly-{m}", svg=fig,
-                           caption=f"Minutes per hour at each {METHOD_TITLES[m]} action level."))
+                           caption=f"Minutes per hour at each {METHOD_TITLES[m]} action level (hatched = not scored)."))
         columns = tuple(f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}" for lv in meth.action_levels)
         tables.append(HourTable(method=METHOD_TITLES[m], columns=columns + ("not scored",), rows=tuple(rows)))
     return tuple(figs), tuple(tables)
+
+
+def _hour_cell(seconds: float) -> str:
+    """Time in an hour-table cell: "-" for none, else a duration ("4 min 10 s", "0.4 s")."""
+    return "-" if not seconds > 0 else fmt_duration(seconds)
 
 
 def floor_section(frames: pd.DataFrame, session: SessionInfo, who: str) -> tuple[tuple[Figure, ...], str]:
@@ -977,16 +1249,18 @@ def floor_section(frames: pd.DataFrame, session: SessionInfo, who: str) -> tuple
         risky = ok & np.isin(lv, HIGH_LEVELS[m])
         grid, _, _ = np.histogram2d(y[risky], x[risky], bins=edges)
         names = " or ".join(x.label for x in meth.action_levels if x.level in HIGH_LEVELS[m])
-        fig = svg.heat_map(grid * dt / 60.0, (fp.x_min, fp.x_max, fp.y_min, fp.y_max),
+        secs = grid * dt
+        unit, scale = ("minutes", 60.0) if secs.size and float(secs.max()) >= 120.0 else ("seconds", 1.0)
+        fig = svg.heat_map(secs / scale, (fp.x_min, fp.x_max, fp.y_min, fp.y_max),
                            title=f"Where {who} worked at {METHOD_TITLES[m]} level {names}",
                            desc=f"Floor plan of the {fp.x_max - fp.x_min:g} x {fp.y_max - fp.y_min:g} m area seen from "
-                                f"above, in {fp.cell_m:g} m squares; darker squares = more minutes at {METHOD_TITLES[m]} "
+                                f"above, in {fp.cell_m:g} m squares; darker squares = more {unit} at {METHOD_TITLES[m]} "
                                 f"level {names} (legend at the right); light grey = present but not at that level; "
                                 "blue outlines = furniture, diamonds = cameras.",
-                           id_prefix=f"fig-floor-{m}", unit="minutes", outlines=outlines, markers=markers,
+                           id_prefix=f"fig-floor-{m}", unit=unit, outlines=outlines, markers=markers,
                            presence=presence)
         figs.append(Figure(id=f"fig-floor-{m}", svg=fig,
-                           caption=f"Minutes at {METHOD_TITLES[m]} level {names} per {fp.cell_m:g} m square of floor "
+                           caption=f"{unit.capitalize()} at {METHOD_TITLES[m]} level {names} per {fp.cell_m:g} m square of floor "
                                    "(seen from above; position = middle of the hips)."))
     located = float(ok.sum()) * dt
     note = (f"The worker's floor position was known for {fmt_duration(located)} of the tracked time. "
@@ -1019,7 +1293,7 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
                              id_prefix="fig-limbs", unit="length (cm)")
     rows = tuple(LimbRow(limb=s.limb.replace("_", " "), n=f"{s.n:,}", median=_cm(s.median_m),
                          iqr=f"{_cm(s.q1_m)} to {_cm(s.q3_m)}", whiskers=f"{_cm(s.p5_m)} to {_cm(s.p95_m)}",
-                         mean_sd=f"{_cm(s.mean_m)} ± {_cm(s.std_m)}") for s in stats)
+                         mean_sd=f"{_cm(s.mean_m)} ± {_cm(s.std_m)}" if s.n >= 2 else _cm(s.mean_m)) for s in stats)
     # reconstruction frequency: one panel per region
     freq = {(r.limb, r.region): r for r in d.reconstruction}
     limbs = [n for n in order if any((n, reg) in freq for reg in ("all", "central", "outer", "edge"))]
@@ -1086,6 +1360,8 @@ def _spread(s) -> str:
     """A limb's length spread in one region: "1.2 cm (n = 3,456)", or "no data"."""
     if s is None or s.n == 0 or not (math.isfinite(s.q1_m) and math.isfinite(s.q3_m)):
         return "no data"
+    if s.n == 1:
+        return "one frame: no spread"
     return f"{100 * (s.q3_m - s.q1_m):.1f} cm (n = {s.n:,})"
 
 
@@ -1128,57 +1404,119 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
                   for f in sorted(summ.flags, key=lambda f: -FLAG_ORDER.index(f.verdict)))
     floor_figs, floor_note = floor_section(frames, session, who)
     downloads = tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in info.csv_files + session.csv_files)
+    worst = worst_moments(summ, session, who, clock)
     return WorkerPage(
         page_title=f"{who}: ergonomic report, {header.title}", session=header, worker_id=info.worker_id,
         display_name=who, nav=tuple(nav), tracked=tracked, confidence_rows=conf_rows, confidence_note=conf_note,
         headline=tuple(headline(summ, m) for m in session.methods),
         headline_figure=headline_figure(summ, session, who), timeline_figures=timeline, timeline_note=tl_note,
         body_part_figures=part_figs, body_part_rows=part_rows, holds=holds, repetitions=reps,
-        worst=worst_moments(summ, session, who, clock), hourly_figures=hourly_figs, hourly_tables=hourly_tables,
+        worst=worst, worst_note=worst_note(session), act_summary=act_summary(res, session), risk_figure=worker_risk_figure(res, session, clock),
+        hourly_figures=hourly_figs, hourly_tables=hourly_tables,
         flags=flags, floor_figures=floor_figs, floor_note=floor_note, quality=quality_section(res, session, who),
-        assumptions=info.assumptions, methods=methods_section(session), downloads=downloads)
+        assumptions=info.assumptions, methods=methods_section(session), downloads=downloads, print_link=print_link(),
+        glossary=glossary(session))
+
+
+def worker_risk_figure(res: WorkerResults, session: SessionInfo, clock: Clock, prefix: str = "") -> Figure:
+    """A worker's shift by time of day (a RULA and a REBA strip) with the sustained periods marked."""
+    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    marks = [(w.start_s, w.end_s, str(k)) for k, w in enumerate(res.summary.worst[:MAX_PERIODS], start=1)]
+    who = display_name(res.info.worker_id, res.info.name)
+    return risk_figure([("RULA", frames, "rula"), ("REBA", frames, "reba")], session, clock, fig_id=f"{prefix}fig-risk",
+                       title=f"The shift of {who} by time of day: high, medium and low risk", marks=marks)
 
 
 # --------------------------------------------------------------------------- index builder
 
 
+def worker_row(res: WorkerResults, session: SessionInfo, report_dir: Path | None = None) -> WorkerRow:
+    """A worker's row in the index's and the print version's table."""
+    info, summ, d = res.info, res.summary, res.diagnostics
+    who = display_name(info.worker_id, info.name)
+    verdict = quality_verdict(d, session.calibration)
+    highs = {m: format_percent(high_risk(m, summ.observed_s, level_seconds(summ, m),
+                                         summ.unscored_s.get(m, 0.0)).pct_of_tracked) for m in ("rula", "reba")}
+    conf = {c.level: fmt_percent(c.seconds, summ.observed_s) for c in summ.confidence}
+    shown = summ.worst[:MAX_PERIODS]
+    if shown and all(math.isfinite(w.high_s) for w in shown):
+        periods_text = f"{len(shown)} ({fmt_duration(sum(w.high_s for w in shown))})"
+    else:
+        periods_text = f"{len(shown)}" if shown else "none"
+    return WorkerRow(
+        display_name=who, page=Link(href=quote(worker_page_name(info.worker_id)), text=who, note=""),
+        tracked=fmt_duration(summ.observed_s), confident=conf.get("confident", "n/a"),
+        low_confidence=conf.get("low", "n/a"), unscored=conf.get("unscored", "n/a"),
+        rula_high=highs["rula"], reba_high=highs["reba"],
+        reliable=fmt_percent(d.frames_reliable, d.frames_observed), verdict_label=RATING_LABELS[verdict.rating],
+        verdict_rating=verdict.rating, csv=tuple(_csv_link(report_dir, f.path, f.label) for f in info.csv_files),
+        periods=periods_text)
+
+
+def session_risk_figure(workers: Sequence[WorkerResults], session: SessionInfo) -> Figure:
+    """Every worker's shift by time of day, one strip each (the worse of RULA and REBA)."""
+    rows = [(f"{r.info.worker_id} {r.info.name}" if r.info.name else r.info.worker_id, r.frames, None) for r in workers]
+    return risk_figure(rows, session, Clock(session.start), fig_id="fig-risk-all", label_width=170,  # type: ignore[misc]
+                       title="Each worker's shift by time of day: high, medium and low risk (the worse of RULA "
+                             "and REBA)")
+
+
 def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, report_dir: Path | None = None) -> IndexPage:
     """The context of the session overview page."""
     header = session_header(session)
-    rows = []
     figs = []
     for m in session.methods:
         stack = []
         for res in workers:
             who = display_name(res.info.worker_id, res.info.name)
-            stack.append(svg.StackRow(who if len(who) <= 24 else who[:23] + "…",
-                                      _level_segments(level_seconds(res.summary, m.name),
-                                                      res.summary.unscored_s.get(m.name, 0.0), m)))
+            stack.append(svg.StackRow(who, _level_segments(level_seconds(res.summary, m.name),
+                                                           res.summary.unscored_s.get(m.name, 0.0), m)))
         fig = svg.stacked_bars(stack, title=f"{METHOD_TITLES[m.name]}: share of the tracked time at each level, per worker",
                                desc="One bar per worker; segments are action levels, labelled; hatched grey is time "
                                     "not scored. Numbers are in the table and on each worker's page.",
                                id_prefix=f"fig-overview-{m.name}", axis_label="share of the tracked time (%)")
         figs.append(Figure(id=f"fig-overview-{m.name}", svg=fig,
-                           caption=f"{METHOD_TITLES[m.name]} action levels per worker (share of tracked time)."))
-    for res in workers:
-        info, summ, d = res.info, res.summary, res.diagnostics
-        who = display_name(info.worker_id, info.name)
-        verdict = quality_verdict(d, session.calibration)
-        highs = {m: format_percent(high_risk(m, summ.observed_s, level_seconds(summ, m),
-                                             summ.unscored_s.get(m, 0.0)).pct_of_tracked) for m in ("rula", "reba")}
-        conf = {c.level: fmt_percent(c.seconds, summ.observed_s) for c in summ.confidence}
-        rows.append(WorkerRow(
-            display_name=who, page=Link(href=quote(worker_page_name(info.worker_id)), text=who, note=""),
-            tracked=fmt_duration(summ.observed_s), confident=conf.get("confident", "n/a"),
-            low_confidence=conf.get("low", "n/a"), unscored=conf.get("unscored", "n/a"),
-            rula_high=highs["rula"], reba_high=highs["reba"],
-            reliable=fmt_percent(d.frames_reliable, d.frames_observed), verdict_label=RATING_LABELS[verdict.rating],
-            verdict_rating=verdict.rating, csv=tuple(_csv_link(report_dir, f.path, f.label) for f in info.csv_files)))
+                           caption=f"{METHOD_TITLES[m.name]} action levels per worker (share of tracked time; hatched = "
+                                   "not scored)."))
+    rows = tuple(worker_row(res, session, report_dir) for res in workers)
     cal_rows, cal_note = calibration_rows(session)
-    return IndexPage(page_title=f"Ergonomic report: {header.title}", session=header, workers=tuple(rows),
+    return IndexPage(page_title=f"Ergonomic report: {header.title}", session=header, workers=rows,
+                     risk_figure=session_risk_figure(workers, session),
                      overview_figures=tuple(figs), calibration_rows=cal_rows, calibration_note=cal_note,
                      methods=methods_section(session),
-                     downloads=tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in session.csv_files))
+                     downloads=tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in session.csv_files),
+                     print_link=print_link(), glossary=glossary(session))
+
+
+def _print_row(r: WorkerRow, info: WorkerInfo) -> PrintRow:
+    return PrintRow(worker_id=info.worker_id, name=info.name or "", tracked=r.tracked, confident=r.confident,
+                    low_confidence=r.low_confidence, unscored=r.unscored, rula_high=r.rula_high, reba_high=r.reba_high,
+                    periods=r.periods, verdict_label=r.verdict_label, verdict_rating=r.verdict_rating)
+
+
+def build_print_page(workers: Sequence[WorkerResults], session: SessionInfo,
+                     report_dir: Path | None = None) -> PrintPage:
+    """The context of the print version: the summary page, then each worker's (at most two) pages."""
+    header = session_header(session)
+    clock = Clock(session.start)
+    out = []
+    for n, res in enumerate(workers, start=1):
+        summ = res.summary
+        who = display_name(res.info.worker_id, res.info.name)
+        cards = worst_moments(summ, session, who, clock, limit=PRINT_PERIODS, prefix=f"w{n}-")
+        left = len(summ.worst) - len(cards)
+        out.append(PrintWorker(
+            worker_id=res.info.worker_id, display_name=who,
+            tracked=(f"Tracked for {fmt_duration(summ.observed_s)} of the {fmt_duration(session.duration_s)} recorded "
+                     f"({fmt_percent(summ.observed_s, session.duration_s)}); shares are of the tracked time."),
+            headline=tuple(headline(summ, m) for m in session.methods), act_summary=act_summary(res, session),
+            confidence_rows=confidence_rows(summ)[0], risk_figure=worker_risk_figure(res, session, clock, f"w{n}-"),
+            worst=cards, more=(f"{left} more period{'s' if left != 1 else ''} on the worker's page." if left > 0
+                               else "")))
+    return PrintPage(page_title=f"Ergonomic report (print): {header.title}", session=header,
+                     workers_table=tuple(_print_row(worker_row(res, session, report_dir), res.info) for res in workers),
+                     risk_figure=session_risk_figure(workers, session), worst_note=worst_note(session),
+                     workers=tuple(out), glossary=glossary(session))
 
 
 __all__ = [
@@ -1186,5 +1524,6 @@ __all__ = [
     "ConfidenceRow", "InputRow", "confidence_rows", "input_rows", "CONFIDENCE_WORDS",
     "BandRow", "HoldRow", "RepetitionRow", "MomentCard", "HourRow", "HourTable", "FlagRow", "LimbRow", "RegionRow",
     "QualitySection", "WorkerPage", "WorkerRow", "IndexPage", "build_worker_page", "build_index_page",
+    "DriverRow", "Term", "PrintRow", "PrintWorker", "PrintPage", "build_print_page", "PRINT_FILE", "glossary",
     "worker_page_name", "Finding", "Verdict",
 ]

@@ -1,8 +1,9 @@
 """Render the HTML report of a session from its stored results.
 
 One self-contained HTML file per page (inline CSS and SVG, no script, no network: a
-Content-Security-Policy meta tag forbids every external load): ``index.html`` for the session and
-``worker-<id>.html`` per worker, next to ``results/`` in the report folder. Templates are
+Content-Security-Policy meta tag forbids every external load): ``index.html`` for the session,
+``worker-<id>.html`` per worker and ``print.html`` (the print version: one summary page, then at
+most two A4 pages per worker), next to ``results/`` in the report folder. Templates are
 Jinja2 files in templates/ (found with ergopose.resources.resource_dir) with autoescaping on and
 StrictUndefined; each is fed one frozen context dataclass (ergopose.report.pages).
 
@@ -24,12 +25,13 @@ import jinja2
 from ergopose.atomic import readable, write_text
 from ergopose.errors import ErgoposeError
 from ergopose.progress import ProgressCallback, report
-from ergopose.report.pages import IndexPage, WorkerPage, build_index_page, build_worker_page, worker_page_name
+from ergopose.report.pages import (PRINT_FILE, IndexPage, PrintPage, WorkerPage, build_index_page, build_print_page,
+                                   build_worker_page, worker_page_name)
 from ergopose.report.results import SessionResults, load_results
 from ergopose.resources import resource_dir
 
 #: Template file of each page context.
-TEMPLATES: dict[type, str] = {IndexPage: "index.html.j2", WorkerPage: "worker.html.j2"}
+TEMPLATES: dict[type, str] = {IndexPage: "index.html.j2", WorkerPage: "worker.html.j2", PrintPage: "print.html.j2"}
 INDEX_FILE = "index.html"
 
 
@@ -46,7 +48,7 @@ def context_variables(context: Any) -> dict[str, Any]:
     return {f.name: getattr(context, f.name) for f in dataclasses.fields(context)}
 
 
-def render_page(context: IndexPage | WorkerPage, env: jinja2.Environment | None = None) -> str:
+def render_page(context: IndexPage | WorkerPage | PrintPage, env: jinja2.Environment | None = None) -> str:
     """HTML of one page from its context."""
     env = env or environment()
     try:
@@ -70,12 +72,14 @@ def render_pages(results: SessionResults, report_dir: str | os.PathLike | None =
     """Every page of a report as {file name: HTML}, nothing written."""
     folder = Path(report_dir) if report_dir is not None else None
     env = environment()
-    n = len(results.workers) + 1
+    n = len(results.workers) + 2
     pages: dict[str, str] = {}
     report(progress, "report", 0, n, unit="page")
     for k, res in enumerate(results.workers, start=1):
         pages[worker_page_name(res.info.worker_id)] = render_page(build_worker_page(res, results.session, folder), env)
         report(progress, "report", k, n, unit="page")
+    pages[PRINT_FILE] = render_page(build_print_page(results.workers, results.session, folder), env)
+    report(progress, "report", n - 1, n, unit="page")
     pages[INDEX_FILE] = render_page(build_index_page(results.workers, results.session, folder), env)
     report(progress, "report", n, n, unit="page")
     return pages

@@ -48,6 +48,14 @@ def _n(x: float) -> str:
     return "0" if s in ("-0", "") else s
 
 
+def _ns(values: np.ndarray) -> list[str]:
+    """Many coordinates as _n would write them (at most two decimals, no trailing zeros), at once."""
+    v = np.round(np.asarray(values, dtype=np.float64), 2) + 0.0  # + 0.0: no "-0"
+    if not np.all(np.isfinite(v)):
+        raise ValueError("non-finite coordinate")
+    return [f"{x:.2f}".rstrip("0").rstrip(".") for x in v.tolist()]
+
+
 def relative_luminance(colour: str) -> float:
     """WCAG 2 relative luminance of a ``#rrggbb`` colour."""
     c = colour.lstrip("#")
@@ -122,14 +130,29 @@ class StackRow:
     segments: tuple[Segment, ...]
 
 
+def _hatch_legend(x: float, y: float, label: str, id_prefix: str) -> str:
+    """A legend entry for the hatched fill: swatch and label, baseline at y."""
+    return (f'<rect x="{_n(x)}" y="{_n(y - 10)}" width="12" height="12" fill="url(#{_e(id_prefix)}-hatch)" '
+            f'stroke="{MUTED}" stroke-width="0.5"/><text x="{_n(x + 17)}" y="{_n(y)}" font-size="11">{_e(label)}</text>')
+
+
+def _has_hatch(groups: Iterable[Sequence[Segment]]) -> bool:
+    return any(seg.colour is None and seg.value > 0 for segs in groups for seg in segs)
+
+
 def stacked_bars(rows: Sequence[StackRow], *, title: str, desc: str, id_prefix: str, total: float | None = None,
                  width: float = 720, label_width: float = 170, bar_height: float = 26,
-                 axis_label: str = "share of observed time (%)") -> Markup:
-    """Horizontal stacked bars, one per row, scaled to ``total`` (default: each row's own sum = 100 %)."""
+                 axis_label: str = "share of observed time (%)", hatch_label: str = "not scored") -> Markup:
+    """Horizontal stacked bars, one per row, scaled to ``total`` (default: each row's own sum = 100 %).
+    Row labels are shortened to fit (the full label is their tooltip); when a hatched segment is
+    drawn, a legend under the axis names it (``hatch_label``)."""
     plot_w = width - label_width - 16
     top = 8
+    hatched = _has_hatch(r.segments for r in rows)
     height = top + len(rows) * (bar_height + 8) + 34
     out = [_hatch(id_prefix)]
+    if hatched:
+        out.append(_hatch_legend(label_width, height + 14, hatch_label, id_prefix))
     x0 = label_width
     for k in range(5):
         x = x0 + plot_w * k / 4
@@ -140,7 +163,7 @@ def stacked_bars(rows: Sequence[StackRow], *, title: str, desc: str, id_prefix: 
     for i, row in enumerate(rows):
         y = top + i * (bar_height + 8)
         out.append(f'<text x="{_n(label_width - 8)}" y="{_n(y + bar_height / 2 + 4)}" text-anchor="end">'
-                   f'{_e(row.label)}</text>')
+                   f'<title>{_e(row.label)}</title>{_e(fit_label(row.label, label_width - 12, 12))}</text>')
         denom = total if total is not None else sum(max(s.value, 0.0) for s in row.segments)
         x = x0
         for seg in row.segments:
@@ -154,7 +177,7 @@ def stacked_bars(rows: Sequence[StackRow], *, title: str, desc: str, id_prefix: 
                 out.append(f'<text x="{_n(x + w / 2)}" y="{_n(y + bar_height / 2 + 4)}" text-anchor="middle" '
                            f'font-size="11" fill="{_label_fill(seg.colour)}">{_e(seg.short)}</text>')
             x += w
-    return _svg(width, height, title, desc, id_prefix, out)
+    return _svg(width, height + (20 if hatched else 0), title, desc, id_prefix, out)
 
 
 @dataclass(frozen=True)
@@ -166,9 +189,12 @@ class StackColumn:
 
 
 def stacked_columns(columns: Sequence[StackColumn], *, title: str, desc: str, id_prefix: str, y_max: float,
-                    y_label: str, y_ticks: Sequence[float], width: float = 720, height: float = 260) -> Markup:
-    """Vertical stacked columns on a common axis 0..y_max (e.g. minutes of each hour)."""
+                    y_label: str, y_ticks: Sequence[float], width: float = 720, height: float = 260,
+                    hatch_label: str = "not scored") -> Markup:
+    """Vertical stacked columns on a common axis 0..y_max (e.g. minutes of each hour); a legend
+    names the hatched fill when it is drawn."""
     left, right, top, bottom = 46, 8, 10, 40
+    hatched = _has_hatch(c.segments for c in columns)
     plot_w, plot_h = width - left - right, height - top - bottom
     n = max(len(columns), 1)
     slot = plot_w / n
@@ -201,7 +227,9 @@ def stacked_columns(columns: Sequence[StackColumn], *, title: str, desc: str, id
         if i % every == 0:
             out.append(f'<text x="{_n(cx)}" y="{_n(height - bottom + 16)}" text-anchor="middle" fill="{MUTED}">'
                        f'{_e(col.label)}</text>')
-    return _svg(width, height, title, desc, id_prefix, out)
+    if hatched:
+        out.append(_hatch_legend(left, height + 10, hatch_label, id_prefix))
+    return _svg(width, height + (18 if hatched else 0), title, desc, id_prefix, out)
 
 
 def _tick(v: float) -> str:
@@ -543,8 +571,15 @@ def heat_map(grid: np.ndarray, extent: tuple[float, float, float, float], *, tit
 
 
 def _range_label(a: float, b: float) -> str:
+    """A legend step "0.25 to 0.50": enough decimals that the step's two ends differ (and at
+    least as many as the upper end needs to show a non-zero value)."""
+    step = abs(b - a)
+    decimals = 0 if step >= 10 else max(1, min(3, math.ceil(-math.log10(step)) + 1)) if step > 0 else 1
+    if step >= 1 and step < 10:
+        decimals = 1
+
     def f(v: float) -> str:
-        return f"{v:.0f}" if v >= 10 else f"{v:.1f}"
+        return f"{v:.{decimals}f}"
     return f"up to {f(b)}" if a <= 0 else f"{f(a)} to {f(b)}"
 
 
@@ -585,20 +620,18 @@ def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix
     Left-side limbs are solid blue, right-side limbs dashed red, and L/R mark the wrists.
     """
     j = np.asarray(joints_world, dtype=np.float64).reshape(-1, 3)
-    axes = body_axes(j)
+    proj = skeleton_projection(j)
     gap = 12
     panel_h = panel * 1.25
     width = 2 * panel + gap + 4
     height = panel_h + 30
     out = []
-    if axes is None:
+    if proj is None:
         out.append(f'<text x="{_n(width / 2)}" y="{_n(height / 2)}" text-anchor="middle" fill="{MUTED}">'
                    f'skeleton not available</text>')
         return _svg(width, height, title, desc, id_prefix, out, css_class="fig skeleton")
-    origin, lat, fwd = axes
-    rel = j - origin
-    views = (("front view", -(rel @ lat)), ("side view (from the right)", rel @ fwd))
-    zs = rel[:, 2]
+    front, side, zs = proj
+    views = (("front view", front), ("side view (from the right)", side))
     known = np.all(np.isfinite(j), axis=1)
     top_m = max(min_height_m, float(np.nanmax(zs[known])) + 0.15) if known.any() else min_height_m
     spans = [(float(np.min(h[known])), float(np.max(h[known]))) if known.any() else (-0.5, 0.5) for _, h in views]
@@ -651,3 +684,114 @@ def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix
         out.append(f'<text x="{_n(cx)}" y="{_n(height - 8)}" text-anchor="middle" font-size="11" fill="{MUTED}">'
                    f'{_e(name)}</text>')
     return _svg(width, height, title, desc, id_prefix, out, css_class="fig skeleton")
+
+
+# --------------------------------------------------------------------------- risk strips
+
+
+#: Categories of the risk strips, drawn in this order from the top of each strip: colour (None =
+#: hatched "not scored"), label. Not tracked is left white (the strip's outline shows the bin).
+RISK_FILLS = (("high", "#d73027"), ("medium", "#fee08b"), ("low", "#a6d96a"), ("not scored", None))
+
+
+@dataclass(frozen=True)
+class StripRow:
+    """One strip of a risk timeline: label (drawn at the left, shortened to fit; the full text is
+    the tooltip), shares (n_bins x 4: share of each bin's length that was high, medium, low and
+    not scored, in RISK_FILLS order; the rest of the bin was not tracked)."""
+
+    label: str
+    shares: np.ndarray
+
+
+def fit_label(text: str, width_px: float, size: float = 11) -> str:
+    """``text`` shortened with an ellipsis so that its estimated width fits ``width_px``."""
+    room = max(int(width_px / (0.6 * size)), 2)
+    return text if len(text) <= room else text[: room - 1].rstrip() + "…"
+
+
+def risk_strips(rows: Sequence[StripRow], bin_s: float, *, x_ticks: Sequence[tuple[float, str]], title: str,
+                desc: str, id_prefix: str, legend: Sequence[str], marks: Sequence[tuple[float, float, str]] = (),
+                width: float = 960, label_width: float = 150, strip_h: float = 16, gap: float = 5) -> Markup:
+    """A timeline of the shift per row: each time bin a column split by the share of it at high,
+    medium and low risk and not scored (hatched); white = not tracked. marks: (start_s, end_s,
+    label) brackets above the strips (e.g. the numbered sustained periods). legend: the text of
+    each category (RISK_FILLS order, then "not tracked"), drawn under the time axis."""
+    n_bins = max((r.shares.shape[0] for r in rows), default=1)
+    if len(rows) > 12:  # many workers: thin strips, so a summary page holds twenty
+        strip_h, gap = min(strip_h, 8.0), min(gap, 2.0)
+    elif len(rows) > 4:
+        strip_h, gap = min(strip_h, 11.0), min(gap, 3.0)
+    right = 10
+    plot_w = width - label_width - right
+    mark_h = 16 if marks else 0
+    top = 4 + mark_h
+    plot_h = len(rows) * (strip_h + gap) - gap if rows else strip_h
+    axis_y = top + plot_h
+    legend_y = axis_y + 34
+    height = legend_y + 14
+    span = n_bins * bin_s
+
+    def xpix(t: float) -> float:
+        return label_width + plot_w * t / span
+
+    out = [_hatch(id_prefix)]
+    bw = plot_w / n_bins
+    bws = _n(bw)
+    for c, (name, colour) in enumerate(RISK_FILLS):
+        parts = []
+        for i, r in enumerate(rows):
+            y0 = top + i * (strip_h + gap)
+            sh = np.asarray(r.shares, dtype=np.float64)
+            ys = y0 + strip_h * (sh[:, :c].sum(axis=1) if c else np.zeros(sh.shape[0]))
+            hs = strip_h * sh[:, c]
+            k = np.flatnonzero(hs > 0)
+            parts += [f"M{x} {y}h{bws}v{h}h-{bws}Z" for x, y, h in
+                      zip(_ns(label_width + k * bw), _ns(ys[k]), _ns(hs[k]))]
+        if parts:
+            out.append(f'<path d="{"".join(parts)}" fill="{_fill(colour, id_prefix)}" stroke="none">'
+                       f'<title>{_e(name)}</title></path>')
+    for i, r in enumerate(rows):
+        y0 = top + i * (strip_h + gap)
+        out.append(f'<rect x="{_n(label_width)}" y="{_n(y0)}" width="{_n(plot_w)}" height="{_n(strip_h)}" fill="none" '
+                   f'stroke="{MUTED}" stroke-width="0.5"/>')
+        out.append(f'<text x="{_n(label_width - 6)}" y="{_n(y0 + strip_h / 2 + 4)}" text-anchor="end" font-size="11">'
+                   f'<title>{_e(r.label)}</title>{_e(fit_label(r.label, label_width - 10))}</text>')
+    for a, b, label in marks:
+        xa, xb = xpix(a), max(xpix(b), xpix(a) + 2)
+        out.append(f'<path d="M{_n(xa)} {_n(top - 2)}V{_n(top - 7)}H{_n(xb)}V{_n(top - 2)}" fill="none" '
+                   f'stroke="{TEXT}" stroke-width="1.2"/>')
+        out.append(f'<text x="{_n((xa + xb) / 2)}" y="{_n(top - 9)}" text-anchor="middle" font-size="10" '
+                   f'font-weight="bold">{_e(label)}</text>')
+    for t, label in x_ticks:
+        x = xpix(t)
+        out.append(f'<line x1="{_n(x)}" y1="{_n(axis_y)}" x2="{_n(x)}" y2="{_n(axis_y + 6)}" stroke="{MUTED}"/>')
+        out.append(f'<text x="{_n(x)}" y="{_n(axis_y + 18)}" text-anchor="middle" font-size="11" fill="{MUTED}">'
+                   f'{_e(label)}</text>')
+    x = label_width
+    fills = [c for _, c in RISK_FILLS] + ["#ffffff"]
+    for text, colour in zip(legend, fills):
+        out.append(f'<rect x="{_n(x)}" y="{_n(legend_y - 9)}" width="11" height="11" fill="{_fill(colour, id_prefix)}" '
+                   f'stroke="{MUTED}" stroke-width="0.5"/>')
+        out.append(f'<text x="{_n(x + 15)}" y="{_n(legend_y)}" font-size="11">{_e(text)}</text>')
+        x += 15 + _text_width(text, 11) + 12
+    return _svg(max(width, x), height, title, desc, id_prefix, out, css_class="fig strips")
+
+
+# --------------------------------------------------------------------- skeleton projection
+
+
+def skeleton_projection(joints_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The coordinates skeleton_views draws, per joint (metres; NaN rows = missing joints):
+    front: across the body as seen from in front, = minus the distance towards the worker's right
+    (the right side is drawn on the viewer's left); side: distance forward of the hips (seen from
+    the worker's right, the worker faces the viewer's right); height: above the floor. Origin: the
+    floor point under the middle of the hips (else of the shoulders). None when neither pair is
+    known."""
+    j = np.asarray(joints_world, dtype=np.float64).reshape(-1, 3)
+    axes = body_axes(j)
+    if axes is None:
+        return None
+    origin, lat, fwd = axes
+    rel = j - origin
+    return -(rel @ lat), rel @ fwd, rel[:, 2]

@@ -233,3 +233,18 @@ def test_assess_a_part_of_the_day(reference, tiny_session, fetched_model_dir, tm
         assert table["frame"].between(12, 23).all() and table["time_s"].between(1.0, 2.0 - 1e-9).all()
     summary = pd.read_csv(out / "csv" / "session_summary.csv")
     assert (summary["tracked_s"] <= 1.0 + 1e-9).all()
+
+
+@pytest.mark.browser
+def test_assessed_print_version_in_chromium(reference, tmp_path):
+    """The print version of a real assessment: one summary page, then at most two A4 pages per
+    worker (counted from Chromium's PDF), laid out inside the A4 width with its print rules."""
+    from tests.report.test_browser_print import A4_PRINTABLE_PX, layout, pdf_pages
+
+    out, _ = reference
+    workers = sorted(p.stem[len("worker-"):] for p in out.glob("worker-*.html"))
+    total, per_worker = pdf_pages(out / "print.html", tmp_path)
+    assert sorted(per_worker) == workers
+    assert total == 1 + sum(per_worker.values()) and all(1 <= n <= 2 for n in per_worker.values()), per_worker
+    found = layout(out / "print.html", tmp_path, f"{A4_PRINTABLE_PX},1000", print_rules=True)
+    assert found["outside"] == [] and found["overflowing"] == [] and found["scroll_width"] <= found["viewport"] + 1

@@ -36,3 +36,24 @@ def rendered_report(stored_report):
     folder, session, workers = stored_report
     files = render_report(folder)
     return folder, session, workers, files
+
+
+#: Names that strain the layout: right-to-left (Arabic, Hebrew), very long without a break, CJK.
+CROWDED_NAMES = ("فاطمة الزهراء بنت محمد عبد الرحمن", "אברהם בן־דוד הלוי מירושלים",
+                 "Maximilian-Alexander-Oberbergermeister-Wolkenstein-Trostburg-von-und-zu-Hohenzollern-Sigmaringen",
+                 "李雷", "Ana María de la Santísima Trinidad Fernández-Villaverde y Gómez de Arteche")
+
+
+@pytest.fixture(scope="session")
+def crowded_report(tmp_path_factory):
+    """A rendered report of a 10-minute shift of 20 workers named with CROWDED_NAMES in turn."""
+    from ergopose.report.render import render_report
+    from ergopose.report.results import save_results
+
+    folder = tmp_path_factory.mktemp("crowded") / "crowded-shift"
+    names = {f"W{k + 1}": CROWDED_NAMES[k % len(CROWDED_NAMES)] for k in range(20)}
+    session, workers = synthetic_session(n_workers=20, duration_s=600.0, names=names, seed=11)
+    save_results(folder, session, workers)
+    write_csv_targets(folder, session)
+    files = render_report(folder)
+    return folder, session, workers, files

@@ -12,6 +12,7 @@ Used by tests/report/*.py and bench/bench_report.py (which loads it by path).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -23,11 +24,11 @@ from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, 
 from ergopose.ergonomics.methods import load_method
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import LIMB_INDEX, LIMBS
-from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records
+from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records, worst_periods
 from ergopose.report.context import (Assumption, BandTime, CauseSeconds, ConfidenceTime, InputQuality, DataFile, SettingsValue,
                                      CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
                                      LimbStats, ModelInfo, RegionAccuracy, Repetition, SessionInfo, StandardFlag,
-                                     WorkerDiagnostics, WorkerInfo, WorkerSummary, WorstMoment)
+                                     WorkerDiagnostics, WorkerInfo, WorkerSummary, Driver)
 from ergopose.report.results import frames_table
 from ergopose.sim.scene import RIG_POSITIONS, default_scene, lens_region
 
@@ -169,31 +170,28 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
                  for part, angle in (("left upper arm", "left_upper_arm_flexion"),
                                      ("right upper arm", "right_upper_arm_flexion"),
                                      ("trunk", "trunk_flexion"), ("right wrist", "right_wrist_flexion")))
-    # worst moments: highest RULA, then REBA, at least 5 minutes apart
-    rula = frames["rula_grand"].to_numpy(dtype=np.float64, na_value=-1)
-    reba = frames["reba_score"].to_numpy(dtype=np.float64, na_value=-1)
-    key = rula * 100 + reba
-    order = np.argsort(-key, kind="stable")
-    chosen: list[int] = []
-    for i in order[:20000]:
-        if all(abs(t[i] - t[j]) > 300 for j in chosen):
-            chosen.append(int(i))
-        if len(chosen) == 5:
-            break
-    worst = []
+    # sustained periods of high risk, found as the pipeline finds them; skeletons from the body
+    # model at each drawn frame's score; what drove them made up (the frames hold no bands)
     rm, bm = load_method("rula"), load_method("reba")
-    for k, i in enumerate(chosen):
-        r, b = int(rula[i]), int(reba[i])
+
+    def joints_at(time_s: float) -> np.ndarray:
+        i = int(np.argmin(np.abs(t - time_s)))
+        r = int(frames["rula_grand"].iat[i]) if not pd.isna(frames["rula_grand"].iat[i]) else 4
         x, y = float(frames["floor_x_m"].iat[i]), float(frames["floor_y_m"].iat[i])
-        posture = place_on_floor(body, _posture_for(r, rng, x, y))
-        joints = pose_skeleton(body, posture)
-        if k == 4:  # one moment with a missing forearm, as happens behind shelves
-            joints[[15, 17, 19, 21]] = np.nan
-        worst.append(WorstMoment(start_s=float(t[i] - 4), end_s=float(t[i] + 6), peak_s=float(t[i]), rula_grand=r,
-                                 rula_level=int(rm.level_of(np.array([r]))[0]), reba_score=b,
-                                 reba_level=int(bm.level_of(np.array([b]))[0]),
-                                 reason="trunk flexed forward, left arm raised above the shoulder, knees bent",
-                                 joints_world_m=tuple(tuple(float(v) for v in p) for p in joints)))
+        return pose_skeleton(body, place_on_floor(body, _posture_for(r, rng, x, y)))
+
+    worst = []
+    for k, w in enumerate(worst_periods(frames, None, {"rula": rm, "reba": bm}, dt, joints_at)):
+        drivers = (Driver("rula", "left upper arm", 4, 4, "90 or more flexion", round(0.4 * w.high_s, 3)),
+                   Driver("rula", "trunk", 3, 4, "20-60 flexion", round(0.8 * w.high_s, 3)),
+                   Driver("rula", "right wrist", 3, 3, "15 or more flexion or extension", round(0.3 * w.high_s, 3))
+                   )[: 1 + k % 3]
+        joints = w.joints_world_m
+        if k == 4 and joints is not None:  # one period with a missing forearm, as happens behind shelves
+            joints = tuple((math.nan,) * 3 if j in (15, 17, 19, 21) else p for j, p in enumerate(joints))
+        worst.append(dataclasses.replace(
+            w, drivers=drivers, joints_world_m=joints,
+            reason="; ".join(f"{d.body_part} {d.criterion} (band {d.score} of {d.top})" for d in drivers)))
     flags = (
         StandardFlag("ISO 11226", "trunk", "trunk inclination over 60 deg", "not recommended",
                      float(rng.uniform(300, 900)), float(rng.uniform(5, 40)), "held longer than 4 s"),
@@ -290,7 +288,7 @@ def synthetic_session(n_workers: int = 3, duration_s: float = 2 * 3600.0, fps: f
     infos, results = [], []
     for k in range(n_workers):
         wid = f"W{k + 1}"
-        body = BodyMeasurements.from_stature(1.62 + 0.08 * k)
+        body = BodyMeasurements.from_stature(1.62 + 0.08 * (k % 4))
         frames = _worker_frames(rng, duration_s, fps, stations, gaps)
         summary = _summary(wid, frames, fps, duration_s, rng, body)
         diag = _diagnostics(wid, frames, rng, body)

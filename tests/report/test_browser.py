@@ -119,7 +119,7 @@ def test_index_page_in_chromium(rendered_report, tmp_path):
     folder, session, workers, files = rendered_report
     result = probe(folder / "index.html", tmp_path)
     assert result["resources"] == 0
-    assert len(result["svgs"]) == 2
+    assert len(result["svgs"]) == 3  # the shift by time of day and one overview per method
     for s in result["svgs"]:
         assert s["width"] > 50 and s["height"] > 30 and s["right"] <= result["viewport"] + 0.5
 

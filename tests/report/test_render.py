@@ -70,7 +70,7 @@ def test_headline_numbers_come_from_the_frames(rendered_report):
 
 def test_pages_are_self_contained_and_small(rendered_report):
     folder, session, workers, files = rendered_report
-    assert set(files.sizes) == {"index.html"} | {worker_page_name(w.worker_id) for w in session.workers}
+    assert set(files.sizes) == {"index.html", "print.html"} | {worker_page_name(w.worker_id) for w in session.workers}
     for name, size in files.sizes.items():
         text = (folder / name).read_text(encoding="utf-8")
         assert len(text.encode()) == size < 3_000_000
@@ -137,7 +137,7 @@ def hostile_report(tmp_path_factory):
     return folder
 
 
-@pytest.mark.parametrize("page_name", ["index.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
+@pytest.mark.parametrize("page_name", ["index.html", "print.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
 def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
     text = (hostile_report / page_name).read_text(encoding="utf-8")
     page = Page(text)
@@ -189,3 +189,56 @@ def test_short_times_and_ticks():
                                              "08:01:00"]
     ticks = _time_ticks(8 * 3600.0, Clock("2024-03-04T07:45:00"))
     assert ticks[0] == (900.0, "08:00") and ticks[-1][1] == "15:00"
+
+
+def _visible_text(html: str) -> str:
+    """The page's text without the glossary, tags and SVG tooltips (what a reader reads as body)."""
+    html = re.sub(r'<dl class="glossary">.*?</dl>', " ", html, flags=re.S)
+    html = re.sub(r"<(title|desc|style)[^>]*>.*?</\1>", " ", html, flags=re.S)
+    return markupsafe.Markup(re.sub(r"<[^>]+>", " ", html)).unescape()
+
+
+def test_no_report_defects_and_every_abbreviation_in_the_glossary(crowded_report):
+    """Issue 15's defects are gone on a short, crowded session; each abbreviation the pages use is
+    explained in the page's glossary."""
+    folder, session, workers, files = crowded_report
+    for name in files.sizes:
+        html = (folder / name).read_text(encoding="utf-8")
+        text = _visible_text(html)
+        for bad in ("0.0 to 0.0", "n/s", "± 0.0", "(n = 1)"):
+            assert bad not in html, (name, bad)
+        terms = " ".join(re.findall(r"<dt>(.*?)</dt>", re.search(r'<dl class="glossary">(.*?)</dl>', html,
+                                                                  flags=re.S).group(1)))
+        for abbr in ("RULA", "REBA", "AL1", "AL2", "AL3", "AL4", "SD", "n/a", "deg"):
+            if re.search(rf"(?<![\w/]){re.escape(abbr)}(?![\w/])", text):
+                assert abbr in terms, (name, abbr)
+    # a 10-minute shift: the hour table has times, not rows of zeros
+    page = (folder / worker_page_name("W2")).read_text(encoding="utf-8")
+    table = re.search(r"<caption>RULA: time at each action level per hour.*?</table>", page, flags=re.S).group(0)
+    cells = re.findall(r'<td class="num">([^<]*)</td>', table)
+    assert cells and any(re.search(r"\d+ (s|min)", c) for c in cells) and not any(c.strip() in ("0.0", "0") for c in cells)
+
+
+def test_pages_show_the_sustained_periods(rendered_report):
+    """Each worker page lists its stored periods in order, with clock times, durations of at least
+    the minimum and the body parts; the timeline marks each."""
+    from ergopose.report.periods import MIN_DURATION_S
+    from ergopose.report.pages import Clock, fmt_duration
+
+    folder, session, workers, files = rendered_report
+    clock = Clock(session.start)
+    for info, (summary, _, _) in zip(session.workers, workers):
+        html = (folder / worker_page_name(info.worker_id)).read_text(encoding="utf-8")
+        rows = re.findall(r'<tr data-period="(\d+)">(.*?)</tr>', html, flags=re.S)
+        assert [int(k) for k, _ in rows] == list(range(1, len(summary.worst) + 1)) and rows
+        for (_, row), w in zip(rows, summary.worst):
+            assert w.end_s - w.start_s >= MIN_DURATION_S
+            assert clock(w.start_s) in row and clock(w.end_s) in row and fmt_duration(w.high_s) in row
+            assert w.drivers[0].body_part in row
+        assert len(re.findall(r'<article class="moment" data-period=', html)) == len(summary.worst)
+        # the periods' share of all the high-risk time, counted here from the frames
+        _, _, frames = workers[session.workers.index(info)]
+        high = (frames["rula_action_level"].isin([3, 4]) | frames["reba_risk_level"].isin([3, 4])).sum() / session.fps
+        held = sum(w.high_s for w in summary.worst)
+        assert markupsafe.escape(f"hold {fmt_duration(held)} of the worker's {fmt_duration(high)} at high risk "
+                                 f"({100 * held / high:.1f} %)") in html

@@ -160,3 +160,42 @@ def test_heat_map_cells_and_legend():
     size = 340
     assert float(hot.get("x")) == pytest.approx(30 + (5 * 0.25) * size / 6, abs=0.01)
     assert float(hot.get("y")) == pytest.approx(8 + (3 - (-2.0)) * size / 6, abs=0.01)
+
+
+def test_skeleton_projection_of_known_points():
+    """Hips 0.2 m apart along -x (the worker's right is -x), so the worker faces -y: a wrist at
+    (1.3, 1.5, 1.2) is 0.3 m to the worker's left (drawn right of centre in the front view),
+    0.5 m forward of the hips and 1.2 m high."""
+    j = np.full((33, 3), np.nan)
+    j[JOINT_INDEX["left_hip"]] = (1.1, 2.0, 0.9)
+    j[JOINT_INDEX["right_hip"]] = (0.9, 2.0, 0.9)
+    j[JOINT_INDEX["left_wrist"]] = (1.3, 1.5, 1.2)
+    j[JOINT_INDEX["right_wrist"]] = (0.8, 2.2, 0.4)
+    front, side, height = svg.skeleton_projection(j)
+    lw, rw = JOINT_INDEX["left_wrist"], JOINT_INDEX["right_wrist"]
+    np.testing.assert_allclose([front[lw], side[lw], height[lw]], [0.3, 0.5, 1.2], atol=1e-12)
+    np.testing.assert_allclose([front[rw], side[rw], height[rw]], [-0.2, -0.2, 0.4], atol=1e-12)
+    np.testing.assert_allclose(front[JOINT_INDEX["left_hip"]], 0.1, atol=1e-12)
+    assert np.isnan(front[JOINT_INDEX["nose"]])
+    # the drawing puts the points there: one scale for both views, heights up from the floor line
+    root = parse(svg.skeleton_views(j, title="t", desc="d", id_prefix="k"))
+    marks = [(e.text, float(e.get("x")), float(e.get("y"))) for e in root.iter(f"{NS}text") if e.text in ("L", "R")]
+    assert [m[0] for m in marks] == ["L", "R", "L", "R"]  # front view, then side view
+    for (_, lx, ly), (_, rx, ry), (dh, dz) in zip(marks[0::2], marks[1::2], ((0.3 - -0.2, 1.2 - 0.4),
+                                                                               (0.5 - -0.2, 1.2 - 0.4))):
+        assert (lx - rx) / (ly - ry) == pytest.approx(-dh / dz, rel=1e-3)  # pixel y grows downwards
+    assert svg.skeleton_projection(np.full((33, 3), np.nan)) is None
+
+
+def test_risk_strips_draw_each_share():
+    shares = np.array([[1.0, 0, 0, 0], [0.25, 0.25, 0.25, 0.25], [0, 0, 0, 0]])
+    root = parse(svg.risk_strips([svg.StripRow(EVIL, shares)], 60.0, x_ticks=[(0, "06:00")], title=EVIL, desc=EVIL,
+                                 id_prefix="r", legend=("high", "medium", "low", "not scored", "not tracked"),
+                                 marks=[(0.0, 60.0, "1")], width=400, label_width=100))
+    assert EVIL in texts(root)
+    paths = {p.find(f"{NS}title").text: p.get("d") for p in root.iter(f"{NS}path") if p.find(f"{NS}title") is not None}
+    # bin width (400 - 100 - 10) / 3; the high path: a full bin, then a quarter of the next
+    # strips start 20 px down (under the period brackets)
+    assert paths["high"] == "M100 20h96.67v16h-96.67ZM196.67 20h96.67v4h-96.67Z"
+    assert paths["not scored"].startswith("M196.67 32h96.67v4")
+    assert "medium" in paths and "low" in paths

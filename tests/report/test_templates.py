@@ -90,7 +90,8 @@ def example_contexts(stored_report):
     results = load_results(folder)
     worker = pages.build_worker_page(results.workers[1], results.session, folder)
     index = pages.build_index_page(results.workers, results.session, folder)
-    return {pages.WorkerPage: worker, pages.IndexPage: index}
+    printed = pages.build_print_page(results.workers, results.session, folder)
+    return {pages.WorkerPage: worker, pages.IndexPage: index, pages.PrintPage: printed}
 
 
 def test_example_contexts_have_both_branches(example_contexts):
@@ -100,9 +101,12 @@ def test_example_contexts_have_both_branches(example_contexts):
     assert worker.quality.error_3d and worker.session.site and worker.quality.calibration_rows
     for name in ("holds", "repetitions", "worst", "flags", "assumptions", "body_part_rows", "hourly_tables"):
         assert getattr(worker, name), name
+    printed = example_contexts[pages.PrintPage]
+    assert all(w.worst for w in printed.workers) and any(w.more for w in printed.workers) is False
 
 
-@pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage], ids=["worker", "index"])
+@pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage],
+                         ids=["worker", "index", "print"])
 def test_template_uses_every_documented_field_and_nothing_else(page_type, example_contexts):
     env = environment(env_class=RecordingEnvironment)
     ctx = example_contexts[page_type]
@@ -115,7 +119,8 @@ def test_template_uses_every_documented_field_and_nothing_else(page_type, exampl
     assert env.reads <= expected
 
 
-@pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage], ids=["worker", "index"])
+@pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage],
+                         ids=["worker", "index", "print"])
 def test_template_names_only_context_fields(page_type):
     """Top-level names of the template and of the layout it extends are exactly the context's fields."""
     env = environment()
@@ -136,8 +141,9 @@ def test_macros_use_only_their_arguments():
     assert jinja2.meta.find_undeclared_variables(env.parse(source)) == set()
 
 
-@pytest.mark.parametrize("cls", sorted(reachable_dataclasses(pages.WorkerPage) | reachable_dataclasses(pages.IndexPage),
-                                       key=lambda c: c.__name__), ids=lambda c: c.__name__)
+@pytest.mark.parametrize("cls", sorted(reachable_dataclasses(pages.WorkerPage) | reachable_dataclasses(pages.IndexPage)
+                                       | reachable_dataclasses(pages.PrintPage), key=lambda c: c.__name__),
+                         ids=lambda c: c.__name__)
 def test_every_context_field_is_documented(cls):
     doc = cls.__doc__ or ""
     missing = [f.name for f in dataclasses.fields(cls) if not re.search(rf"\b{re.escape(f.name)}\b", doc)]
