@@ -3,10 +3,11 @@
 04 (two cameras, as the rig). Pose2Sim's own 3D (triangulated OpenPose keypoints of all four
 cameras) is the reference, not ground truth.
 
-Measured 2026-11-26 (docs/evaluation.md, "The product with the body model"): 100 of 100 frames
-compared, median residual 51 mm, 48 % within 50 mm, trunk flexion MAD 10.4 deg (bias about -9:
-keypoint definitions), knee flexion 9.4 / 7.4, elbow flexion 8.3 / 8.9. The bounds below sit
-above these with room for the machine's floating point, not at the issue's targets (not met).
+Measured 2026-11-26 (docs/evaluation.md, "The product with the body model", after left and right
+were settled by the reconstruction): 100 of 100 frames compared, median residual 40 mm, trunk
+flexion MAD 12.9 deg (bias about -10: keypoint definitions), knee flexion 15.4 / 6.8, elbow
+flexion 7.5 / 7.5, upper-arm elevation 4.1 / 2.8. The bounds below sit above these with room for
+the machine's floating point, not at the issue's targets (not all met).
 """
 
 from __future__ import annotations
@@ -35,11 +36,11 @@ def test_a_real_camera_pair_is_scored_in_every_frame(shared_data, fetched_model_
     capsys.readouterr()
     ev = json.loads((tmp_path / "ref.json").read_text())
     assert ev["frame_selection"]["compared"] == 100  # every frame tracked and scored
-    assert ev["alignment"]["residual_median_mm"] < 70.0
+    assert ev["alignment"]["residual_median_mm"] < 50.0
     angles = ev["angles"]["by_angle"]
-    for name, bound in (("trunk_flexion", 16.0), ("left_knee_flexion", 14.0), ("right_knee_flexion", 12.0),
-                        ("left_elbow_flexion", 13.0), ("right_elbow_flexion", 13.0),
-                        ("left_upper_arm_elevation", 11.0)):
+    for name, bound in (("trunk_flexion", 16.0), ("left_knee_flexion", 19.0), ("right_knee_flexion", 10.0),
+                        ("left_elbow_flexion", 10.0), ("right_elbow_flexion", 10.0),
+                        ("left_upper_arm_elevation", 7.0), ("right_upper_arm_elevation", 6.0)):
         assert angles[name]["mae_deg"] < bound, (name, angles[name]["mae_deg"])
     # Per-part agreement the reference allows (no neck or wrist markers): legs and lower arms.
     assert ev["scores"]["rula_legs"]["exact_agreement_pct"] >= 75.0
