@@ -175,6 +175,10 @@ def _masked_mean(points: np.ndarray, mask: np.ndarray) -> np.ndarray:
 #: one of the two mirrored (keypoints.MIRROR) costs less than this fraction of pairing them as
 #: reported; as reported when the reverse holds; undecided in between (a person seen side-on).
 SIDE_MARGIN = 0.6
+#: ... and by at least this much (metres of mean ray distance): two small costs of noise alone
+#: (a person seen side-on, whose left and right rays nearly coincide) decide nothing. A crossed
+#: torso misses by about a shoulder's or a hip's width (0.1-0.4 m).
+SIDE_MIN_GAIN_M = 0.05
 
 
 def canonical_sides(dets: Sequence[Detections2D], settings: ReconSettings | None = None) -> list[Detections2D]:
@@ -186,7 +190,7 @@ def canonical_sides(dets: Sequence[Detections2D], settings: ReconSettings | None
     rejects the pair, so the person is left with one camera. Here, for every two cameras, the
     people are paired on the cheaper of the two labellings (pair_costs as reported and with the
     second camera's people mirrored, within the gate, globally optimal); each pair whose cheaper
-    labelling is clearly cheaper (:data:`SIDE_MARGIN`) says whether the two detections agree or
+    labelling is clearly cheaper (:data:`SIDE_MARGIN`, :data:`SIDE_MIN_GAIN_M`) says whether the two detections agree or
     are crossed. Those statements, cheapest first, join the detections into groups with a known
     relative labelling (a union-find that keeps each member's parity to its root; a statement
     within a group already joined is ignored); in each group the labelling most of its members
@@ -212,9 +216,9 @@ def canonical_sides(dets: Sequence[Detections2D], settings: ReconSettings | None
             crossed = pair_costs(dets[a], mirrored[b], settings, (rays[a], rays_m[b]))
             best = np.minimum(as_is, crossed)
             for i, j in zip(*gated_assignment(best, gate)):
-                if crossed[i, j] < SIDE_MARGIN * as_is[i, j]:
+                if crossed[i, j] < SIDE_MARGIN * as_is[i, j] and as_is[i, j] - crossed[i, j] >= SIDE_MIN_GAIN_M:
                     edges.append((float(best[i, j]), offset[a] + i, offset[b] + j, 1))
-                elif as_is[i, j] < SIDE_MARGIN * crossed[i, j]:
+                elif as_is[i, j] < SIDE_MARGIN * crossed[i, j] and crossed[i, j] - as_is[i, j] >= SIDE_MIN_GAIN_M:
                     edges.append((float(best[i, j]), offset[a] + i, offset[b] + j, 0))
     if not any(e[3] for e in edges):
         return list(dets)
