@@ -72,7 +72,7 @@ def run_on_cluster(args: argparse.Namespace, options: AssessOptions) -> int:
     """--cluster: the sessions on Dask (ergopose.pipeline.cluster); a summary per session. One
     session's error is raised as for a local run; of several, each failed session is named with
     its error and the exit code is 1."""
-    try:
+    try:  # deferred on purpose: Dask is the optional extra 'cluster', needed only here
         from ergopose.pipeline.cluster import assess_sessions
     except ImportError as exc:
         raise ConfigError(f"--cluster needs Dask distributed ({exc}): pip install 'ergopose[cluster]'",
