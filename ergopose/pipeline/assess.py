@@ -153,15 +153,18 @@ def open_store(run: PreparedRun, progress: ProgressCallback | None):
     return ranges, done, todo
 
 
-def finish(run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None) -> AssessResult:
-    """Stages 4-6 from the stored chunks: tracking, scoring, CSV files and the report."""
+def finish(run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None,
+           run_each: stages.RunEach | None = None) -> AssessResult:
+    """Stages 4-6 from the stored chunks: tracking, scoring, CSV files and the report (run_each:
+    see :func:`ergopose.pipeline.stages.score_tracks`)."""
     session, timings = run.session, run.timings
     t0 = time.perf_counter()
     tracks = stages.track_session(session, run.store, ranges, run.job.recon, progress)
     timings["tracking"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    outputs = stages.score_and_report(session, tracks, run.out_dir, run.scoring, run.models, run.job.recon, progress)
+    outputs = stages.score_and_report(session, tracks, run.out_dir, run.scoring, run.models, run.job.recon, progress,
+                                      run_each)
     timings["scoring_and_report"] = time.perf_counter() - t0
 
     return AssessResult(session=session.path, report_dir=run.out_dir, index_html=outputs.index_html,

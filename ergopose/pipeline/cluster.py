@@ -35,9 +35,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
-from distributed import Client, LocalCluster, WorkerPlugin, as_completed
+from distributed import Client, LocalCluster, WorkerPlugin, as_completed, worker_client
 
 from ergopose import __version__
+from ergopose.atomic import clean_up
 from ergopose.errors import ConfigError
 from ergopose.pipeline import assess as local
 from ergopose.pipeline import detect, guard
@@ -175,8 +176,20 @@ def _cluster_finish(run: local.PreparedRun, ranges, reused: int, *chunks) -> tup
         events.append(event)
 
     with guard.output_faults(run.out_dir):
-        result = local.finish(run, ranges, reused, keep)
+        clean_up(run.out_dir)  # what an earlier attempt of this task left, on a worker lost meanwhile
+        result = local.finish(run, ranges, reused, keep, run_each=_as_tasks)
     return result, [e for e in events if e.unit == "note"]
+
+
+def _as_tasks(calls: list) -> list:
+    """Run calls as tasks of the cluster this task runs on (each tracked worker's scoring), this
+    task's thread leaving the worker's pool while it waits; their results in order."""
+    with worker_client() as client:
+        return client.gather(client.map(_call, calls, pure=False))
+
+
+def _call(fn):
+    return fn()
 
 
 @dataclass
