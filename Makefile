@@ -13,7 +13,7 @@ $(PY):
 # Third-party dependencies: reinstalled only when pyproject.toml or constraints.txt change.
 $(STAMP): pyproject.toml constraints.txt | $(PY)
 	$(PY) -m pip install -q "setuptools>=68" wheel
-	$(PY) -m pip install -q -c constraints.txt ".[test]"
+	$(PY) -m pip install -q -c constraints.txt ".[test,cluster]"
 	touch $(STAMP)
 
 # The package itself (not editable, so the installed copy carries assessments/ and templates/).

@@ -42,6 +42,7 @@ DEFERRED_ON_PURPOSE = {
     ("ergopose.pose.blazepose", "ai_edge_litert.interpreter"): "heavy runtime, needed only when a network runs",
     ("ergopose.pose.onnx_models", "onnxruntime"): "heavy runtime, needed only for a user-brought ONNX model",
     ("ergopose.pipeline.store", "fcntl"): "POSIX only; without it the store works unlocked",
+    ("ergopose.commands.assess", "ergopose.pipeline.cluster"): "needs Dask (an optional extra): only for --cluster",
 }
 
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import glob
+import sys
 from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars
@@ -25,10 +27,17 @@ def register(subparsers) -> argparse.ArgumentParser:
             "when started again with the same session and output folder."),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--session", required=True, type=Path, metavar="DIR",
-                   help="the session folder (videos, calibration.toml, settings.toml; docs/session-format.md)")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--session", type=Path, metavar="DIR",
+                       help="the session folder (videos, calibration.toml, settings.toml; docs/session-format.md)")
+    which.add_argument("--sessions", nargs="+", metavar="DIR",
+                       help="with --cluster: several session folders (or glob patterns) in one submission, "
+                            "each into <--out>/<session folder name> (default reports/<name>)")
     p.add_argument("--out", type=Path, metavar="DIR", default=None,
                    help="the report folder (default: reports/<session folder name>)")
+    p.add_argument("--cluster", default=None, metavar="ADDRESS",
+                   help="run the work on a Dask cluster: a scheduler address (tcp://host:8786) or local:N for N "
+                        "worker processes on this machine (docs/cluster.md)")
     p.add_argument("--processes", type=int, default=None, metavar="N",
                    help="processes for the video work (default: one per core)")
     p.add_argument("--chunk-seconds", type=float, default=10.0, metavar="S",
@@ -61,9 +70,56 @@ def run(args: argparse.Namespace) -> int:
     options = AssessOptions(out_dir=args.out, processes=args.processes, chunk_seconds=args.chunk_seconds,
                             model_dir=args.model_dir, force=args.force, max_bad_frame_share=args.max_bad_frames,
                             model=args.model, start=args.start, end=args.end, csv_bom=args.csv_bom)
+    if args.cluster is not None:
+        return run_on_cluster(args, options)
+    if args.sessions is not None:
+        raise ConfigError("several sessions are assessed in one submission on a cluster: add --cluster "
+                          "(local:N for this machine)", field="--sessions")
     result = assess(args.session, options, progress=ProgressBars())
     print_result(result)
     return 0
+
+
+def run_on_cluster(args: argparse.Namespace, options: AssessOptions) -> int:
+    """--cluster: the sessions on Dask (ergopose.pipeline.cluster); a summary per session. One
+    session's error is raised as for a local run; of several, each failed session is named with
+    its error and the exit code is 1."""
+    try:  # deferred on purpose: Dask is the optional extra 'cluster', needed only here
+        from ergopose.pipeline.cluster import assess_sessions
+    except ImportError as exc:
+        raise ConfigError(f"--cluster needs Dask distributed ({exc}): pip install 'ergopose[cluster]'",
+                          field="--cluster") from None
+
+    sessions = [args.session] if args.session is not None else expand_sessions(args.sessions)
+    outcomes = assess_sessions(sessions, args.cluster, options, progress=ProgressBars())
+    if args.session is not None:
+        if outcomes[0].error is not None:
+            raise outcomes[0].error
+        print_result(outcomes[0].result)
+        return 0
+    for o in outcomes:
+        if o.result is not None:
+            print_result(o.result)
+    failed = [o for o in outcomes if o.error is not None]
+    for o in failed:
+        print(f"ergopose: error: {o.session}: {o.error}", file=sys.stderr)
+    print(f"{len(outcomes) - len(failed)} of {len(outcomes)} sessions assessed"
+          + (f"; {len(failed)} failed: {', '.join(str(o.session) for o in failed)}" if failed else ""))
+    return 1 if failed else 0
+
+
+def expand_sessions(patterns) -> list[Path]:
+    """Session folders from --sessions: each a folder, or a glob pattern (sorted matches)."""
+    out: list[Path] = []
+    for pat in patterns:
+        if Path(pat).is_dir() or not any(ch in pat for ch in "*?["):
+            out.append(Path(pat))
+            continue
+        found = sorted(Path(m) for m in glob.glob(pat) if Path(m).is_dir())
+        if not found:
+            raise ConfigError(f"no session folder matches {pat!r}", field="--sessions")
+        out.extend(found)
+    return out
 
 
 def print_result(result) -> None:

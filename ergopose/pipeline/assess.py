@@ -120,6 +120,47 @@ def default_out_dir(session: Session) -> Path:
 def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
            progress: ProgressCallback | None = None) -> AssessResult:
     """Run the whole assessment of a session (see the module docstring)."""
+    run = prepare(session_dir, options, progress)
+    processes = options.processes or detect.default_workers()
+    if processes < 1:
+        raise ConfigError(f"expected at least 1 process, got {processes}", field="processes")
+    with guard.output_faults(run.out_dir), run.store.lock():
+        ranges, done, todo = open_store(run, progress)
+        t0 = time.perf_counter()
+        _run_chunks(run.job, run.store, todo, ranges, len(done), processes, progress)
+        run.timings["pose"] = time.perf_counter() - t0
+        return finish(run, ranges, len(done), progress)
+
+
+@dataclass
+class PreparedRun:
+    """One session's run after its inputs were checked (stages 1-2): what the chunk tasks and the
+    stages after them need. ``job`` and the store's root are all a chunk task needs (picklable)."""
+
+    session: Session
+    out_dir: Path
+    store: ResultStore
+    job: detect.DetectJob
+    chunk_frames: int
+    models: tuple
+    scoring: object
+    t_start: float
+    timings: dict[str, float] = field(default_factory=dict)
+    window: part_of_day.Window | None = None
+    bom: bool = False
+
+    @property
+    def frames(self) -> int:
+        """Frames assessed: the session's, or those of the part of the day."""
+        if self.window is None:
+            return self.session.frame_count
+        first, stop = self.window.frame_range(self.session.fps)
+        return min(stop, self.session.frame_count) - first
+
+
+def prepare(session_dir: str | Path, options: AssessOptions = AssessOptions(),
+            progress: ProgressCallback | None = None) -> PreparedRun:
+    """Stages 1-2: the session and the output folder checked, the pose models in the cache."""
     t_start = time.perf_counter()
     timings: dict[str, float] = {}
     if options.out_dir is not None:
@@ -139,9 +180,6 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     models = stages.ensure_models(options.model_dir, progress, options.model)
     timings["models"] = time.perf_counter() - t0
 
-    processes = options.processes or detect.default_workers()
-    if processes < 1:
-        raise ConfigError(f"expected at least 1 process, got {processes}", field="processes")
     chunk_frames = max(1, int(round(options.chunk_seconds * session.fps)))
     job = detect.DetectJob(cameras=session.calibrated_cameras,
                            videos=tuple(str(c.video_path) for c in session.cameras),
@@ -149,40 +187,43 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
                            model=options.model, pose=_pose_for(session.pose, models[-1].card.gates),
                            recon=_recon_for(session.reconstruction, models[-1].card.gates),
                            num_threads=1)  # one thread per process: the same numbers whatever the process count
-    store = ResultStore(out_dir)
-    with guard.output_faults(out_dir), store.lock():
-        return _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes,
-                              progress, t_start, timings, window, options.csv_bom)
+    return PreparedRun(session=session, out_dir=out_dir, store=ResultStore(out_dir), job=job,
+                       chunk_frames=chunk_frames, models=models, scoring=scoring, t_start=t_start, timings=timings,
+                       window=window, bom=options.csv_bom)
 
 
-def _assess_locked(session, out_dir, store, job, chunk_frames, models, scoring, processes, progress,
-                   t_start, timings, window=None, bom=False) -> AssessResult:
-    store.open(stages.fingerprint_inputs(session, job, chunk_frames, models))
-    ranges = detect.chunk_ranges(session.frame_count, chunk_frames)
-    frames = session.frame_count
-    if window is not None:  # the chunks that hold a frame of the window (stored as in a whole-day run)
-        first, stop = window.frame_range(session.fps)
+def open_store(run: PreparedRun, progress: ProgressCallback | None):
+    """With the output folder locked: the chunk ranges (with a part of the day, the chunks that
+    hold a frame of it, stored as in a whole-day run), the start frames of the chunks already
+    stored (checked), and the ranges still to compute."""
+    run.store.open(stages.fingerprint_inputs(run.session, run.job, run.chunk_frames, run.models))
+    ranges = detect.chunk_ranges(run.session.frame_count, run.chunk_frames)
+    if run.window is not None:
+        first, stop = run.window.frame_range(run.session.fps)
         ranges = [r for r in ranges if r[1] > first and r[0] < stop]
-        frames = min(stop, session.frame_count) - first
-    done = store.finished(ranges, progress)
+    done = run.store.finished(ranges, progress)
     todo = [r for r in ranges if r[0] not in done]
+    return ranges, done, todo
 
-    t0 = time.perf_counter()
-    _run_chunks(job, store, todo, ranges, len(done), processes, progress)
-    timings["pose"] = time.perf_counter() - t0
 
+def finish(run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None,
+           run_each: stages.RunEach | None = None) -> AssessResult:
+    """Stages 4-6 from the stored chunks: tracking, scoring, CSV files and the report (run_each:
+    see :func:`ergopose.pipeline.stages.score_tracks`)."""
+    session, timings = run.session, run.timings
     t0 = time.perf_counter()
-    tracks = stages.track_session(session, store, ranges, job.recon, progress, window=window)
+    tracks = stages.track_session(session, run.store, ranges, run.job.recon, progress, window=run.window)
     timings["tracking"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    outputs = stages.score_and_report(session, tracks, out_dir, scoring, models, job.recon, progress, bom=bom)
+    outputs = stages.score_and_report(session, tracks, run.out_dir, run.scoring, run.models, run.job.recon, progress,
+                                      run_each, bom=run.bom)
     timings["scoring_and_report"] = time.perf_counter() - t0
 
-    return AssessResult(session=session.path, report_dir=out_dir, index_html=outputs.index_html,
+    return AssessResult(session=session.path, report_dir=run.out_dir, index_html=outputs.index_html,
                         session_csv=outputs.session_csv, tracks=tracks.path, workers=outputs.workers,
-                        frames=frames, chunks_total=len(ranges), chunks_reused=len(done),
-                        seconds=time.perf_counter() - t_start, stage_seconds=timings)
+                        frames=run.frames, chunks_total=len(ranges), chunks_reused=reused,
+                        seconds=time.perf_counter() - run.t_start, stage_seconds=timings)
 
 
 def _chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:

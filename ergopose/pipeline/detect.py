@@ -69,15 +69,20 @@ class ChunkResult:
 _NETWORKS: dict[tuple, tuple] = {}
 
 
-def _networks(job: DetectJob):
-    """The pose networks of this process, loaded once and reused for every chunk."""
-    key = (job.model_dir, job.model, job.num_threads)
+def networks(model_dir: str | None, num_threads: int, model: str | None = None):
+    """The pose networks of this process (landmarker of ``model``, detector), loaded once and
+    reused for every chunk (a Dask worker loads them when it starts: ergopose.pipeline.cluster)."""
+    key = (model_dir, model, num_threads)
     if key not in _NETWORKS:
         _NETWORKS[key] = (
-            BlazePoseLandmarker(model=job.model, model_dir=job.model_dir, num_threads=job.num_threads),
-            BlazePoseDetector(model_dir=job.model_dir, num_threads=job.num_threads),
+            BlazePoseLandmarker(model=model, model_dir=model_dir, num_threads=num_threads),
+            BlazePoseDetector(model_dir=model_dir, num_threads=num_threads),
         )
     return _NETWORKS[key]
+
+
+def _networks(job: DetectJob):
+    return networks(job.model_dir, job.num_threads, job.model)
 
 
 def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None) -> ChunkResult:

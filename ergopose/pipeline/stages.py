@@ -9,12 +9,13 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as dt
+import functools
 import os
 import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -57,6 +58,9 @@ from ergopose.report.quality import reliable_frames, reliable_rule
 from ergopose.report.render import render_report
 from ergopose.report.results import frames_table, save_results, session_results
 from ergopose.session import Session
+
+#: Runs calls (each returning a list) somewhere, e.g. on a cluster, and returns their results in order.
+RunEach = Callable[[list], list]
 
 _HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
 CSV_DIR = "csv"
@@ -415,10 +419,23 @@ def _within(tracks: Tracks, fps: float) -> Tracks:
 
 
 def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident,
-                 progress: ProgressCallback | None, *, bom: bool = False) -> list[ReportWorker]:
+                 progress: ProgressCallback | None, run_each: RunEach | None = None, *,
+                 bom: bool = False) -> list[ReportWorker]:
     """Every tracked worker scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
     from one pass over the tracks table: the per-frame CSV files are written as it goes; returns
-    what the report needs."""
+    what the report needs.
+
+    run_each: runs a list of calls, each returning a list, and returns their results in order
+    (e.g. as tasks on a Dask cluster, ergopose.pipeline.cluster); given, each worker is scored by a
+    call of its own (its own pass over the table; the same bytes, as no worker's scores depend
+    on another's)."""
+    if run_each is not None and len(tracks.workers) > 1:
+        calls = [functools.partial(score_tracks, session, dataclasses.replace(tracks, workers=(w,)), out_dir,
+                                   scoring, ident, None) for w in tracks.workers]
+        report(progress, "scoring", 0, len(calls), unit="worker")
+        out = [r for part in run_each(calls) for r in part]
+        report(progress, "scoring", len(calls), len(calls), unit="worker")
+        return out
     block, context = block_sizes(scoring, session.fps)
     diagnostics = {d.worker: d for d in tracks.references.limbs.result()}
     csv_dir = out_dir / CSV_DIR
@@ -449,7 +466,8 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident
                     if not len(part):
                         continue
                 for w in np.unique(part.worker):
-                    scorers[int(w)].add(part.worker_rows(int(w)))
+                    if int(w) in scorers:  # all of them, unless scoring one worker (run_each)
+                        scorers[int(w)].add(part.worker_rows(int(w)))
                 frontier = int(part.frame[-1])  # frames before the last one of a part are complete
                 for sc in scorers.values():
                     sc.advance(frontier)
@@ -548,8 +566,8 @@ def _joints_at(tracks_path: Path, tracked: tuple[str, ...], frames: np.ndarray):
 
 
 def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, models: Sequence[ModelUse], recon,
-                     progress: ProgressCallback | None, *, bom: bool = False, window: Window | None = None,
-                     store_dir: Path | None = None) -> Outputs:
+                     progress: ProgressCallback | None, run_each: RunEach | None = None, *, bom: bool = False,
+                     window: Window | None = None, store_dir: Path | None = None) -> Outputs:
     """Score every tracked worker, write the CSV files, the stored results and the HTML report.
 
     Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
@@ -584,7 +602,7 @@ def score_and_report(session: Session, tracks: Tracks, out_dir: Path, scoring, m
     out_dir.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".outputs.", suffix=".tmp", dir=out_dir))
     try:
-        scored = score_tracks(session, tracks, stage, scoring, naming, progress, bom=bom)
+        scored = score_tracks(session, tracks, stage, scoring, naming, progress, run_each, bom=bom)
         csv_dir = stage / CSV_DIR
         csv_dir.mkdir(parents=True, exist_ok=True)
         csv_files: dict[str, list[tuple[str, str]]] = {}
