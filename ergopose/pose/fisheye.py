@@ -35,7 +35,7 @@ The paper's steps 1-3 for one camera. Per frame:
    body's, are flagged (``left_right_uncertain``); with ``uncertain_confidence`` set their
    confidence is lowered too. By default it is not: one camera's history cannot tell which
    labelling is right, while the reconstruction can (the other cameras, the worker's previous
-   fitted body limb by limb, the face: docs/reconstruction.md, "Left and right"), and a lowered
+   fitted body limb by limb: docs/reconstruction.md, "Left and right"), and a lowered
    torso takes the person out of the association altogether (measured on the real recording,
    docs/evaluation.md).
 

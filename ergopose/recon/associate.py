@@ -195,8 +195,9 @@ def canonical_sides(dets: Sequence[Detections2D], settings: ReconSettings | None
     relative labelling (a union-find that keeps each member's parity to its root; a statement
     within a group already joined is ignored); in each group the labelling most of its members
     report is kept (on a tie, that of the detection of the first camera) and the others are
-    mirrored. Which labelling is the body's true one is decided later, against the body's face
-    (:func:`ergopose.recon.bodyfit.correct_chirality`).
+    mirrored. Two cameras that disagree are a tie: the first camera's labelling is kept, and the
+    body model's check against the worker's previous fit (:func:`ergopose.recon.bodyfit.
+    correct_left_right`) turns it where the previous frames say otherwise.
     """
     settings = settings or ReconSettings()
     C = len(dets)

@@ -494,38 +494,6 @@ def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confide
     return px, conf, swapped
 
 
-_NOSE, _EARS = JOINT_INDEX["nose"], [JOINT_INDEX["left_ear"], JOINT_INDEX["right_ear"]]
-_SIDES = [(JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]), (JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"])]
-#: A body is mirrored when its face points this far or further from the way its left and right
-#: say it faces (cosine; -0.5: 120 degrees, beyond any neck's turn), with the face's forward
-#: offset (nose ahead of the mid-ears) and the shoulders-plus-hips' width at least these long.
-MIRRORED_COS = -0.5
-MIN_FACE_OFFSET_M = 0.03
-MIN_SIDE_WIDTH_M = 0.10
-
-
-def mirrored_bodies(points_world: np.ndarray) -> np.ndarray:
-    """(R, 33, 3) fitted bodies -> (R,) True where the body's left and right are the wrong way
-    round for its face.
-
-    With z up, a body whose right side points along r faces up x r (horizontal parts). The nose
-    lies ahead of the mid-point of the ears whatever the labels say (neither point has a side),
-    so a body facing away from its own nose has its left and right exchanged: what happens when
-    every camera's 2D network took the person's back for their front, or when the cameras were
-    made to agree (:func:`ergopose.recon.associate.canonical_sides`) on the wrong labelling.
-    NaN points give False.
-    """
-    X = np.asarray(points_world, dtype=np.float64)
-    right = sum(X[:, r] - X[:, l] for l, r in _SIDES)
-    forward = np.stack([-right[:, 1], right[:, 0], np.zeros(len(X))], axis=-1)  # up x right
-    face = X[:, _NOSE] - X[:, _EARS].mean(axis=1)
-    face[:, 2] = 0.0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        nf, nb = np.linalg.norm(face, axis=-1), np.linalg.norm(forward, axis=-1)
-        cos = np.einsum("rk,rk->r", face, forward) / (nf * nb)
-        return (cos <= MIRRORED_COS) & (nf >= MIN_FACE_OFFSET_M) & (nb >= MIN_SIDE_WIDTH_M)
-
-
 def raw_noise_scale(reprojection_error_px: np.ndarray, confidence: np.ndarray, views: np.ndarray) -> np.ndarray:
     """(R, 33) RMS reprojection errors of the plain two-or-more-camera triangulation (view pixels),
     the mean confidence of the views used and their number -> (R,) the keypoint sigma at
@@ -594,7 +562,6 @@ class ShiftBodies:
         self.lengths: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.last: dict[int, tuple[int, np.ndarray]] = {}
         self.swaps = 0  # camera-frames whose left and right were exchanged (correct_left_right)
-        self.mirrored = 0  # worker-frames fitted mirrored and relabelled (mirrored_bodies)
         self.fitted_rows = 0  # worker-frames fitted, and the seconds spent (for the benchmark)
         self.fit_seconds = 0.0
         self.noise: dict[int, float] = {}  # keypoint noise measured per worker, x keypoint_sigma_px
@@ -709,15 +676,6 @@ class ShiftBodies:
             self.noise[int(ident)] = float(new_scale[k])
         var = fit.variance_world * np.maximum(new_scale / used_scale, 1.0)[:, None, None] ** 2
         points, inferred, err = fit.points_world, fit.inferred, fit.reprojection_error_px
-        # A body fitted with its left and right the wrong way round for its face is relabelled;
-        # the next frame's correct_left_right then turns each camera's labels to it.
-        flip = mirrored_bodies(points)
-        if flip.any():
-            self.mirrored += int(flip.sum())
-            points = np.where(flip[:, None, None], points[:, MIRROR], points)
-            var = np.where(flip[:, None, None], var[:, MIRROR], var)
-            inferred = np.where(flip[:, None], inferred[:, MIRROR], inferred)
-            err = np.where(flip[:, None], err[:, MIRROR], err)
         rows["fit"][idx] = points
         rows["fit_var"][idx] = var
         rows["inferred"][idx] = inferred

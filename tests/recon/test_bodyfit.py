@@ -179,26 +179,6 @@ def test_segments_cover_every_joint_and_the_limbs_come_first():
     assert np.allclose(B.SEGMENT_MATRIX.sum(axis=1), 0.0)  # differences of points
 
 
-def test_a_body_facing_away_from_its_own_face_is_mirrored():
-    """The simulator's walking and working people (every direction they face): none is mirrored;
-    the same bodies with left and right exchanged all are, except where the head is bowed so far
-    that the nose is not ahead of the ears (no verdict)."""
-    from ergopose.keypoints import MIRROR
-    from ergopose.recon.bodyfit import MIN_FACE_OFFSET_M, mirrored_bodies
-    from ergopose.sim.synthetic import walk_workers
-    from tests.recon.conftest import FPS, crossing_scripts
-
-    truth = walk_workers(crossing_scripts(), int(6 * FPS), FPS).reshape(-1, 33, 3)
-    face = truth[:, JOINT_INDEX["nose"], :2] - truth[:, [JOINT_INDEX["left_ear"], JOINT_INDEX["right_ear"]], :2].mean(1)
-    ahead = np.linalg.norm(face, axis=-1) >= MIN_FACE_OFFSET_M
-    assert ahead.mean() > 0.5
-    assert not mirrored_bodies(truth).any()
-    np.testing.assert_array_equal(mirrored_bodies(truth[:, MIRROR]), ahead)
-    hidden = truth.copy()
-    hidden[:, JOINT_INDEX["nose"]] = np.nan  # no face: no verdict
-    assert not mirrored_bodies(hidden[:, MIRROR]).any()
-
-
 def test_a_camera_that_crossed_the_legs_or_the_whole_body_is_turned_back(rng):
     """Against the previous pose, a camera whose network labelled the whole body the wrong way
     round is exchanged whole; one that crossed only the legs (or only the arms) gets those limbs
