@@ -6,6 +6,7 @@ import argparse
 import math
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ergopose.errors import ConfigError, InputError
@@ -28,6 +29,8 @@ from ergopose.geometry.image_circle import (
     nominal_fisheye_camera,
     nominal_max_fov,
 )
+from ergopose.pipeline.pose_video import circle_from_video
+from ergopose.video import probe_video
 
 #: Files ``camera guess`` reads as one still image (anything else is opened as a video).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
@@ -247,14 +250,10 @@ def _circle_of_footage(path: Path) -> tuple[CircleSearch, int, int]:
     if not path.is_file():
         raise InputError("no such file", path=path)
     if path.suffix.lower() in IMAGE_SUFFIXES:
-        import cv2
-
         image = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if image is None:
             raise InputError("cannot be read as an image", path=path)
         return find_image_circle(max_image([image])), int(image.shape[1]), int(image.shape[0])
-    from ergopose.pipeline.pose_video import circle_from_video
-    from ergopose.video import probe_video
 
     info = probe_video(path)
     return circle_from_video(path, 0, info.frames), info.width, info.height

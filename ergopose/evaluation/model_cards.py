@@ -40,18 +40,24 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
+from ergopose.evaluation.pose import EvaluationSettings, PersonGeometry
 from ergopose.evaluation.pose_csv import trc_reference
 from ergopose.evaluation.refisheye import DEFAULT_ROOT, LIMBS, read_frames
 from ergopose.geometry.calibration_file import camera_for_video, read_pose2sim_calibration
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.blazepose import BlazePoseLandmarker, Roi
 from ergopose.pose.models import LANDMARK_MODELS, landmark_card
+from ergopose.session import load_session
+from ergopose.sim.ground_truth import load_ground_truth
+from ergopose.sim.writer import SimulationConfig, simulate_session
+from ergopose.video import read_frames as read_video
 
 RIGHT_TORSO = 0.2
 HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
@@ -90,11 +96,6 @@ def crops_of_recording(root: Path = DEFAULT_ROOT, frames: int = 100, step: int =
 
 def crops_of_simulation(folder: Path, seconds: float = 3.0, seed: int = 4, step: int = 1) -> dict:
     """Views of the workers of a simulated session (made in ``folder`` unless it is there)."""
-    from ergopose.evaluation.pose import EvaluationSettings, PersonGeometry
-    from ergopose.session import load_session
-    from ergopose.sim.ground_truth import load_ground_truth
-    from ergopose.sim.writer import SimulationConfig, simulate_session
-    from ergopose.video import read_frames as read_video
 
     if not (folder / "settings.toml").is_file():
         simulate_session(folder, SimulationConfig(workers=2, minutes=seconds / 60.0, seed=seed))
@@ -248,7 +249,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     sources = {"real": crops_of_recording(args.root, args.frames, args.step)}
     if args.rendered_seconds > 0:
-        import tempfile
 
         with tempfile.TemporaryDirectory(prefix="ergopose-cards-") as tmp:
             folder = args.rendered_dir or Path(tmp) / "session"

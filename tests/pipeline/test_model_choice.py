@@ -28,23 +28,12 @@ def test_assess_takes_a_model_name(capsys):
     assert "invalid choice: 'giant'" in capsys.readouterr().err
 
 
-class _Stop(Exception):
-    pass
 
-
-def test_the_chosen_card_and_its_gates_reach_the_job(tiny_session, fetched_model_dir, tmp_path, monkeypatch):
-    seen = {}
-
-    def capture(session, out_dir, store, job, chunk_frames, models, *rest):
-        seen.update(job=job, models=models)
-        raise _Stop
-
-    monkeypatch.setattr(assess_module, "_assess_locked", capture)
-    with pytest.raises(_Stop):
-        assess_module.assess(tiny_session, AssessOptions(out_dir=tmp_path / "out", model="heavy",
-                                                         model_dir=str(fetched_model_dir[0])))
+def test_the_chosen_card_and_its_gates_reach_the_job(tiny_session, fetched_model_dir, tmp_path):
+    run = assess_module.prepare(tiny_session, AssessOptions(out_dir=tmp_path / "out", model="heavy",
+                                                            model_dir=str(fetched_model_dir[0])))
     heavy = landmark_card("heavy")
-    job, models = seen["job"], seen["models"]
+    job, models = run.job, run.models
     assert job.model == "heavy" and [m.card.name for m in models] == ["blazepose_detector", heavy.name]
     assert job.pose == PoseSettings().with_gates(heavy.gates)
     assert job.recon.min_confidence == heavy.gates.min_triangulation_confidence < ReconSettings().min_confidence
