@@ -8,6 +8,8 @@ empty cell means "not scored" (a joint the score needs was not measured).
 
 from __future__ import annotations
 
+import abc
+
 import datetime as dt
 import math
 import os
@@ -118,7 +120,7 @@ def _encoding(bom: bool) -> str:
     return "utf-8-sig" if bom else "utf-8"
 
 
-class _PieceWriter:
+class _PieceWriter(abc.ABC):
     """A CSV file written piece by piece, atomically: the file appears under ``path`` complete
     when the block ends, or not at all; the pieces give the bytes of one write of all the rows
     (the first piece fixes the columns). Subclasses give ``table(frames)`` and ``empty()``."""
@@ -131,11 +133,13 @@ class _PieceWriter:
         self._ctx = None
         self._file = None
 
+    @abc.abstractmethod
     def table(self, frames: pd.DataFrame) -> pd.DataFrame:
-        raise NotImplementedError
+        """The rows of these frames."""
 
+    @abc.abstractmethod
     def empty(self) -> pd.DataFrame:
-        raise NotImplementedError
+        """The table of no frames (its columns)."""
 
     def __enter__(self):
         self._ctx = atomic_path(self.path)
