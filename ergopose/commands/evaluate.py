@@ -11,7 +11,9 @@ from pathlib import Path
 from ergopose.atomic import write_text
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
+from ergopose.geometry.calibration_file import read_any_calibration
 from ergopose.evaluation.compare import ResultsLayout, evaluate_results, write_json
+from ergopose.evaluation.keypoint_reference import MIN_LIKELIHOOD, openpose_reference
 from ergopose.evaluation.oracle import ORACLE_DIR, OracleOptions, run_oracle
 from ergopose.evaluation.reference import evaluate_reference, format_reference
 from ergopose.pipeline.guard import check_results_session
@@ -49,6 +51,18 @@ def register(subparsers) -> argparse.ArgumentParser:
     r = p.add_argument_group("against a reference marker recording")
     r.add_argument("--reference", type=Path, metavar="FILE.trc", default=None,
                    help="reference 3D markers (TRC); replaces the simulation's ground truth")
+    r.add_argument("--reference-keypoints", type=Path, metavar="DIR", default=None,
+                   help="instead of --reference: a reference triangulated here from another network's 2D keypoints "
+                        "(DIR holds one folder of OpenPose JSON files per camera, e.g. cam01_json/, matched to the "
+                        "calibration's cameras by number): every camera whose keypoint has at least "
+                        "--reference-min-likelihood counts, weighted by it, nothing left out after the fact "
+                        "(docs/evaluation.md)")
+    r.add_argument("--reference-calibration", type=Path, metavar="FILE", default=None,
+                   help="with --reference-keypoints: the calibration of all the cameras that filmed the keypoints "
+                        "(ergopose, Pose2Sim or anipose TOML; default: the session's calibration)")
+    r.add_argument("--reference-min-likelihood", type=float, default=MIN_LIKELIHOOD, metavar="P",
+                   help=f"with --reference-keypoints: the lowest keypoint likelihood used (default {MIN_LIKELIHOOD:g}, "
+                        "Pose2Sim's own)")
     r.add_argument("--reference-axes", metavar="X,Y,Z", default=None,
                    help="world x, y, z as the reference's axes instead of a fitted rigid transform, e.g. z,x,y "
                         "(a leading - flips one)")
@@ -84,7 +98,7 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     progress = ProgressBars()
-    if args.reference is not None:
+    if args.reference is not None or args.reference_keypoints is not None:
         return run_reference(args, progress)
     if args.session is None:
         raise ConfigError("give --session DIR (a simulated session) or --reference FILE.trc", field="--session")
@@ -122,8 +136,14 @@ def run(args: argparse.Namespace) -> int:
 def run_reference(args: argparse.Namespace, progress) -> int:
     if args.oracle:
         raise ConfigError("--oracle needs a simulated session, not --reference", field="--oracle")
-    ev = evaluate_reference(args.results, args.reference, session_dir=args.session, axes=args.reference_axes,
-                            offset_s=args.reference_offset, worker=args.worker, progress=progress)
+    reference, source = args.reference, None
+    if args.reference_keypoints is not None:
+        if args.reference is not None:
+            raise ConfigError("give --reference FILE.trc or --reference-keypoints DIR, not both",
+                              field="--reference-keypoints")
+        reference, source = _keypoint_reference(args)
+    ev = evaluate_reference(args.results, reference, session_dir=args.session, axes=args.reference_axes,
+                            offset_s=args.reference_offset, worker=args.worker, progress=progress, source=source)
     path = write_text(args.json or Path(args.results) / "evaluation_reference.json",
                       json.dumps(ev, indent=1, allow_nan=False) + "\n")
     print(format_reference(ev))
@@ -139,3 +159,20 @@ def _check_results(args: argparse.Namespace, progress) -> None:
         check_results_session(folder, session, args.force, progress=progress,
                               advice="give the results of this session with --results, or add --force to "
                                      "evaluate them anyway")
+
+
+def _keypoint_reference(args: argparse.Namespace):
+    """The reference of --reference-keypoints (ergopose.evaluation.keypoint_reference) and its description."""
+    if args.session is None:
+        raise ConfigError("--reference-keypoints needs --session DIR (its frame rate, and its calibration unless "
+                          "--reference-calibration is given)", field="--session")
+    session = load_session(args.session, check_videos=False)
+    if args.reference_calibration is not None:
+        cameras, _ = read_any_calibration(args.reference_calibration)
+    else:
+        cameras = session.calibrated_cameras
+    reference = openpose_reference(args.reference_keypoints, cameras, session.fps,
+                                   min_likelihood=args.reference_min_likelihood)
+    source = (f"reference triangulated from the 2D keypoints in {args.reference_keypoints} (every camera with "
+              f"likelihood >= {args.reference_min_likelihood:g}, weighted DLT, nothing left out)")
+    return reference, source

@@ -260,16 +260,21 @@ def _pairs(points: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 # ------------------------------------------------------------------------------------------ evaluate
 
 
-def evaluate_reference(results_dir: str | Path, reference: str | Path, *, session_dir: str | Path | None = None,
+def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData, *, session_dir: str | Path | None = None,
                        axes: str | None = None, offset_s: float = 0.0, worker: str | None = None,
                        match_distance_m: float = MATCH_DISTANCE_M, layout: ResultsLayout | None = None,
-                       progress: ProgressCallback | None = None) -> dict[str, Any]:
-    """Compare the assessment in ``results_dir`` with the reference TRC (module docstring)."""
+                       progress: ProgressCallback | None = None, source: str | None = None) -> dict[str, Any]:
+    """Compare the assessment in ``results_dir`` with the reference TRC (module docstring).
+
+    reference: a TRC file, or a reference already read or built (:class:`TrcData`, e.g. from
+    :func:`ergopose.evaluation.keypoint_reference.openpose_reference`); source: what the
+    reference is, written into the result (default: a TRC marker recording).
+    """
     if not math.isfinite(offset_s):
         raise ConfigError(f"expected a number of seconds, got {offset_s}", field="--reference-offset")
     steps = 5
     report(progress, "evaluation", 0, steps, unit="step", message="reading the reference and the results")
-    trc = read_trc(reference)
+    trc = reference if isinstance(reference, TrcData) else read_trc(reference)
     ref_joints, mapping = _reference_joints(trc)
     layout = layout or ResultsLayout.of_assess(results_dir)
     table = read_tracks(layout.tracks)
@@ -534,7 +539,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path, *, sessio
                          "the per-part agreement covers what it defines.")
     report(progress, "evaluation", steps, steps, unit="step")
     out = {
-        "format": "ergopose.evaluation", "version": 1, "source": "reference marker recording (TRC)",
+        "format": "ergopose.evaluation", "version": 1, "source": source or "reference marker recording (TRC)",
         "results": str(layout.root), "reference": ref_info, "fps": fps, "frames": frames["compared"],
         "frame_selection": frames,
         "alignment": alignment, "definitions": definitions, "angles": angles, "scores": scores,

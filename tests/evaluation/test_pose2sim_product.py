@@ -45,3 +45,18 @@ def test_a_real_camera_pair_is_scored_in_every_frame(shared_data, fetched_model_
     # Per-part agreement the reference allows (no neck or wrist markers): legs and lower arms.
     assert ev["scores"]["rula_legs"]["exact_agreement_pct"] >= 75.0
     assert ev["scores"]["left_rula_lower_arm"]["exact_agreement_pct"] >= 85.0
+    # The same assessment against the reference triangulated from the same OpenPose keypoints with
+    # every camera (evaluate --reference-keypoints): what is left when Pose2Sim's choice of cameras
+    # per keypoint is taken out (docs/evaluation.md, "Two references from the same keypoints").
+    assert main(["evaluate", "--results", str(out), "--session", str(session), "--reference-keypoints",
+                 str(demo / "pose-associated"), "--reference-calibration", str(demo / "Calib_qualisys.toml"),
+                 "--json", str(tmp_path / "kp.json")]) == 0
+    capsys.readouterr()
+    kp = json.loads((tmp_path / "kp.json").read_text())
+    assert kp["frame_selection"]["compared"] == 100 and kp["source"].startswith("reference triangulated")
+    angles = kp["angles"]["by_angle"]
+    for name, bound in (("trunk_flexion", 4.0), ("trunk_side_bend", 4.0), ("left_knee_flexion", 11.0),
+                        ("right_knee_flexion", 7.0), ("left_elbow_flexion", 7.0), ("right_elbow_flexion", 9.0),
+                        ("left_upper_arm_elevation", 5.0), ("right_upper_arm_elevation", 4.0)):
+        assert angles[name]["mae_deg"] < bound, (name, angles[name]["mae_deg"])
+    assert abs(angles["trunk_flexion"]["bias_deg"]) < 2.0  # the -10 deg against the TRC is the reference's
