@@ -510,7 +510,8 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
                      description: str | None = None, defaults: TaskFactors | None = None,
                      periods: Sequence[FactorPeriod] = (), workers: Sequence[WorkerInfo] = (),
                      scoring: Mapping[str, Any] | None = None, header: str = "",
-                     calibration_check: tuple[str, float] | None = None) -> str:
+                     calibration_check: tuple[str, float] | None = None,
+                     reconstruction: Mapping[str, Any] | None = None) -> str:
     """The text of a settings.toml (format_version 1) for these values, every other key commented
     with its default and a one-line explanation (ergopose.settings.generate); load_session reads
     it back. ``header``: comment lines to start with."""
@@ -541,6 +542,8 @@ def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, s
         data["scoring"] = dict(scoring)
     if calibration_check is not None:
         data["calibration_check"] = {"observations": calibration_check[0], "length_m": float(calibration_check[1])}
+    if reconstruction:
+        data["reconstruction"] = dict(reconstruction)
     return settings_text(data, header=header + TEMPLATE_HOWTO if header else TEMPLATE_HEADER)
 
 

@@ -74,6 +74,11 @@ class ReconSettings:
             (body-measurement signature) for a re-link.
         relink_margin_m: 0.005 -- the best candidate must beat the second best by this much;
             otherwise the new track gets a new identity (no guess).
+        expected_workers: 0 -- how many workers the area holds, as the safety engineer knows it
+            (0: unknown). Once that many identities exist, a new track whose signature settles
+            nothing takes the identity of a lost worker who could have walked to where it began
+            (the closest signature, then the most recently lost) instead of a new one; with no
+            such worker (everyone is being followed) it still gets a new one.
     Body model (ergopose.recon.bodyfit: every worker-frame fitted to every camera at once)
         body_model: true -- fit the worker's body model (constant segment lengths, previous
             pose, pose prior) to all cameras' keypoints of every tracked worker-frame, with no
@@ -144,6 +149,7 @@ class ReconSettings:
     relink_max_speed_m_s: float = 2.5
     relink_max_signature_m: float = 0.03
     relink_margin_m: float = 0.005
+    expected_workers: int = 0
 
     body_model: bool = True
     fit_huber_k: float = 3.0

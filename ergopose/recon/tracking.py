@@ -30,7 +30,9 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    differ from the new track's by at most ``relink_max_signature_m`` (RMS over limbs), and by
    ``relink_margin_m`` less than the second best candidate -- unless it is the only fitting
    identity lost within RECENT_GAP_S before the track began (a worker re-appearing after a
-   short occlusion). The chosen candidate gives the track its identity (a coasting track of
+   short occlusion) -- or, once as many identities exist as the area holds workers
+   (``expected_workers``), the candidate with the closest signature whatever its distance. The
+   chosen candidate gives the track its identity (a coasting track of
    that identity ends); otherwise the track gets a new identity. While an identity the track
    could be is waiting for a contact decision (7.), the decision waits. Identities are numbered in order of appearance: worker_1, worker_2, ...
 7. Contacts. Confirmed tracks whose centres come closer than ``contact_distance_m`` (people
@@ -563,6 +565,10 @@ class Tracker:
                 others = [c[0] for c in cands if c[1] is not valid[0][1] and np.isfinite(c[0])]
                 if not others or min(others) - valid[0][0] >= s.relink_margin_m:
                     choice = valid[0][1]
+        if choice is None and cands and s.expected_workers and len(self.identities) >= s.expected_workers:
+            # Every worker of the area has an identity: the track is one of those who could have
+            # walked here, whatever the (noisy) signatures say.
+            choice = min(cands, key=lambda c: (c[0] if np.isfinite(c[0]) else np.inf, c[2], c[1].number))[1]
         if choice is None:
             choice = _Identity(self.next_identity, LimbHistogram(), t.last_frame, t.pos.copy(), None)
             self.identities[choice.number] = choice

@@ -47,6 +47,9 @@ class ReconstructionTable(Table):
     relink_max_speed_m_s: float = Field(2.5, gt=0, description="a lost identity is re-linked only where it could walk at this speed")
     relink_max_signature_m: float = Field(0.03, gt=0, description="largest RMS difference of limb-length medians for a re-link")
     relink_margin_m: float = Field(0.005, ge=0, description="the best re-link candidate must beat the second by this much")
+    expected_workers: int = Field(0, ge=0, description="how many workers the area holds (0: unknown): once that many "
+                                  "identities exist, a new track takes a lost worker's identity if that worker could "
+                                  "have walked there, however its limb lengths compare")
 
     body_model: bool = Field(True, description="fit the worker's body model to all cameras (false: joint-by-joint triangulation)")
     fit_huber_k: float = Field(3.0, gt=0, description="Huber corner of the body fit's reprojection error, in keypoint sigmas")

@@ -162,7 +162,8 @@ def _settings_text(config: SimulationConfig, motion: Motion, cameras, videos: li
                                   factors=TaskFactors(), periods=periods,
                                   stature_m=round(float(w.spec.stature), 2)))
     header = ("# A SIMULATED session written by 'ergopose simulate' (docs/simulator.md); the format is in\n"
-              "# docs/session-format.md. The workers' load periods are the simulation's ground truth.\n")
+              "# docs/session-format.md. The workers' load periods are the simulation's ground truth; the number\n"
+              "# of workers in the area ([reconstruction] expected_workers) is what a safety engineer would know.\n")
     return settings_to_toml(
         recorded_at=config.start, fps=config.fps, cameras=[(c.name, v) for c, v in zip(cameras, videos)],
         description=(f"Simulated workplace: {config.workers} worker(s), {config.minutes:g} min, seed {config.seed}, "
@@ -170,7 +171,8 @@ def _settings_text(config: SimulationConfig, motion: Motion, cameras, videos: li
         defaults=TaskFactors(load_kg=0.0, load_mode="intermittent", coupling="good", shock=False,
                              arm_supported=False, seated=False),
         workers=workers, header=header,
-        calibration_check=(BARS_FILE, bar_length) if bar_length is not None else None)
+        calibration_check=(BARS_FILE, bar_length) if bar_length is not None else None,
+        reconstruction={"expected_workers": int(config.workers)})
 
 
 def _merge_periods(periods) -> list:

@@ -173,3 +173,40 @@ def test_coasting_prediction_holds_the_height(rng):
     assert len(coast) > 10
     assert np.ptp(coast[:, 4]) < 1e-9  # height held
     assert np.ptp(coast[:, 2]) > 0.1  # still moving along x at its last horizontal speed
+
+
+def test_a_full_roster_keeps_a_returning_worker_whose_measurements_drifted(rng):
+    """One worker stays in view; the other leaves for 20 s and comes back measuring 30 cm taller
+    (a signature far beyond relink_max_signature_m, as noisy keypoints give). Without a roster
+    (expected_workers 0), or with a roster of 3 of whom only 2 have been seen, the tracker refuses
+    to guess and opens a third identity; with expected_workers = 2 both
+    workers already have identities and the returning one is the only lost worker who could
+    have walked there, so it gets its identity back. A third person entering while both
+    workers are followed still gets a new identity."""
+    n = int(40 * FPS)
+    paths = [np.array([[-2.0, -2.0], [-1.0, 2.0]]), np.array([[2.0, -2.0], [1.0, 2.0]])]
+    before = walk_workers([WorkerScript(1.75, paths[0], pause_s=5.0), WorkerScript(1.60, paths[1], pause_s=5.0)], n, FPS)
+    after = walk_workers([WorkerScript(1.75, paths[0], pause_s=5.0), WorkerScript(1.90, paths[1], pause_s=5.0)], n, FPS)
+    truth = np.where((np.arange(n) < 20 * FPS)[:, None, None, None], before, after)
+    vis = np.ones((n, 2), bool)
+    vis[int(10 * FPS):int(30 * FPS), 1] = False
+    people = _stored(truth, vis, rng)
+    for expected, identities in ((0, 3), (3, 3), (2, 2)):
+        tr = Tracker(ReconSettings(expected_workers=expected), FPS)
+        res = tr.update(people, 0, n)
+        fin = tr.finish()
+        resolved = {**res.resolved, **fin.resolved}
+        f, p = np.nonzero(vis)
+        ids = {q: {resolved[t] for t, qq, fr in zip(res.track, p, f) if qq == q and fr > 400} for q in (0, 1)}
+        assert len(tr.identities) == identities, expected
+        first = {resolved[t] for t, qq, fr in zip(res.track, p, f) if qq == 1 and fr < 100}
+        assert (ids[1] == first) is (expected == 2)
+    # Three people, two of them followed all along: the third is someone else.
+    third = walk_workers([WorkerScript(1.80, np.array([[0.0, -2.5], [0.0, 2.5]]), pause_s=5.0)], n, FPS)
+    truth3 = np.concatenate([before, third], axis=1)
+    vis3 = np.ones((n, 3), bool)
+    vis3[:int(20 * FPS), 2] = False
+    tr = Tracker(ReconSettings(expected_workers=2), FPS)
+    tr.update(_stored(truth3, vis3, rng), 0, n)
+    tr.finish()
+    assert len(tr.identities) == 3
