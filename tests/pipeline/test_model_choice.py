@@ -37,7 +37,8 @@ def test_the_chosen_card_and_its_gates_reach_the_job(tiny_session, fetched_model
     assert job.model == "heavy" and [m.card.name for m in models] == ["blazepose_detector", heavy.name]
     assert job.pose == PoseSettings().with_gates(heavy.gates)
     assert job.recon.min_confidence == heavy.gates.min_triangulation_confidence < ReconSettings().min_confidence
-    assert job.recon == dataclasses.replace(ReconSettings(), min_confidence=heavy.gates.min_triangulation_confidence)
+    assert job.recon == dataclasses.replace(run.session.reconstruction, min_confidence=heavy.gates.min_triangulation_confidence)
+    assert run.session.reconstruction.expected_workers == 2  # ergopose simulate writes the number of workers
     assert models[-1].sha256 == heavy.file.sha256
 
 
