@@ -92,6 +92,9 @@ class ReconSettings:
             (one standard deviation) from its previous fitted position.
         fit_pose_prior_sigma_m: 0.35 -- standard deviation of the neutral standing pose prior
             (decides only what nothing else decides).
+        fit_hand_prior_sigma_m: 0.05 -- standard deviation of the prior that a hand two cameras
+            do not see continues its forearm (hand points against the forearm's line, metres);
+            0 turns it off.
         fit_turn_rate_rad_s: 4.0 -- each segment's vector may change by fit_temporal_sigma_m +
             this x its length x the time since the previous fit (one standard deviation): a
             small rigid part (a hand, the head) keeps its orientation from frame to frame instead
@@ -156,6 +159,7 @@ class ReconSettings:
     fit_temporal_sigma_m: float = 0.03
     fit_speed_m_s: float = 1.5
     fit_pose_prior_sigma_m: float = 0.35
+    fit_hand_prior_sigma_m: float = 0.05
     fit_turn_rate_rad_s: float = 4.0
     fit_iterations: int = 10
 

@@ -56,6 +56,8 @@ class ReconstructionTable(Table):
     fit_temporal_sigma_m: float = Field(0.03, gt=0, description="a joint may move this much from its previous fit, plus ...")
     fit_speed_m_s: float = Field(1.5, gt=0, description="... this speed times the time since the previous fit")
     fit_pose_prior_sigma_m: float = Field(0.35, gt=0, description="standard deviation of the standing pose prior")
+    fit_hand_prior_sigma_m: float = Field(0.05, ge=0, description="standard deviation of the prior that a hand two "
+                                          "cameras do not see continues its forearm (metres; 0: off)")
     fit_turn_rate_deg_s: float = Field(math.degrees(4.0), gt=0,
                                        description="how fast a segment may turn between fits (one standard deviation)")
     fit_iterations: int = Field(10, gt=0, description="Levenberg-Marquardt iterations per worker-frame")

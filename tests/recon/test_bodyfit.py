@@ -200,3 +200,39 @@ def test_a_camera_that_crossed_the_legs_or_the_whole_body_is_turned_back(rng):
     # As reported, the right views are untouched.
     _, _, none = B.correct_left_right(P, px, conf, previous)
     assert not none.any()
+
+
+def _flexed_bodies(n, rng, wrist_flexion):
+    m = BodyMeasurements.from_stature(1.75)
+    posture = Posture(left_upper_arm_flexion=rng.uniform(0.2, 1.4, n), left_elbow_flexion=rng.uniform(0.4, 1.4, n),
+                      left_wrist_flexion=wrist_flexion, heading=rng.uniform(-np.pi, np.pi, n),
+                      root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], -1))
+    return pose_skeleton(m, place_on_floor(m, posture))
+
+
+def test_a_hand_two_cameras_do_not_see_continues_its_forearm_and_a_seen_hand_keeps_its_bend(rng):
+    """The hand prior (fit_hand_prior_sigma_m): a hand no camera sees, whose previous fit was bent
+    back 100 deg (a fit gone wrong), comes back towards its forearm with the prior and stays bent
+    back without it; a hand two cameras see keeps its 45 deg of flexion."""
+    n = 40
+    truth = _flexed_bodies(n, rng, np.zeros(n))
+    wrong = _flexed_bodies(n, np.random.default_rng(0), np.full(n, -np.radians(100.0)))
+    hand = [JOINT_INDEX[f"left_{j}"] for j in ("wrist", "index", "pinky", "thumb")]
+    start = truth.copy()
+    start[:, hand] = truth[:, hand] + (wrong[:, hand] - wrong[:, [JOINT_INDEX["left_wrist"]]])
+    start[:, hand] -= start[:, [JOINT_INDEX["left_wrist"]]] - truth[:, [JOINT_INDEX["left_wrist"]]]
+    P, px, conf = _views(truth, rng)
+    conf[:, :, hand] = 0.0  # no camera sees the hand
+    flex = {}
+    for sigma in (0.05, 0.0):
+        fit = _fit(P, px, conf, truth, start, previous_world=start, previous_sigma_m=np.full(n, 0.155),
+                   previous_dt_s=np.full(n, 1 / 12), options=B.FitOptions(hand_prior_sigma_m=sigma))
+        flex[sigma] = np.degrees(joint_angles(fit.points_world).to_frame()["left_wrist_flexion"].to_numpy())
+    assert np.median(np.abs(flex[0.05])) < 30.0  # 22.5 measured (46.4 without the prior)
+    assert np.median(np.abs(flex[0.0])) > np.median(np.abs(flex[0.05])) + 15.0
+    # Seen by both cameras, bent 45 deg: the prior does not touch it.
+    bent = _flexed_bodies(n, rng, np.full(n, np.radians(45.0)))
+    P, px, conf = _views(bent, rng)
+    fit = _fit(P, px, conf, bent, bent + rng.normal(0.0, 0.02, bent.shape))
+    got = np.degrees(joint_angles(fit.points_world).to_frame()["left_wrist_flexion"].to_numpy())
+    assert abs(np.median(got) - 45.0) < 4.0
