@@ -136,7 +136,7 @@ def print_result(result) -> None:
 
 
 def worker_lines(w) -> list[str]:
-    """One worker's lines of the terminal summary (w: ergopose.pipeline.stages.WorkerOutput)."""
+    """One worker's lines of the terminal summary (w: ergopose.pipeline.publish.WorkerOutput)."""
     s = w.summary
     total = s.observed_s
     name = f" ({w.name})" if w.name != w.worker_id else ""

@@ -48,7 +48,7 @@ from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kap
 from ergopose.evaluation.bar import bar_section
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMB_INDEX, LIMBS, NUM_JOINTS
 from ergopose.pipeline.names import load_names, resolve_naming
-from ergopose.pipeline.stages import scoring_settings
+from ergopose.pipeline.inputs import scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.diagnostics import (
     REGIONS,

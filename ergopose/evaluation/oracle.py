@@ -5,7 +5,7 @@ pixels with seeded noise and dropouts instead of running the pose network. Feedi
 reconstruction the assessment uses (per-person upright virtual views,
 :func:`ergopose.sim.synthetic.frames_from_oracle`; association, triangulation, tracking and
 smoothing with :func:`ergopose.recon.session.reconstruct_session`, then joint angles, task factors
-and RULA/REBA with :func:`ergopose.pipeline.stages.score_worker`) measures geometry, tracking and
+and RULA/REBA with :func:`ergopose.pipeline.score.score_worker`) measures geometry, tracking and
 smoothing apart from the network.
 
 Everything written is labelled ORACLE: the folder ``OUT/oracle/``, a ``README_ORACLE.txt`` in it,
@@ -28,7 +28,8 @@ from ergopose.errors import InputError
 from ergopose.evaluation.compare import ResultsLayout
 from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.identify import identify_by_stature
-from ergopose.pipeline.stages import score_worker, scoring_settings
+from ergopose.pipeline.inputs import scoring_settings
+from ergopose.pipeline.score import score_worker
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.diagnostics import limb_diagnostics
 from ergopose.recon.session import reconstruct_session

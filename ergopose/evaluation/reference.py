@@ -53,7 +53,7 @@ from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMBS, NUM_JOINTS
 from ergopose.pipeline.scoring import _take
-from ergopose.pipeline.stages import scoring_settings
+from ergopose.pipeline.inputs import scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.table import read_tracks, table_to_frames
 from ergopose.recon.tracking import identity_name
