@@ -12,7 +12,7 @@ from ergopose.errors import ConfigError
 from ergopose.pipeline.assess import AssessOptions, assess
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.ergonomics.shares import HIGH_WORDS, format_percent, shift_high_risk
-from ergopose.report.pages import CONFIDENCE_WORDS, fmt_duration, fmt_percent
+from ergopose.report.wording import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
 def register(subparsers) -> argparse.ArgumentParser:
