@@ -12,7 +12,7 @@ import numpy as np
 
 from ergopose.ergonomics.body import FACE_POINTS_IN_HEAD
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.sim.motion import Motion, WorkerMotion
+from ergopose.sim.workforce import Motion, WorkerMotion
 
 
 J = JOINT_INDEX

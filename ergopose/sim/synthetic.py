@@ -26,7 +26,8 @@ from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.records import detections_from_fisheye
 from ergopose.sim.ground_truth import GroundTruth
-from ergopose.sim.motion import TASKS, simulate_motion
+from ergopose.sim.motion import simulate_motion
+from ergopose.sim.workforce import TASKS
 from ergopose.sim.bodies import all_body_primitives
 from ergopose.sim.visibility import joint_visibility
 from ergopose.sim.scene import default_scene, rig_cameras, rig_lens

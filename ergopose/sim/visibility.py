@@ -11,7 +11,7 @@ import numpy as np
 from ergopose.ergonomics.body import FACE_POINTS_IN_HEAD
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
-from ergopose.sim.motion import Motion
+from ergopose.sim.workforce import Motion
 from ergopose.sim.scene import Scene
 from ergopose.sim.bodies import J, PRIMITIVE_NAMES, N_PRIMITIVES, BodyPrimitives
 from ergopose.sim.raycast import ray_capsule, ray_ellipsoid, ray_box
