@@ -25,7 +25,7 @@ import numpy as np
 from ergopose.atomic import atomic_dir, write_text
 from ergopose.ergonomics.export import write_worker_steps_csv
 from ergopose.errors import InputError
-from ergopose.evaluation.compare import ResultsLayout
+from ergopose.evaluation.loading import ResultsLayout
 from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.identify import identify_by_stature
 from ergopose.pipeline.inputs import scoring_settings
