@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 
 from ergopose import __version__
@@ -47,13 +47,15 @@ def ensure_models(model_dir: str | None, progress: ProgressCallback | None,
     return tuple(out)
 
 
-def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequence[ModelUse]) -> dict[str, Any]:
+def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequence[ModelUse],
+                       source: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """What the stored chunks depend on: videos, calibration, 2D and 3D settings, models, version.
 
     Task factors, worker names and scoring settings are not part of it: changing them re-runs
-    only the stages after the 2D work.
+    only the stages after the 2D work. source: the description of a 2D source other than the pose
+    networks (:class:`ergopose.pipeline.detect.Source2D`), when there is one.
     """
-    return {
+    inputs = {
         "ergopose": __version__,
         "videos": [file_fingerprint(c.video_path) for c in session.cameras],
         "calibration": file_fingerprint(session.calibration_path),
@@ -65,3 +67,6 @@ def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequenc
         "recon_settings": repr(job.recon),
         "models": [m.sha256 for m in models],
     }
+    if source is not None:
+        inputs["source"] = dict(source)
+    return inputs

@@ -61,11 +61,13 @@ class WorkerOutput:
     def observed_s(self) -> float:
         return float(self.summary.observed_s)
 
+
 @dataclass(frozen=True)
 class Outputs:
     index_html: Path
     session_csv: Path
     workers: tuple
+
 
 @contextlib.contextmanager
 def staging(out_dir: Path) -> Iterator[Path]:

@@ -135,6 +135,7 @@ def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -
 
 SCORED_DIR = "scored"
 
+
 class WorkerSink:
     """Where one worker's scored blocks go: the frames CSV, the scored-frames Parquet file (read
     back for the report's worst moments), the shift aggregation and the report's timeline

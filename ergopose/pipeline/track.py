@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pyarrow as pa
@@ -54,11 +54,13 @@ class Tracks:
 
 
 def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon: ReconSettings,
-                  progress: ProgressCallback | None, window: Window | None = None) -> Tracks:
+                  progress: ProgressCallback | None, window: Window | None = None,
+                  meta: Mapping[str, Any] | None = None) -> Tracks:
     """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet).
 
     ranges: consecutive chunks (all of the session, or those around ``window``: the part of the
-    day assessed, stored in the table's metadata for the scoring)."""
+    day assessed, stored in the table's metadata for the scoring). meta: more entries of the table's
+    metadata (how the 2D records were made, when not by the pose networks)."""
     shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras,
                                 first_frame=ranges[0][0] if ranges else 0)
     refs = ShiftReferences(recon)
@@ -66,6 +68,7 @@ def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], re
                       settings=recon.as_dict()) as writer:
         if window is not None:
             writer.meta["window"] = window.as_dict()
+        writer.meta.update(meta or {})
         for k, (start, stop) in enumerate(ranges):
             chunk = store.load_chunk(start, stop)
             if chunk is None:
