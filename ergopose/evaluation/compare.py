@@ -36,16 +36,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-
 from ergopose.atomic import write_text
 from ergopose.evaluation.bar import bar_section
-from ergopose.progress import ProgressCallback, report
-from ergopose.evaluation.loading import ResultsLayout, _json_ready, load_inputs, lens_region_info
-from ergopose.evaluation.matching import row_people, matching_section, detection_section
 from ergopose.evaluation.errors3d import errors_section, limbs_section
-from ergopose.evaluation.scoring import (SCORE_SCALES, _worker_frames, angles_section, ground_truth_posture,
-                                         ground_truth_scores, scores_section)
-
+from ergopose.evaluation.loading import ResultsLayout, _json_ready, lens_region_info, load_inputs
+from ergopose.evaluation.matching import detection_section, matching_section, row_people
+from ergopose.evaluation.scoring import (
+    SCORE_SCALES,
+    _worker_frames,
+    angles_section,
+    ground_truth_posture,
+    ground_truth_scores,
+    scores_section,
+)
+from ergopose.progress import ProgressCallback, report
 
 NETWORK_SOURCE = "pose network (ergopose assess)"
 

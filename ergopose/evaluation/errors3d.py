@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ergopose.evaluation.loading import _Inputs, _r
 from ergopose.keypoints import BLAZEPOSE33, LIMB_INDEX, LIMBS, NUM_JOINTS
 from ergopose.recon.diagnostics import (
     REGIONS,
@@ -18,8 +19,6 @@ from ergopose.recon.diagnostics import (
     truth_for_workers,
 )
 from ergopose.recon.tracking import identity_name, limb_lengths
-from ergopose.evaluation.loading import _r, _Inputs
-
 
 #: Limbs whose true length varies less than this (coefficient of variation) count as rigid.
 RIGID_CV = 1e-3

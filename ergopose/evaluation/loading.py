@@ -15,8 +15,8 @@ import numpy as np
 from ergopose.calibration.check import DEFAULT_RING_BOUNDS_DEG
 from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.errors import InputError
-from ergopose.pipeline.names import load_names, resolve_naming
 from ergopose.pipeline.inputs import scoring_settings
+from ergopose.pipeline.names import load_names, resolve_naming
 from ergopose.recon.settings import ReconSettings, from_mapping
 from ergopose.recon.table import read_tracks, table_to_frames
 from ergopose.recon.tracking import identity_name

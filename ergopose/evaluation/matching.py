@@ -4,10 +4,10 @@ section (mapping, switches, naming) and the detection rate per lens region and c
 
 from __future__ import annotations
 
-
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ergopose.evaluation.loading import _Inputs, _r
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.recon.diagnostics import (
     REGIONS,
@@ -17,8 +17,6 @@ from ergopose.recon.diagnostics import (
 )
 from ergopose.recon.records import TORSO_JOINTS, body_centres
 from ergopose.recon.tracking import identity_name
-from ergopose.evaluation.loading import _r, _Inputs
-
 
 #: Body-centre distance (metres) within which a tracked row and a simulated worker are the same
 #: person in a frame (the default of ergopose.recon.diagnostics.match_workers).

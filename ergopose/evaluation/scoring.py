@@ -15,14 +15,13 @@ from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
+from ergopose.evaluation.loading import ResultsLayout, _Inputs, _r
 from ergopose.recon.diagnostics import (
     REGIONS,
     lens_region,
 )
 from ergopose.recon.records import TORSO_JOINTS
 from ergopose.recon.tracking import identity_name
-from ergopose.evaluation.loading import ResultsLayout, _r, _Inputs
-
 
 #: The score columns compared and their scales (docs/csv-columns.md).
 SCORE_SCALES: dict[str, tuple[int, ...]] = {

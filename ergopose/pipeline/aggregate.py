@@ -21,16 +21,15 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
-from ergopose.pipeline.names import (merge_rows, tracker_number)
+from ergopose.pipeline.names import merge_rows, tracker_number
+from ergopose.pipeline.score import RunEach, WorkerSink, score_workers
+from ergopose.pipeline.track import Tracks
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.table import table_to_frames
 from ergopose.recon.tracking import identity_name
 from ergopose.report import periods
 from ergopose.report.results import frames_table
 from ergopose.session import Session
-from ergopose.pipeline.track import Tracks
-from ergopose.pipeline.score import RunEach, WorkerSink, score_workers
-
 
 
 @dataclass(frozen=True)

@@ -8,14 +8,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-
 from ergopose import __version__
 from ergopose.ergonomics.settings import from_mapping
 from ergopose.pipeline.store import file_fingerprint
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, ensure_model, landmark_card, model_card
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import Session
-
 
 
 def scoring_settings(session: Session):

@@ -18,15 +18,23 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
-
 from ergopose import __version__
 from ergopose.calibration import check
-from ergopose.ergonomics.export import (FRAMES_SUFFIX, SUMMARY_SUFFIX, steps_path,
-                                        write_session_summary_csv, write_worker_summary_csv)
-from ergopose.pipeline.names import NAMES_FILE
+from ergopose.ergonomics.export import (
+    FRAMES_SUFFIX,
+    SUMMARY_SUFFIX,
+    steps_path,
+    write_session_summary_csv,
+    write_worker_summary_csv,
+)
+from ergopose.pipeline.aggregate import ReportWorker
 from ergopose.pipeline.guard import fingerprint_of
+from ergopose.pipeline.inputs import ModelUse
+from ergopose.pipeline.names import NAMES_FILE
+from ergopose.pipeline.score import CSV_DIR, SCORED_DIR
 from ergopose.pipeline.skipped import SKIPPED_CSV, skipped_in_store, skipped_records, write_skipped_csv
 from ergopose.pipeline.store import ResultStore
+from ergopose.pipeline.track import NamedTracks
 from ergopose.pipeline.window import Window, describe
 from ergopose.progress import ProgressCallback
 from ergopose.report import adapters
@@ -36,12 +44,6 @@ from ergopose.report.quality import reliable_rule
 from ergopose.report.render import render_report
 from ergopose.report.results import save_results, session_results
 from ergopose.session import Session
-from ergopose.pipeline.inputs import ModelUse
-from ergopose.pipeline.track import NamedTracks
-from ergopose.pipeline.score import CSV_DIR, SCORED_DIR
-from ergopose.pipeline.aggregate import ReportWorker
-
-
 
 SESSION_CSV = "session_summary.csv"
 

@@ -25,18 +25,16 @@ from ergopose.ergonomics import task_inputs as T
 from ergopose.ergonomics import uncertainty as U
 from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
-from ergopose.ergonomics.export import (FRAMES_SUFFIX, FramesCsvWriter, StepsCsvWriter, steps_path)
+from ergopose.ergonomics.export import FRAMES_SUFFIX, FramesCsvWriter, StepsCsvWriter, steps_path
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.names import merge_rows
 from ergopose.pipeline.scoring import WorkerScorer, _take, block_sizes
+from ergopose.pipeline.track import Tracks, read_track_parts
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.tracking import identity_name
 from ergopose.report.quality import reliable_frames
 from ergopose.session import Session
-from ergopose.pipeline.track import Tracks, read_track_parts
-
-
 
 CSV_DIR = "csv"
 

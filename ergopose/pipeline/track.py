@@ -18,8 +18,15 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from ergopose.errors import InputError
-from ergopose.pipeline.names import (NAMES_FILE, load_names, merge_rows, resolve_naming, tracker_number,
-                                     unused_message, unused_task_inputs)
+from ergopose.pipeline.names import (
+    NAMES_FILE,
+    load_names,
+    merge_rows,
+    resolve_naming,
+    tracker_number,
+    unused_message,
+    unused_task_inputs,
+)
 from ergopose.pipeline.scoring import ShiftReferences
 from ergopose.pipeline.window import Window
 from ergopose.progress import ProgressCallback, report, warn
@@ -29,7 +36,6 @@ from ergopose.recon.settings import ReconSettings
 from ergopose.recon.table import TracksWriter, read_metadata, table_to_frames
 from ergopose.recon.tracking import identity_name
 from ergopose.session import Session
-
 
 
 @dataclass(frozen=True)

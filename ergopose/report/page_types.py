@@ -24,7 +24,6 @@ from ergopose.report.context import (
 )
 from ergopose.report.quality import Verdict
 
-
 # ------------------------------------------------------------------------- shared records
 
 

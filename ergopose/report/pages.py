@@ -17,27 +17,80 @@ import pandas as pd
 
 from ergopose.ergonomics.shares import format_percent, high_risk
 from ergopose.report import svg
-from ergopose.report.periods import MAX_PERIODS
 from ergopose.report.context import (
     FLAG_VERDICTS,
     SessionInfo,
     WorkerInfo,
     WorkerResults,
 )
+from ergopose.report.page_types import (
+    BandRow,
+    CalibrationRow,
+    ConfidenceRow,
+    DriverRow,
+    Figure,
+    FlagRow,
+    HoldRow,
+    HourRow,
+    HourTable,
+    IndexPage,
+    InputRow,
+    LevelRow,
+    LimbRow,
+    Link,
+    MethodHeadline,
+    MethodsSection,
+    MomentCard,
+    PrintPage,
+    PrintRow,
+    PrintWorker,
+    QualitySection,
+    RegionRow,
+    RepetitionRow,
+    SessionHeader,
+    SettingRow,
+    Term,
+    WorkerPage,
+    WorkerRow,
+)
+from ergopose.report.periods import MAX_PERIODS
 from ergopose.report.quality import Finding, Verdict, quality_verdict
-from ergopose.report.page_types import (Link, Figure, SessionHeader, SettingRow, MethodsSection, CalibrationRow,
-                                        LevelRow, MethodHeadline, ConfidenceRow, BandRow, HoldRow, RepetitionRow,
-                                        DriverRow, MomentCard, Term, HourRow, HourTable, FlagRow, LimbRow, RegionRow,
-                                        InputRow, QualitySection, WorkerPage, WorkerRow, IndexPage, PrintRow,
-                                        PrintWorker, PrintPage)
-from ergopose.report.wording import (METHOD_TITLES, RATING_LABELS, CONFIDENCE_WORDS, fmt_duration, fmt_percent, Clock,
-                                     worker_page_name, display_name)
-from ergopose.report.sections import (session_header, calibration_rows, methods_section, _csv_label, _csv_link,
-                                      level_seconds, headline, confidence_rows, input_rows, _level_segments,
-                                      headline_figure, timeline_figures, body_part_section, worst_moments, act_summary,
-                                      worst_note, risk_figure, glossary, PRINT_FILE, PRINT_PERIODS, print_link,
-                                      hourly_section, floor_section, quality_section)
-
+from ergopose.report.sections import (
+    PRINT_FILE,
+    PRINT_PERIODS,
+    _csv_label,
+    _csv_link,
+    _level_segments,
+    act_summary,
+    body_part_section,
+    calibration_rows,
+    confidence_rows,
+    floor_section,
+    glossary,
+    headline,
+    headline_figure,
+    hourly_section,
+    input_rows,
+    level_seconds,
+    methods_section,
+    print_link,
+    quality_section,
+    risk_figure,
+    session_header,
+    timeline_figures,
+    worst_moments,
+    worst_note,
+)
+from ergopose.report.wording import (
+    CONFIDENCE_WORDS,
+    METHOD_TITLES,
+    RATING_LABELS,
+    Clock,
+    display_name,
+    fmt_duration,
+    fmt_percent,
+    worker_page_name,
+)
 
 FLAG_ORDER = FLAG_VERDICTS[-1:] + FLAG_VERDICTS[:-1]  # sort key: not measured last, worst first
 FLAG_SEVERITY = {"acceptable": "ok", "conditionally acceptable": "caution", "time-limited": "caution",

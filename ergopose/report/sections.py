@@ -16,7 +16,6 @@ import pandas as pd
 from ergopose.ergonomics.shares import format_percent, high_risk
 from ergopose.keypoints import LIMBS
 from ergopose.report import periods, svg
-from ergopose.report.periods import DRIVER_SHARE, MAX_PERIODS
 from ergopose.report.context import (
     MAX_SKIPPED_SPANS,
     MethodInfo,
@@ -24,16 +23,49 @@ from ergopose.report.context import (
     WorkerResults,
     WorkerSummary,
 )
+from ergopose.report.page_types import (
+    BandRow,
+    CalibrationRow,
+    ConfidenceRow,
+    DriverRow,
+    Figure,
+    HourRow,
+    HourTable,
+    InputRow,
+    LevelRow,
+    LimbRow,
+    Link,
+    MethodHeadline,
+    MethodsSection,
+    MomentCard,
+    QualitySection,
+    RegionRow,
+    RegionSpreadRow,
+    SessionHeader,
+    SettingRow,
+    Term,
+)
+from ergopose.report.periods import DRIVER_SHARE, MAX_PERIODS
 from ergopose.report.quality import SCORED_LIMBS, quality_verdict
-from ergopose.report.page_types import (Link, Figure, SessionHeader, SettingRow, MethodsSection, CalibrationRow,
-                                        LevelRow, MethodHeadline, ConfidenceRow, BandRow, DriverRow, MomentCard, Term,
-                                        HourRow, HourTable, LimbRow, RegionSpreadRow, RegionRow, InputRow,
-                                        QualitySection)
-from ergopose.report.wording import (METHOD_TITLES, HIGH_LEVELS, BIN_CHOICES_S, MAX_BINS, RATING_LABELS,
-                                     CONFIDENCE_WORDS, UNCERTAIN_SD_DEG, MOSTLY_INFERRED_PCT, TASK_INPUTS, REGION_NAMES,
-                                     SETTING_MEANINGS, fmt_duration, fmt_percent, Clock, safe_href, _level_colours,
-                                     _band_colour)
-
+from ergopose.report.wording import (
+    BIN_CHOICES_S,
+    CONFIDENCE_WORDS,
+    HIGH_LEVELS,
+    MAX_BINS,
+    METHOD_TITLES,
+    MOSTLY_INFERRED_PCT,
+    RATING_LABELS,
+    REGION_NAMES,
+    SETTING_MEANINGS,
+    TASK_INPUTS,
+    UNCERTAIN_SD_DEG,
+    Clock,
+    _band_colour,
+    _level_colours,
+    fmt_duration,
+    fmt_percent,
+    safe_href,
+)
 
 # ------------------------------------------------------------------------- shared builders
 

@@ -9,14 +9,12 @@ import math
 import re
 from urllib.parse import quote
 
-
 from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
 from ergopose.ergonomics.shares import format_percent, percent
 from ergopose.report import svg
 from ergopose.report.context import (
     MethodInfo,
 )
-
 
 # ------------------------------------------------------------------------------- formatting
 

@@ -11,10 +11,9 @@ import cv2
 import numpy as np
 
 from ergopose.geometry.camera import Camera
-from ergopose.sim.scene import Box, Scene
 from ergopose.sim.bodies import _unit
-from ergopose.sim.raycast import _dot, ray_capsule, ray_aabb_planar
-
+from ergopose.sim.raycast import _dot, ray_aabb_planar, ray_capsule
+from ergopose.sim.scene import Box, Scene
 
 LIGHT_WORLD = np.array([0.25, 0.35, 1.0]) / np.linalg.norm([0.25, 0.35, 1.0])
 AMBIENT = 0.42

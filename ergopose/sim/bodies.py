@@ -14,7 +14,6 @@ from ergopose.ergonomics.body import FACE_POINTS_IN_HEAD
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.sim.workforce import Motion, WorkerMotion
 
-
 J = JOINT_INDEX
 
 #: Capsule parts: name, joint (or point) a, joint b, radius as a fraction of stature, colour slot.

@@ -5,11 +5,9 @@ flexion, hip abduction and knee flexion, and the ankle angle that keeps the sole
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ergopose.ergonomics.body import BodyMeasurements
-
 
 #: Fraction of the leg length (hip to ankle) the pelvis may stretch a leg to.
 MAX_LEG_STRETCH = 0.998

@@ -43,13 +43,12 @@ from scipy.ndimage import gaussian_filter1d
 from ergopose.ergonomics.body import Posture, pose_skeleton
 from ergopose.errors import ConfigError
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.sim.scene import Scene, Station
-from ergopose.sim.workforce import FactorPeriod, WorkerMotion, Motion, make_workers
-from ergopose.sim.paths import _Grid, plan_path
 from ergopose.sim.legs import MAX_LEG_STRETCH, leg_ik
-from ergopose.sim.timeline import UPPER_FIELDS, _Track
+from ergopose.sim.paths import _Grid, plan_path
+from ergopose.sim.scene import Scene, Station
 from ergopose.sim.tasks import _do_task
-
+from ergopose.sim.timeline import UPPER_FIELDS, _Track
+from ergopose.sim.workforce import FactorPeriod, Motion, WorkerMotion, make_workers
 
 # --- the shift -----------------------------------------------------------------------------------------
 

@@ -11,7 +11,6 @@ import numpy as np
 
 from ergopose.sim.scene import Scene
 
-
 #: Clearance kept around furniture by walking paths (metres, from the mid-hip point).
 PATH_CLEARANCE = 0.3
 GRID_STEP = 0.1

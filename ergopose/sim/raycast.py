@@ -4,10 +4,7 @@ axis-aligned box), broadcasting over any leading shape: distance along the ray, 
 
 from __future__ import annotations
 
-
 import numpy as np
-
-
 
 # --- ray intersections (broadcasting over any leading shape) -----------------------------------------
 

@@ -37,13 +37,31 @@ import numpy as np
 from ergopose.atomic import atomic_path
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
+from ergopose.sim.backdrop import StaticScene, _shade, pixel_rays, render_background
+from ergopose.sim.bodies import (
+    CARTON,
+    HEAD,
+    N_CAPSULES,
+    N_ELLIPSOIDS,
+    N_PRIMITIVES,
+    PRIMITIVE_NAMES,
+    BodyPrimitives,
+    _unit,
+    all_body_primitives,
+    body_primitives,
+    head_axes,
+)
+from ergopose.sim.raycast import _dot, ray_box, ray_capsule, ray_ellipsoid
 from ergopose.sim.scene import Scene
-from ergopose.sim.bodies import (N_CAPSULES, N_ELLIPSOIDS, PRIMITIVE_NAMES, N_PRIMITIVES, HEAD, CARTON, BodyPrimitives,
-                                 _unit, head_axes, body_primitives, all_body_primitives)
-from ergopose.sim.raycast import _dot, ray_capsule, ray_ellipsoid, ray_box
-from ergopose.sim.backdrop import StaticScene, _shade, render_background, pixel_rays
-from ergopose.sim.visibility import (OCCLUDED_BY_SCENE, OCCLUDED_BY_WORKER, OUTSIDE_IMAGE, SELF_OCCLUDED, VISIBLE,
-                                     VISIBILITY_CODES, joint_visibility)
+from ergopose.sim.visibility import (
+    OCCLUDED_BY_SCENE,
+    OCCLUDED_BY_WORKER,
+    OUTSIDE_IMAGE,
+    SELF_OCCLUDED,
+    VISIBILITY_CODES,
+    VISIBLE,
+    joint_visibility,
+)
 
 
 @dataclass(frozen=True)

@@ -10,8 +10,7 @@ import math
 import numpy as np
 
 from ergopose.sim.scene import Station
-from ergopose.sim.timeline import _expand, NEUTRAL, CARRY, _Track
-
+from ergopose.sim.timeline import CARRY, NEUTRAL, _expand, _Track
 
 # --- the tasks ----------------------------------------------------------------------------------------
 

@@ -13,11 +13,10 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from ergopose.ergonomics.body import ANGLE_FIELDS
-from ergopose.sim.scene import Station
-from ergopose.sim.workforce import TASK_INDEX, WorkerSpec, FactorPeriod
-from ergopose.sim.paths import _rounded_curve
 from ergopose.sim.legs import MAX_LEG_STRETCH
-
+from ergopose.sim.paths import _rounded_curve
+from ergopose.sim.scene import Station
+from ergopose.sim.workforce import TASK_INDEX, FactorPeriod, WorkerSpec
 
 LEG_FIELDS = tuple(f"{s}_{n}" for s in ("left", "right")
                    for n in ("hip_flexion", "hip_abduction", "knee_flexion", "ankle_flexion"))

@@ -5,18 +5,16 @@ worker or by the scene, or outside the image (:func:`joint_visibility`).
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ergopose.ergonomics.body import FACE_POINTS_IN_HEAD
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
-from ergopose.sim.workforce import Motion
-from ergopose.sim.scene import Scene
-from ergopose.sim.bodies import J, PRIMITIVE_NAMES, N_PRIMITIVES, BodyPrimitives
-from ergopose.sim.raycast import ray_capsule, ray_ellipsoid, ray_box
 from ergopose.sim.backdrop import StaticScene
-
+from ergopose.sim.bodies import N_PRIMITIVES, PRIMITIVE_NAMES, BodyPrimitives, J
+from ergopose.sim.raycast import ray_box, ray_capsule, ray_ellipsoid
+from ergopose.sim.scene import Scene
+from ergopose.sim.workforce import Motion
 
 #: Visibility codes of a joint in a camera (ground truth).
 VISIBLE, SELF_OCCLUDED, OCCLUDED_BY_WORKER, OCCLUDED_BY_SCENE, OUTSIDE_IMAGE = 0, 1, 2, 3, 4

@@ -14,7 +14,6 @@ import numpy as np
 from ergopose.ergonomics.body import ANGLE_FIELDS, BodyMeasurements, Posture
 from ergopose.errors import ConfigError
 
-
 #: Task labels (per frame per worker); the ground truth stores the index into this tuple.
 TASKS: tuple[str, ...] = (
     "rest", "walk", "turn", "carry", "lift_stoop", "lift_squat", "place_shelf", "reach_overhead",
