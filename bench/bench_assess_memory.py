@@ -1,7 +1,7 @@
 """Memory of the stages after the 2D work over long shifts: assess_stages_peak_rss_mb.
 
 An assessment stores the people found in each chunk of video (pipeline/chunks/), then tracks,
-smooths, scores and reports the whole shift from them (ergopose.pipeline.stages). This bench
+smooths, scores and reports the whole shift from them (ergopose.pipeline.track, score, aggregate, publish). This bench
 writes such chunk files for simulated shifts of two workers (the simulator's motion, 1 cm
 noise, 12 fps; no video) of SHORT and LONG minutes, runs the tracking, scoring and report
 stages on each in a fresh process, and prints each process's peak resident memory. The 2D stage
@@ -56,7 +56,7 @@ def run_stages(session_dir: Path, out: Path, minutes: float) -> None:
     """Tracking, scoring, CSV files and the report from the stored chunks; prints the peak RSS (MB)."""
     import resource
 
-    from ergopose.pipeline import stages
+    from ergopose.pipeline import assess, inputs, track
     from ergopose.pipeline.detect import chunk_ranges
     from ergopose.pipeline.store import ResultStore
     from ergopose.recon.settings import ReconSettings
@@ -66,8 +66,8 @@ def run_stages(session_dir: Path, out: Path, minutes: float) -> None:
     store = ResultStore(out)
     ranges = chunk_ranges(int(round(minutes * 60 * FPS)), int(CHUNK_S * FPS))
     recon = ReconSettings()
-    tracks = stages.track_session(session, store, ranges, recon, None)
-    stages.score_and_report(session, tracks, out, stages.scoring_settings(session), (), recon, None)
+    tracks = track.track_session(session, store, ranges, recon, None)
+    assess.score_and_publish(session, tracks, out, inputs.scoring_settings(session), (), None)
     print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 
 

@@ -30,7 +30,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from common import best_time, emit  # noqa: E402
 
 from ergopose.sim.motion import simulate_motion  # noqa: E402
-from ergopose.sim.render import CameraRenderer, RenderOptions, all_body_primitives, joint_visibility  # noqa: E402
+from ergopose.sim.bodies import all_body_primitives  # noqa: E402
+from ergopose.sim.render import CameraRenderer, RenderOptions  # noqa: E402
+from ergopose.sim.visibility import joint_visibility  # noqa: E402
 from ergopose.sim.scene import DEFAULT_SIZE, default_scene, rig_cameras  # noqa: E402
 from ergopose.sim.writer import SimulationConfig, render_cameras  # noqa: E402
 

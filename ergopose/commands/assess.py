@@ -12,7 +12,7 @@ from ergopose.errors import ConfigError
 from ergopose.pipeline.assess import AssessOptions, assess
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.ergonomics.shares import HIGH_WORDS, format_percent, shift_high_risk
-from ergopose.report.pages import CONFIDENCE_WORDS, fmt_duration, fmt_percent
+from ergopose.report.wording import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -136,7 +136,7 @@ def print_result(result) -> None:
 
 
 def worker_lines(w) -> list[str]:
-    """One worker's lines of the terminal summary (w: ergopose.pipeline.stages.WorkerOutput)."""
+    """One worker's lines of the terminal summary (w: ergopose.pipeline.publish.WorkerOutput)."""
     s = w.summary
     total = s.observed_s
     name = f" ({w.name})" if w.name != w.worker_id else ""

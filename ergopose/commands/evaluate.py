@@ -12,8 +12,9 @@ from ergopose.atomic import write_text
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
 from ergopose.geometry.calibration_file import read_any_calibration
-from ergopose.evaluation.compare import ResultsLayout, evaluate_results, write_json
+from ergopose.evaluation.compare import evaluate_results, write_json
 from ergopose.evaluation.keypoint_reference import MIN_LIKELIHOOD, openpose_reference
+from ergopose.evaluation.loading import ResultsLayout
 from ergopose.evaluation.oracle import ORACLE_DIR, OracleOptions, run_oracle
 from ergopose.evaluation.reference import evaluate_reference, format_reference
 from ergopose.pipeline.guard import check_results_session

@@ -28,7 +28,7 @@ from ergopose.pipeline.names import unused_message, unused_task_inputs
 from ergopose.pipeline.store import ResultStore
 from ergopose.progress import warn
 from ergopose.report.render import render_report
-from ergopose.report.results import RESULTS_DIR, SESSION_FILE, load_results
+from ergopose.report.results import RESULTS_DIR, SESSION_FILE, SessionResults, load_results
 from ergopose.session import SETTINGS_FILE, load_session
 
 DEFAULT_REPORTS_DIR = "reports"
@@ -62,14 +62,15 @@ def check_session(session: str | Path, folder: Path, force: bool, progress=None)
                                  "them anyway")
 
 
-def warn_unused_inputs(session: str | Path, folder: Path, progress) -> None:
+def warn_unused_inputs(session: str | Path, results: SessionResults, progress) -> None:
     """Before rendering: warn when task inputs of the session's settings name ids that none of the
-    stored workers has (the report re-renders stored scores; 'ergopose workers --name' scores again)."""
+    stored workers (of ``results``) has (the report re-renders stored scores; 'ergopose workers
+    --name' scores again)."""
     session = Path(session)
     if not (session / SETTINGS_FILE).is_file():
         return
     loaded = load_session(session, check_videos=False)
-    stored = [w.info.worker_id for w in load_results(folder).workers]
+    stored = [w.info.worker_id for w in results.workers]
     unused = unused_task_inputs(loaded, stored)
     if unused:
         warn(progress, unused_message(loaded, unused, tracked_ids=stored))
@@ -123,8 +124,9 @@ def run(args: argparse.Namespace) -> int:
     if args.start is not None or args.end is not None:
         return run_window(args, folder, progress)
     check_session(args.session, folder, args.force, progress or warnings_only)
-    warn_unused_inputs(args.session, folder, progress or warnings_only)
-    files = render_report(folder, progress=progress)
+    results = load_results(folder)  # read once: the warning and the pages use the same records
+    warn_unused_inputs(args.session, results, progress or warnings_only)
+    files = render_report(folder, results, progress=progress)
     for path in (files.index, *files.workers):
         size = files.sizes[path.name]
         print(f"{path} ({size / 1e6:.2f} MB)")

@@ -1,12 +1,14 @@
-"""ORACLE run: the stages after 2D pose on the simulator's ORACLE 2D keypoints (evaluation only).
+"""ORACLE run: the assessment's driver with the simulator's ORACLE 2D keypoints (evaluation only).
 
 The ORACLE (:class:`ergopose.sim.oracle.OracleSource`) reports the simulated workers' true fisheye
-pixels with seeded noise and dropouts instead of running the pose network. Feeding it to the same
-reconstruction the assessment uses (per-person upright virtual views,
-:func:`ergopose.sim.synthetic.frames_from_oracle`; association, triangulation, tracking and
-smoothing with :func:`ergopose.recon.session.reconstruct_session`, then joint angles, task factors
-and RULA/REBA with :func:`ergopose.pipeline.stages.score_worker`) measures geometry, tracking and
-smoothing apart from the network.
+pixels with seeded noise and dropouts instead of running the pose network. :class:`OracleFrames`
+makes it a 2D source of the assessment's driver (:class:`ergopose.pipeline.detect.Source2D`:
+per-person upright virtual views, :func:`ergopose.sim.synthetic.frames_from_oracle`), injected in
+place of the pose networks; every stage after it is the assessment's own, run by the same driver
+(:mod:`ergopose.pipeline.assess`): body model (association and triangulation), track and smooth,
+score (joint angles, task factors, RULA/REBA), aggregate. Only the stage *publish* is the ORACLE's
+(:func:`publish_oracle`): it keeps the labelled steps CSV files and writes no report pages. This
+measures geometry, tracking and smoothing apart from the network.
 
 Everything written is labelled ORACLE: the folder ``OUT/oracle/``, a ``README_ORACLE.txt`` in it,
 the file names (``ORACLE_tracks.parquet``, ``ORACLE_<worker>_steps.csv``), the tracks table's
@@ -16,24 +18,22 @@ with a known 2D error; they are never a measurement of ergopose on video.
 
 from __future__ import annotations
 
+import os
+import shutil
+import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
 from ergopose.atomic import atomic_dir, write_text
-from ergopose.ergonomics.export import write_worker_steps_csv
+from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.errors import InputError
-from ergopose.evaluation.compare import ResultsLayout
+from ergopose.evaluation.loading import ResultsLayout
+from ergopose.pipeline import assess
 from ergopose.pipeline.guard import fingerprint_of
-from ergopose.pipeline.identify import identify_by_stature
-from ergopose.pipeline.stages import score_worker, scoring_settings
+from ergopose.pipeline.score import CSV_DIR
 from ergopose.progress import ProgressCallback, report
-from ergopose.recon.diagnostics import limb_diagnostics
-from ergopose.recon.session import reconstruct_session
-from ergopose.recon.table import TracksWriter
-from ergopose.recon.tracking import identity_name
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.sim.oracle import OracleSource
@@ -42,8 +42,9 @@ from ergopose.sim.synthetic import frames_from_oracle
 ORACLE_DIR = "oracle"
 PREFIX = "ORACLE_"
 README = "README_ORACLE.txt"
-#: Frames per piece of ORACLE observations (memory: 600 frames x 2 cameras x 4 workers is 2.5 MB).
-CHUNK_FRAMES = 600
+#: Frames per chunk of the ORACLE run (the chunks of the reconstruction of ergopose.recon.session;
+#: memory: 1,200 frames x 2 cameras x 4 workers of observations is 5 MB).
+CHUNK_FRAMES = 1200
 
 
 @dataclass(frozen=True)
@@ -80,25 +81,45 @@ def oracle_layout(out_dir: str | Path):
                          csv_prefix=PREFIX)
 
 
-def oracle_frames(session, gt, options: OracleOptions, progress: ProgressCallback | None = None) -> Iterator[tuple]:
-    """Per frame, one Detections2D per camera (session order) made from the ORACLE's keypoints
-    (:func:`ergopose.sim.synthetic.frames_from_oracle`, in pieces of CHUNK_FRAMES frames)."""
-    source = OracleSource(gt, noise_px=options.noise_px, occluded_noise_px=options.occluded_noise_px,
-                          person_dropout=options.person_dropout, joint_dropout=options.joint_dropout,
-                          seed=options.seed)
-    F = gt.n_frames
-    for start in range(0, F, CHUNK_FRAMES):
-        stop = min(F, start + CHUNK_FRAMES)
-        frames, _ = frames_from_oracle(source.observe(np.arange(start, stop)), session.calibrated_cameras)
-        yield from frames
-        report(progress, "oracle 2D", stop, F, unit="frame")
+class OracleFrames:
+    """The ORACLE as the driver's 2D source (:class:`ergopose.pipeline.detect.Source2D`): per frame,
+    one Detections2D per camera (session order) made from the ORACLE's keypoints
+    (:func:`ergopose.sim.synthetic.frames_from_oracle`)."""
+
+    def __init__(self, session, gt, options: OracleOptions, progress: ProgressCallback | None = None) -> None:
+        self.cameras = session.calibrated_cameras
+        self.frames = gt.n_frames
+        self.progress = progress
+        self.source = OracleSource(gt, noise_px=options.noise_px, occluded_noise_px=options.occluded_noise_px,
+                                   person_dropout=options.person_dropout, joint_dropout=options.joint_dropout,
+                                   seed=options.seed)
+
+    def frames_2d(self, start: int, stop: int) -> tuple[list, np.ndarray]:
+        frames, _ = frames_from_oracle(self.source.observe(np.arange(start, stop)), self.cameras)
+        counts = np.array([[len(d.pixels_view) for d in f] for f in frames], dtype=np.int16)
+        report(self.progress, "oracle 2D", stop, self.frames, unit="frame")
+        return list(frames), counts.reshape(stop - start, len(self.cameras))
+
+
+def publish_oracle(named, scored, stage: Path, out_dir: Path, scoring, models, progress: ProgressCallback | None,
+                   *, bom: bool = False, store_dir: Path | None = None) -> tuple[str, ...]:
+    """The ORACLE's stage *publish* (:data:`ergopose.pipeline.assess.Publisher`): each scored
+    worker's steps CSV file, written by the scoring into ``stage``, moved to
+    ``out_dir/csv/ORACLE_<worker>_steps.csv``; no other CSV file and no report pages (they would
+    not carry the ORACLE label). Returns the reported worker ids."""
+    csv_dir = Path(out_dir) / "csv"
+    csv_dir.mkdir(parents=True, exist_ok=True)
+    for s in scored:
+        os.replace(stage / CSV_DIR / f"{s.worker_id}{STEPS_SUFFIX}", csv_dir / f"{PREFIX}{s.worker_id}{STEPS_SUFFIX}")
+    return tuple(s.worker_id for s in scored)
 
 
 def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOptions = OracleOptions(),
                recon=None, progress: ProgressCallback | None = None):
-    """Reconstruct and score the session from ORACLE 2D keypoints into OUT/oracle/ (module docstring).
+    """Reconstruct and score the session from ORACLE 2D keypoints into OUT/oracle/ (module docstring),
+    through the assessment's driver with :class:`OracleFrames` as its 2D source.
 
-    Returns the :class:`ergopose.evaluation.compare.ResultsLayout` of the written folder.
+    Returns the :class:`ergopose.evaluation.loading.ResultsLayout` of the written folder.
     """
     session = load_session(session_dir, check_videos=False)
     if session.ground_truth_dir is None:
@@ -109,39 +130,24 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
         raise InputError(f"the ground truth's cameras ({', '.join(gt.camera_names)}) differ from the session's "
                          f"({', '.join(session.camera_names)})", path=gt.path)
     recon = recon or session.reconstruction  # the session's [reconstruction] table over the defaults
-    scoring = scoring_settings(session)
     layout = oracle_layout(out_dir)
-    summary, tracks = reconstruct_session(oracle_frames(session, gt, options, progress), None, fps=session.fps,
-                                          cameras=session.calibrated_cameras, settings=recon,
-                                          progress=progress, total_frames=gt.n_frames)
+    label = {"source": "oracle", "oracle": options.as_dict(),
+             "session_fingerprint": fingerprint_of(session)}  # whose results (ergopose.pipeline.guard)
+    t0 = time.perf_counter()
     with atomic_dir(layout.root) as tmp:
+        run = assess.prepare_source(session, tmp, recon, CHUNK_FRAMES, label)
+        with run.store.lock():
+            ranges, _, todo = assess.open_store(run, progress)
+            assess.people_in_3d(run, todo, ranges, 0, 1, progress, source=OracleFrames(session, gt, options, progress))
+            tracks, workers = assess.after_people(run, ranges, progress, publisher=publish_oracle)
+        # The folder keeps the labelled results only: the stored chunks served this run alone.
         tracks_path = tmp / layout.tracks.relative_to(layout.root)
-        tracks_path.parent.mkdir(parents=True, exist_ok=True)
-        statures = {name: {"stature_estimate_m": _num(summary.stature_m.get(name))} for name in summary.workers}
-        with TracksWriter(tracks_path, fps=session.fps, cameras=session.camera_names,
-                          settings=recon.as_dict()) as writer:
-            writer.meta["source"] = "oracle"
-            writer.meta["oracle"] = options.as_dict()
-            writer.meta["session_fingerprint"] = fingerprint_of(session)  # whose results (ergopose.pipeline.guard)
-            writer.write(tracks)
-            writer.set_workers(statures)
-        # Named after the settings' workers by stature, as ergopose assess does.
-        ident = identify_by_stature({k: v["stature_estimate_m"] for k, v in statures.items()}, session)
-        diagnostics = {d.worker: d for d in limb_diagnostics(tracks, recon)} if len(tracks) else {}
-        workers = tracks.workers
-        for k, w in enumerate(workers):
-            tracked = identity_name(w)
-            wid = ident.rename(tracked)
-            report(progress, "oracle scoring", k, len(workers), unit="worker", message=wid)
-            scored = score_worker(session, tracks.worker_rows(w), wid, scoring, diagnostics[tracked])
-            write_worker_steps_csv(tmp / "csv" / f"{PREFIX}{wid}_steps.csv", scored.frames)
-        report(progress, "oracle scoring", len(workers), len(workers), unit="worker")
-        write_text(tmp / README, _readme(options, session, len(workers), summary.seconds))
+        os.replace(tracks.path, tracks_path)
+        shutil.rmtree(run.store.chunks_dir)
+        for name in ("manifest.json", "lock"):
+            (run.store.root / name).unlink(missing_ok=True)
+        write_text(tmp / README, _readme(options, session, len(workers), time.perf_counter() - t0))
     return layout
-
-
-def _num(v):
-    return None if v is None or not np.isfinite(float(v)) else round(float(v), 6)
 
 
 def _readme(options: OracleOptions, session, workers: int, seconds: float) -> str:
@@ -154,7 +160,7 @@ def _readme(options: OracleOptions, session, workers: int, seconds: float) -> st
         f"and single joints with probability {options.joint_dropout:g} (seed {options.seed}). Association, "
         "triangulation, tracking,\nsmoothing, joint angles and scoring are ergopose's own. The figures measure "
         "those stages, never\nergopose on video.\n\n"
-        f"session: {session.path}\ntracked workers: {workers}\nreconstruction time: {seconds:.1f} s\n\n"
+        f"session: {session.path}\ntracked workers: {workers}\nrun time: {seconds:.1f} s\n\n"
         f"pipeline/{PREFIX}tracks.parquet   the tracks table (metadata source = \"oracle\")\n"
         f"csv/{PREFIX}<worker>_steps.csv    posture and every RULA/REBA step per frame\n"
         "evaluation.json                   the comparison with the ground truth (ergopose evaluate --oracle)\n")

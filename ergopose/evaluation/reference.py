@@ -47,13 +47,13 @@ from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError, InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
-from ergopose.evaluation.compare import (SCORE_SCALES, ResultsLayout, _angle_stats, _json_ready, _r, _read_frames_csv,
-                                         reported_ids)
+from ergopose.evaluation.loading import ResultsLayout, _json_ready, _r, reported_ids
+from ergopose.evaluation.scoring import SCORE_SCALES, _angle_stats, _read_frames_csv
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMBS, NUM_JOINTS
 from ergopose.pipeline.scoring import _take
-from ergopose.pipeline.stages import scoring_settings
+from ergopose.pipeline.inputs import scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.table import read_tracks, table_to_frames
 from ergopose.recon.tracking import identity_name

@@ -1,22 +1,30 @@
 """``ergopose assess``: a session folder in, per-worker scores, CSV files and an HTML report out.
 
-Stages, each reporting progress:
+The driver, in the data's order (each stage a module with typed records in and out):
 
-1. *Session*: read and check the session (videos, calibration, settings).
-2. *Models*: make sure the pose networks are in the cache (fetched on first use).
-3. *Pose*: chunks of frames (10 s by default) go through the 2D stage of every camera and are
-   associated and triangulated (:mod:`ergopose.pipeline.detect`), in as many processes as there
-   are cores. Each finished chunk is stored at once (:mod:`ergopose.pipeline.store`); a run that
-   was interrupted continues with the chunks it had not finished.
-4. *Tracking*: the stored chunks, in frame order, through identity tracking and smoothing
-   (:class:`ergopose.recon.pipeline.ShiftReconstruction`) into the tracks table (Parquet).
-5. *Scoring*: per worker, joint angles, the task factors of the settings, RULA and REBA per
-   frame, and the shift aggregation.
-6. *Output*: per-worker CSV files, the session summary CSV, the stored report results and the
-   HTML pages, each written atomically.
+=====================  ====================================  ==========================================
+stage                  module                                record out
+=====================  ====================================  ==========================================
+(inputs)               :mod:`ergopose.pipeline.inputs`       :class:`PreparedRun` (session, models, job)
+find people, 2D        :mod:`ergopose.pipeline.detect`       per frame and camera ``Detections2D``
+                       (a :class:`~ergopose.pipeline.detect.
+                       Source2D`: the pose networks on video)
+body model (3D)        :mod:`ergopose.pipeline.detect`       ``ChunkResult`` (``People3D``), stored
+track and smooth       :mod:`ergopose.pipeline.track`        ``Tracks`` (the tracks table), ``NamedTracks``
+score                  :mod:`ergopose.pipeline.score`        per-frame scores (CSV files as it goes)
+aggregate              :mod:`ergopose.pipeline.aggregate`    ``ReportWorker`` per worker
+publish                :mod:`ergopose.pipeline.publish`      ``Outputs`` (CSV files, results, pages)
+=====================  ====================================  ==========================================
 
-Stages 4-6 are recomputed from the stored chunks on every run; they are deterministic, so a
-resumed run writes the same bytes as an uninterrupted one.
+:func:`assess` runs them for one session on this machine: :func:`prepare` (the session, the
+output folder, the pose models), :func:`open_store` (which chunks are stored already),
+:func:`people_in_3d` (the chunks of video through the first stages, in as many processes as
+there are cores, each chunk stored at once: an interrupted run continues with the chunks it had
+not finished), then :func:`finish` (the stages after it, from the stored chunks). A Dask cluster
+runs the same functions (:mod:`ergopose.pipeline.cluster`).
+
+The stages after the chunks are recomputed from the stored chunks on every run; they are
+deterministic, so a resumed run writes the same bytes as an uninterrupted one.
 """
 
 from __future__ import annotations
@@ -27,13 +35,15 @@ import multiprocessing
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 from ergopose.errors import ConfigError
-from ergopose.pipeline import detect, guard, names, stages
+from ergopose.pipeline import aggregate, detect, guard, names, publish, track
 from ergopose.pipeline import window as part_of_day
 from ergopose.pipeline.detect import detect_chunk
-from ergopose.pipeline.stages import WorkerOutput
+from ergopose.pipeline.inputs import ModelUse, ensure_models, fingerprint_inputs, scoring_settings
+from ergopose.pipeline.publish import WorkerOutput
+from ergopose.pipeline.score import RunEach
 from ergopose.pipeline.store import ResultStore
 from ergopose.pose.fisheye import PoseSettings
 from ergopose.recon.settings import ReconSettings
@@ -126,16 +136,14 @@ def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
         raise ConfigError(f"expected at least 1 process, got {processes}", field="processes")
     with guard.output_faults(run.out_dir), run.store.lock():
         ranges, done, todo = open_store(run, progress)
-        t0 = time.perf_counter()
-        _run_chunks(run.job, run.store, todo, ranges, len(done), processes, progress)
-        run.timings["pose"] = time.perf_counter() - t0
+        people_in_3d(run, todo, ranges, len(done), processes, progress)
         return finish(run, ranges, len(done), progress)
 
 
 @dataclass
 class PreparedRun:
-    """One session's run after its inputs were checked (stages 1-2): what the chunk tasks and the
-    stages after them need. ``job`` and the store's root are all a chunk task needs (picklable)."""
+    """One session's run after its inputs were checked: what the chunk tasks and the stages after
+    them need. ``job`` and the store's root are all a chunk task needs (picklable)."""
 
     session: Session
     out_dir: Path
@@ -148,6 +156,10 @@ class PreparedRun:
     timings: dict[str, float] = field(default_factory=dict)
     window: part_of_day.Window | None = None
     bom: bool = False
+    #: how the 2D records are made when not by the pose networks on the videos (a source an
+    #: evaluation brings, :class:`ergopose.pipeline.detect.Source2D`): part of the fingerprint of
+    #: the stored chunks and of the tracks table's metadata; None for the pose networks
+    source: dict | None = None
 
     @property
     def frames(self) -> int:
@@ -160,7 +172,7 @@ class PreparedRun:
 
 def prepare(session_dir: str | Path, options: AssessOptions = AssessOptions(),
             progress: ProgressCallback | None = None) -> PreparedRun:
-    """Stages 1-2: the session and the output folder checked, the pose models in the cache."""
+    """The session and the output folder checked, the pose models in the cache."""
     t_start = time.perf_counter()
     timings: dict[str, float] = {}
     if options.out_dir is not None:
@@ -174,10 +186,10 @@ def prepare(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     unreachable = names.unreachable_task_inputs(session, names.load_names(session.path))
     if unreachable:  # before the long work, so the user can stop and name the workers
         warn(progress, names.unused_message(session, unreachable))
-    scoring = stages.scoring_settings(session)
+    scoring = scoring_settings(session)
 
     t0 = time.perf_counter()
-    models = stages.ensure_models(options.model_dir, progress, options.model)
+    models = ensure_models(options.model_dir, progress, options.model)
     timings["models"] = time.perf_counter() - t0
 
     chunk_frames = max(1, int(round(options.chunk_seconds * session.fps)))
@@ -196,7 +208,7 @@ def open_store(run: PreparedRun, progress: ProgressCallback | None):
     """With the output folder locked: the chunk ranges (with a part of the day, the chunks that
     hold a frame of it, stored as in a whole-day run), the start frames of the chunks already
     stored (checked), and the ranges still to compute."""
-    run.store.open(stages.fingerprint_inputs(run.session, run.job, run.chunk_frames, run.models))
+    run.store.open(fingerprint_inputs(run.session, run.job, run.chunk_frames, run.models, run.source))
     ranges = detect.chunk_ranges(run.session.frame_count, run.chunk_frames)
     if run.window is not None:
         first, stop = run.window.frame_range(run.session.fps)
@@ -206,24 +218,92 @@ def open_store(run: PreparedRun, progress: ProgressCallback | None):
     return ranges, done, todo
 
 
+def prepare_source(session: Session, out_dir: Path, recon: ReconSettings, chunk_frames: int,
+                   source: dict) -> PreparedRun:
+    """A run whose 2D records come from a source an evaluation brings
+    (:class:`ergopose.pipeline.detect.Source2D`, given to :func:`people_in_3d`) instead of the pose
+    networks on the videos: no models, ``recon`` for the body model and the tracking, ``source``
+    (a description of the source) in the fingerprint of the stored chunks and in the tracks
+    table's metadata. The output folder is not checked: the caller owns it."""
+    job = detect.DetectJob(cameras=session.calibrated_cameras, videos=(), fps=session.fps, recon=recon)
+    return PreparedRun(session=session, out_dir=Path(out_dir), store=ResultStore(out_dir), job=job,
+                       chunk_frames=max(1, int(chunk_frames)), models=(), scoring=scoring_settings(session),
+                       t_start=time.perf_counter(), source=dict(source))
+
+
+def people_in_3d(run: PreparedRun, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int,
+                 progress: ProgressCallback | None, source: detect.Source2D | None = None) -> None:
+    """Stages *find people*, *2D* and *body model* for every chunk still to do, each chunk stored
+    as it finishes (:func:`ergopose.pipeline.detect.detect_chunk`). source: where the 2D records
+    come from (None: the pose networks on the session's videos, in ``processes`` processes; else
+    in this process)."""
+    t0 = time.perf_counter()
+    if source is None:
+        _run_chunks(run.job, run.store, todo, ranges, already, processes, progress)
+    else:
+        total = sum(stop - start for start, stop in ranges)
+        done = total - sum(stop - start for start, stop in todo)
+        report(progress, "pose", done, total, unit="frame")
+        for start, stop in todo:
+            run.store.save_chunk(detect_chunk(run.job, start, stop, source=source))
+            done += stop - start
+            report(progress, "pose", done, total, unit="frame")
+    run.timings["pose"] = time.perf_counter() - t0
+
+
 def finish(run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None,
-           run_each: stages.RunEach | None = None) -> AssessResult:
-    """Stages 4-6 from the stored chunks: tracking, scoring, CSV files and the report (run_each:
-    see :func:`ergopose.pipeline.stages.score_tracks`)."""
-    session, timings = run.session, run.timings
-    t0 = time.perf_counter()
-    tracks = stages.track_session(session, run.store, ranges, run.job.recon, progress, window=run.window)
-    timings["tracking"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    outputs = stages.score_and_report(session, tracks, run.out_dir, run.scoring, run.models, run.job.recon, progress,
-                                      run_each, bom=run.bom)
-    timings["scoring_and_report"] = time.perf_counter() - t0
-
-    return AssessResult(session=session.path, report_dir=run.out_dir, index_html=outputs.index_html,
+           run_each: RunEach | None = None) -> AssessResult:
+    """The stages after the chunks, from the stored chunks (:func:`after_people`), and what the
+    run wrote (run_each: see :func:`ergopose.pipeline.aggregate.score_tracks`)."""
+    tracks, outputs = after_people(run, ranges, progress, run_each)
+    return AssessResult(session=run.session.path, report_dir=run.out_dir, index_html=outputs.index_html,
                         session_csv=outputs.session_csv, tracks=tracks.path, workers=outputs.workers,
                         frames=run.frames, chunks_total=len(ranges), chunks_reused=reused,
-                        seconds=time.perf_counter() - run.t_start, stage_seconds=timings)
+                        seconds=time.perf_counter() - run.t_start, stage_seconds=run.timings)
+
+
+#: The stage *publish*: called as publisher(named, scored, stage, out_dir, scoring, models, progress,
+#: bom=..., store_dir=...) with the :class:`ergopose.pipeline.track.NamedTracks`, the
+#: :class:`ergopose.pipeline.aggregate.ReportWorker` records and the staging folder the scoring wrote
+#: into; returns what it wrote. The product's is :func:`ergopose.pipeline.publish.publish`.
+Publisher = Callable[..., Any]
+
+
+def after_people(run: PreparedRun, ranges, progress: ProgressCallback | None, run_each: RunEach | None = None,
+                 publisher: Publisher = publish.publish) -> tuple[track.Tracks, Any]:
+    """The stages after the chunks, from the stored chunks: track and smooth, then score,
+    aggregate and publish (:func:`score_and_publish`). Returns the tracks and what ``publisher``
+    wrote."""
+    t0 = time.perf_counter()
+    tracks = track.track_session(run.session, run.store, ranges, run.job.recon, progress, window=run.window,
+                                 meta=run.source)
+    run.timings["tracking"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    outputs = score_and_publish(run.session, tracks, run.out_dir, run.scoring, run.models, progress, run_each,
+                                bom=run.bom, publisher=publisher)
+    run.timings["scoring_and_report"] = time.perf_counter() - t0
+    return tracks, outputs
+
+
+def score_and_publish(session: Session, tracks: track.Tracks, out_dir: Path, scoring,
+                      models: Sequence[ModelUse], progress: ProgressCallback | None, run_each: RunEach | None = None,
+                      *, bom: bool = False, window: part_of_day.Window | None = None,
+                      store_dir: Path | None = None, publisher: Publisher = publish.publish) -> Any:
+    """The stages after tracking: who is who, score, aggregate, publish. Everything is written to
+    a folder beside the outputs and moved into place when complete: a failure leaves the earlier
+    outputs whole. Also run on stored tracks without video (:mod:`ergopose.pipeline.rescore`).
+
+    bom: CSV files with a UTF-8 byte order mark (Excel). window: score only the frames of this part
+    of the day (default: the tracks' own window; else all). store_dir: the folder whose stored
+    chunks name the skipped video frames (default ``out_dir``). publisher: the stage *publish*
+    (:data:`Publisher`; returns what it wrote, :class:`ergopose.pipeline.publish.Outputs` for the
+    product's)."""
+    named = track.name_workers(session, tracks, progress, window)
+    with publish.staging(out_dir) as stage:
+        scored = aggregate.score_tracks(named.session, named.tracks, stage, scoring, named.naming, progress,
+                                        run_each, bom=bom)
+        return publisher(named, scored, stage, out_dir, scoring, models, progress, bom=bom, store_dir=store_dir)
 
 
 def _chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:

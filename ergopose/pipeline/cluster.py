@@ -3,14 +3,16 @@
 The same pieces as a local run (:mod:`ergopose.pipeline.assess`), placed on Dask workers:
 
 * the client (this process) checks each session and its output folder, fetches the pose models,
-  holds the output folder's lock and reads which chunks are already stored (stages 1-2);
+  holds the output folder's lock and reads which chunks are already stored (the driver's
+  ``prepare`` and ``open_store``);
 * every chunk still to compute is one task: a worker reads the videos from the path the session
   names (a folder every worker sees at the same path), runs the 2D stage and triangulation, and
   stores the chunk in the session's output folder before the task ends, exactly as a local
   worker process does; only (start, stop) comes back to the client;
 * one more task per session, run once all its chunks are stored, does the tracking (with the
-  body fit), the per-worker scoring, the CSV files and the report (stages 4-6), streaming the
-  stored chunks as a local run does; its warnings come back to the client.
+  body fit), the per-worker scoring, the CSV files and the report (the driver's ``finish``: track
+  and smooth, score, aggregate, publish), streaming the stored chunks as a local run does; its
+  warnings come back to the client.
 
 A killed client or a lost worker costs only the chunks being computed at that moment: stored
 chunks are kept (and checked) and the next run, or Dask rescheduling the lost worker's tasks,

@@ -1,4 +1,5 @@
-"""The per-chunk work of an assessment: video frames -> 2D poses -> people in 3D.
+"""The per-chunk stages of an assessment: find people, 2D, body model (video frames -> 2D poses ->
+people in 3D).
 
 One chunk is a run of consecutive frames of every camera of the session. Its work depends only on the chunk
 (every chunk starts its 2D stage afresh with a search for people), so chunks can run in any
@@ -11,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
+from typing import Protocol, Sequence
 
 import numpy as np
 
@@ -22,6 +24,7 @@ from ergopose.progress import ProgressCallback, report
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.triangulate import reconstruct_frames
+from ergopose.records import Detections2D
 from ergopose.video import SKIP_CODES, read_frames_checked
 
 
@@ -85,18 +88,33 @@ def _networks(job: DetectJob):
     return networks(job.model_dir, job.num_threads, job.model)
 
 
-def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None) -> ChunkResult:
-    """2D poses in every camera for frames start .. stop-1, associated and triangulated.
+class Source2D(Protocol):
+    """Where the stages *find people* and *2D* get their records from: the pose networks on the
+    session's videos (:func:`video_2d`, the product's), or a source an evaluation brings (the
+    simulator's ORACLE keypoints, ergopose.evaluation.oracle), injected into the same driver."""
+
+    def frames_2d(self, start: int, stop: int) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
+        """Frames start .. stop-1: per frame, one Detections2D per camera (the session's order),
+        and the people found per frame and camera ((stop - start, C) int16; negative: a frame
+        that was skipped, ergopose.video.SKIP_CODES)."""
+        ...
+
+
+def video_2d(job: DetectJob, start: int, stop: int,
+             progress: ProgressCallback | None = None) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
+    """Stages *find people* and *2D* on the videos: the pose networks in every camera for frames
+    start .. stop-1 (:class:`ergopose.pose.fisheye.FisheyePoseEstimator`); the records of
+    :meth:`Source2D.frames_2d`.
 
     A frame of one camera that cannot be read is skipped (no people from that camera in that
-    frame) and marked in ``detections``; more than ``job.max_bad_share`` of the chunk's frames of
+    frame) and marked in the counts; more than ``job.max_bad_share`` of the chunk's frames of
     one video skipped is an InputError naming the video and the time.
     """
     landmarker, detector = _networks(job)
     stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose, progress=progress)
               for i, cam in enumerate(job.cameras)]
     readers = [read_frames_checked(path, start, stop) for path in job.videos]
-    frames_2d = []
+    frames_2d: list[Sequence[Detections2D]] = []
     counts = np.zeros((stop - start, len(job.cameras)), np.int16)
     limit = job.max_bad_share * (stop - start)
     for k, frames in enumerate(zip(*readers)):
@@ -115,8 +133,22 @@ def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallba
             per_camera.append(found.to_recon(cam, time_s))
         frames_2d.append(per_camera)
         report(progress, "pose", k + 1, stop - start, unit="frame")
-    people = reconstruct_frames(frames_2d, job.recon)
-    return ChunkResult(start, stop, people, counts)
+    return frames_2d, counts
+
+
+def body_model(start: int, stop: int, frames_2d: Sequence[Sequence[Detections2D]], counts: np.ndarray,
+               recon: ReconSettings) -> ChunkResult:
+    """Stage *body model* (3D): the 2D records of frames start .. stop-1 associated across the
+    cameras and triangulated into people in 3D (:func:`ergopose.recon.triangulate.reconstruct_frames`)."""
+    return ChunkResult(start, stop, reconstruct_frames(frames_2d, recon), counts)
+
+
+def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None,
+                 source: Source2D | None = None) -> ChunkResult:
+    """One chunk through *find people*, *2D* (the videos, :func:`video_2d`, or ``source``) and
+    *body model* (:func:`body_model`): frames start .. stop-1 as people in 3D."""
+    frames_2d, counts = video_2d(job, start, stop, progress) if source is None else source.frames_2d(start, stop)
+    return body_model(start, stop, frames_2d, counts, job.recon)
 
 
 def _too_many_bad(job: DetectJob, camera: int, start: int, stop: int, codes: np.ndarray) -> InputError:

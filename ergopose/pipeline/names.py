@@ -148,7 +148,7 @@ class Naming:
     stature: Identification
     named: frozenset[str] = frozenset()
 
-    # the interface of ergopose.pipeline.identify.Identification, which stages.py uses
+    # the interface of ergopose.pipeline.identify.Identification, which the publishing stage uses
     def rename(self, tracked_id: str) -> str:
         return self.reported.get(tracked_id, tracked_id)
 

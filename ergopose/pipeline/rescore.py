@@ -3,7 +3,7 @@
 :func:`tracked_people` lists the people of a results folder's tracks table with a few facts that
 help tell them apart (stature, tracked time, first and last seen, where on the floor).
 :func:`rename` stores names for them in the session (:mod:`ergopose.pipeline.names`) and runs the
-stages after tracking again from the stored tracks table (:func:`ergopose.pipeline.stages.
+stages after tracking again from the stored tracks table (:func:`ergopose.pipeline.assess.
 score_and_report`): scores, CSV files, stored results and pages are replaced whole, so the task
 inputs of the settings reach the people they were meant for. Nothing here reads video frames.
 """
@@ -23,7 +23,10 @@ import pyarrow.parquet as pq
 
 from ergopose.atomic import write_text
 from ergopose.errors import InputError
-from ergopose.pipeline import guard, names, stages
+from ergopose.pipeline import guard, names
+from ergopose.pipeline.assess import score_and_publish
+from ergopose.pipeline.inputs import ModelUse, scoring_settings
+from ergopose.pipeline.track import stored_tracks
 from ergopose.pipeline import window as part_of_day
 from ergopose.pipeline.store import ResultStore
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, DEFAULT_LANDMARK_MODEL, MODEL_CARDS, landmark_card
@@ -148,7 +151,7 @@ def _models(folder: Path | None = None) -> tuple:
             cards = []
     if not cards:
         cards = [MODEL_CARDS[BLAZEPOSE_DETECTOR], landmark_card(DEFAULT_LANDMARK_MODEL)]
-    return tuple(stages.ModelUse(card=card, sha256=card.file.sha256, path=Path(card.name)) for card in cards)
+    return tuple(ModelUse(card=card, sha256=card.file.sha256, path=Path(card.name)) for card in cards)
 
 
 def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Path | None = None,
@@ -158,7 +161,7 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
 
     Tracked ids that the results do not hold are refused (InputError naming them) before anything
     is written. When scoring fails, names.toml is put back as it was; the earlier outputs stay whole.
-    Returns the :class:`ergopose.pipeline.stages.Outputs` written.
+    Returns the :class:`ergopose.pipeline.publish.Outputs` written.
     """
     session = load_session(session_dir, check_videos=False)
     folder = results_folder(session_dir, results)
@@ -194,9 +197,9 @@ def rescore(session: Session, folder: Path, progress: ProgressCallback | None = 
     bom: CSV files with a UTF-8 byte order mark (Excel)."""
     store = ResultStore(folder)
     with guard.output_faults(folder), store.lock():
-        tracks = stages.stored_tracks(store.tracks_path)
-        return stages.score_and_report(session, tracks, folder, stages.scoring_settings(session), _models(folder), None,
-                                       progress, bom=bom)
+        tracks = stored_tracks(store.tracks_path, session.reconstruction)
+        return score_and_publish(session, tracks, folder, scoring_settings(session), _models(folder), progress,
+                                 bom=bom)
 
 
 def rescore_window(session: Session, folder: Path, window, progress: ProgressCallback | None = None, *,
@@ -207,9 +210,9 @@ def rescore_window(session: Session, folder: Path, window, progress: ProgressCal
     store = ResultStore(folder)
     out = Path(folder) / part_of_day.folder_name(window, session.recorded_at)
     with guard.output_faults(out), store.lock():
-        tracks = stages.stored_tracks(store.tracks_path)
-        return stages.score_and_report(session, tracks, out, stages.scoring_settings(session), _models(folder), None,
-                                       progress, bom=bom, window=window, store_dir=Path(folder))
+        tracks = stored_tracks(store.tracks_path, session.reconstruction)
+        return score_and_publish(session, tracks, out, scoring_settings(session), _models(folder), progress,
+                                 bom=bom, window=window, store_dir=Path(folder))
 
 
 def warn_unused(session: Session, people, progress: ProgressCallback | None) -> list[str]:

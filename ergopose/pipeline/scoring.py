@@ -22,7 +22,7 @@ The grid is fixed by frame numbers, so the result does not depend on how the row
 a resumed assessment writes the same bytes as an uninterrupted one.
 
 Each scored block goes to a :class:`BlockSink` (CSV files, the shift aggregation, the report's
-timeline; see :mod:`ergopose.pipeline.stages`).
+timeline; see :mod:`ergopose.pipeline.score`).
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ class WorkerScorer:
     """One worker's rows of the tracks table in, scored blocks out (see the module docstring).
 
     score: callable(rows: TrackFrames) -> pd.DataFrame, one row per row of ``rows`` (e.g.
-    :func:`ergopose.pipeline.stages.score_rows` with the session and worker bound).
+    :func:`ergopose.pipeline.score.score_rows` with the session and worker bound).
     """
 
     def __init__(self, score: Callable, sink: BlockSink, block_frames: int, context_frames: int) -> None:

@@ -3,7 +3,9 @@
 - :mod:`ergopose.report.context`: report input records (frozen dataclasses, stored as JSON).
 - :mod:`ergopose.report.results`: the stored-results folder (save_results / load_results).
 - :mod:`ergopose.report.adapters`: other stages' records -> report input records.
-- :mod:`ergopose.report.pages`: one typed context per template, built from the records.
+- :mod:`ergopose.report.page_types`: one typed context per template; :mod:`ergopose.report.pages`
+  builds them from the records with the sections of :mod:`ergopose.report.sections` and the
+  words and numbers of :mod:`ergopose.report.wording`.
 - :mod:`ergopose.report.svg`: inline SVG figures; :mod:`ergopose.report.quality`: trust verdict.
 - :mod:`ergopose.report.render`: render_report(report_dir) writes the pages atomically.
 

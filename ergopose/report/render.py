@@ -5,7 +5,7 @@ Content-Security-Policy meta tag forbids every external load): ``index.html`` fo
 ``worker-<id>.html`` per worker and ``print.html`` (the print version: one summary page, then at
 most two A4 pages per worker), next to ``results/`` in the report folder. Templates are
 Jinja2 files in templates/ (found with ergopose.resources.resource_dir) with autoescaping on and
-StrictUndefined; each is fed one frozen context dataclass (ergopose.report.pages).
+StrictUndefined; each is fed one frozen context dataclass (ergopose.report.page_types, built by ergopose.report.pages).
 
 Every page is rendered in memory first; only when all pages rendered are they written, each
 atomically (ergopose.atomic.write_text), so a failure never leaves a half-written page and never

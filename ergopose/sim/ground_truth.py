@@ -38,7 +38,7 @@ import tomli_w
 
 from ergopose.errors import InputError
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, NUM_JOINTS
-from ergopose.sim.motion import TASKS
+from ergopose.sim.workforce import TASKS
 from ergopose.sim.scene import LENS_REGIONS_DEG, lens_region
 
 SCENE_FILE = "scene.toml"

@@ -21,7 +21,7 @@ import pandas as pd
 
 from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
 from ergopose.sim.ground_truth import GroundTruth
-from ergopose.sim.render import OUTSIDE_IMAGE, VISIBLE
+from ergopose.sim.visibility import OUTSIDE_IMAGE, VISIBLE
 
 ORACLE_SOURCE = "oracle"
 

@@ -26,8 +26,10 @@ from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.records import detections_from_fisheye
 from ergopose.sim.ground_truth import GroundTruth
-from ergopose.sim.motion import TASKS, simulate_motion
-from ergopose.sim.render import all_body_primitives, joint_visibility
+from ergopose.sim.motion import simulate_motion
+from ergopose.sim.workforce import TASKS
+from ergopose.sim.bodies import all_body_primitives
+from ergopose.sim.visibility import joint_visibility
 from ergopose.sim.scene import default_scene, rig_cameras, rig_lens
 
 #: Distortion of a real 195-degree fisheye (TUM VI cam0, Kannala-Brandt k1..k4; Schubert et al. 2018).

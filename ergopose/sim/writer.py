@@ -35,15 +35,11 @@ from ergopose.progress import ProgressCallback, report
 from ergopose.session import FLOOR_PLAN_FILE, TaskFactors, WorkerInfo, settings_to_toml
 from ergopose.session import FactorPeriod as SessionPeriod
 from ergopose.sim.ground_truth import GROUND_TRUTH_VERSION, load_ground_truth, write_ground_truth
-from ergopose.sim.motion import TASKS, Motion, simulate_motion
-from ergopose.sim.render import (
-    VISIBILITY_CODES,
-    BodyPrimitives,
-    RenderOptions,
-    all_body_primitives,
-    joint_visibility,
-    render_video,
-)
+from ergopose.sim.motion import simulate_motion
+from ergopose.sim.workforce import Motion, TASKS
+from ergopose.sim.bodies import BodyPrimitives, all_body_primitives
+from ergopose.sim.render import RenderOptions, render_video
+from ergopose.sim.visibility import VISIBILITY_CODES, joint_visibility
 from ergopose.sim.scene import (
     DEFAULT_FPS,
     DEFAULT_SIZE,

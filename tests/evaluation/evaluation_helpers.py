@@ -45,7 +45,8 @@ def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = 
     workers by stature, as assess does."""
     from ergopose.pipeline.identify import identify_by_stature
     from ergopose.ergonomics.export import write_worker_steps_csv
-    from ergopose.pipeline.stages import score_worker, scoring_settings
+    from ergopose.pipeline.inputs import scoring_settings
+    from ergopose.pipeline.score import score_worker
     from ergopose.recon.settings import ReconSettings
     from ergopose.recon.table import TracksWriter
     from ergopose.recon.tracking import identity_name

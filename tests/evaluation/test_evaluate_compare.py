@@ -12,7 +12,8 @@ import pandas as pd
 import pytest
 
 from ergopose.errors import InputError
-from ergopose.evaluation.compare import ResultsLayout, evaluate_results
+from ergopose.evaluation.compare import evaluate_results
+from ergopose.evaluation.loading import ResultsLayout
 from ergopose.recon.diagnostics import REGIONS
 from ergopose.sim.ground_truth import load_ground_truth
 

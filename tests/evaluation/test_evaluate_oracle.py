@@ -40,6 +40,11 @@ def test_oracle_outputs_are_labelled(exact_run):
     csvs = sorted(p.name for p in (layout.root / "csv").iterdir())
     # named after the settings' workers by stature, as assess does (the simulator gives the statures)
     assert csvs == ["ORACLE_w1_steps.csv", "ORACLE_w2_steps.csv"]
+    # the assessment's driver ran it (its stored chunks served this run alone and are gone):
+    # the folder holds the labelled results only, no unlabelled CSV file, report page or chunk
+    files = sorted(str(p.relative_to(layout.root)) for p in layout.root.rglob("*") if p.is_file())
+    assert files == ["README_ORACLE.txt", "csv/ORACLE_w1_steps.csv", "csv/ORACLE_w2_steps.csv",
+                     "pipeline/ORACLE_tracks.parquet"]
     assert ev["source"].startswith("ORACLE 2D") and ev["oracle"]["banner"] == ev["source"]
 
 

@@ -89,7 +89,7 @@ def _temp_in(folder: str):
 
 def _staged(pattern: str):
     """A file or folder matching ``pattern`` inside the folder the scoring stage writes its outputs
-    to before they are moved into place (ergopose.pipeline.stages.score_and_report)."""
+    to before they are moved into place (ergopose.pipeline.assess.score_and_publish)."""
     return lambda out: any(True for stage in out.glob(".outputs.*.tmp") for _ in stage.glob(pattern))
 
 

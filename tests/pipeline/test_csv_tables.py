@@ -187,5 +187,5 @@ def test_the_terminal_the_report_and_the_summary_csv_give_the_same_shares(assess
 
 
 def _seconds(s: float) -> str:
-    from ergopose.report.pages import fmt_duration
+    from ergopose.report.wording import fmt_duration
     return fmt_duration(s)

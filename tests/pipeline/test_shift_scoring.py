@@ -74,7 +74,7 @@ def _reference(rows) -> float:
 
 
 def _blockwise(session, rows, scoring, pieces, block_frames, context_frames):
-    from ergopose.pipeline.stages import score_rows
+    from ergopose.pipeline.score import score_rows
 
     sink = _Collect()
     ref = _reference(rows)
@@ -89,7 +89,8 @@ def _blockwise(session, rows, scoring, pieces, block_frames, context_frames):
 
 
 def test_blocks_score_every_frame_as_the_whole_shift_does(session):
-    from ergopose.pipeline.stages import score_rows, scoring_settings
+    from ergopose.pipeline.inputs import scoring_settings
+    from ergopose.pipeline.score import score_rows
 
     scoring = scoring_settings(session)
     rows = _shift_rows(25 * 60, seed=3, long_gap=False)
@@ -111,7 +112,8 @@ def test_blocks_score_every_frame_as_the_whole_shift_does(session):
 
 def test_an_angle_missing_longer_than_the_context_changes_at_most_a_few_frames(session):
     """The documented exception: the last angle before a 3-minute gap is not in the block."""
-    from ergopose.pipeline.stages import score_rows, scoring_settings
+    from ergopose.pipeline.inputs import scoring_settings
+    from ergopose.pipeline.score import score_rows
 
     scoring = scoring_settings(session)
     rows = _shift_rows(25 * 60, seed=3, long_gap=True)
@@ -124,7 +126,8 @@ def test_an_angle_missing_longer_than_the_context_changes_at_most_a_few_frames(s
 
 def test_the_frames_csv_written_block_by_block_has_the_bytes_of_one_write(session, tmp_path):
     from ergopose.ergonomics.export import FramesCsvWriter, write_worker_frames_csv
-    from ergopose.pipeline.stages import score_rows, scoring_settings
+    from ergopose.pipeline.inputs import scoring_settings
+    from ergopose.pipeline.score import score_rows
 
     scoring = scoring_settings(session)
     rows = _shift_rows(8 * 60, seed=5, long_gap=False)
@@ -144,24 +147,24 @@ def test_worst_periods_from_the_period_frames_equal_those_from_every_frame(sessi
     (time, scores, levels, what drove them) are those found from every scored frame of the shift."""
     import contextlib
 
-    from ergopose.pipeline import stages
+    from ergopose.pipeline import aggregate, inputs, score
     from ergopose.report import adapters
 
-    scoring = stages.scoring_settings(session)
+    scoring = inputs.scoring_settings(session)
     rows = _shift_rows(25 * 60, seed=3, long_gap=False)
     ref = _reference(rows)
     block, context = block_sizes(scoring, FPS, block_seconds=240.0)
     with contextlib.ExitStack() as stack:
-        sink = stages._WorkerSink(stack, "worker_1", tmp_path / "w_frames.csv", tmp_path / "w.parquet", scoring, FPS,
+        sink = score.WorkerSink(stack, "worker_1", tmp_path / "w_frames.csv", tmp_path / "w.parquet", scoring, FPS,
                                   np.full(16, np.nan))
-        scorer = WorkerScorer(lambda r: stages.score_rows(session, r, "worker_1", scoring, ref), sink, block, context)
+        scorer = WorkerScorer(lambda r: score.score_rows(session, r, "worker_1", scoring, ref), sink, block, context)
         scorer.add(rows)
         scorer.finish()
     summary = sink.acc.result()
-    period_rows, drawn = stages._period_frames(sink, summary)
-    whole = stages.score_rows(session, rows, "worker_1", scoring, ref)
+    period_rows, drawn = aggregate._period_frames(sink, summary)
+    whole = score.score_rows(session, rows, "worker_1", scoring, ref)
     assert 0 < len(period_rows) < len(whole) and len(drawn) >= 1
     a = adapters.worker_summary(summary, frames=whole).worst
-    b = adapters.worker_summary(summary, timeline=stages._timeline(sink), frames=period_rows).worst
+    b = adapters.worker_summary(summary, timeline=aggregate._timeline(sink), frames=period_rows).worst
     assert len(a) >= 1 and a == b
     assert all(w.end_s - w.start_s >= 5.0 and w.drivers for w in a)

@@ -1,4 +1,4 @@
-"""Scoring with the settings' wrist posture where the hand is not seen (ergopose.pipeline.stages.score_rows).
+"""Scoring with the settings' wrist posture where the hand is not seen (ergopose.pipeline.score.score_rows).
 
 A posed body (ergopose.ergonomics.body) with the left wrist flexed 5 degrees toward the palm; its
 hand points are placed by the body model (inferred) in the first half of the frames, and the right
@@ -20,7 +20,7 @@ from ergopose.ergonomics.aggregate import aggregate_shift
 from ergopose.ergonomics.export import session_summary_table, worker_summary_table
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pipeline.stages import score_rows
+from ergopose.pipeline.score import score_rows
 from ergopose.recon.pipeline import TrackFrames
 from ergopose.session import Session, TaskFactors
 

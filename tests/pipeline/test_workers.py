@@ -18,7 +18,7 @@ import pytest
 import tomli_w
 
 from ergopose import cli
-from ergopose.pipeline import names, rescore, stages
+from ergopose.pipeline import names, publish, rescore
 from ergopose.pipeline.store import ResultStore
 from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.table import write_tracks
@@ -114,7 +114,7 @@ def test_assess_warns_at_the_start_before_the_video_work(copy, monkeypatch):
     def no_models(*args, **kwargs):
         raise Stop
 
-    monkeypatch.setattr(stages, "ensure_models", no_models)
+    monkeypatch.setattr(assess_module, "ensure_models", no_models)
     events = []
     with pytest.raises(Stop):
         assess_module.assess(session, assess_module.AssessOptions(out_dir=out, force=True), progress=events.append)
@@ -194,7 +194,7 @@ def test_a_failure_while_scoring_leaves_outputs_and_names_as_they_were(copy, mon
     def broken(*args, **kwargs):
         raise RuntimeError("the disk went away")
 
-    monkeypatch.setattr(stages, "write_report", broken)
+    monkeypatch.setattr(publish, "write_report", broken)
     with pytest.raises(RuntimeError):
         rescore.rename(session, {"worker_1": "w1"}, out)
     assert _csv_bytes(out) == before

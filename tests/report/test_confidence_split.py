@@ -2,7 +2,7 @@
 causes) is counted once, in the shift aggregation, and the worker summary CSV, the session summary
 CSV, the rendered report and the terminal summary show the same seconds and percentages.
 
-Frames with known ``confidence`` / ``cause`` columns (as ergopose.pipeline.stages.score_uncertainty
+Frames with known ``confidence`` / ``cause`` columns (as ergopose.pipeline.score.score_uncertainty
 writes them): 200 frames at 10 frames per second (20 s tracked):
   confident                100 frames  10 s  50 %
   low, one camera           40 frames   4 s  20 %
@@ -28,7 +28,7 @@ from ergopose.commands.assess import worker_lines
 from ergopose.ergonomics.aggregate import aggregate_shift
 from ergopose.ergonomics.export import session_summary_table, worker_summary_table
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
-from ergopose.pipeline.stages import WorkerOutput
+from ergopose.pipeline.publish import WorkerOutput
 from ergopose.report import adapters
 from ergopose.report.render import render_report
 from ergopose.report.results import save_results, session_results

@@ -180,7 +180,8 @@ def test_pages_and_results_are_readable_by_others(rendered_report):
 
 
 def test_short_times_and_ticks():
-    from ergopose.report.pages import Clock, _time_ticks, fmt_duration
+    from ergopose.report.sections import _time_ticks
+    from ergopose.report.wording import Clock, fmt_duration
 
     assert fmt_duration(0.4) == "0.4 s" and fmt_duration(0) == "0 s" and fmt_duration(59.6) == "1 min 00 s"
     assert fmt_duration(7260) == "2 h 01 min"
@@ -223,7 +224,7 @@ def test_pages_show_the_sustained_periods(rendered_report):
     """Each worker page lists its stored periods in order, with clock times, durations of at least
     the minimum and the body parts; the timeline marks each."""
     from ergopose.report.periods import MIN_DURATION_S
-    from ergopose.report.pages import Clock, fmt_duration
+    from ergopose.report.wording import Clock, fmt_duration
 
     folder, session, workers, files = rendered_report
     clock = Clock(session.start)

@@ -10,8 +10,10 @@ import pytest
 from ergopose.ergonomics.angles import joint_angles
 from ergopose.ergonomics.body import BodyMeasurements, Posture, pose_skeleton
 from ergopose.keypoints import JOINT_INDEX as J
-from ergopose.sim.motion import (JOINT_LIMITS_DEG, PATH_CLEARANCE, TASKS, _Grid, leg_ik, plan_path,
-                                 simulate_motion)
+from ergopose.sim.legs import leg_ik
+from ergopose.sim.motion import simulate_motion
+from ergopose.sim.paths import PATH_CLEARANCE, _Grid, plan_path
+from ergopose.sim.workforce import JOINT_LIMITS_DEG, TASKS
 from ergopose.sim.scene import default_scene
 
 FPS = 12.0

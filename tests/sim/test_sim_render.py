@@ -7,9 +7,10 @@ import pytest
 
 from ergopose.keypoints import JOINT_INDEX as J
 from ergopose.sim.motion import simulate_motion
-from ergopose.sim.render import (N_PRIMITIVES, OCCLUDED_BY_SCENE, OCCLUDED_BY_WORKER, VISIBLE, CameraRenderer,
-                                 RenderOptions, all_body_primitives, joint_visibility, ray_box, ray_capsule,
-                                 ray_ellipsoid)
+from ergopose.sim.bodies import N_PRIMITIVES, all_body_primitives
+from ergopose.sim.raycast import ray_box, ray_capsule, ray_ellipsoid
+from ergopose.sim.render import CameraRenderer, RenderOptions
+from ergopose.sim.visibility import OCCLUDED_BY_SCENE, OCCLUDED_BY_WORKER, VISIBLE, joint_visibility
 from ergopose.sim.scene import default_scene, rig_cameras
 
 CLEAN = RenderOptions(noise_sigma=0.0, blur_sigma=0.0, brightness_drift=0.0)

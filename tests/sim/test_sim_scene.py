@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from ergopose.sim.motion import PATH_CLEARANCE
+from ergopose.sim.paths import PATH_CLEARANCE
 from ergopose.sim.scene import (DEFAULT_SIZE, IMAGE_CIRCLE_THETA, LENS_REGIONS_DEG, PAPER_SIZE, default_scene,
                                 lens_region, rig_cameras)
 

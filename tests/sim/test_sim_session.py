@@ -15,7 +15,8 @@ from ergopose.report.adapters import FLOOR_KINDS, load_floor_plan
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.sim.oracle import OracleSource
-from ergopose.sim.render import CameraRenderer, RenderOptions, all_body_primitives
+from ergopose.sim.bodies import all_body_primitives
+from ergopose.sim.render import CameraRenderer, RenderOptions
 from ergopose.sim.scene import default_scene
 from ergopose.sim.writer import add_floor_plan
 

@@ -1,0 +1,187 @@
+"""Tracked rows against simulated workers: the per-frame pairing by body centres, the identity
+section (mapping, switches, naming) and the detection rate per lens region and camera.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ergopose.evaluation.loading import _Inputs, _r
+from ergopose.keypoints import JOINT_INDEX
+from ergopose.recon.diagnostics import (
+    REGIONS,
+    identity_switches,
+    lens_region,
+    match_workers,
+)
+from ergopose.recon.records import TORSO_JOINTS, body_centres
+from ergopose.recon.tracking import identity_name
+
+#: Body-centre distance (metres) within which a tracked row and a simulated worker are the same
+#: person in a frame (the default of ergopose.recon.diagnostics.match_workers).
+MATCH_DISTANCE_M = 0.5
+#: A worker counts as visible in a camera when at least this many of the four torso joints
+#: (shoulders, hips) are visible there (the association's association_min_joints default).
+MIN_VISIBLE_TORSO = 2
+
+
+#: An identity switch is "sustained" when the new id then holds for this long (seconds of matched
+#: frames); shorter flickers happen when two simulated workers pass through each other.
+SUSTAINED_SWITCH_S = 1.0
+
+
+# --------------------------------------------------------------------------------- matching helpers
+
+
+def _per_frame_matches(tracks, truth_points: np.ndarray, points: np.ndarray,
+                       max_distance_m: float = MATCH_DISTANCE_M) -> np.ndarray:
+    """(n,) ground-truth person matched to each tracked row in its frame (-1: none).
+
+    Per frame, rows and people are paired by the optimal assignment of body-centre distances
+    (only pairs within ``max_distance_m``); ``points`` (n, 33, 3) gives the rows' positions.
+    """
+    n = len(tracks)
+    out = np.full(n, -1, np.int64)
+    if n == 0:
+        return out
+    centres = body_centres(points)  # (n, 3)
+    gt_c = body_centres(truth_points)  # (F, P, 3)
+    frames = tracks.frame
+    ok = np.isfinite(centres).all(axis=1) & (frames >= 0) & (frames < len(gt_c))
+    rows = np.flatnonzero(ok)
+    if not len(rows):
+        return out
+    d_all = np.linalg.norm(centres[rows, None, :] - gt_c[frames[rows]], axis=-1)  # (m, P)
+    d_all = np.where(np.isfinite(d_all) & (d_all <= max_distance_m), d_all, np.inf)
+    order = np.argsort(frames[rows], kind="stable")
+    bounds = np.flatnonzero(np.diff(frames[rows][order])) + 1
+    for group in np.split(order, bounds):
+        d = d_all[group]
+        if not np.isfinite(d).any():
+            continue
+        if d.shape[0] == 1:
+            j = int(np.argmin(d[0]))
+            if np.isfinite(d[0, j]):
+                out[rows[group[0]]] = j
+            continue
+        ri, ci = linear_sum_assignment(np.where(np.isfinite(d), d, 1e9))
+        for a, b in zip(ri, ci):
+            if np.isfinite(d[a, b]):
+                out[rows[group[a]]] = int(b)
+    return out
+
+
+def row_people(inp: _Inputs) -> np.ndarray:
+    """(n,) the simulated worker each tracked row is in its frame (-1: nobody within
+    MATCH_DISTANCE_M): per frame the optimal one-to-one assignment of body centres, from the final
+    positions where known, else the raw triangulation (as ergopose.recon.diagnostics matches)."""
+    tf = inp.tracks
+    points = np.where(np.isfinite(tf.points_world), tf.points_world, tf.raw_points_world)
+    return _per_frame_matches(tf, inp.gt.joints_world, points)
+
+
+def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, int]]:
+    tf, gt = inp.tracks, inp.gt
+    mapping = match_workers(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else {}
+    switches = identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else 0
+    hold = max(1, int(round(SUSTAINED_SWITCH_S * gt.fps)))
+    sustained = (identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M, min_frames=hold)
+                 if len(tf) else 0)
+    per_gt = {gid: sorted((identity_name(w) for w, p in mapping.items() if p == k), key=_worker_number)
+              for k, gid in enumerate(gt.worker_ids)}
+    majority = np.array([mapping.get(int(w), -1) for w in tf.worker], dtype=np.int64) if len(tf) else np.zeros(0, int)
+    matched = person >= 0
+    section = {
+        "definition": ("per frame, tracked rows and simulated workers are paired one-to-one by body-centre distance "
+                       f"(at most {MATCH_DISTANCE_M} m); mapping = each tracked id's most frequent partner "
+                       "(ergopose.recon.diagnostics.match_workers); identity_switches = how often a simulated "
+                       "worker's partner id changes (diagnostics.identity_switches; a duplicate track of the same "
+                       "person alternating with the original counts at every alternation, and so does a flicker "
+                       "of one frame while two simulated workers pass through each other); "
+                       "identity_switches_sustained counts only changes to an id that then holds for "
+                       f"{SUSTAINED_SWITCH_S:g} s of matched frames"),
+        "tracked_workers": [identity_name(w) for w in tf.workers],
+        "ground_truth_workers": list(gt.worker_ids),
+        "mapping": {identity_name(w): gt.worker_ids[p] for w, p in sorted(mapping.items())},
+        "unmatched_tracked_workers": [identity_name(w) for w in tf.workers if w not in mapping],
+        "tracked_ids_per_ground_truth_worker": per_gt,
+        "identity_switches": int(switches),
+        "identity_switches_sustained": int(sustained),
+        "sustained_min_frames": hold,
+        "reported_as": dict(inp.reported),
+        "named_by_stature": _naming(inp, person),
+        "rows": int(len(tf)),
+        "rows_matched": int(matched.sum()),
+        "rows_matched_to_another_worker_than_the_mapping": int((matched & (person != majority)).sum()),
+        "match_distance_m": MATCH_DISTANCE_M,
+    }
+    return section, mapping
+
+
+def _naming(inp: _Inputs, person: np.ndarray) -> dict:
+    """How often a tracked person named after a settings worker (by stature) really is that worker:
+    rows of the named ids matched, frame by frame, to the simulated worker of the same id."""
+    tf, gt = inp.tracks, inp.gt
+    named = {w: inp.reported[identity_name(w)] for w in tf.workers
+             if inp.reported[identity_name(w)] != identity_name(w)}
+    rows = correct = 0
+    for w, wid in named.items():
+        sel = (tf.worker == w) & (person >= 0)
+        rows += int(sel.sum())
+        if wid in gt.worker_ids:
+            correct += int((person[sel] == gt.worker_ids.index(wid)).sum())
+    return {"ids": {identity_name(w): wid for w, wid in named.items()}, "rows": rows, "rows_correct": correct,
+            "correct_pct": _r(100.0 * correct / rows, 2) if rows else float("nan"),
+            "notes": list(inp.identification_notes)}
+
+
+def _worker_number(name: str) -> int:
+    tail = name.rpartition("_")[2]
+    return int(tail) if tail.isdigit() else 0
+
+
+# ------------------------------------------------------------------------------------------ detection
+
+
+def _regions_of_people(gt, limits_deg) -> np.ndarray:
+    """(F, P) lens region of each simulated worker's mid-hip point (larger angle of the cameras)."""
+    hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
+    theta = np.degrees(gt.theta[..., hips].astype(np.float64).mean(axis=-1))  # (F, C, P)
+    return lens_region(np.nanmax(theta, axis=1), limits_deg)
+
+
+def detection_section(inp: _Inputs) -> dict:
+    """Detection rate and false rows (definitions in docs/evaluation.md)."""
+    gt, tf = inp.gt, inp.tracks
+    F, P = gt.n_frames, len(gt.worker_ids)
+    torso_visible = (gt.visibility[..., TORSO_JOINTS] == 0).sum(axis=-1) >= MIN_VISIBLE_TORSO  # (F, C, P)
+    both = torso_visible.all(axis=1)
+    one = torso_visible.any(axis=1) & ~both
+    match = _per_frame_matches(tf, gt.joints_world, tf.raw_points_world)
+    reconstructed = np.zeros((F, P), bool)
+    hit = match >= 0
+    reconstructed[tf.frame[hit], match[hit]] = True
+    has_raw = np.isfinite(tf.raw_points_world).all(axis=-1).any(axis=-1) if len(tf) else np.zeros(0, bool)
+    regions = _regions_of_people(gt, inp.recon.lens_region_limits_deg)
+
+    def rate(mask: np.ndarray) -> dict:
+        n = int(mask.sum())
+        k = int((mask & reconstructed).sum())
+        return {"worker_frames": n, "reconstructed": k, "rate_pct": _r(100.0 * k / n, 2) if n else float("nan")}
+
+    out = {
+        "definition": (f"a worker is visible in a camera when at least {MIN_VISIBLE_TORSO} of its 4 torso joints "
+                       "are visible there (ground-truth visibility code 0); a worker-frame is reconstructed when a "
+                       "tracked row of that frame has a triangulated (raw) body centre within "
+                       f"{MATCH_DISTANCE_M} m of the worker's true body centre (one-to-one per frame)"),
+        "visible_in_both_cameras": rate(both),
+        "detection_rate_pct": rate(both)["rate_pct"],
+        "visible_in_one_camera": rate(one),
+        "all_worker_frames": rate(np.ones((F, P), bool)),
+        "by_region": {name: rate(both & (regions == k)) for k, name in enumerate(REGIONS)},
+        "tracked_rows": int(len(tf)),
+        "tracked_rows_triangulated": int(has_raw.sum()),
+        "tracked_rows_triangulated_unmatched": int((has_raw & ~hit).sum()),
+    }
+    return out

@@ -1,0 +1,291 @@
+"""Joint angles and scores against the ground truth: the per-worker steps CSV files read back,
+the angle errors, and the agreement of RULA and REBA with the scores of the true angles (Cohen's
+kappa, exact and within-one agreement, band edges).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.posture import ANGLE_COLUMNS
+from ergopose.ergonomics.scoring import score_posture
+from ergopose.errors import InputError
+from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
+from ergopose.evaluation.loading import ResultsLayout, _Inputs, _r
+from ergopose.recon.diagnostics import (
+    REGIONS,
+    lens_region,
+)
+from ergopose.recon.records import TORSO_JOINTS
+from ergopose.recon.tracking import identity_name
+
+#: The score columns compared and their scales (docs/csv-columns.md).
+SCORE_SCALES: dict[str, tuple[int, ...]] = {
+    "rula_grand": tuple(range(1, 8)),
+    "rula_action_level": tuple(range(1, 5)),
+    "reba_score": tuple(range(1, 16)),
+    "reba_risk_level": tuple(range(0, 5)),
+}
+
+
+#: A true score is "on a band edge" when moving every true angle by this much (radians, either
+#: way) changes it: the simulator builds some postures exactly on scoring limits (a walking arm
+#: swing of exactly 20 degrees), where a reconstruction off by 1e-7 rad already flips the band.
+EDGE_NUDGE_RAD = 1e-6
+
+
+# --------------------------------------------------------------------------------- steps CSV files
+
+
+def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
+    path = layout.frames_csv(worker)
+    if not path.is_file():
+        raise InputError(f"the steps CSV of {worker} is missing (the tracks table has this worker)", path=path)
+    try:
+        frame = pd.read_csv(path, low_memory=False)
+    except (OSError, ValueError) as exc:
+        raise InputError(f"cannot read the steps CSV ({exc})", path=path) from None
+    for col in ("frame",) + tuple(SCORE_SCALES):
+        if col not in frame.columns:
+            raise InputError(f"column {col!r} is missing (docs/csv-columns.md)", path=path)
+    return frame
+
+
+def _worker_frames(inp: _Inputs, layout: ResultsLayout,
+                   person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
+    """{worker: (steps CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
+    every tracked worker matched to a simulated worker in at least one frame."""
+    tf = inp.tracks
+    out = {}
+    for w in np.unique(tf.worker[person >= 0]):
+        w = int(w)
+        csv = _read_frames_csv(layout, inp.reported[identity_name(w)])
+        sel = tf.worker == w
+        frames, people = tf.frame[sel], person[sel]
+        f = csv["frame"].to_numpy(np.int64)
+        pos = np.clip(np.searchsorted(frames, f), 0, len(frames) - 1)
+        out[w] = (csv, np.where(frames[pos] == f, people[pos], -1))
+    return out
+
+
+def _region_of_rows(inp: _Inputs, w: int, frames: np.ndarray) -> np.ndarray:
+    """Lens region of a tracked worker's rows at the given frames: the torso joints' largest angle."""
+    r = inp.tracks.worker_rows(w)
+    frames = np.asarray(frames, np.int64)
+    if not len(r):
+        return np.full(len(frames), -1, np.int8)
+    pos = np.clip(np.searchsorted(r.frame, frames), 0, len(r) - 1)
+    k = np.where(r.frame[pos] == frames, pos, -1)
+    ang = np.full(len(frames), np.nan)
+    ok = k >= 0
+    if ok.any():
+        a = r.lens_angle_deg[k[ok]][:, TORSO_JOINTS]
+        with np.errstate(all="ignore"):
+            ang[ok] = np.where(np.isfinite(a).any(axis=1), np.nanmax(np.where(np.isfinite(a), a, -np.inf), axis=1),
+                               np.nan)
+    return lens_region(ang, inp.recon.lens_region_limits_deg)
+
+
+# ------------------------------------------------------------------------------------------ angles
+
+
+def _built_angles(gt, columns: Sequence[str]) -> dict[str, np.ndarray]:
+    """{angle: (F, P) radians} from ground_truth/postures.parquet (NaN where a row is missing)."""
+    post = gt.postures
+    F, P = gt.n_frames, len(gt.worker_ids)
+    index = {wid: k for k, wid in enumerate(gt.worker_ids)}
+    p = np.array([index.get(str(w), -1) for w in post["worker"].astype(str)], dtype=np.int64)
+    f = post["frame"].to_numpy(np.int64)
+    ok = (p >= 0) & (f >= 0) & (f < F)
+    out = {}
+    for c in columns:
+        a = np.full((F, P), np.nan)
+        a[f[ok], p[ok]] = post[c].to_numpy(np.float64)[ok]
+        out[c] = a
+    return out
+
+
+def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
+    """Tracked posture angles (steps CSV, degrees) against the angles the motion was built from."""
+    gt = inp.gt
+    columns = [c for c in ANGLE_COLUMNS if c in gt.postures.columns]
+    built = _built_angles(gt, columns)
+    diffs: dict[str, list[np.ndarray]] = {c: [] for c in columns}
+    regions: list[np.ndarray] = []
+    rows = unmatched = 0
+    for w, (csv, people) in csvs.items():
+        ok = people >= 0
+        unmatched += int((~ok).sum())
+        frames, people = csv["frame"].to_numpy(np.int64)[ok], people[ok]
+        rows += len(frames)
+        regions.append(_region_of_rows(inp, w, frames))
+        for c in columns:
+            if c not in csv.columns:
+                diffs[c].append(np.full(len(frames), np.nan))
+                continue
+            measured = pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[ok]
+            true = np.degrees(built[c][frames, people])
+            diffs[c].append((measured - true + 180.0) % 360.0 - 180.0)
+    reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
+    per_angle = {}
+    pooled = []
+    for c in columns:
+        d = np.concatenate(diffs[c]) if diffs[c] else np.zeros(0)
+        row = _angle_stats(d)
+        row["rmse_by_region_deg"] = {rg: _angle_stats(d[reg == k])["rmse_deg"] for k, rg in enumerate(REGIONS)}
+        per_angle[c] = row
+        pooled.append(d[np.isfinite(d)])
+    allv = np.concatenate(pooled) if pooled else np.zeros(0)
+    return {
+        "definition": ("steps CSV angle (degrees, 2 decimals) minus the angle the simulated motion was built from "
+                       "(ground_truth/postures.parquet) of the simulated worker the row is matched to in that "
+                       "frame; differences wrapped to [-180, 180); angles NaN in the CSV (not measured) are counted "
+                       "as missing; rows matched to nobody are left out (rows_unmatched)"),
+        "rows_compared": int(rows),
+        "rows_unmatched": int(unmatched),
+        "rmse_all_deg": _r(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
+        "by_angle": per_angle,
+        "caveat": ("shoulder_elevation is measured against the worker's median shoulder height over the tracked "
+                   "frames (ergopose.ergonomics.angles), the simulator's is absolute: a constant offset between "
+                   "them is a definition difference, not a reconstruction error"),
+    }
+
+
+def _angle_stats(d: np.ndarray) -> dict:
+    n_all = len(d)
+    v = d[np.isfinite(d)]
+    if not len(v):
+        nan = float("nan")
+        return {"n": 0, "missing": int(n_all), "rmse_deg": nan, "mae_deg": nan, "bias_deg": nan, "p95_abs_deg": nan}
+    return {"n": int(len(v)), "missing": int(n_all - len(v)), "rmse_deg": _r(np.sqrt(np.mean(v * v)), 3),
+            "mae_deg": _r(np.abs(v).mean(), 3), "bias_deg": _r(v.mean(), 3),
+            "p95_abs_deg": _r(np.percentile(np.abs(v), 95), 3)}
+
+
+# ------------------------------------------------------------------------------------------ scores
+
+
+def ground_truth_posture(gt, worker_index: int) -> pd.DataFrame:
+    """The posture table of a simulated worker from the ground truth, all frames, radians.
+
+    Every angle column the motion was built from (ground_truth/postures.parquet) is taken as
+    built; the columns the simulator does not record (stance flags, upper-arm elevation, wrist
+    position from the midline) come from the true joints through
+    :func:`ergopose.ergonomics.angles.joint_angles`, the same code the pipeline uses.
+    """
+    base = joint_angles(gt.joints_world[:, worker_index], gt.times_s).to_frame().reset_index(drop=True)
+    gid = gt.worker_ids[worker_index]
+    built = gt.postures[gt.postures["worker"] == gid].sort_values("frame").reset_index(drop=True)
+    if len(built) != len(base) or not np.array_equal(built["frame"].to_numpy(), np.arange(len(base))):
+        raise InputError(f"postures.parquet does not have one row per frame for worker {gid}",
+                         path=gt.path)
+    for c in base.columns:
+        if c in built.columns and c != "time_s":
+            base[c] = built[c].to_numpy(np.float64)
+    return base
+
+
+def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scoring,
+                        posture: pd.DataFrame | None = None) -> pd.DataFrame:
+    """RULA and REBA of a simulated worker's true posture, one row per frame (all frames), with the
+    task factors ``session.factor_table(factor_worker, times)`` and the session's scoring settings."""
+    posture = ground_truth_posture(gt, worker_index) if posture is None else posture
+    factors = session.factor_table(factor_worker, gt.times_s)
+    table = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])], axis=1)
+    return score_posture(table, settings=scoring)
+
+
+def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
+    gt, session = inp.gt, inp.session
+    postures: dict[int, pd.DataFrame] = {}
+    scored: dict[tuple[int, int], tuple[pd.DataFrame, list[pd.DataFrame]]] = {}
+    pairs: dict[str, tuple[list, list, list]] = {c: ([], [], []) for c in SCORE_SCALES}
+    regions = []
+
+    def truth_of(p: int, worker: str):
+        # The same person with the same task factors (usually every tracked id: only the defaults and
+        # periods for everyone apply to worker_N) is scored once.
+        factors = session.factor_table(worker, gt.times_s)
+        key = (p, int(pd.util.hash_pandas_object(factors, index=False).sum()))
+        if key not in scored:
+            if p not in postures:
+                postures[p] = ground_truth_posture(gt, p)
+            truth = ground_truth_scores(session, gt, p, worker, inp.scoring, postures[p])
+            # The truth's score is "on a band edge" where moving every angle by +-EDGE_NUDGE_RAD changes it.
+            nudged = []
+            for sign in (1.0, -1.0):
+                moved = postures[p].copy()
+                cols = [c for c in ANGLE_COLUMNS if c in moved.columns]
+                moved[cols] = moved[cols] + sign * EDGE_NUDGE_RAD
+                nudged.append(ground_truth_scores(session, gt, p, worker, inp.scoring, moved))
+            scored[key] = (truth, nudged)
+        return scored[key]
+
+    for w, (csv, people_all) in csvs.items():
+        for p in np.unique(people_all[people_all >= 0]):
+            p = int(p)
+            sel = people_all == p
+            truth, nudged = truth_of(p, inp.reported[identity_name(w)])
+            frames = csv["frame"].to_numpy(np.int64)[sel]
+            regions.append(_region_of_rows(inp, w, frames))
+            for c in SCORE_SCALES:
+                t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)
+                edge = np.zeros(len(t), bool)
+                for other in nudged:
+                    o = other[c].to_numpy(dtype=np.float64, na_value=np.nan)
+                    edge |= (o != t) & np.isfinite(o) & np.isfinite(t)
+                pairs[c][0].append(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[sel])
+                pairs[c][1].append(t[frames])
+                pairs[c][2].append(edge[frames])
+    reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
+    out: dict[str, Any] = {
+        "definition": ("scores of the steps CSV (the pipeline's) against the scores of the ground-truth posture of "
+                       "the matched worker (built angles; stance flags and the other unrecorded inputs from the true "
+                       "joints) of the simulated worker the row is matched to in that frame, scored by "
+                       "ergopose.ergonomics.scoring.score_posture (over that worker's whole simulated shift) with the "
+                       "session's scoring settings and the task factors the pipeline applied (session.factor_table "
+                       "of the id the results use for the tracked "
+                       "worker id); frames where either score is missing are left out and counted; off_edge "
+                       f"repeats the agreement without the frames whose true score changes when every true angle "
+                       f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge)"),
+    }
+    for c, scale in SCORE_SCALES.items():
+        a = np.concatenate(pairs[c][0]) if pairs[c][0] else np.zeros(0)
+        b = np.concatenate(pairs[c][1]) if pairs[c][1] else np.zeros(0)
+        edge = np.concatenate(pairs[c][2]) if pairs[c][2] else np.zeros(0, bool)
+        both = np.isfinite(a) & np.isfinite(b)
+        cm = confusion_matrix(a, b, scale)
+        cm_off = confusion_matrix(a[~edge], b[~edge], scale)
+        entry = {
+            "scale": list(scale),
+            "pairs": int(cm.sum()),
+            "missing_tracked": int((~np.isfinite(a) & np.isfinite(b)).sum()),
+            "missing_truth": int(np.isfinite(a).sum() - both.sum()),
+            "exact_agreement_pct": _r(100.0 * exact_agreement(cm), 2),
+            "within_one_pct": _r(100.0 * within_one(cm), 2),
+            "kappa": _r(kappa_from_matrix(cm, "none"), 4),
+            "kappa_linear": _r(kappa_from_matrix(cm, "linear"), 4),
+            "kappa_quadratic": _r(kappa_from_matrix(cm, "quadratic"), 4),
+            "mean_difference": _r(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
+            "confusion_matrix": {"rows": "tracked", "columns": "ground truth", "counts": cm.tolist()},
+            "truth_on_band_edge": int((edge & both).sum()),
+            "off_edge": {"pairs": int(cm_off.sum()), "exact_agreement_pct": _r(100.0 * exact_agreement(cm_off), 2),
+                         "kappa": _r(kappa_from_matrix(cm_off, "none"), 4),
+                         "kappa_linear": _r(kappa_from_matrix(cm_off, "linear"), 4)},
+            "exact_agreement_by_region_pct": {
+                rg: _r(100.0 * exact_agreement(confusion_matrix(a[reg == k], b[reg == k], scale)), 2)
+                for k, rg in enumerate(REGIONS)},
+        }
+        out[c] = entry
+    named = {w.worker_id for w in session.workers if w.periods or w.factors.given()}
+    tracked = set(inp.reported.values())
+    foreign = sorted(named - tracked)
+    out["task_factor_note"] = (
+        f"settings.toml gives task factors for worker ids {', '.join(foreign)} that no tracked person was named "
+        "after; the pipeline did not apply them to anyone, and neither do these ground-truth scores"
+        if foreign else "")
+    return out
