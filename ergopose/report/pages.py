@@ -225,6 +225,20 @@ class DriverRow:
 
 
 @dataclass(frozen=True)
+class PeriodInputRow:
+    """A score input of a sustained period: input (in words), source ("measured", "task input" or
+    "not given"), value (a task input's value, angles in degrees; "" otherwise), time (of the
+    period's high-risk time with it, and its share: "9.0 s (75 %)"), use (the RULA / REBA steps it
+    feeds)."""
+
+    input: str
+    source: str
+    value: str
+    time: str
+    use: str
+
+
+@dataclass(frozen=True)
 class MomentCard:
     """A sustained period of high risk (ergopose.report.periods): rank (1 = most time at high
     risk), start / end (clock times), duration (start to end), high_time (time at high risk within
@@ -232,8 +246,10 @@ class MomentCard:
     longest), rula / reba (score at that frame with its level's name, "6 (AL3), up to 7" when the
     period's highest score differs),
     drivers (the body parts in their high bands for most of it; empty when unknown), reason (the
-    same in a sentence, or why there is none), figure (front and side view of the skeleton at the
-    frame drawn)."""
+    same in a sentence, or why there is none), task_inputs (the task inputs of the settings in
+    force during its high-risk time and those not given, in one line), inputs (every score input,
+    measured or task input; empty in results written before they were read), figure (front and
+    side view of the skeleton at the frame drawn)."""
 
     rank: int
     start: str
@@ -245,6 +261,8 @@ class MomentCard:
     reba: str
     drivers: tuple[DriverRow, ...]
     reason: str
+    task_inputs: str
+    inputs: tuple[PeriodInputRow, ...]
     figure: Figure
 
 
@@ -1046,14 +1064,35 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
         drivers = tuple(DriverRow(body_part=d.body_part, band=f"{d.score} of {d.top}", criterion=d.criterion,
                                   time=fmt_duration(d.seconds), percent=fmt_percent(d.seconds, w.high_s))
                         for d in w.drivers)
+        base = w.high_s if math.isfinite(w.high_s) else length
+        inputs = tuple(PeriodInputRow(input=i.input, source=i.source, value=i.value,
+                                      time=f"{fmt_duration(i.seconds)} ({fmt_percent(i.seconds, base)})", use=i.use)
+                       for i in w.inputs)
         cards.append(MomentCard(
             rank=k, start=clock(w.start_s), end=clock(w.end_s), duration=fmt_duration(length), high_time=high,
             when=clock(w.peak_s), rula=words(w.rula_grand, w.rula_level, w.rula_peak, rula),
             reba=words(w.reba_score, w.reba_level, w.reba_peak, reba), drivers=drivers, reason=w.reason,
+            task_inputs=task_inputs_line(w.inputs, base), inputs=inputs,
             figure=Figure(id=f"{prefix}fig-moment-{k}", svg=fig,
                           caption=f"Period {k} at {clock(w.peak_s)}: front view (worker's right on the left) and side "
                                   "view (seen from the worker's right). No video images are kept.")))
     return tuple(cards)
+
+
+def task_inputs_line(inputs, high_s: float) -> str:
+    """The task inputs of a period in one line: each given value (with its time when it held for
+    only part of the high-risk time), then those not given; "not recorded" for older results."""
+    if not inputs:
+        return "not recorded"
+    given, missing = [], []
+    for i in inputs:
+        if i.source == "task input":
+            part = "" if i.seconds >= high_s - 1e-6 else f" ({fmt_duration(i.seconds)})"
+            given.append(f"{i.input}: {i.value}{part}")
+        elif i.source == "not given" and i.input not in missing:
+            missing.append(i.input)
+    text = "; ".join(given) if given else "none given"
+    return text + (f"; not given: {', '.join(missing)}" if missing else "")
 
 
 def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIODS) -> str:
@@ -1524,6 +1563,6 @@ __all__ = [
     "ConfidenceRow", "InputRow", "confidence_rows", "input_rows", "CONFIDENCE_WORDS",
     "BandRow", "HoldRow", "RepetitionRow", "MomentCard", "HourRow", "HourTable", "FlagRow", "LimbRow", "RegionRow",
     "QualitySection", "WorkerPage", "WorkerRow", "IndexPage", "build_worker_page", "build_index_page",
-    "DriverRow", "Term", "PrintRow", "PrintWorker", "PrintPage", "build_print_page", "PRINT_FILE", "glossary",
+    "DriverRow", "PeriodInputRow", "task_inputs_line", "Term", "PrintRow", "PrintWorker", "PrintPage", "build_print_page", "PRINT_FILE", "glossary",
     "worker_page_name", "Finding", "Verdict",
 ]
