@@ -54,10 +54,13 @@ def measure(session: Path, out: Path) -> dict[str, float]:
     from ergopose.pipeline.cluster import assess_sessions
 
     figures: dict[str, float] = {}
+    series: list[float] = []
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.ERROR) as lc, Client(lc) as probe:
 
         def watch(event) -> None:
+            if event.stage == "pose" and event.done > 0:  # a chunk stored: the worker's memory now
+                series.append(next(iter(probe.run(_rss_mb).values())))
             if event.stage == "pose" and event.total and event.done >= event.total and "pose" not in figures:
                 figures["pose"] = next(iter(probe.run(_peak_mb).values()))
 
@@ -71,6 +74,9 @@ def measure(session: Path, out: Path) -> dict[str, float]:
         figures["rss_end"] = next(iter(probe.run(_rss_mb).values()))
         figures["chunks"] = outcome.result.chunks_total
         figures["frames"] = outcome.result.frames
+    figures["rss_first_chunk"] = series[0] if series else float("nan")
+    figures["rss_last_chunk"] = series[-1] if series else float("nan")
+    figures["series"] = [round(x, 1) for x in series]  # type: ignore[assignment]
     return figures
 
 
@@ -86,6 +92,8 @@ def main() -> None:
             for phase, what in (("pose", "video work (chunk tasks)"), ("all", "whole run")):
                 emit("assess_cluster_worker_peak_rss_mb", f[phase], "MB", phase=what, session_minutes=minutes,
                      frames=int(f["frames"]), chunks=int(f["chunks"]), rss_at_end_mb=round(f["rss_end"], 1),
+                     rss_after_first_chunk_mb=round(f["rss_first_chunk"], 1),
+                     rss_after_last_chunk_mb=round(f["rss_last_chunk"], 1),
                      wall_s=round(f["wall_s"], 1), workers=2, cluster="local:1",
                      load_average=[round(x, 2) for x in os.getloadavg()])
     for phase, what in (("pose", "video work (chunk tasks)"), ("all", "whole run")):
