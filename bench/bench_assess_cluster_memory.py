@@ -1,11 +1,13 @@
 """Peak memory of a Dask worker over a short and a longer session: assess_cluster_worker_peak_rss_mb.
 
 Each session (a simulated shift of two workers, seed 0) of SHORT and of LONG minutes is assessed
-with ``--cluster`` on a fresh LocalCluster of one one-thread worker process (what ``local:1``
-starts), so that the one worker runs every task: the chunk tasks (video work), the session task
+with ``--cluster`` on a fresh LocalCluster of one one-thread worker process (the one ``local:1``
+starts: ergopose.pipeline.cluster.local_cluster), so that the one worker runs every task: the chunk tasks (video work), the session task
 (tracking, CSV files, report) and the per-worker scoring tasks. The worker's peak resident memory
 (``ru_maxrss`` of its process) is read twice: when the last chunk is stored (the video work,
-with the pose networks loaded) and at the end (all of it). The simulation is not measured.
+with the pose networks loaded) and at the end (all of it); its resident memory is also read
+after each chunk is stored (``rss_after_first_chunk_mb``, ``rss_after_last_chunk_mb``). The
+simulation is not measured.
 
 Bounded memory means the LONG session needs about what the SHORT one needs: the
 ``assess_cluster_worker_memory_growth`` line is the ratio LONG / SHORT of the peaks (1.0 = no
@@ -15,7 +17,6 @@ ERGOPOSE_BENCH_CLUSTER_MEMORY_SHORT_MINUTES (default 0.5), ..._LONG_MINUTES (def
 
 from __future__ import annotations
 
-import logging
 import os
 import sys
 import tempfile
@@ -48,15 +49,14 @@ def _rss_mb() -> float:
 def measure(session: Path, out: Path) -> dict[str, float]:
     """One run on a fresh one-worker LocalCluster: the worker's peaks (MB) after the video work and
     at the end, its resident memory at the end, and the run's wall and chunk count."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     from ergopose.pipeline.assess import AssessOptions
-    from ergopose.pipeline.cluster import assess_sessions
+    from ergopose.pipeline.cluster import assess_sessions, local_cluster
 
     figures: dict[str, float] = {}
     series: list[float] = []
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      silence_logs=logging.ERROR) as lc, Client(lc) as probe:
+    with local_cluster(1) as lc, Client(lc) as probe:
 
         def watch(event) -> None:
             if event.stage == "pose" and event.done > 0:  # a chunk stored: the worker's memory now

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
+import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, worker_client
 
 from ergopose import __version__, remote
@@ -47,6 +48,12 @@ from ergopose.progress import ProgressCallback, ProgressEvent, report
 
 #: ``local:N``: a Dask LocalCluster of N worker processes on this machine.
 LOCAL_PREFIX = "local:"
+
+#: Dask settings of the LocalClusters this module starts. The workers' statistical profiler is off:
+#: it keeps up to 1000 one-second profiles (``distributed.admin.low-level-log-length``), which made
+#: a worker's memory grow by about 6 MB per 10-s chunk for the first quarter of an hour
+#: (bench/bench_assess_cluster_memory.py; docs/cluster.md, "Memory").
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 #: One chunk at a time per worker process, whatever its thread count: a network is not used by
 #: two threads at once.
@@ -99,6 +106,14 @@ def _worker_version() -> str:
     return __version__  # run on each worker: the version installed there
 
 
+def local_cluster(n_workers: int) -> LocalCluster:
+    """The LocalCluster of ``local:N``: N one-thread worker processes, the dashboard on a free port,
+    the workers' profiler off (:data:`LOCAL_CLUSTER_CONFIG`; a restarted worker keeps it off)."""
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            silence_logs=logging.ERROR)
+
+
 @contextlib.contextmanager
 def connect(address: str, model_dir: str | None, progress: ProgressCallback | None = None,
             model: str | None = None) -> Iterator[Any]:
@@ -108,8 +123,7 @@ def connect(address: str, model_dir: str | None, progress: ProgressCallback | No
     kind, where = parse_address(address)
     with contextlib.ExitStack() as stack:
         if kind == "local":
-            cluster = stack.enter_context(LocalCluster(n_workers=int(where), threads_per_worker=1, processes=True,
-                                                       dashboard_address=":0", silence_logs=logging.ERROR))
+            cluster = stack.enter_context(local_cluster(int(where)))
             client = stack.enter_context(Client(cluster))
         else:
             try:
