@@ -23,7 +23,8 @@ settings.toml (format_version 1)::
 
     [[cameras]]                                 # camera order is this order (never sorted)
     name = "cam_1"                              # a camera of the calibration file
-    video = "cam_1.mp4"                         # relative to the session folder
+    video = "cam_1.mp4"                         # relative to the session folder, or an fsspec
+                                                #   URL (s3://...; ergopose.remote makes a local copy)
 
     [[cameras]]
     name = "cam_2"
@@ -79,7 +80,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
-from ergopose import video
+from ergopose import remote, video
 from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import load_calibration
 from ergopose.geometry.camera import Camera
@@ -204,6 +205,7 @@ class SessionCamera:
     video_path: Path
     frame_count: int
     video_fps: float
+    video_url: str | None = None  # the fsspec URL settings.toml gives; video_path is then its local copy
 
     @property
     def name(self) -> str:
@@ -376,17 +378,24 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
     calibrated = {cam.name: cam for cam in load_calibration(calibration_path)}
     session_cams: list[SessionCamera] = []
     for i, entry in enumerate(model.cameras):
-        name, vpath = entry.name, root / entry.video
+        name, url = entry.name, entry.video if remote.is_url(entry.video) else None
+        vpath = remote.fetch(url) if url else root / entry.video  # a URL: read from this machine's copy
         if name not in calibrated:
             raise ConfigError(f"camera {name!r} is not in {calibration_path.name} (it has "
                               f"{', '.join(map(repr, calibrated))})", path=settings_path, field=f"cameras[{i}].name")
         cam = calibrated[name]
-        count, fps_video, size = probe_video(vpath, full=check_videos)
+        try:
+            count, fps_video, size = probe_video(vpath, full=check_videos)
+        except InputError as exc:
+            if url is None:
+                raise
+            raise InputError(str(exc).removeprefix(f"{exc.path}: "), path=url) from None  # name the URL, not the copy
         if size != (cam.width, cam.height):
             raise ConfigError(f"camera {name!r} is calibrated for {cam.width} x {cam.height} pixels but its video "
                               f"{vpath.name} is {size[0]} x {size[1]}", path=calibration_path,
                               field=f"cameras[{list(calibrated).index(name)}].width")
-        session_cams.append(SessionCamera(camera=cam, video_path=vpath, frame_count=count, video_fps=fps_video))
+        session_cams.append(SessionCamera(camera=cam, video_path=vpath, frame_count=count, video_fps=fps_video,
+                                          video_url=url))
     counts = [c.frame_count for c in session_cams]
     if len(set(counts)) > 1:
         listing = ", ".join(f"{c.video_path.name}: {c.frame_count}" for c in session_cams)

@@ -21,7 +21,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "ergopose"
 #: the commands, on top, run them for ``ergopose simulate`` / ``evaluate`` / ``demo``.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("base", ("ergopose", "ergopose.errors", "ergopose.progress", "ergopose.atomic", "ergopose.keypoints",
-              "ergopose.resources", "ergopose.video", "ergopose.cli_progress")),
+              "ergopose.resources", "ergopose.video", "ergopose.remote", "ergopose.cli_progress")),
     ("geometry", ("ergopose.geometry",)),
     ("records", ("ergopose.records",)),
     ("settings", ("ergopose.settings",)),
@@ -43,6 +43,7 @@ DEFERRED_ON_PURPOSE = {
     ("ergopose.pose.onnx_models", "onnxruntime"): "heavy runtime, needed only for a user-brought ONNX model",
     ("ergopose.pipeline.store", "fcntl"): "POSIX only; without it the store works unlocked",
     ("ergopose.commands.assess", "ergopose.pipeline.cluster"): "needs Dask (an optional extra): only for --cluster",
+    ("ergopose.remote", "fsspec"): "an optional extra (cluster): only for videos given as URLs",
 }
 
 

@@ -95,7 +95,7 @@ def _timeline(sink: WorkerSink) -> pd.DataFrame:
 
 #: Columns of the scored frames the report reads for the sustained periods.
 _PERIOD_COLUMNS = ("time_s", "frame", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level",
-                   *BODY_PART_COLUMNS["rula"])
+                   *BODY_PART_COLUMNS["rula"], *periods.INPUT_COLUMNS)
 
 
 def _period_frames(sink: WorkerSink, summary) -> tuple[pd.DataFrame, np.ndarray]:

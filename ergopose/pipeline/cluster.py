@@ -37,9 +37,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Sequence
 
+import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, worker_client
 
-from ergopose import __version__
+from ergopose import __version__, remote
 from ergopose.atomic import clean_up
 from ergopose.errors import ConfigError
 from ergopose.pipeline import assess as local
@@ -49,6 +50,12 @@ from ergopose.progress import ProgressCallback, ProgressEvent, report
 
 #: ``local:N``: a Dask LocalCluster of N worker processes on this machine.
 LOCAL_PREFIX = "local:"
+
+#: Dask settings of the LocalClusters this module starts. The workers' statistical profiler is off:
+#: it keeps up to 1000 one-second profiles (``distributed.admin.low-level-log-length``), which made
+#: a worker's memory grow by about 6 MB per 10-s chunk for the first quarter of an hour
+#: (bench/bench_assess_cluster_memory.py; docs/cluster.md, "Memory").
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False}
 
 #: One chunk at a time per worker process, whatever its thread count: a network is not used by
 #: two threads at once.
@@ -101,6 +108,14 @@ def _worker_version() -> str:
     return __version__  # run on each worker: the version installed there
 
 
+def local_cluster(n_workers: int) -> LocalCluster:
+    """The LocalCluster of ``local:N``: N one-thread worker processes, the dashboard on a free port,
+    the workers' profiler off (:data:`LOCAL_CLUSTER_CONFIG`; a restarted worker keeps it off)."""
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                            silence_logs=logging.ERROR)
+
+
 @contextlib.contextmanager
 def connect(address: str, model_dir: str | None, progress: ProgressCallback | None = None,
             model: str | None = None) -> Iterator[Any]:
@@ -110,8 +125,7 @@ def connect(address: str, model_dir: str | None, progress: ProgressCallback | No
     kind, where = parse_address(address)
     with contextlib.ExitStack() as stack:
         if kind == "local":
-            cluster = stack.enter_context(LocalCluster(n_workers=int(where), threads_per_worker=1, processes=True,
-                                                       dashboard_address=":0", silence_logs=logging.ERROR))
+            cluster = stack.enter_context(local_cluster(int(where)))
             client = stack.enter_context(Client(cluster))
         else:
             try:
@@ -165,15 +179,40 @@ def _labelled(progress: ProgressCallback | None, label: str | None) -> ProgressC
     return relay
 
 
-def _cluster_chunk(job: detect.DetectJob, store_root: str, start: int, stop: int) -> tuple[int, int]:
+#: A video given as a URL: (URL, the path of its copy, its size in bytes when the client copied it).
+Copy = tuple[str, str, int]
+
+
+def _copies(run: local.PreparedRun) -> tuple[Copy, ...]:
+    """The session's videos given as URLs, with the place of their copy (the client's: each worker
+    copies the video to the same path on its machine)."""
+    return tuple((c.video_url, str(c.video_path), c.video_path.stat().st_size)
+                 for c in run.session.cameras if c.video_url)
+
+
+def _fetch(copies: Sequence[Copy]) -> None:
+    """On a worker: each video given as a URL copied to its place, unless there already."""
+    for url, path, size in copies:
+        remote.fetch(url, path, size=size)
+
+
+def _forget(paths: Sequence[str]) -> int:
+    return remote.forget(paths)
+
+
+def _cluster_chunk(job: detect.DetectJob, store_root: str, start: int, stop: int,
+                   copies: Sequence[Copy] = ()) -> tuple[int, int]:
     """Dask task: one chunk computed and stored (as a local worker process does)."""
+    _fetch(copies)
     with _INFERENCE_LOCK:
         return local._chunk_task(job, store_root, start, stop)
 
 
-def _cluster_finish(run: local.PreparedRun, ranges, reused: int, *chunks) -> tuple[local.AssessResult, list]:
+def _cluster_finish(run: local.PreparedRun, ranges, reused: int, *chunks,
+                    copies: Sequence[Copy] = ()) -> tuple[local.AssessResult, list]:
     """Dask task, once every chunk of the session is stored: tracking, scoring, CSV files and the
     report; returns the result and the warnings met."""
+    _fetch(copies)  # the recording's fingerprint reads the videos' first and last bytes
     events: list[ProgressEvent] = []
 
     def keep(event: ProgressEvent) -> None:
@@ -209,6 +248,7 @@ class _Running:
     chunks: list = dataclasses.field(default_factory=list)
     finish: Any = None
     pose_s: float | None = None
+    copies: tuple[Copy, ...] = ()
 
 
 def assess_sessions(session_dirs: Sequence[str | Path], address: str,
@@ -242,15 +282,27 @@ def assess_sessions(session_dirs: Sequence[str | Path], address: str,
                     continue
                 state = _Running(i, run, sp, total_frames=ranges[-1][1] if ranges else 0,
                                  done_frames=sum(b - a for a, b in ranges) - sum(b - a for a, b in todo),
-                                 t_submit=time.perf_counter())
+                                 t_submit=time.perf_counter(), copies=_copies(run))
                 msg = f"{len(done)} of {len(ranges)} chunks already done" if done else ""
                 report(sp, "pose", state.done_frames, state.total_frames, unit="frame", message=msg)
                 root = str(run.store.root.resolve())
-                state.chunks = [client.submit(_cluster_chunk, run.job, root, a, b, pure=False) for a, b in todo]
-                state.finish = client.submit(_cluster_finish, run, ranges, len(done), *state.chunks, pure=False)
+                state.chunks = [client.submit(_cluster_chunk, run.job, root, a, b, state.copies, pure=False)
+                                for a, b in todo]
+                state.finish = client.submit(_cluster_finish, run, ranges, len(done), *state.chunks,
+                                             copies=state.copies, pure=False)
                 running.append(state)
             _follow(client, running, outcomes, dirs)
     return [o for o in outcomes if o is not None]
+
+
+def _drop_copies(client, st: _Running) -> None:
+    """A session done: the copies of its videos given as URLs removed on every worker and here."""
+    if not st.copies:
+        return
+    paths = [p for _, p, _ in st.copies]
+    with contextlib.suppress(Exception):  # a worker gone meanwhile: its copies went with its machine or stay in tmp
+        client.run(_forget, paths)
+    remote.forget(paths)
 
 
 def _follow(client, running: list[_Running], outcomes: list, session_dirs: list[Path]) -> None:
@@ -276,9 +328,11 @@ def _follow(client, running: list[_Running], outcomes: list, session_dirs: list[
                 result, notes = fut.result()
             except Exception as exc:
                 client.cancel([c for c in st.chunks if not c.done()])
+                _drop_copies(client, st)
                 outcomes[st.index] = SessionOutcome(session_dirs[st.index], run.out_dir, error=exc)
                 report(st.progress, "report", 0, 1, unit="step", message="failed")
                 continue
+            _drop_copies(client, st)
             for e in notes:
                 report(st.progress, e.stage, e.done, e.total, unit=e.unit, message=e.message)
             timings = {**run.timings, "pose": st.pose_s if st.pose_s is not None else 0.0, **result.stage_seconds}

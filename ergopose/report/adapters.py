@@ -45,6 +45,7 @@ from ergopose.report.context import (
     LimbStats,
     MethodInfo,
     ModelInfo,
+    PeriodInput,
     RegionAccuracy,
     Repetition,
     Setting,
@@ -339,11 +340,13 @@ def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], fra
             return int(np.nanmax(v)) if np.isfinite(v).any() else None
 
         drivers: tuple[Driver, ...] = ()
+        inputs: tuple[PeriodInput, ...] = ()
         if ft is not None:
             a, b = np.searchsorted(ft, [p.start_s, p.end_s - 0.5 * frame_period_s])
             rows = frames.iloc[int(a):int(b) + 1] if b >= a else frames.iloc[0:0]
             rows = rows[np.isin(rows["time_s"].to_numpy(dtype=np.float64), t[sl][high])] if len(rows) else rows
             drivers = _drivers(rows, methods, frame_period_s, p.high_s)
+            inputs = period_input_records(periods.period_inputs(rows, frame_period_s))
         joints = joints_at(drawn_s) if joints_at is not None else None
         reason = ("; ".join(f"{d.body_part} {d.criterion} (band {d.score} of {d.top}) for {_secs(d.seconds)}"
                             for d in drivers)
@@ -353,7 +356,41 @@ def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], fra
             rula_level=score("rula_action_level"), reba_score=score("reba_score"),
             reba_level=score("reba_risk_level"), reason=reason,
             joints_world_m=None if joints is None else tuple(tuple(float(x) for x in q) for q in np.asarray(joints)),
-            high_s=float(p.high_s), rula_peak=peak("rula_grand"), reba_peak=peak("reba_score"), drivers=drivers))
+            high_s=float(p.high_s), rula_peak=peak("rula_grand"), reba_peak=peak("reba_score"), drivers=drivers,
+            inputs=inputs))
+    return tuple(out)
+
+
+#: What the measured angles feed.
+MEASURED_USE = "RULA and REBA posture steps (upper arm, lower arm, wrist, neck, trunk, legs)"
+
+
+def period_input_records(uses: Sequence[periods.InputUse]) -> tuple[PeriodInput, ...]:
+    """The report records of a period's score inputs (ergopose.report.periods.InputUse): each in
+    words, its value in words (angles in degrees) and what it feeds."""
+    out = []
+    for u in uses:
+        if u.input == "angles":
+            name, use = f"angles of the {', '.join(u.measured)}", MEASURED_USE
+        elif u.input in periods.TASK_INPUTS:
+            key = "load_kg" if u.input == "load" else u.input
+            name, use = FACTOR_WORDS[key], FACTOR_USE[key]
+        else:  # a wrist angle the settings gave where the hand was not seen
+            side, angle = u.input.split("_", 1)
+            name, use = f"{side} {angle.replace('_', ' ')}", FACTOR_USE[angle]
+        value = ""
+        if u.source == "task input":
+            if u.input == "load":
+                kg, held = u.value
+                value = ", ".join(x for x in ((f"{kg:g} kg" if kg is not None else "kg not given"),
+                                              (f"held {held}" if held else "")) if x)
+            elif isinstance(u.value, bool):
+                value = "yes" if u.value else "no"
+            elif u.input in periods.TASK_INPUTS:
+                value = str(u.value)
+            else:
+                value = f"{_wrist_words(u.input, float(u.value))}, where the hand was not seen"
+        out.append(PeriodInput(input=name, source=u.source, value=value, seconds=float(u.seconds), use=use))
     return tuple(out)
 
 

@@ -378,6 +378,35 @@ class Driver:
 
 
 @dataclass(frozen=True)
+class PeriodInput:
+    """A score input during a sustained period's high-risk time and where it came from
+    (ergopose.report.periods.period_inputs).
+
+    input: the input in words ("load", "hand coupling", "left wrist flexion", or the measured
+    angles, "angles of the upper arms, lower arms, wrists, neck, trunk, legs"). source: one of
+    PERIOD_INPUT_SOURCES: "measured" (the cameras), "task input" (settings.toml) or "not given"
+    (no value: the scoring's rule for unknown inputs). value: a task input's value in words ("12
+    kg, held static", "poor", "yes", "17° (flexion)"; angles in degrees), "" otherwise. seconds:
+    the time of the period's high frames with this source and value. use: what the input feeds
+    (RULA and REBA steps).
+    """
+
+    input: str
+    source: str
+    value: str
+    seconds: float
+    use: str
+
+    def __post_init__(self) -> None:
+        if self.source not in PERIOD_INPUT_SOURCES:
+            raise ValueError(f"source must be one of {PERIOD_INPUT_SOURCES}, got {self.source!r}")
+
+
+#: Where a score input of a period came from.
+PERIOD_INPUT_SOURCES = ("measured", "task input", "not given")
+
+
+@dataclass(frozen=True)
 class WorstMoment:
     """A sustained period of high risk (ergopose.report.periods; "worst moment" in results
     written before periods existed, when it was one run of a level).
@@ -388,7 +417,8 @@ class WorstMoment:
     (world metres, NaN = missing joint), or None when no skeleton was stored. high_s: time at high
     risk within the period (NaN in older results). rula_peak, reba_peak: highest score within the
     period (None when unknown). drivers: the body parts in their high bands for most of the
-    period, longest first (empty when unknown).
+    period, longest first (empty when unknown). inputs: the score inputs of its high-risk time and
+    where each came from, measured or task input (empty in results written before they were read).
     """
 
     start_s: float
@@ -404,6 +434,7 @@ class WorstMoment:
     rula_peak: int | None = None
     reba_peak: int | None = None
     drivers: tuple[Driver, ...] = ()
+    inputs: tuple[PeriodInput, ...] = ()
 
     def __post_init__(self) -> None:
         if self.joints_world_m is not None and len(self.joints_world_m) != 33:

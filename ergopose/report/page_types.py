@@ -207,6 +207,20 @@ class DriverRow:
 
 
 @dataclass(frozen=True)
+class PeriodInputRow:
+    """A score input of a sustained period: input (in words), source ("measured", "task input" or
+    "not given"), value (a task input's value, angles in degrees; "" otherwise), time (of the
+    period's high-risk time with it, and its share: "9.0 s (75 %)"), use (the RULA / REBA steps it
+    feeds)."""
+
+    input: str
+    source: str
+    value: str
+    time: str
+    use: str
+
+
+@dataclass(frozen=True)
 class MomentCard:
     """A sustained period of high risk (ergopose.report.periods): rank (1 = most time at high
     risk), start / end (clock times), duration (start to end), high_time (time at high risk within
@@ -214,8 +228,10 @@ class MomentCard:
     longest), rula / reba (score at that frame with its level's name, "6 (AL3), up to 7" when the
     period's highest score differs),
     drivers (the body parts in their high bands for most of it; empty when unknown), reason (the
-    same in a sentence, or why there is none), figure (front and side view of the skeleton at the
-    frame drawn)."""
+    same in a sentence, or why there is none), task_inputs (the task inputs of the settings in
+    force during its high-risk time and those not given, in one line), inputs (every score input,
+    measured or task input; empty in results written before they were read), figure (front and
+    side view of the skeleton at the frame drawn)."""
 
     rank: int
     start: str
@@ -227,6 +243,8 @@ class MomentCard:
     reba: str
     drivers: tuple[DriverRow, ...]
     reason: str
+    task_inputs: str
+    inputs: tuple[PeriodInputRow, ...]
     figure: Figure
 
 

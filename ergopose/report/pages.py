@@ -24,6 +24,7 @@ from ergopose.report.context import (
     WorkerResults,
 )
 from ergopose.report.page_types import (
+    PeriodInputRow,
     BandRow,
     CalibrationRow,
     ConfidenceRow,
@@ -56,6 +57,7 @@ from ergopose.report.page_types import (
 from ergopose.report.periods import MAX_PERIODS
 from ergopose.report.quality import Finding, Verdict, quality_verdict
 from ergopose.report.sections import (
+    task_inputs_line,
     PRINT_FILE,
     PRINT_PERIODS,
     _csv_label,
@@ -247,6 +249,6 @@ __all__ = [
     "ConfidenceRow", "InputRow", "confidence_rows", "input_rows", "CONFIDENCE_WORDS",
     "BandRow", "HoldRow", "RepetitionRow", "MomentCard", "HourRow", "HourTable", "FlagRow", "LimbRow", "RegionRow",
     "QualitySection", "WorkerPage", "WorkerRow", "IndexPage", "build_worker_page", "build_index_page",
-    "DriverRow", "Term", "PrintRow", "PrintWorker", "PrintPage", "build_print_page", "PRINT_FILE", "glossary",
+    "DriverRow", "PeriodInputRow", "task_inputs_line", "Term", "PrintRow", "PrintWorker", "PrintPage", "build_print_page", "PRINT_FILE", "glossary",
     "worker_page_name", "Finding", "Verdict",
 ]

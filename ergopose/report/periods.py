@@ -16,6 +16,12 @@ the report does not rank single frames. Its rule (docs/reports.md, "Sustained pe
    frames with unchanged RULA grand and REBA scores (the posture held longest), the first such
    run on ties.
 
+6. Each period names its score inputs and where they came from (:func:`period_inputs`, over its
+   high frames): the body angles the cameras measured; each task input of the settings in force
+   (load and how it is held, coupling, the flags, with the time each value held); the wrist
+   angles given by the settings where the hand was not seen (``inputs_from_settings``); and the
+   task inputs not given (scored by the rule for unknown inputs).
+
 Everything here is numpy on whole arrays (no per-frame Python loop): an 8-hour shift at 12 fps
 (346k frames) is found in milliseconds.
 """
@@ -23,8 +29,13 @@ Everything here is numpy on whole arrays (no per-frame Python loop): an 8-hour s
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import pandas as pd
+
+from ergopose.ergonomics.task_inputs import COLUMN as FROM_SETTINGS_COLUMN
+from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS, used_mask
 
 #: Levels counted as high risk (the index page's and floor maps' "high"), per method.
 HIGH_LEVELS = {"rula": (3, 4), "reba": (3, 4)}
@@ -130,5 +141,88 @@ def worker_periods(time_s: np.ndarray, rula_grand: np.ndarray, rula_level: np.nd
     return sustained_periods(time_s, high, frame_period_s, held=rg * 16 + rb)[:limit]
 
 
+#: Task inputs of the settings as the scored frames hold them (docs/posture-table.md): load_kg
+#: (NaN = not given), load_mode and coupling (text, <NA> = not given), flags 0.0 / 1.0 (NaN = not
+#: given). The load and how it is held are one input (RULA force/load, REBA load/force).
+TASK_INPUTS = ("load", "coupling", "shock", "arm_supported", "seated", "legs_supported", "wrist_twist_end_range")
+#: The angles the cameras measure for RULA and REBA (the wrists too, unless the settings stand in).
+MEASURED_INPUTS = ("upper arms", "lower arms", "wrists", "neck", "trunk", "legs")
+#: Columns of the scored frames :func:`period_inputs` reads.
+INPUT_COLUMNS = ("load_kg", "load_mode", *TASK_INPUTS[1:], FROM_SETTINGS_COLUMN, *SETTINGS_INPUTS)
+
+
+@dataclass(frozen=True)
+class InputUse:
+    """A score input during a period's high frames and where it came from.
+
+    input: "angles" (the MEASURED_INPUTS), a TASK_INPUTS name, or a SETTINGS_INPUTS wrist angle
+    ("left_wrist_flexion": the settings' value scored where the hand was not seen; the measured
+    angle elsewhere). source: "measured" (the cameras), "task input" (settings.toml) or "not
+    given" (no value in the settings: the scoring's rule for unknown inputs). value: for a task
+    input, load (kg or None, how held or None), the coupling text, the flag (bool) or the wrist
+    angle (radians); None otherwise. seconds: the period's high frames with this source and value
+    x frame period. measured: for "angles", the MEASURED_INPUTS.
+    """
+
+    input: str
+    source: str
+    value: Any
+    seconds: float
+    measured: tuple[str, ...] = ()
+
+
+def period_inputs(rows: Any, frame_period_s: float) -> tuple[InputUse, ...]:
+    """The score inputs of one period (``rows``: its high frames from the scored frames, with the
+    INPUT_COLUMNS present; a column missing = results written before they were read: that input
+    is left out). Order: the measured angles, the wrist angles given by the settings, the task
+    inputs given, the task inputs not given; within an input the value held longest first."""
+    n = len(rows)
+    if not n:
+        return ()
+    cols = set(rows.columns)
+    out: list[InputUse] = []
+    wrists: list[InputUse] = []
+    if FROM_SETTINGS_COLUMN in cols:
+        for name in SETTINGS_INPUTS:
+            used = used_mask(rows[FROM_SETTINGS_COLUMN], name)
+            if not used.any() or name not in cols:
+                continue
+            given = np.round(rows[name].to_numpy(np.float64, na_value=np.nan)[used], 9)
+            vals, counts = np.unique(given, return_counts=True)
+            for k in np.argsort(-counts, kind="stable"):
+                wrists.append(InputUse(name, "task input", float(vals[k]), float(counts[k]) * frame_period_s))
+    out.append(InputUse("angles", "measured", None, n * frame_period_s, MEASURED_INPUTS))
+    out.extend(wrists)
+    given_rows: list[InputUse] = []
+    missing: list[InputUse] = []
+    for name in TASK_INPUTS:
+        keys = ["load_kg", "load_mode"] if name == "load" else [name]
+        if not all(k in cols for k in keys):
+            continue
+        table = rows.loc[:, keys].reset_index(drop=True)
+        present = table.notna().any(axis=1).to_numpy(dtype=bool)
+        if not present.all():
+            missing.append(InputUse(name, "not given", None, float((~present).sum()) * frame_period_s))
+        if not present.any():
+            continue
+        counts = table[present].astype(object).value_counts(dropna=False)
+        found = [(tuple(_plain(v) for v in (key if isinstance(key, tuple) else (key,))), int(c))
+                 for key, c in counts.items()]
+        for key, count in sorted(found, key=lambda kc: (-kc[1], repr(kc[0]))):
+            value: Any = key if name == "load" else key[0] if name == "coupling" else bool(key[0])
+            given_rows.append(InputUse(name, "task input", value, count * frame_period_s))
+    return tuple(out + given_rows + missing)
+
+
+def _plain(v: Any) -> Any:
+    """A value of a task input column as a plain Python value; None where not given."""
+    if v is None or v is pd.NA:
+        return None
+    if isinstance(v, (float, np.floating)):
+        return None if not np.isfinite(v) else float(v)
+    return str(v)
+
+
 __all__ = ["HIGH_LEVELS", "MIN_DURATION_S", "MAX_GAP_S", "MAX_PERIODS", "DRIVER_SHARE", "MAX_DRIVERS", "Period", "high_frames",
-           "sustained_periods", "worker_periods"]
+           "sustained_periods", "worker_periods", "TASK_INPUTS", "MEASURED_INPUTS", "INPUT_COLUMNS", "InputUse",
+           "period_inputs"]

@@ -38,6 +38,7 @@ from ergopose.report.page_types import (
     MethodHeadline,
     MethodsSection,
     MomentCard,
+    PeriodInputRow,
     QualitySection,
     RegionRow,
     RegionSpreadRow,
@@ -413,14 +414,35 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
         drivers = tuple(DriverRow(body_part=d.body_part, band=f"{d.score} of {d.top}", criterion=d.criterion,
                                   time=fmt_duration(d.seconds), percent=fmt_percent(d.seconds, w.high_s))
                         for d in w.drivers)
+        base = w.high_s if math.isfinite(w.high_s) else length
+        inputs = tuple(PeriodInputRow(input=i.input, source=i.source, value=i.value,
+                                      time=f"{fmt_duration(i.seconds)} ({fmt_percent(i.seconds, base)})", use=i.use)
+                       for i in w.inputs)
         cards.append(MomentCard(
             rank=k, start=clock(w.start_s), end=clock(w.end_s), duration=fmt_duration(length), high_time=high,
             when=clock(w.peak_s), rula=words(w.rula_grand, w.rula_level, w.rula_peak, rula),
             reba=words(w.reba_score, w.reba_level, w.reba_peak, reba), drivers=drivers, reason=w.reason,
+            task_inputs=task_inputs_line(w.inputs, base), inputs=inputs,
             figure=Figure(id=f"{prefix}fig-moment-{k}", svg=fig,
                           caption=f"Period {k} at {clock(w.peak_s)}: front view (worker's right on the left) and side "
                                   "view (seen from the worker's right). No video images are kept.")))
     return tuple(cards)
+
+
+def task_inputs_line(inputs, high_s: float) -> str:
+    """The task inputs of a period in one line: each given value (with its time when it held for
+    only part of the high-risk time), then those not given; "not recorded" for older results."""
+    if not inputs:
+        return "not recorded"
+    given, missing = [], []
+    for i in inputs:
+        if i.source == "task input":
+            part = "" if i.seconds >= high_s - 1e-6 else f" ({fmt_duration(i.seconds)})"
+            given.append(f"{i.input}: {i.value}{part}")
+        elif i.source == "not given" and i.input not in missing:
+            missing.append(i.input)
+    text = "; ".join(given) if given else "none given"
+    return text + (f"; not given: {', '.join(missing)}" if missing else "")
 
 
 def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIODS) -> str:

@@ -49,7 +49,8 @@ class CameraTable(Table):
     """One camera of the session and its video."""
 
     name: Text = Field(description="a camera of the calibration file", examples=["cam_1"])
-    video: Text = Field(description="its video, relative to the session folder", examples=["cam_1.mp4"])
+    video: Text = Field(description="its video: a file relative to the session folder, or an fsspec URL (docs/cluster.md)",
+                       examples=["cam_1.mp4"])
 
 
 class IdentificationTable(Table):

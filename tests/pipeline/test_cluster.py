@@ -96,3 +96,22 @@ def test_one_damaged_session_of_three_fails_alone(reference, tiny_session, fetch
     # progress per session: each session's own pose bar
     for name in ("day_a", "day_b", "day_c"):
         assert f"{name} pose" in captured.err
+
+
+def test_videos_given_as_urls_are_copied_to_the_workers_and_removed(reference, tiny_session, fetched_model_dir,
+                                                                    tmp_path, monkeypatch):
+    """The session's settings name its videos by file:// URL (in a folder of their own): the client
+    and the worker each read a copy from the cache folder (here one on this machine), the CSV bytes
+    are those of a local run of the folder, and no copy is left once the session is done."""
+    from tests.test_remote import with_url_videos
+
+    _, expected = reference
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("ERGOPOSE_VIDEO_CACHE", str(cache))  # the LocalCluster's workers inherit it
+    session = with_url_videos(tiny_session, tmp_path / "by_url" / "day1", tmp_path / "store")
+    out = tmp_path / "report"
+    options = AssessOptions(out_dir=out, chunk_seconds=0.5, model_dir=str(fetched_model_dir[0]))
+    (outcome,) = cluster.assess_sessions([session], "local:1", options)
+    assert outcome.error is None, outcome.error
+    assert csv_bytes(out) == expected
+    assert cache.is_dir() and not [p for p in cache.rglob("*") if p.is_file()]

@@ -168,3 +168,29 @@ def test_worst_periods_from_the_period_frames_equal_those_from_every_frame(sessi
     b = adapters.worker_summary(summary, timeline=aggregate._timeline(sink), frames=period_rows).worst
     assert len(a) >= 1 and a == b
     assert all(w.end_s - w.start_s >= 5.0 and w.drivers for w in a)
+
+
+def test_the_periods_name_the_task_inputs_of_the_settings(session):
+    """A 6-minute shift scored with a load and a coupling for everyone from the settings: every
+    sustained period names them for its whole high-risk time, the angles measured, the shock not
+    given."""
+    import dataclasses
+
+    from ergopose.pipeline import stages
+    from ergopose.report import adapters
+    from ergopose.session import TaskFactors
+
+    given = dataclasses.replace(session, defaults=TaskFactors(load_kg=12.0, load_mode="static", coupling="poor"),
+                                periods=(), workers=())
+    scoring = stages.scoring_settings(given)
+    scored = stages.score_worker(given, _shift_rows(6 * 60, seed=3, long_gap=False), "worker_1", scoring, None)
+    worst = adapters.worker_summary(scored.summary, frames=scored.frames).worst
+    assert len(worst) >= 1
+    for w in worst:
+        found = {(i.input, i.source): i for i in w.inputs}
+        assert found[("load", "task input")].value == "12 kg, held static"
+        assert found[("hand coupling", "task input")].value == "poor"
+        for key in (("load", "task input"), ("hand coupling", "task input"), ("shock or rapid build-up of force",
+                                                                              "not given")):
+            assert found[key].seconds == pytest.approx(w.high_s)
+        assert w.inputs[0].source == "measured" and w.inputs[0].input.startswith("angles of the upper arms")

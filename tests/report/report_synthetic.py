@@ -24,7 +24,9 @@ from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, 
 from ergopose.ergonomics.methods import load_method
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import LIMB_INDEX, LIMBS
-from ergopose.report.adapters import floor_plan_from_scene, methods_info, settings_records, worst_periods
+from ergopose.report import periods
+from ergopose.report.adapters import (floor_plan_from_scene, methods_info, period_input_records, settings_records,
+                                      worst_periods)
 from ergopose.report.context import (Assumption, BandTime, CauseSeconds, ConfidenceTime, InputQuality, DataFile, SettingsValue,
                                      CalibrationInfo, Hold, HourLevels, LevelTime, LimbFrequency,
                                      LimbStats, ModelInfo, RegionAccuracy, Repetition, SessionInfo, StandardFlag,
@@ -189,8 +191,16 @@ def _summary(worker_id: str, frames: pd.DataFrame, fps: float, duration_s: float
         joints = w.joints_world_m
         if k == 4 and joints is not None:  # one period with a missing forearm, as happens behind shelves
             joints = tuple((math.nan,) * 3 if j in (15, 17, 19, 21) else p for j, p in enumerate(joints))
+        h = w.high_s
+        uses = (periods.InputUse("angles", "measured", None, h, periods.MEASURED_INPUTS),
+                periods.InputUse("left_wrist_flexion", "task input", math.radians(20.0), round(0.3 * h, 3)),
+                periods.InputUse("load", "task input", (12.0, "static"), round(0.75 * h, 3)),
+                periods.InputUse("arm_supported", "task input", False, h),
+                periods.InputUse("load", "not given", None, round(0.25 * h, 3)),
+                periods.InputUse("coupling", "not given", None, h))
+        inputs = period_input_records(uses[: 2 + k % 5]) if k != 2 else ()  # period 3: results before inputs
         worst.append(dataclasses.replace(
-            w, drivers=drivers, joints_world_m=joints,
+            w, drivers=drivers, joints_world_m=joints, inputs=inputs,
             reason="; ".join(f"{d.body_part} {d.criterion} (band {d.score} of {d.top})" for d in drivers)))
     flags = (
         StandardFlag("ISO 11226", "trunk", "trunk inclination over 60 deg", "not recommended",

@@ -103,3 +103,65 @@ def test_a_long_shift_keeps_every_high_second():
     t = np.arange(n) / 12.0
     got = sustained_periods(t, high, 1 / 12)
     assert sum(p.high_s for p in got) == pytest.approx(high.sum() / 12)
+
+
+def _period_rows():
+    """Ten high frames (0.5 s each) of a period: 12 kg held static for the first six, nothing given
+    for the last four; the arm supported throughout; seated given as no for five frames; the left
+    wrist flexion given by the settings (20 deg) in the three frames where the hand was not seen."""
+    import pandas as pd
+
+    nan = np.nan
+    return pd.DataFrame({
+        "load_kg": [12.0] * 6 + [nan] * 4,
+        "load_mode": pd.array(["static"] * 6 + [None] * 4, dtype="string"),
+        "coupling": pd.array([None] * 10, dtype="string"),
+        "shock": [nan] * 10, "arm_supported": [1.0] * 10, "seated": [0.0] * 5 + [nan] * 5,
+        "legs_supported": [nan] * 10, "wrist_twist_end_range": [nan] * 10,
+        "inputs_from_settings": pd.array(["left_wrist_flexion"] * 3 + [""] * 7, dtype="string"),
+        "left_wrist_flexion": [np.radians(20.0)] * 3 + [0.3] * 7, "right_wrist_flexion": [0.1] * 10,
+        "left_wrist_deviation": [0.0] * 10, "right_wrist_deviation": [0.0] * 10,
+    })
+
+
+def test_a_period_names_its_task_inputs_and_what_was_measured():
+    from ergopose.report.periods import MEASURED_INPUTS, InputUse, period_inputs
+
+    got = period_inputs(_period_rows(), 0.5)
+    assert got == (
+        InputUse("angles", "measured", None, 5.0, MEASURED_INPUTS),
+        InputUse("left_wrist_flexion", "task input", pytest.approx(np.radians(20.0)), 1.5),
+        InputUse("load", "task input", (12.0, "static"), 3.0),
+        InputUse("arm_supported", "task input", True, 5.0),
+        InputUse("seated", "task input", False, 2.5),
+        InputUse("load", "not given", None, 2.0),
+        InputUse("coupling", "not given", None, 5.0),
+        InputUse("shock", "not given", None, 5.0),
+        InputUse("seated", "not given", None, 2.5),
+        InputUse("legs_supported", "not given", None, 5.0),
+        InputUse("wrist_twist_end_range", "not given", None, 5.0),
+    )
+    # results written before the inputs were read: only what the frames hold
+    assert period_inputs(_period_rows()[["load_kg"]], 0.5) == (InputUse("angles", "measured", None, 5.0,
+                                                                         MEASURED_INPUTS),)
+    assert period_inputs(_period_rows().iloc[0:0], 0.5) == ()
+
+
+def test_the_report_words_of_a_period_s_inputs():
+    from ergopose.report.adapters import period_input_records
+    from ergopose.report.pages import task_inputs_line
+    from ergopose.report.periods import period_inputs
+
+    records = period_input_records(period_inputs(_period_rows(), 0.5))
+    words = [(r.input, r.source, r.value, r.seconds) for r in records]
+    assert words[0] == ("angles of the upper arms, lower arms, wrists, neck, trunk, legs", "measured", "", 5.0)
+    assert words[1] == ("left wrist flexion", "task input", "20° (flexion), where the hand was not seen", 1.5)
+    assert words[2] == ("load", "task input", "12 kg, held static", 3.0)
+    assert words[3] == ("arm supported or leaning", "task input", "yes", 5.0)
+    assert ("hand coupling", "not given", "", 5.0) in words
+    assert all(r.use for r in records)
+    assert task_inputs_line(records, 5.0) == (
+        "left wrist flexion: 20° (flexion), where the hand was not seen (1.5 s); load: 12 kg, held static (3.0 s); "
+        "arm supported or leaning: yes; seated: no (2.5 s); not given: load, hand coupling, shock or rapid build-up "
+        "of force, seated, legs and feet supported, wrist twisted near the end of its range")
+    assert task_inputs_line((), 5.0) == "not recorded"
