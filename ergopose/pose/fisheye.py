@@ -648,7 +648,8 @@ class FisheyePoseEstimator:
         targets = list(self._targets)
         seen = self._frames_seen
         period = self.search_period(bool(targets))
-        motion_now = seen % period == 0
+        # Motion cues at the search interval, however long a pass over the search views takes.
+        motion_now = seen % (s.search_every if targets else s.idle_search_every) == 0
         motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
         self._frames_seen += 1
         lost, self._lost = self._lost, []

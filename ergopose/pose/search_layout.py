@@ -80,18 +80,21 @@ class SearchRing:
 
 @dataclass(frozen=True)
 class SearchLayout:
-    """The search views: rings from the lens axis outwards; ``covered``: every direction up to
-    this angle off the lens axis lies in a view that holds the whole person there."""
+    """The search views: rings from the lens axis outwards; ``covered``: every direction of the
+    image up to this angle off the lens axis lies in a view that holds the whole person there.
+    ``dropped``: indices (in the order of :meth:`all_views`) of the ring views that hold no
+    direction of the image (a rectangular image cut from the circle) and are not run."""
 
     rings: tuple[SearchRing, ...]
     covered: float
+    dropped: tuple[int, ...] = ()
 
     @property
     def count(self) -> int:
-        return sum(r.count for r in self.rings)
+        return sum(r.count for r in self.rings) - len(self.dropped)
 
-    def views(self) -> tuple[np.ndarray, np.ndarray]:
-        """(V, 3) unit view axes in the camera frame and (V,) half fields of view."""
+    def all_views(self) -> tuple[np.ndarray, np.ndarray]:
+        """(V, 3) unit axes in the camera frame and (V,) half fields of view of every ring view."""
         axes, halves = [], []
         for r in self.rings:
             az = r.azimuth0 + 2.0 * np.pi * np.arange(r.count) / r.count
@@ -99,6 +102,13 @@ class SearchLayout:
                                   np.full(r.count, np.cos(r.polar))], axis=-1))
             halves.append(np.full(r.count, r.half_fov))
         return np.concatenate(axes), np.concatenate(halves)
+
+    def views(self) -> tuple[np.ndarray, np.ndarray]:
+        """(V, 3) unit axes and (V,) half fields of view of the views that are run."""
+        axes, halves = self.all_views()
+        keep = np.ones(len(halves), bool)
+        keep[list(self.dropped)] = False
+        return axes[keep], halves[keep]
 
 
 def fixed_layout(polars: tuple[float, ...], per_ring: int, half_fov: float, max_theta: float) -> SearchLayout:
@@ -208,7 +218,38 @@ def derive_layout(camera: Camera, detector_px: int, sizing: SearchSizing = Searc
             break
         rings.append(replace_azimuth(ring, len(rings)))
         covered = reach
-    return SearchLayout(tuple(rings), min(covered, top))
+    layout = SearchLayout(tuple(rings), min(covered, top))
+    return SearchLayout(layout.rings, layout.covered, _outside_image(camera, layout, sizing))
+
+
+def _cone(axis: np.ndarray, radius: float, n: int = 400) -> np.ndarray:
+    """n directions spread evenly over the cone of ``radius`` around the unit ``axis``."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - (1.0 - np.cos(radius)) * k / n
+    az = np.pi * (1.0 + 5 ** 0.5) * k
+    r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    local = np.stack([r * np.cos(az), r * np.sin(az), z], axis=-1)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(helper, axis)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    return local @ np.stack([e1, e2, axis])
+
+
+def _outside_image(camera: Camera, layout: SearchLayout, sizing: SearchSizing) -> tuple[int, ...]:
+    """Ring views whose holding cone (half field of view less the person's radius) has no
+    direction that lands on a lit pixel of the image."""
+    axes, halves = layout.all_views()
+    out = []
+    for i, (axis, half) in enumerate(zip(axes, halves)):
+        dirs = _cone(axis, float(half))
+        hold = half - np.minimum(person_radius(camera, dirs, sizing), 0.5 * half)
+        dirs = dirs[np.arccos(np.clip(dirs @ axis, -1.0, 1.0)) <= hold]
+        with np.errstate(invalid="ignore"):
+            lit = camera.lit(camera.lens.project(dirs)) if len(dirs) else np.zeros(0, bool)
+        if not lit.any():
+            out.append(i)
+    return tuple(out)
 
 
 def replace_azimuth(ring: SearchRing, index: int) -> SearchRing:

@@ -10,8 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from ergopose.geometry.camera import Camera, ceiling_rotation
+from ergopose.geometry.camera import Camera, ceiling_rotation, look_at_rotation
 from ergopose.geometry.lenses.equidistant import Equidistant
+from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
 from ergopose.pose.search_layout import (
     SearchSizing,
@@ -37,11 +38,19 @@ def equidistant_camera(size: int, fov_deg: float = 180.0, height: float = 3.0, t
                   image_circle=((size - 1) / 2, (size - 1) / 2, size / 2))
 
 
+def wall_camera() -> Camera:
+    """A 1920 x 1080 pinhole camera (70 deg across) 1.9 m high, looking level and 15 deg down."""
+    forward = np.array([math.cos(math.radians(15)), 0.0, -math.sin(math.radians(15))])
+    return Camera(name="wall", lens=Rectilinear.from_fov(1920, 1080, math.radians(70.0)), width=1920, height=1080,
+                  rotation_world_from_cam=look_at_rotation(forward), position_world=np.array([0.0, 0.0, 1.9]))
+
+
 CAMERAS = {
     "rig 1024x768": lambda: rig_cameras(1024, 768)[0],
     "rig 2592x1944": lambda: rig_cameras(2592, 1944)[1],
     "equidistant 2048x2048": lambda: equidistant_camera(2048),
     "equidistant 1024x1024 tilted 10 deg, 4 m": lambda: equidistant_camera(1024, 190.0, 4.0, 10.0),
+    "pinhole 1920x1080 on a wall": wall_camera,
 }
 
 
@@ -64,6 +73,8 @@ def test_every_direction_lies_in_a_view_that_holds_the_person_at_the_size_rule(n
     axes, halves = layout.views()
     assert np.all(halves >= sizing.min_half_fov - 1e-12) and np.all(halves <= sizing.max_half_fov + 1e-12)
     dirs = cap_directions(top)
+    dirs = dirs[camera.lit(camera.lens.project(dirs))]  # the image's directions
+    assert len(dirs) > 500
     allowed = required_half_fov(camera, dirs, DETECTOR_PX, sizing)  # the largest view the rule allows there
     radius = person_radius(camera, dirs, sizing)
     angle = np.arccos(np.clip(dirs @ axes.T, -1.0, 1.0))  # (n, V)
@@ -73,6 +84,18 @@ def test_every_direction_lies_in_a_view_that_holds_the_person_at_the_size_rule(n
     worst = dirs[~ok]
     assert ok.all(), (f"{(~ok).sum()} of {len(dirs)} directions not held, e.g. "
                       f"{np.degrees(np.arccos(worst[:3, 2])).round(1).tolist()} deg off the axis")
+
+
+def test_views_that_hold_nothing_of_a_rectangular_image_are_left_out():
+    camera = wall_camera()
+    layout = derive_layout(camera, DETECTOR_PX, SearchSizing())
+    assert len(layout.dropped) > 0 and layout.count == len(layout.views()[1])
+    # every view kept holds some direction of the image; coverage is checked above
+    axes, halves = layout.views()
+    for axis, half in zip(axes, halves):
+        d = cap_directions(math.pi, 20000)
+        inside = d[np.arccos(np.clip(d @ axis, -1, 1)) <= half]
+        assert camera.lit(camera.lens.project(inside)).any()
 
 
 def test_a_finer_image_of_the_same_lens_gets_finer_views():
