@@ -8,10 +8,14 @@ The paper's steps 1-3 for one camera. Per frame:
    crop: aimed at their hip centre, half field of view = the angular radius of their body
    circle times ``body_margin``, rolled towards their body axis. Without them: aimed at the
    confident hip keypoints, fitted to the body keypoints, rolled towards the hip-to-shoulder
-   direction. Every ``search_every`` frames coarse cues are added: moving blobs from
-   background subtraction on a downscaled frame, and the BlazePose detector run on a fixed set
-   of upright search views that together cover the floor; and on the frame after a followed
-   person's view gave up, the detector runs on the search views around that place. Each cue
+   direction. Every ``search_every`` frames moving blobs from background subtraction on a
+   downscaled frame are added as cues; the BlazePose detector runs on upright search views
+   that together cover the image circle to the horizon, placed and sized from the lens, the
+   image and the detector's input (ergopose/pose/search_layout.py: a person at the farthest
+   working distance spans enough detector pixels), a few views per frame so that a whole pass
+   costs at most ``search_views_per_frame`` detector runs per frame on average; and on the
+   frame after a followed person's view gave up, the detector runs on the search views around
+   that place. Each cue
    is a bearing (a ray in the camera frame), an angular size and, from the detector, the body
    axis.
 2. *Views.* Each target gets a virtual pinhole view (256 x 256 by default) aimed along its
@@ -112,7 +116,8 @@ class PoseSettings:
         a layout of V views takes max(search_every, ceil(V / search_views_per_frame)) frames per
         pass. With ``search_spread`` the pass is spread over those frames, else it runs in one
         frame at the start of each period. The first frame an estimator sees always gets the
-        whole pass (a chunk of an assessment starts with a search).
+        whole pass (a chunk of an assessment starts with a search). Motion cues are taken every
+        ``search_every`` frames (``idle_search_every`` while nobody is followed).
     idle_search_every, idle_search_views_per_frame: the same while nobody is being followed.
     search_spread: spread each pass over its frames (True) or run it at once (False).
     search_centre_rolls: the search view along the lens axis (where the world gives no "up")
