@@ -20,9 +20,9 @@ pose_stage_frame_ms: processor time of the 2D stage per camera frame (one camera
     empty room, rendered without workers, pasted on the first). The context gives the detector
     and landmark runs per frame, the people found per frame and the number of search views.
     Processor time, not wall time: on a shared machine the wall time measures the queue.
-    Measured when written (load 8-17, which inflates processor time too; docs/pose-in-fisheye.md,
-    "The search views"): full, lens layout, 1 / 4 / 8 people: 83 / 193 / 214 ms per frame (fixed
-    layout 83 / 168 / 194); lite 78 / 165 / 197; heavy 153 / 413 / 487.
+    Measured when written (load about 2; docs/pose-in-fisheye.md, "The search views"): full,
+    lens layout, 1 / 4 / 8 people: 83 / 220 / 190 ms per frame (fixed layout 81 / 171 / 169);
+    lite 78 / 139 / 160; heavy 144 / 373 / 476.
 
 The machine may be shared: every figure is the best of several repeats, and the load average
 at the time is in the context. Measured when written (docs/pose-in-fisheye.md), quiet machine:
