@@ -56,6 +56,7 @@ from typing import Protocol, Sequence
 import cv2
 import numpy as np
 
+from ergopose.errors import ConfigError
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import ViewMap, VirtualView, upright_rotation
@@ -528,7 +529,7 @@ class FisheyePoseEstimator:
             layout = fixed_layout(tuple(s.search_rings), s.search_views_per_ring, s.search_half_fov,
                                   self.camera.max_theta_in_image())
         else:
-            raise ValueError(f"search_layout must be 'lens' or 'fixed', got {s.search_layout!r}")
+            raise ConfigError(f"must be 'lens' or 'fixed', got {s.search_layout!r}", field="search_layout")
         self.search_layout = layout
         axes, halves = layout.views()
         rolls = [None] * len(axes)

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 
 _WORLD_UP = np.array([0.0, 0.0, 1.0])
@@ -188,10 +189,11 @@ def person_radius(camera: Camera, directions_cam: np.ndarray, sizing: SearchSizi
 
 def derive_layout(camera: Camera, detector_px: int, sizing: SearchSizing = SearchSizing()) -> SearchLayout:
     """The search layout for this camera and a detector whose input is ``detector_px`` wide
-    (module docstring). Raises ValueError when the camera sees no part of its image circle."""
+    (module docstring). InputError when the camera sees no part of its image circle."""
     top = min(float(camera.max_theta_in_image()), float(sizing.max_polar))
     if not np.isfinite(top) or top <= 0:
-        raise ValueError(f"camera {camera.name}: no image circle to search (max angle {top})")
+        raise InputError(f"camera {camera.name}: no lit image to search for people (largest angle off the lens "
+                         f"axis in the image: {top})")
     polars = np.linspace(0.0, top, _POLARS)
     az = 2.0 * np.pi * np.arange(_AZIMUTHS) / _AZIMUTHS
     grid = _directions(polars[:, None], az[None, :])  # (P, A, 3)

@@ -201,6 +201,14 @@ def test_each_pass_runs_every_search_view_once_at_the_cost_per_frame(spread):
         assert counts[period - 1::period] == [views] * 3 and sum(counts[:period - 1]) == 0
 
 
+def test_an_unknown_layout_is_a_config_error():
+    from ergopose.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="search_layout: must be 'lens' or 'fixed'"):
+        FisheyePoseEstimator(rig_cameras(1024, 768)[0], 0, _NoLandmarker(), _CountingDetector(),
+                             PoseSettings(search_layout="rings"))
+
+
 def test_fixed_layout_stays_available():
     camera = rig_cameras(1024, 768)[0]
     stage = FisheyePoseEstimator(camera, 0, _NoLandmarker(), _CountingDetector(), PoseSettings(search_layout="fixed"))
