@@ -11,6 +11,19 @@ pose_frames_per_s: FisheyePoseEstimator on both cameras of a 2-worker session, v
     taking one contiguous half of the frames with its own networks (1 thread each), which is
     how the assess command uses both cores. Goal: at least 12 frame pairs per second.
 
+pose_stage_frame_ms: processor time of the 2D stage per camera frame (one camera, one LiteRT
+    thread, as one assess worker runs it; video decoding not included) with 1, 4 and 8 people in
+    the picture, for each landmark model card (lite, full, heavy), with the search layout from
+    the lens (the default) and, for the full card, the fixed layout of before (17 views of 42
+    degrees). 1 and 4 people: simulated sessions with 1 and 4 workers; 8: two 4-worker sessions
+    of different seeds laid over each other (the second session's pixels that differ from the
+    empty room, rendered without workers, pasted on the first). The context gives the detector
+    and landmark runs per frame, the people found per frame and the number of search views.
+    Processor time, not wall time: on a shared machine the wall time measures the queue.
+    Measured when written (load about 2; docs/pose-in-fisheye.md, "The search views"): full,
+    lens layout, 1 / 4 / 8 people: 83 / 220 / 190 ms per frame (fixed layout 81 / 171 / 169);
+    lite 78 / 139 / 160; heavy 144 / 373 / 476.
+
 The machine may be shared: every figure is the best of several repeats, and the load average
 at the time is in the context. Measured when written (docs/pose-in-fisheye.md), quiet machine:
 16.1 ms per view with 1 thread, 9.7 ms with 2; 16.0 frame pairs/s in one process, 18.4 in two.
@@ -186,11 +199,101 @@ def _warm(_: int) -> int:
     return 0
 
 
+STAGE_MINUTES = 0.1  # 72 frames at 12 fps
+STAGE_SEED = 21
+
+
+def _simulate_workers(folder: Path, workers: int, seed: int) -> Path:
+    from ergopose.cli import main as cli_main
+
+    out = folder / f"w{workers}s{seed}"
+    with contextlib.redirect_stdout(sys.stderr):
+        code = cli_main(["simulate", "--out", str(out), "--workers", str(workers), "--minutes", str(STAGE_MINUTES),
+                         "--seed", str(seed), "--size", "1024x768", "--processes", "1"])
+    if code != 0:
+        raise RuntimeError(f"ergopose simulate failed with exit code {code}")
+    return out
+
+
+def _frames(session_dir: Path, camera: int = 0) -> list[np.ndarray]:
+    from ergopose.session import load_session
+    from ergopose.video import read_frames
+
+    session = load_session(session_dir)
+    return [f for _, f in read_frames(session.cameras[camera].video_path, 0, session.frame_count)]
+
+
+def _empty_room(session_dir: Path, camera: int = 0) -> np.ndarray:
+    """The camera's picture of the room without workers (as the simulator renders its background)."""
+    from ergopose.session import load_session
+    from ergopose.sim.render import CameraRenderer, RenderOptions
+    from ergopose.sim.scene import default_scene
+
+    cam = load_session(session_dir).cameras[camera].camera
+    return CameraRenderer(cam, default_scene(), [], RenderOptions()).background
+
+
+def _overlaid(first: list[np.ndarray], second: list[np.ndarray], empty: np.ndarray) -> list[np.ndarray]:
+    """The second session's workers pasted on the first's frames (pixels that differ from the empty room)."""
+    out = []
+    for a, b in zip(first, second):
+        diff = np.abs(b.astype(np.int16) - empty.astype(np.int16)).max(axis=2)
+        mask = cv2.dilate((diff > 30).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        c = a.copy()
+        c[mask] = b[mask]
+        out.append(c)
+    return out
+
+
+def _stage_cost(camera, frames: list[np.ndarray], model: str, settings) -> dict:
+    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
+    from ergopose.pose.fisheye import FisheyePoseEstimator
+
+    landmarker = BlazePoseLandmarker(model=model, num_threads=1)
+    detector = BlazePoseDetector(num_threads=1)
+    stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings.with_gates(landmarker.card.gates))
+    found = 0
+    t0, w0 = time.process_time(), time.perf_counter()
+    for i, frame in enumerate(frames):
+        found += stage.process(frame, i).count
+    cpu, wall = time.process_time() - t0, time.perf_counter() - w0
+    n = len(frames)
+    return {"cpu_ms": 1e3 * cpu / n, "wall_ms": round(1e3 * wall / n, 2),
+            "detector_runs_per_frame": round(stage.detector_runs / n, 3),
+            "landmark_runs_per_frame": round(stage.landmark_runs / n, 3),
+            "people_per_frame": round(found / n, 2), "search_views": len(stage._search_views)}
+
+
+def bench_stage_people(folder: Path) -> None:
+    from ergopose.pose.fisheye import PoseSettings
+    from ergopose.pose.models import LANDMARK_MODELS
+    from ergopose.session import load_session
+
+    cv2.setNumThreads(1)
+    one = _simulate_workers(folder, 1, STAGE_SEED)
+    four = _simulate_workers(folder, 4, STAGE_SEED)
+    other = _simulate_workers(folder, 4, STAGE_SEED + 1)
+    camera = load_session(one).cameras[0].camera
+    four_frames = _frames(four)
+    crowds = {1: _frames(one), 4: four_frames, 8: _overlaid(four_frames, _frames(other), _empty_room(four))}
+    layouts = {"lens": PoseSettings(), "fixed": PoseSettings(search_layout="fixed")}
+    for model in LANDMARK_MODELS:
+        for layout, settings in layouts.items():
+            if layout == "fixed" and model != "full":
+                continue
+            for people, frames in crowds.items():
+                r = _stage_cost(camera, frames, model, settings)
+                emit("pose_stage_frame_ms", r.pop("cpu_ms"), "ms cpu", people=people, model=model, layout=layout,
+                     frames=len(frames), size="1024x768", threads=1, **r, load=_load())
+
+
 def main() -> None:
     with tempfile.TemporaryDirectory(prefix="ergopose-bench-pose-") as tmp:
-        session_dir = _simulate(Path(tmp))
-        bench_view(session_dir)
-        bench_stage(session_dir)
+        if "--people-only" not in sys.argv:
+            session_dir = _simulate(Path(tmp))
+            bench_view(session_dir)
+            bench_stage(session_dir)
+        bench_stage_people(Path(tmp))
 
 
 if __name__ == "__main__":

@@ -144,11 +144,12 @@ def _worker_number(name: str) -> int:
 # ------------------------------------------------------------------------------------------ detection
 
 
-def _regions_of_people(gt, limits_deg) -> np.ndarray:
-    """(F, P) lens region of each simulated worker's mid-hip point (larger angle of the cameras)."""
+def _regions_of_people(gt, limits_deg, per_camera: bool = False) -> np.ndarray:
+    """(F, P) lens region of each simulated worker's mid-hip point (larger angle of the cameras);
+    per_camera: (F, C, P), the region in each camera."""
     hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
     theta = np.degrees(gt.theta[..., hips].astype(np.float64).mean(axis=-1))  # (F, C, P)
-    return lens_region(np.nanmax(theta, axis=1), limits_deg)
+    return lens_region(theta if per_camera else np.nanmax(theta, axis=1), limits_deg)
 
 
 def detection_section(inp: _Inputs) -> dict:
@@ -164,6 +165,7 @@ def detection_section(inp: _Inputs) -> dict:
     reconstructed[tf.frame[hit], match[hit]] = True
     has_raw = np.isfinite(tf.raw_points_world).all(axis=-1).any(axis=-1) if len(tf) else np.zeros(0, bool)
     regions = _regions_of_people(gt, inp.recon.lens_region_limits_deg)
+    per_camera = _regions_of_people(gt, inp.recon.lens_region_limits_deg, per_camera=True)
 
     def rate(mask: np.ndarray) -> dict:
         n = int(mask.sum())
@@ -180,6 +182,9 @@ def detection_section(inp: _Inputs) -> dict:
         "visible_in_one_camera": rate(one),
         "all_worker_frames": rate(np.ones((F, P), bool)),
         "by_region": {name: rate(both & (regions == k)) for k, name in enumerate(REGIONS)},
+        "by_camera_region": {
+            camera: {name: rate(both & (per_camera[:, c] == k)) for k, name in enumerate(REGIONS)}
+            for c, camera in enumerate(inp.session.camera_names)},
         "tracked_rows": int(len(tf)),
         "tracked_rows_triangulated": int(has_raw.sum()),
         "tracked_rows_triangulated_unmatched": int((has_raw & ~hit).sum()),

@@ -8,10 +8,14 @@ The paper's steps 1-3 for one camera. Per frame:
    crop: aimed at their hip centre, half field of view = the angular radius of their body
    circle times ``body_margin``, rolled towards their body axis. Without them: aimed at the
    confident hip keypoints, fitted to the body keypoints, rolled towards the hip-to-shoulder
-   direction. Every ``search_every`` frames coarse cues are added: moving blobs from
-   background subtraction on a downscaled frame, and the BlazePose detector run on a fixed set
-   of upright search views that together cover the floor; and on the frame after a followed
-   person's view gave up, the detector runs on the search views around that place. Each cue
+   direction. Every ``search_every`` frames moving blobs from background subtraction on a
+   downscaled frame are added as cues; the BlazePose detector runs on upright search views
+   that together cover the image circle to the horizon, placed and sized from the lens, the
+   image and the detector's input (ergopose/pose/search_layout.py: a person at the farthest
+   working distance spans enough detector pixels), a few views per frame so that a whole pass
+   costs at most ``search_views_per_frame`` detector runs per frame on average; and on the
+   frame after a followed person's view gave up, the detector runs on the search views around
+   that place. Each cue
    is a bearing (a ray in the camera frame), an angular size and, from the detector, the body
    axis.
 2. *Views.* Each target gets a virtual pinhole view (256 x 256 by default) aimed along its
@@ -52,11 +56,13 @@ from typing import Protocol, Sequence
 import cv2
 import numpy as np
 
+from ergopose.errors import ConfigError
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import ViewMap, VirtualView, upright_rotation
 from ergopose.keypoints import JOINT_INDEX, MIRROR, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D, PersonDetection
+from ergopose.pose.search_layout import SearchLayout, SearchSizing, derive_layout, fixed_layout
 from ergopose.progress import ProgressCallback, warn
 from ergopose.records import Detections2D
 
@@ -106,8 +112,17 @@ class Detector(Protocol):
 class PoseSettings:
     """Settings of the fisheye 2D stage (angles in radians).
 
-    search_every: frames between searches for new people while someone is being followed.
-    idle_search_every: frames between searches while nobody is being followed.
+    search_every: frames a whole pass over the search views takes at least while someone is
+        being followed; at most ``search_views_per_frame`` detector runs per frame on average, so
+        a layout of V views takes max(search_every, ceil(V / search_views_per_frame)) frames per
+        pass. With ``search_spread`` the pass is spread over those frames, else it runs in one
+        frame at the start of each period. The first frame an estimator sees always gets the
+        whole pass (a chunk of an assessment starts with a search). Motion cues are taken every
+        ``search_every`` frames (``idle_search_every`` while nobody is followed).
+    idle_search_every, idle_search_views_per_frame: the same while nobody is being followed.
+    search_spread: spread each pass over its frames (True) or run it at once (False).
+    search_centre_rolls: the search view along the lens axis (where the world gives no "up")
+        is run this many times, turned about its axis in equal steps.
     search_where_lost: when a followed person's view finds nobody for the last time (after
         coasting), run the detector on the next frame on the search views around that place.
     coast_frames: a person not found in their view is looked for in the same view for this
@@ -116,10 +131,17 @@ class PoseSettings:
     min_keypoint_confidence: keypoints below this confidence do not steer the next view.
     body_margin: the view's half field of view is the body's angular radius times this.
     min_half_fov, max_half_fov: limits of a person view's half field of view.
-    search_half_fov: half field of view of the detector's search views.
-    search_rings: angles from the lens axis of the rings of search views (radians); the first
-        ring at 0 is a single view straight along the axis.
-    search_views_per_ring: number of search views on each ring after the first.
+    search_layout: "lens" (default): the search views are placed and sized from the lens, the
+        image circle and the detector's input size (ergopose/pose/search_layout.py): a person
+        ``search_person_height`` tall at ``search_max_distance`` (horizontally) spans at least
+        ``search_person_px`` detector pixels in a view that holds them, no view finer than
+        ``search_max_upsampling`` times the image's own pixel density, half fields of view within
+        ``search_min_half_fov`` .. ``search_max_half_fov``, every direction of the image circle up
+        to ``search_max_polar`` covered. "fixed": the explicit rings below.
+    search_half_fov: half field of view of the fixed layout's search views.
+    search_rings: angles from the lens axis of the fixed layout's rings of search views
+        (radians); the first ring at 0 is a single view straight along the axis.
+    search_views_per_ring: number of search views on each fixed ring after the first.
     min_detector_score: detector score to accept a search cue.
     motion_scale: downscaling of the frame for background subtraction.
     motion_min_area: smallest moving blob, as a fraction of the downscaled frame's area.
@@ -181,12 +203,24 @@ class PoseSettings:
 
     search_every: int = 12
     idle_search_every: int = 4
+    search_views_per_frame: float = 1.0
+    idle_search_views_per_frame: float = 4.5
     coast_frames: int = 2
     min_presence: float = 0.5
     min_keypoint_confidence: float = 0.3
     body_margin: float = 1.3
     min_half_fov: float = np.radians(8.0)
     max_half_fov: float = np.radians(55.0)
+    search_layout: str = "lens"
+    search_person_px: float = 60.0
+    search_person_height: float = 1.7
+    search_max_distance: float = 6.0
+    search_max_upsampling: float = 1.0
+    search_min_half_fov: float = np.radians(12.0)
+    search_max_half_fov: float = np.radians(45.0)
+    search_max_polar: float = np.radians(90.0)
+    search_spread: bool = True
+    search_centre_rolls: int = 1
     search_half_fov: float = np.radians(42.0)
     search_rings: tuple[float, ...] = (0.0, np.radians(45.0), np.radians(75.0))
     search_views_per_ring: int = 8
@@ -468,7 +502,16 @@ class FisheyePoseEstimator:
         self.settings = settings
         size = tuple(int(s) for s in landmarker.input_size)
         self.views = ViewCache(camera, size, settings.view_cache_px)
-        self._search_views = self._make_search_views() if detector is not None else []
+        #: Detector and landmark network runs so far (the stage's cost, for benches and reports).
+        self.detector_runs = 0
+        self.landmark_runs = 0
+        self.search_layout: SearchLayout | None = None
+        self._search_views: list[tuple[VirtualView, ViewMap]] = []
+        self._search_half = np.zeros(0)
+        if detector is not None:
+            self._make_search_views()
+        self._search_next = 0
+        self._search_credit = 0.0
         self._background = cv2.createBackgroundSubtractorMOG2(history=300, varThreshold=25, detectShadows=False)
         self._frames_seen = 0
         self._targets: list[Target] = []
@@ -476,33 +519,86 @@ class FisheyePoseEstimator:
         self._lr_tracks: list[dict] = []
 
     # -- search views ------------------------------------------------------------------------
-    def _make_search_views(self) -> list[tuple[VirtualView, ViewMap]]:
+    def _make_search_views(self) -> None:
+        """The search views of ``settings.search_layout`` (built once; their maps are reused)."""
         s = self.settings
         size = tuple(int(v) for v in self.detector.input_size)
-        views = []
-        for ring, polar in enumerate(s.search_rings):
-            if polar > self.camera.max_theta_in_image():
-                continue
-            count = 1 if polar == 0 else s.search_views_per_ring
-            for k in range(count):
-                az = 2 * np.pi * k / count + (np.pi / count if ring % 2 == 0 else 0.0)
-                d = np.array([np.sin(polar) * np.cos(az), np.sin(polar) * np.sin(az), np.cos(polar)])
-                view = VirtualView.aimed_along(self.camera, d, hfov=2 * s.search_half_fov, size=size)
-                views.append((view, view.build_map()))
-        return views
+        if s.search_layout == "lens":
+            layout = derive_layout(self.camera, size[0], self.search_sizing(s))
+        elif s.search_layout == "fixed":
+            layout = fixed_layout(tuple(s.search_rings), s.search_views_per_ring, s.search_half_fov,
+                                  self.camera.max_theta_in_image())
+        else:
+            raise ConfigError(f"must be 'lens' or 'fixed', got {s.search_layout!r}", field="search_layout")
+        self.search_layout = layout
+        axes, halves = layout.views()
+        rolls = [None] * len(axes)
+        if s.search_centre_rolls > 1 and layout.rings and layout.rings[0].polar == 0:
+            # The view along the lens axis has no world up (people lie in every direction in it):
+            # copies turned about the axis, so each person is near upright in one of them.
+            k = int(s.search_centre_rolls)
+            az = 2 * np.pi * np.arange(k) / k
+            axes = np.concatenate([np.repeat(axes[:1], k, axis=0), axes[1:]])
+            halves = np.concatenate([np.repeat(halves[:1], k), halves[1:]])
+            rolls = [np.array([np.cos(a), np.sin(a), 0.0]) for a in az] + rolls[1:]
+        for d, half, up in zip(axes, halves, rolls):
+            if up is None:
+                view = VirtualView.aimed_along(self.camera, d, hfov=2 * float(half), size=size)
+            else:
+                lens = Rectilinear.from_fov(size[0], size[1], 2 * float(half))
+                view = VirtualView(source=self.camera, lens=lens, width=size[0], height=size[1],
+                                   rotation_cam_from_view=view_rotation(self.camera, d, up))
+            self._search_views.append((view, view.build_map()))
+        self._search_half = halves
 
-    def _search_cues(self, frame_bgr: np.ndarray, near: Sequence[np.ndarray] | None = None) -> list[Target]:
-        """Detector cues from the search views (near: only the views whose field holds one of
-        these directions)."""
+    @staticmethod
+    def search_sizing(s: PoseSettings) -> SearchSizing:
+        """The search-layout rule's inputs from the settings."""
+        return SearchSizing(person_height=s.search_person_height, max_distance=s.search_max_distance,
+                            person_px=s.search_person_px, max_upsampling=s.search_max_upsampling,
+                            min_half_fov=s.search_min_half_fov, max_half_fov=s.search_max_half_fov,
+                            max_polar=s.search_max_polar)
+
+    def search_period(self, following: bool) -> int:
+        """Frames one pass over the search views takes (``PoseSettings.search_every``)."""
+        s = self.settings
+        every, budget = (s.search_every, s.search_views_per_frame) if following else \
+            (s.idle_search_every, s.idle_search_views_per_frame)
+        return max(int(every), int(np.ceil(len(self._search_views) / budget - 1e-9)))
+
+    def _scheduled_search(self, period: int, first: bool) -> list[int]:
+        """Indices of the search views to run on this frame: all of them on the first frame;
+        with ``search_spread`` the next ones round the layout, about views / period per frame;
+        otherwise all of them every ``period`` frames."""
+        n = len(self._search_views)
+        if n == 0:
+            return []
+        if first:
+            self._search_next, self._search_credit = 0, 0.0
+            return list(range(n))
+        if not self.settings.search_spread:
+            return list(range(n)) if (self._frames_seen - 1) % period == 0 else []
+        self._search_credit += n / period
+        k = min(int(self._search_credit + 1e-9), n)
+        self._search_credit -= k
+        picked = [(self._search_next + i) % n for i in range(k)]
+        self._search_next = (self._search_next + k) % n
+        return picked
+
+    def _views_near(self, directions: Sequence[np.ndarray]) -> list[int]:
+        """Indices of the search views whose field holds one of these directions."""
+        axes = np.stack([v.rotation_cam_from_view[:, 2] for v, _ in self._search_views])
+        dirs = np.stack([_unit(np.asarray(d, dtype=np.float64)) for d in directions])
+        inside = _angle_between(axes[:, None], dirs[None]) < self._search_half[:, None]
+        return [int(i) for i in np.nonzero(inside.any(axis=1))[0]]
+
+    def _search_cues(self, frame_bgr: np.ndarray, which: Sequence[int] | None = None) -> list[Target]:
+        """Detector cues from the search views (which: only these views; None: all)."""
         cues = []
-        views = self._search_views
-        if near is not None:
-            axes = np.stack([v.rotation_cam_from_view[:, 2] for v, _ in views])
-            dirs = np.stack([_unit(np.asarray(d, dtype=np.float64)) for d in near])
-            inside = _angle_between(axes[:, None], dirs[None]) < self.settings.search_half_fov
-            views = [views[i] for i in np.nonzero(inside.any(axis=1))[0]]
+        views = self._search_views if which is None else [self._search_views[i] for i in which]
         for view, view_map in views:
             image = view_map.apply(frame_bgr)
+            self.detector_runs += 1
             for det in self.detector(image):
                 if det.score < self.settings.min_detector_score:
                     continue
@@ -557,17 +653,19 @@ class FisheyePoseEstimator:
         s = self.settings
         targets = list(self._targets)
         seen = self._frames_seen
-        search_now = seen % (s.search_every if targets else s.idle_search_every) == 0
+        period = self.search_period(bool(targets))
+        # Motion cues at the search interval, however long a pass over the search views takes.
+        motion_now = seen % (s.search_every if targets else s.idle_search_every) == 0
         motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
         self._frames_seen += 1
         lost, self._lost = self._lost, []
-        if search_now:
-            cues = motion + (self._search_cues(frame_bgr) if self.detector is not None else [])
-            targets += [c for c in cues if not self._covered(c, targets)]
-        elif lost and s.search_where_lost and self.detector is not None:
+        which = self._scheduled_search(period, seen == 0)
+        if lost and s.search_where_lost and self.detector is not None:
             # A view lost its person: the detector looks again around there at once.
-            cues = self._search_cues(frame_bgr, near=[t.direction_cam for t in lost])
-            targets += [c for c in cues if not self._covered(c, targets)]
+            near = self._views_near([t.direction_cam for t in lost])
+            which = which + [i for i in near if i not in which]
+        cues = (motion if motion_now else []) + (self._search_cues(frame_bgr, which) if which else [])
+        targets += [c for c in cues if not self._covered(c, targets)]
         views = len(targets)
         targets = targets[: 4 * s.max_people]
         results = [self._run_view(frame_bgr, t) for t in targets]
@@ -637,6 +735,7 @@ class FisheyePoseEstimator:
         view, view_map = self.views.get(target.direction_cam, target.half_fov, up_cam)
         image = view_map.apply(frame_bgr)
         kp = self.landmarker(image)
+        self.landmark_runs += 1
         if not kp.presence >= self.settings.min_presence:
             return None
         rays_cam = view.view_pixels_to_rays_cam(kp.pixels)

@@ -147,6 +147,32 @@ def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_se
     assert ev["errors_3d"]["mpjpe_mm"] == 0.0  # the geometry is still exact
 
 
+def test_detection_per_camera_region_counts_the_workers_under_one_camera(small_session, gt, perfect, tmp_path):
+    from ergopose.geometry.regions import DEFAULT_LIMITS_DEG
+    from ergopose.keypoints import JOINT_INDEX
+
+    _, ev = perfect
+    d = ev["detection"]
+    both = d["visible_in_both_cameras"]["worker_frames"]
+    for camera in ("cam_1", "cam_2"):
+        per = d["by_camera_region"][camera]
+        assert sum(per[r]["worker_frames"] for r in REGIONS) == both
+        assert all(per[r]["rate_pct"] in (100.0, None) or per[r]["worker_frames"] == 0 for r in REGIONS)
+    # Nothing triangulated while a worker's hips are within the central limit of cam_1.
+    tf = ground_truth_tracks(gt)
+    hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
+    theta_cam1 = np.degrees(gt.theta[:, 0][..., hips].astype(np.float64).mean(axis=-1))  # (F, P)
+    central = theta_cam1[tf.frame, tf.worker - 1] < DEFAULT_LIMITS_DEG[0]
+    assert central.any() and not central.all()
+    raw = tf.raw_points_world.copy()
+    raw[central] = np.nan
+    out = write_results(small_session, tmp_path / "out", dataclasses.replace(tf, raw_points_world=raw))
+    per = _evaluate(small_session, out)["detection"]["by_camera_region"]
+    assert per["cam_1"]["central"]["worker_frames"] > 0 and per["cam_1"]["central"]["rate_pct"] == 0.0
+    assert per["cam_1"]["outer"]["rate_pct"] == 100.0
+    assert 0.0 < per["cam_2"]["outer"]["rate_pct"] < 100.0  # under cam_1 is cam_2's outer region
+
+
 def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, tmp_path):
     tf = ground_truth_tracks(gt)
     half = gt.n_frames // 2

@@ -50,7 +50,8 @@ def camera():
     return ceiling_camera("cam_1", LENS, SIZE, SIZE, position_world=(0.0, 0.0, 3.0))
 
 
-@pytest.mark.parametrize("target", [(1.2, 0.8, 1.0), (-2.0, 1.5, 1.0), (0.5, -2.6, 1.0)])
+@pytest.mark.parametrize("target", [(1.2, 0.8, 1.0), (-2.0, 1.5, 1.0), (0.5, -2.6, 1.0),
+                                    (0.35, -0.3, 1.0)])  # the last 12 deg off the axis, under the camera
 def test_stage_finds_and_refocuses_on_a_person(camera, landmarker, detector, target):
     frame, joints = fisheye_with_person(camera, target)
     stage = FisheyePoseEstimator(camera, 0, landmarker, detector)
