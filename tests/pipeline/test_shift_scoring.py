@@ -176,14 +176,15 @@ def test_the_periods_name_the_task_inputs_of_the_settings(session):
     given."""
     import dataclasses
 
-    from ergopose.pipeline import stages
+    from ergopose.pipeline.inputs import scoring_settings
+    from ergopose.pipeline.score import score_worker
     from ergopose.report import adapters
     from ergopose.session import TaskFactors
 
     given = dataclasses.replace(session, defaults=TaskFactors(load_kg=12.0, load_mode="static", coupling="poor"),
                                 periods=(), workers=())
-    scoring = stages.scoring_settings(given)
-    scored = stages.score_worker(given, _shift_rows(6 * 60, seed=3, long_gap=False), "worker_1", scoring, None)
+    scoring = scoring_settings(given)
+    scored = score_worker(given, _shift_rows(6 * 60, seed=3, long_gap=False), "worker_1", scoring, None)
     worst = adapters.worker_summary(scored.summary, frames=scored.frames).worst
     assert len(worst) >= 1
     for w in worst:
