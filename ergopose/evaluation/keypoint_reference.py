@@ -33,6 +33,7 @@ from ergopose.errors import InputError
 from ergopose.evaluation.markers import BODY_25B
 from ergopose.evaluation.trc import TrcData
 from ergopose.geometry.camera import Camera
+from ergopose.geometry.triangulation import triangulate_dlt
 
 #: Pose2Sim's own likelihood threshold for triangulation (Config.toml,
 #: likelihood_threshold_triangulation), the default here so both references use the same keypoints.
@@ -107,32 +108,25 @@ def read_openpose_folder(folder: Path, markers: int = len(BODY_25B)) -> tuple[np
 
 
 def triangulate_weighted(cameras: Sequence[Camera], pixels: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Weighted DLT of every point at once.
+    """Weighted DLT of every point at once, on the lens-corrected rays (normalised image
+    coordinates, projection [R | t]), rows kept as they are (as Pose2Sim does).
 
     cameras: C cameras; pixels: (C, F, M, 2) image pixels; weights: (C, F, M), 0 = not used.
     Returns (F, M, 3) world points, NaN where fewer than two cameras have a weight.
     """
-    C = len(cameras)
-    F, M = pixels.shape[1:3]
-    A = np.zeros((F, M, 2 * C, 4))
+    normalised = np.empty(pixels.shape, dtype=np.float64)
+    projections = []
     for c, cam in enumerate(cameras):
-        rays = cam.lens.unproject(pixels[c].reshape(-1, 2)).reshape(F, M, 3)
+        rays = cam.lens.unproject(np.asarray(pixels[c], dtype=np.float64).reshape(-1, 2))
         with np.errstate(invalid="ignore", divide="ignore"):
-            xn = rays[..., 0] / rays[..., 2]
-            yn = rays[..., 1] / rays[..., 2]
+            xy = rays[:, :2] / np.where(rays[:, 2:] > 0, rays[:, 2:], np.nan)
+        normalised[c] = xy.reshape(pixels.shape[1:])
         R_cam = np.asarray(cam.rotation_world_from_cam).T  # world -> camera
-        P = np.hstack([R_cam, (-R_cam @ np.asarray(cam.position_world))[:, None]])  # (3, 4)
-        ok = np.isfinite(xn) & np.isfinite(yn) & (rays[..., 2] > 0)
-        w = np.where(ok, weights[c], 0.0)
-        A[..., 2 * c, :] = w[..., None] * (np.where(ok, xn, 0.0)[..., None] * P[2] - P[0])
-        A[..., 2 * c + 1, :] = w[..., None] * (np.where(ok, yn, 0.0)[..., None] * P[2] - P[1])
-    used = (np.abs(A).sum(axis=-1) > 0).reshape(F, M, C, 2).any(axis=-1).sum(axis=-1)
-    _, _, vt = np.linalg.svd(A)
-    h = vt[..., -1, :]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        points = h[..., :3] / h[..., 3:4]
-    points[used < 2] = np.nan
-    return points
+        projections.append(np.hstack([R_cam, (-R_cam @ np.asarray(cam.position_world))[:, None]]))
+    # (F, C, M, 2) observations of C views with one projection each.
+    tri = triangulate_dlt(np.stack(projections), np.moveaxis(normalised, 0, 1), np.moveaxis(weights, 0, 1),
+                          solver="svd", normalize_rows=False)
+    return tri.points
 
 
 def openpose_reference(root: str | Path, cameras: Sequence[Camera], fps: float,

@@ -212,13 +212,14 @@ class PoseSettings:
     min_half_fov: float = np.radians(8.0)
     max_half_fov: float = np.radians(55.0)
     search_layout: str = "lens"
-    search_person_px: float = 60.0
-    search_person_height: float = 1.7
-    search_max_distance: float = 6.0
-    search_max_upsampling: float = 1.0
-    search_min_half_fov: float = np.radians(12.0)
-    search_max_half_fov: float = np.radians(45.0)
-    search_max_polar: float = np.radians(90.0)
+    # The search-layout rule's defaults are SearchSizing's (one place for them).
+    search_person_px: float = SearchSizing.person_px
+    search_person_height: float = SearchSizing.person_height
+    search_max_distance: float = SearchSizing.max_distance
+    search_max_upsampling: float = SearchSizing.max_upsampling
+    search_min_half_fov: float = SearchSizing.min_half_fov
+    search_max_half_fov: float = SearchSizing.max_half_fov
+    search_max_polar: float = SearchSizing.max_polar
     search_spread: bool = True
     search_centre_rolls: int = 1
     search_half_fov: float = np.radians(42.0)

@@ -364,8 +364,8 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     H_const[:, idx, :, idx, :] += (w_pose + w_prev)[None, :, None, None] * np.eye(3)
     # The hand prior only where a hand is not seen: its wrist, index and pinky each above
     # min_confidence in fewer than two cameras (a hand two cameras see is left to them).
-    cams = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)  # (R, J)
-    hand_seen = (cams[:, _HAND_POINTS] >= 2).all(axis=-1)  # (R, 2)
+    strong = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)  # (R, J) cameras seeing each joint
+    hand_seen = (strong[:, _HAND_POINTS] >= 2).all(axis=-1)  # (R, 2)
     w_hand = np.where(hand_seen | (opt.hand_prior_sigma_m <= 0), 0.0, 1.0 / max(opt.hand_prior_sigma_m, 1e-9) ** 2)
     hand_H = np.einsum("rs,sj,sk->rjk", w_hand, HAND_PRIOR, HAND_PRIOR)  # (R, J, J)
     for a in range(3):
@@ -454,7 +454,6 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     cov = np.linalg.inv(H + 1e-9 * np.eye(3 * J))
     var = np.diagonal(cov, axis1=-2, axis2=-1).reshape(R, J, 3).copy()
     used = r["use"]
-    strong = (conf >= max(opt.min_confidence, 1e-12)).sum(axis=1)
     # The keypoint noise this frame shows, from the joints two or more cameras saw.
     multi = used.sum(axis=1) >= 2  # (R, J)
     e2 = r["e2"]  # squared reprojection error (view pixels^2)
