@@ -45,7 +45,7 @@ from ergopose.pipeline.inputs import ModelUse, ensure_models, fingerprint_inputs
 from ergopose.pipeline.publish import WorkerOutput
 from ergopose.pipeline.score import RunEach
 from ergopose.pipeline.store import ResultStore
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.recon.settings import ReconSettings
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.session import Session, load_session
