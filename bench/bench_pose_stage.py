@@ -261,11 +261,11 @@ def _stage_cost(camera, frames: list[np.ndarray], model: str, settings) -> dict:
     return {"cpu_ms": 1e3 * cpu / n, "wall_ms": round(1e3 * wall / n, 2),
             "detector_runs_per_frame": round(stage.detector_runs / n, 3),
             "landmark_runs_per_frame": round(stage.landmark_runs / n, 3),
-            "people_per_frame": round(found / n, 2), "search_views": len(stage._search_views)}
+            "people_per_frame": round(found / n, 2), "search_views": len(stage.search.views)}
 
 
 def bench_stage_people(folder: Path) -> None:
-    from ergopose.pose.fisheye import PoseSettings
+    from ergopose.pose.settings import PoseSettings
     from ergopose.pose.models import LANDMARK_MODELS
     from ergopose.session import load_session
 

@@ -84,7 +84,7 @@ from ergopose import remote, video
 from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import load_calibration
 from ergopose.geometry.camera import Camera
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.settings import from_table as recon_from_table
 from ergopose.settings.model import CALIBRATION_FILE as CALIBRATION_FILE  # re-exported: the folder's names

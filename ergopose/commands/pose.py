@@ -14,7 +14,7 @@ from ergopose.geometry.camera import Camera
 from ergopose.geometry.image_circle import nominal_fisheye_camera, nominal_pinhole_camera
 from ergopose.pipeline.pose_video import circle_from_video, pose_video, write_pose_csv
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.progress import warn
 from ergopose.video import probe_video

@@ -39,15 +39,15 @@ from typing import Any
 from ergopose.atomic import write_text
 from ergopose.evaluation.bar import bar_section
 from ergopose.evaluation.errors3d import errors_section, limbs_section
-from ergopose.evaluation.loading import ResultsLayout, _json_ready, lens_region_info, load_inputs
+from ergopose.evaluation.loading import ResultsLayout, json_ready, lens_region_info, load_inputs
 from ergopose.evaluation.matching import detection_section, matching_section, row_people
 from ergopose.evaluation.scoring import (
     SCORE_SCALES,
-    _worker_frames,
     angles_section,
     ground_truth_posture,
     ground_truth_scores,
     scores_section,
+    worker_frames,
 )
 from ergopose.progress import ProgressCallback, report
 
@@ -86,7 +86,7 @@ class Evaluation:
         out.update({"lens_regions": self.lens_regions, "matching": self.matching, "detection": self.detection,
                     "errors_3d": self.errors_3d, "limbs": self.limbs, "angles": self.angles,
                     "scores": self.scores, "bar": self.bar, "notes": list(self.notes)})
-        return _json_ready(out)
+        return json_ready(out)
 
 
 # ---------------------------------------------------------------------------------------- evaluate
@@ -116,7 +116,7 @@ def evaluate_results(session_dir: str | Path, layout: ResultsLayout, *, source: 
     errors = errors_section(inp, person, mapping)
     step("limbs")
     limbs = limbs_section(inp, person)
-    csvs = _worker_frames(inp, layout, person)
+    csvs = worker_frames(inp, layout, person)
     step("joint angles")
     angles = angles_section(inp, csvs)
     step("RULA and REBA agreement")

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ergopose.evaluation.loading import _Inputs, _r
+from ergopose.evaluation.loading import EvaluationInputs, round_or_nan
 from ergopose.keypoints import BLAZEPOSE33, LIMB_INDEX, LIMBS, NUM_JOINTS
 from ergopose.recon.diagnostics import (
     REGIONS,
@@ -27,7 +27,7 @@ RIGID_CV = 1e-3
 # ----------------------------------------------------------------------------------------- 3D errors
 
 
-def truth_rows(inp: _Inputs, person: np.ndarray) -> np.ndarray:
+def truth_rows(inp: EvaluationInputs, person: np.ndarray) -> np.ndarray:
     """(n, 33, 3) true joints of the simulated worker matched to each tracked row (NaN: none)."""
     tf = inp.tracks
     out = np.full((len(tf), NUM_JOINTS, 3), np.nan)
@@ -41,11 +41,11 @@ def _stats_mm(e: np.ndarray) -> dict:
     if not len(v):
         nan = float("nan")
         return {"points": 0, "mean_mm": nan, "median_mm": nan, "p95_mm": nan, "rmse_mm": nan}
-    return {"points": int(len(v)), "mean_mm": _r(v.mean(), 2), "median_mm": _r(np.median(v), 2),
-            "p95_mm": _r(np.percentile(v, 95), 2), "rmse_mm": _r(np.sqrt(np.mean(v * v)), 2)}
+    return {"points": int(len(v)), "mean_mm": round_or_nan(v.mean(), 2), "median_mm": round_or_nan(np.median(v), 2),
+            "p95_mm": round_or_nan(np.percentile(v, 95), 2), "rmse_mm": round_or_nan(np.sqrt(np.mean(v * v)), 2)}
 
 
-def errors_section(inp: _Inputs, person: np.ndarray, mapping: dict[int, int]) -> dict:
+def errors_section(inp: EvaluationInputs, person: np.ndarray, mapping: dict[int, int]) -> dict:
     tf = inp.tracks
     truth = truth_rows(inp, person)
     regions = lens_region(tf.lens_angle_deg, inp.recon.lens_region_limits_deg)
@@ -72,7 +72,7 @@ def errors_section(inp: _Inputs, person: np.ndarray, mapping: dict[int, int]) ->
                                         for k, r in enumerate(REGIONS)}
             section["by_joint"][name] = row
         by_id = region_errors(tf, majority, inp.recon, source=source)
-        section["by_track_identity"] = {k: {"points": v.points, "mean_mm": _r(v.mean_m * 1000, 2)}
+        section["by_track_identity"] = {k: {"points": v.points, "mean_mm": round_or_nan(v.mean_m * 1000, 2)}
                                         for k, v in by_id.items()}
         out[source] = section
     out["mpjpe_mm"] = out["final"]["mpjpe_mm"]
@@ -82,7 +82,7 @@ def errors_section(inp: _Inputs, person: np.ndarray, mapping: dict[int, int]) ->
 # ---------------------------------------------------------------------------------------------- limbs
 
 
-def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
+def limbs_section(inp: EvaluationInputs, person: np.ndarray) -> dict:
     """Limb lengths of the tracked workers (those matched to a simulated worker in at least one
     frame) against the true lengths of the matched worker in the same frames."""
     tf = inp.tracks
@@ -129,12 +129,12 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
         e = err[:, li]
         ok = np.isfinite(e)
         row = {
-            "true_mean_m": _r(np.nanmean(Lt[ok, li]), 4) if ok.any() else float("nan"),
-            "measured_mean_m": _r(np.nanmean(Lm[ok, li]), 4) if ok.any() else float("nan"),
+            "true_mean_m": round_or_nan(np.nanmean(Lt[ok, li]), 4) if ok.any() else float("nan"),
+            "measured_mean_m": round_or_nan(np.nanmean(Lm[ok, li]), 4) if ok.any() else float("nan"),
             "frequency_pct": {rg: _pct(*freq[name][rg]) for rg in ("all",) + REGIONS},
-            "cv_pct": {rg: _r(100.0 * np.mean(cvs[name][rg]), 3) if cvs[name][rg] else float("nan")
+            "cv_pct": {rg: round_or_nan(100.0 * np.mean(cvs[name][rg]), 3) if cvs[name][rg] else float("nan")
                        for rg in ("all",) + REGIONS},
-            "true_cv_pct": _r(100.0 * np.mean(true_cvs[name]), 3) if true_cvs[name] else float("nan"),
+            "true_cv_pct": round_or_nan(100.0 * np.mean(true_cvs[name]), 3) if true_cvs[name] else float("nan"),
             "error": _length_error(e),
             "error_by_region": {rg: _length_error(e[reg[:, li] == k]) for k, rg in enumerate(REGIONS)},
         }
@@ -146,7 +146,7 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
         f = [freq[name][rg] for name in freq]
         cv = [c for name in cvs for c in cvs[name][rg]]
         region_summary[rg] = {"frequency_pct": _pct(sum(a for a, _ in f), sum(b for _, b in f)),
-                              "cv_mean_pct": _r(100.0 * np.mean(cv), 3) if cv else float("nan"),
+                              "cv_mean_pct": round_or_nan(100.0 * np.mean(cv), 3) if cv else float("nan"),
                               "error": _length_error(e)}
     f_all = [freq[name]["all"] for name in freq]
     rigid = [name for name in true_cvs if true_cvs[name] and max(true_cvs[name]) < RIGID_CV]
@@ -161,12 +161,12 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
                        "own variation: the trunk sides change with shoulder elevation); rigid limbs are those whose "
                        f"true CV is below {100 * RIGID_CV:g} %; "
                        "frequency = share of the worker's rows where both joints have a position"),
-        "cv_mean_pct": _r(100.0 * np.mean(all_cv), 3) if all_cv else float("nan"),
-        "cv_max_pct": _r(100.0 * np.max(all_cv), 3) if all_cv else float("nan"),
-        "cv_mean_raw_pct": _r(100.0 * np.mean(raw_cvs), 3) if raw_cvs else float("nan"),
+        "cv_mean_pct": round_or_nan(100.0 * np.mean(all_cv), 3) if all_cv else float("nan"),
+        "cv_max_pct": round_or_nan(100.0 * np.max(all_cv), 3) if all_cv else float("nan"),
+        "cv_mean_raw_pct": round_or_nan(100.0 * np.mean(raw_cvs), 3) if raw_cvs else float("nan"),
         "rigid_limbs": rigid,
-        "cv_mean_rigid_pct": _r(100.0 * np.mean(rigid_cv), 3) if rigid_cv else float("nan"),
-        "cv_max_rigid_pct": _r(100.0 * np.max(rigid_cv), 3) if rigid_cv else float("nan"),
+        "cv_mean_rigid_pct": round_or_nan(100.0 * np.mean(rigid_cv), 3) if rigid_cv else float("nan"),
+        "cv_max_rigid_pct": round_or_nan(100.0 * np.max(rigid_cv), 3) if rigid_cv else float("nan"),
         "frequency_pct": _pct(sum(a for a, _ in f_all), sum(b for _, b in f_all)),
         "error": _length_error(err[np.isfinite(err)]),
         "by_region": region_summary,
@@ -175,7 +175,7 @@ def limbs_section(inp: _Inputs, person: np.ndarray) -> dict:
 
 
 def _pct(k: int, n: int) -> float:
-    return _r(100.0 * k / n, 2) if n else float("nan")
+    return round_or_nan(100.0 * k / n, 2) if n else float("nan")
 
 
 def _length_error(e: np.ndarray) -> dict:
@@ -184,5 +184,5 @@ def _length_error(e: np.ndarray) -> dict:
     if not len(v):
         nan = float("nan")
         return {"n": 0, "bias_mm": nan, "mae_mm": nan, "rmse_mm": nan, "p95_abs_mm": nan}
-    return {"n": int(len(v)), "bias_mm": _r(v.mean(), 2), "mae_mm": _r(np.abs(v).mean(), 2),
-            "rmse_mm": _r(np.sqrt(np.mean(v * v)), 2), "p95_abs_mm": _r(np.percentile(np.abs(v), 95), 2)}
+    return {"n": int(len(v)), "bias_mm": round_or_nan(v.mean(), 2), "mae_mm": round_or_nan(np.abs(v).mean(), 2),
+            "rmse_mm": round_or_nan(np.sqrt(np.mean(v * v)), 2), "p95_abs_mm": round_or_nan(np.percentile(np.abs(v), 95), 2)}

@@ -49,14 +49,14 @@ class ResultsLayout:
         return self.csv_dir / f"{self.csv_prefix}{worker}{STEPS_SUFFIX}"
 
 
-def _json_ready(value: Any) -> Any:
+def json_ready(value: Any) -> Any:
     """NaN/inf -> None, numpy scalars -> Python, tuples -> lists (strict JSON)."""
     if isinstance(value, dict):
-        return {str(k): _json_ready(v) for k, v in value.items()}
+        return {str(k): json_ready(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_json_ready(v) for v in value]
+        return [json_ready(v) for v in value]
     if isinstance(value, np.ndarray):
-        return [_json_ready(v) for v in value.tolist()]
+        return [json_ready(v) for v in value.tolist()]
     if isinstance(value, (np.integer,)):
         return int(value)
     if isinstance(value, (float, np.floating)):
@@ -67,7 +67,8 @@ def _json_ready(value: Any) -> Any:
     return value
 
 
-def _r(x: float, nd: int = 3) -> float:
+def round_or_nan(x: float, nd: int = 3) -> float:
+    """``x`` rounded to ``nd`` decimals for the JSON summaries; NaN when it is None or not finite."""
     return round(float(x), nd) if x is not None and math.isfinite(float(x)) else float("nan")
 
 
@@ -75,7 +76,10 @@ def _r(x: float, nd: int = 3) -> float:
 
 
 @dataclass(frozen=True)
-class _Inputs:
+class EvaluationInputs:
+    """What an evaluation compares: the session (headers only), its ground truth, the tracks table,
+    the settings the assessment used, its metadata and the ids the results report (``load_inputs``)."""
+
     session: Any
     gt: Any
     tracks: Any  # TrackFrames
@@ -86,7 +90,7 @@ class _Inputs:
     identification_notes: tuple
 
 
-def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> _Inputs:
+def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> EvaluationInputs:
     """The session (headers only), its ground truth, the tracks table and the settings used."""
     session = load_session(session_dir, check_videos=False)
     if session.ground_truth_dir is None:
@@ -105,8 +109,8 @@ def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> _Inputs:
     recon = from_mapping(settings, source=layout.tracks) if settings else ReconSettings()
     tracks = table_to_frames(table)
     reported, notes = reported_ids(session, tracks, table.metadata)
-    return _Inputs(session=session, gt=gt, tracks=tracks, recon=recon, scoring=scoring_settings(session),
-                   metadata=table.metadata, reported=reported, identification_notes=notes)
+    return EvaluationInputs(session=session, gt=gt, tracks=tracks, recon=recon, scoring=scoring_settings(session),
+                            metadata=table.metadata, reported=reported, identification_notes=notes)
 
 
 def reported_ids(session, tracks, metadata: Mapping) -> tuple[dict[str, str], tuple[str, ...]]:

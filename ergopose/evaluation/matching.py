@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ergopose.evaluation.loading import _Inputs, _r
+from ergopose.evaluation.loading import EvaluationInputs, round_or_nan
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.recon.diagnostics import (
     REGIONS,
@@ -72,7 +72,7 @@ def _per_frame_matches(tracks, truth_points: np.ndarray, points: np.ndarray,
     return out
 
 
-def row_people(inp: _Inputs) -> np.ndarray:
+def row_people(inp: EvaluationInputs) -> np.ndarray:
     """(n,) the simulated worker each tracked row is in its frame (-1: nobody within
     MATCH_DISTANCE_M): per frame the optimal one-to-one assignment of body centres, from the final
     positions where known, else the raw triangulation (as ergopose.recon.diagnostics matches)."""
@@ -81,7 +81,7 @@ def row_people(inp: _Inputs) -> np.ndarray:
     return _per_frame_matches(tf, inp.gt.joints_world, points)
 
 
-def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, int]]:
+def matching_section(inp: EvaluationInputs, person: np.ndarray) -> tuple[dict, dict[int, int]]:
     tf, gt = inp.tracks, inp.gt
     mapping = match_workers(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else {}
     switches = identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else 0
@@ -119,7 +119,7 @@ def matching_section(inp: _Inputs, person: np.ndarray) -> tuple[dict, dict[int, 
     return section, mapping
 
 
-def _naming(inp: _Inputs, person: np.ndarray) -> dict:
+def _naming(inp: EvaluationInputs, person: np.ndarray) -> dict:
     """How often a tracked person named after a settings worker (by stature) really is that worker:
     rows of the named ids matched, frame by frame, to the simulated worker of the same id."""
     tf, gt = inp.tracks, inp.gt
@@ -132,7 +132,7 @@ def _naming(inp: _Inputs, person: np.ndarray) -> dict:
         if wid in gt.worker_ids:
             correct += int((person[sel] == gt.worker_ids.index(wid)).sum())
     return {"ids": {identity_name(w): wid for w, wid in named.items()}, "rows": rows, "rows_correct": correct,
-            "correct_pct": _r(100.0 * correct / rows, 2) if rows else float("nan"),
+            "correct_pct": round_or_nan(100.0 * correct / rows, 2) if rows else float("nan"),
             "notes": list(inp.identification_notes)}
 
 
@@ -152,7 +152,7 @@ def _regions_of_people(gt, limits_deg, per_camera: bool = False) -> np.ndarray:
     return lens_region(theta if per_camera else np.nanmax(theta, axis=1), limits_deg)
 
 
-def detection_section(inp: _Inputs) -> dict:
+def detection_section(inp: EvaluationInputs) -> dict:
     """Detection rate and false rows (definitions in docs/evaluation.md)."""
     gt, tf = inp.gt, inp.tracks
     F, P = gt.n_frames, len(gt.worker_ids)
@@ -170,7 +170,7 @@ def detection_section(inp: _Inputs) -> dict:
     def rate(mask: np.ndarray) -> dict:
         n = int(mask.sum())
         k = int((mask & reconstructed).sum())
-        return {"worker_frames": n, "reconstructed": k, "rate_pct": _r(100.0 * k / n, 2) if n else float("nan")}
+        return {"worker_frames": n, "reconstructed": k, "rate_pct": round_or_nan(100.0 * k / n, 2) if n else float("nan")}
 
     out = {
         "definition": (f"a worker is visible in a camera when at least {MIN_VISIBLE_TORSO} of its 4 torso joints "

@@ -86,7 +86,8 @@ from ergopose.geometry.regions import DEFAULT_LIMITS_DEG, REGION_NAMES, describe
 from ergopose.geometry.views import VirtualView
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker, Roi
-from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth

@@ -47,12 +47,12 @@ from ergopose.ergonomics.scoring import score_posture
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError, InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
-from ergopose.evaluation.loading import ResultsLayout, _json_ready, _r, reported_ids
-from ergopose.evaluation.scoring import SCORE_SCALES, _angle_stats, _read_frames_csv
+from ergopose.evaluation.loading import ResultsLayout, json_ready, reported_ids, round_or_nan
+from ergopose.evaluation.scoring import SCORE_SCALES, angle_stats, read_frames_csv
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMBS, NUM_JOINTS
-from ergopose.pipeline.scoring import _take
+from ergopose.pipeline.scoring import take_rows
 from ergopose.pipeline.inputs import scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.table import read_tracks, table_to_frames
@@ -192,12 +192,12 @@ def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None)
         w = int(w)
         name = (names or {}).get(w, identity_name(w))
         if layout.frames_csv(name).is_file():
-            out[w] = cache.setdefault(name, _read_frames_csv(layout, name))
+            out[w] = cache.setdefault(name, read_frames_csv(layout, name))
             continue
         if not by_frames:
             for f in files:
                 wid = f.name[len(layout.csv_prefix):-len(STEPS_SUFFIX)]
-                csv = cache.setdefault(wid, _read_frames_csv(layout, wid))
+                csv = cache.setdefault(wid, read_frames_csv(layout, wid))
                 by_frames.setdefault(tuple(csv["frame"].to_numpy(np.int64)), []).append(wid)
         key = tuple(np.asarray(tracks.frame[tracks.worker == w], np.int64))
         found = by_frames.get(key, [])
@@ -299,7 +299,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         if not wanted:
             raise InputError(f"no tracked worker {worker!r} in the results", field="--worker", path=layout.tracks)
         keep = np.isin(tracks.worker, wanted)
-        tracks = _take(tracks, keep)
+        tracks = take_rows(tracks, keep)
 
     # --- time -------------------------------------------------------------------------------------
     period = 1.0 / trc.rate_hz
@@ -366,9 +366,9 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         per_joint[name] = {
             "reference_marker": marker,
             "pairs": int(v.sum()),
-            "rms_mm": _r(1000 * np.sqrt(np.mean(dist[v, j] ** 2)), 1),
-            "median_mm": _r(1000 * np.median(dist[v, j]), 1),
-            "mean_offset_world_mm": [_r(1000 * x, 1) for x in diff[v, j].mean(axis=0)],
+            "rms_mm": round_or_nan(1000 * np.sqrt(np.mean(dist[v, j] ** 2)), 1),
+            "median_mm": round_or_nan(1000 * np.median(dist[v, j]), 1),
+            "mean_offset_world_mm": [round_or_nan(1000 * x, 1) for x in diff[v, j].mean(axis=0)],
             "surface_marker": is_surface_marker(marker),
         }
     if axes is None:
@@ -383,10 +383,10 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         "translation_m": translation.tolist(),
         "reference_up_in_world": (rotation @ np.array([0.0, 1.0, 0.0])).tolist(),
         "pairs": int(fin.sum()),
-        "residual_rms_mm": _r(1000 * np.sqrt(np.mean(dist[fin] ** 2)), 2),
-        "residual_median_mm": _r(1000 * np.median(dist[fin]), 2),
-        "residual_p95_mm": _r(1000 * np.percentile(dist[fin], 95), 2),
-        "residual_within_50mm_pct": _r(100.0 * float(np.mean(dist[fin] <= 0.05)), 2),
+        "residual_rms_mm": round_or_nan(1000 * np.sqrt(np.mean(dist[fin] ** 2)), 2),
+        "residual_median_mm": round_or_nan(1000 * np.median(dist[fin]), 2),
+        "residual_p95_mm": round_or_nan(1000 * np.percentile(dist[fin], 95), 2),
+        "residual_within_50mm_pct": round_or_nan(100.0 * float(np.mean(dist[fin] <= 0.05)), 2),
         "by_joint": per_joint,
     }
     up = alignment["reference_up_in_world"]
@@ -401,8 +401,8 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         ok = np.isfinite(la) & np.isfinite(lr)
         if ok.any():
             ma, mr = float(np.median(la[ok])), float(np.median(lr[ok]))
-            segments[limb] = {"frames": int(ok.sum()), "assessment_median_mm": _r(1000 * ma, 1),
-                              "reference_median_mm": _r(1000 * mr, 1), "ratio": _r(ma / mr, 3) if mr > 0 else None}
+            segments[limb] = {"frames": int(ok.sum()), "assessment_median_mm": round_or_nan(1000 * ma, 1),
+                              "reference_median_mm": round_or_nan(1000 * mr, 1), "ratio": round_or_nan(ma / mr, 3) if mr > 0 else None}
     definitions = {
         "note": ("the assessment's keypoints (BlazePose) and the reference's markers are different definitions of "
                  "the same joints; a joint's mean offset after alignment and the ratio of segment lengths measure "
@@ -451,7 +451,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         ours = (pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64) if c in assessed_df.columns
                 else np.full(len(ref_deg), np.nan))
         d = (ours - ref_deg + 180.0) % 360.0 - 180.0
-        row = _angle_stats(d)
+        row = angle_stats(d)
         row["missing_assessment"] = int((~np.isfinite(ours)).sum())
         row["missing_reference"] = int((~np.isfinite(ref_deg)).sum())
         if row["missing_reference"] == len(ref_deg):
@@ -464,7 +464,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
                        "the aligned reference markers at the same frame; wrapped to [-180, 180); frames where either "
                        "is not measured are counted as missing (missing_assessment, missing_reference)"),
         "rows_compared": int(len(selected)),
-        "rmse_all_deg": _r(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
+        "rmse_all_deg": round_or_nan(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
         "by_angle": by_angle,
     }
 
@@ -505,7 +505,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
     untracked = sorted(set(video_frames.tolist()) - tracked_frames) if len(video_frames) else []
     frames = {
         "reference_samples": int(len(trc.times_s)),
-        "reference_span_s": [_r(times_ref[0], 4), _r(times_ref[-1], 4)],
+        "reference_span_s": [round_or_nan(times_ref[0], 4), round_or_nan(times_ref[-1], 4)],
         "offset_s": offset_s,
         "assessment_frames_tracked": int(len(tracked_frames)),
         "compared": int(len(compared)),
@@ -545,7 +545,7 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         "alignment": alignment, "definitions": definitions, "angles": angles, "scores": scores,
         "notes": notes,
     }
-    return _json_ready(out)
+    return json_ready(out)
 
 
 def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
@@ -557,12 +557,12 @@ def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
         "missing_assessment": int((~np.isfinite(a) & np.isfinite(b)).sum()),
         "missing_reference": int((np.isfinite(a) & ~np.isfinite(b)).sum()),
         "missing_both": int((~np.isfinite(a) & ~np.isfinite(b)).sum()),
-        "exact_agreement_pct": _r(100.0 * exact_agreement(cm), 2),
-        "within_one_pct": _r(100.0 * within_one(cm), 2),
-        "kappa": _r(kappa_from_matrix(cm, "none"), 4),
-        "kappa_linear": _r(kappa_from_matrix(cm, "linear"), 4),
-        "kappa_quadratic": _r(kappa_from_matrix(cm, "quadratic"), 4),
-        "mean_difference": _r(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
+        "exact_agreement_pct": round_or_nan(100.0 * exact_agreement(cm), 2),
+        "within_one_pct": round_or_nan(100.0 * within_one(cm), 2),
+        "kappa": round_or_nan(kappa_from_matrix(cm, "none"), 4),
+        "kappa_linear": round_or_nan(kappa_from_matrix(cm, "linear"), 4),
+        "kappa_quadratic": round_or_nan(kappa_from_matrix(cm, "quadratic"), 4),
+        "mean_difference": round_or_nan(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
         "confusion_matrix": {"rows": "assessment", "columns": "reference", "counts": cm.tolist()},
     }
 

@@ -66,7 +66,7 @@ from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.blazepose import Roi
 from ergopose.pose.fisheye import FisheyePoseEstimator
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.video import read_frames as read_video

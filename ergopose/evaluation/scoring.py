@@ -15,7 +15,7 @@ from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
-from ergopose.evaluation.loading import ResultsLayout, _Inputs, _r
+from ergopose.evaluation.loading import EvaluationInputs, ResultsLayout, round_or_nan
 from ergopose.recon.diagnostics import (
     REGIONS,
     lens_region,
@@ -41,7 +41,9 @@ EDGE_NUDGE_RAD = 1e-6
 # --------------------------------------------------------------------------------- steps CSV files
 
 
-def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
+def read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
+    """The steps CSV of ``worker`` in the results (InputError naming the file when it is missing or
+    unreadable)."""
     path = layout.frames_csv(worker)
     if not path.is_file():
         raise InputError(f"the steps CSV of {worker} is missing (the tracks table has this worker)", path=path)
@@ -55,15 +57,15 @@ def _read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
     return frame
 
 
-def _worker_frames(inp: _Inputs, layout: ResultsLayout,
-                   person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
+def worker_frames(inp: EvaluationInputs, layout: ResultsLayout,
+                  person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
     """{worker: (steps CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
     every tracked worker matched to a simulated worker in at least one frame."""
     tf = inp.tracks
     out = {}
     for w in np.unique(tf.worker[person >= 0]):
         w = int(w)
-        csv = _read_frames_csv(layout, inp.reported[identity_name(w)])
+        csv = read_frames_csv(layout, inp.reported[identity_name(w)])
         sel = tf.worker == w
         frames, people = tf.frame[sel], person[sel]
         f = csv["frame"].to_numpy(np.int64)
@@ -72,7 +74,7 @@ def _worker_frames(inp: _Inputs, layout: ResultsLayout,
     return out
 
 
-def _region_of_rows(inp: _Inputs, w: int, frames: np.ndarray) -> np.ndarray:
+def _region_of_rows(inp: EvaluationInputs, w: int, frames: np.ndarray) -> np.ndarray:
     """Lens region of a tracked worker's rows at the given frames: the torso joints' largest angle."""
     r = inp.tracks.worker_rows(w)
     frames = np.asarray(frames, np.int64)
@@ -109,7 +111,7 @@ def _built_angles(gt, columns: Sequence[str]) -> dict[str, np.ndarray]:
     return out
 
 
-def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
+def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     """Tracked posture angles (steps CSV, degrees) against the angles the motion was built from."""
     gt = inp.gt
     columns = [c for c in ANGLE_COLUMNS if c in gt.postures.columns]
@@ -135,8 +137,8 @@ def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
     pooled = []
     for c in columns:
         d = np.concatenate(diffs[c]) if diffs[c] else np.zeros(0)
-        row = _angle_stats(d)
-        row["rmse_by_region_deg"] = {rg: _angle_stats(d[reg == k])["rmse_deg"] for k, rg in enumerate(REGIONS)}
+        row = angle_stats(d)
+        row["rmse_by_region_deg"] = {rg: angle_stats(d[reg == k])["rmse_deg"] for k, rg in enumerate(REGIONS)}
         per_angle[c] = row
         pooled.append(d[np.isfinite(d)])
     allv = np.concatenate(pooled) if pooled else np.zeros(0)
@@ -147,7 +149,7 @@ def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
                        "as missing; rows matched to nobody are left out (rows_unmatched)"),
         "rows_compared": int(rows),
         "rows_unmatched": int(unmatched),
-        "rmse_all_deg": _r(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
+        "rmse_all_deg": round_or_nan(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
         "by_angle": per_angle,
         "caveat": ("shoulder_elevation is measured against the worker's median shoulder height over the tracked "
                    "frames (ergopose.ergonomics.angles), the simulator's is absolute: a constant offset between "
@@ -155,15 +157,17 @@ def angles_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
     }
 
 
-def _angle_stats(d: np.ndarray) -> dict:
+def angle_stats(d: np.ndarray) -> dict:
+    """Error statistics of one angle's differences ``d`` (degrees; NaN = missing): count, missing,
+    RMSE, mean absolute, bias and 95th percentile of the absolute error, rounded to 3 decimals."""
     n_all = len(d)
     v = d[np.isfinite(d)]
     if not len(v):
         nan = float("nan")
         return {"n": 0, "missing": int(n_all), "rmse_deg": nan, "mae_deg": nan, "bias_deg": nan, "p95_abs_deg": nan}
-    return {"n": int(len(v)), "missing": int(n_all - len(v)), "rmse_deg": _r(np.sqrt(np.mean(v * v)), 3),
-            "mae_deg": _r(np.abs(v).mean(), 3), "bias_deg": _r(v.mean(), 3),
-            "p95_abs_deg": _r(np.percentile(np.abs(v), 95), 3)}
+    return {"n": int(len(v)), "missing": int(n_all - len(v)), "rmse_deg": round_or_nan(np.sqrt(np.mean(v * v)), 3),
+            "mae_deg": round_or_nan(np.abs(v).mean(), 3), "bias_deg": round_or_nan(v.mean(), 3),
+            "p95_abs_deg": round_or_nan(np.percentile(np.abs(v), 95), 3)}
 
 
 # ------------------------------------------------------------------------------------------ scores
@@ -199,7 +203,7 @@ def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scor
     return score_posture(table, settings=scoring)
 
 
-def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
+def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     gt, session = inp.gt, inp.session
     postures: dict[int, pd.DataFrame] = {}
     scored: dict[tuple[int, int], tuple[pd.DataFrame, list[pd.DataFrame]]] = {}
@@ -265,19 +269,19 @@ def scores_section(inp: _Inputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarr
             "pairs": int(cm.sum()),
             "missing_tracked": int((~np.isfinite(a) & np.isfinite(b)).sum()),
             "missing_truth": int(np.isfinite(a).sum() - both.sum()),
-            "exact_agreement_pct": _r(100.0 * exact_agreement(cm), 2),
-            "within_one_pct": _r(100.0 * within_one(cm), 2),
-            "kappa": _r(kappa_from_matrix(cm, "none"), 4),
-            "kappa_linear": _r(kappa_from_matrix(cm, "linear"), 4),
-            "kappa_quadratic": _r(kappa_from_matrix(cm, "quadratic"), 4),
-            "mean_difference": _r(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
+            "exact_agreement_pct": round_or_nan(100.0 * exact_agreement(cm), 2),
+            "within_one_pct": round_or_nan(100.0 * within_one(cm), 2),
+            "kappa": round_or_nan(kappa_from_matrix(cm, "none"), 4),
+            "kappa_linear": round_or_nan(kappa_from_matrix(cm, "linear"), 4),
+            "kappa_quadratic": round_or_nan(kappa_from_matrix(cm, "quadratic"), 4),
+            "mean_difference": round_or_nan(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
             "confusion_matrix": {"rows": "tracked", "columns": "ground truth", "counts": cm.tolist()},
             "truth_on_band_edge": int((edge & both).sum()),
-            "off_edge": {"pairs": int(cm_off.sum()), "exact_agreement_pct": _r(100.0 * exact_agreement(cm_off), 2),
-                         "kappa": _r(kappa_from_matrix(cm_off, "none"), 4),
-                         "kappa_linear": _r(kappa_from_matrix(cm_off, "linear"), 4)},
+            "off_edge": {"pairs": int(cm_off.sum()), "exact_agreement_pct": round_or_nan(100.0 * exact_agreement(cm_off), 2),
+                         "kappa": round_or_nan(kappa_from_matrix(cm_off, "none"), 4),
+                         "kappa_linear": round_or_nan(kappa_from_matrix(cm_off, "linear"), 4)},
             "exact_agreement_by_region_pct": {
-                rg: _r(100.0 * exact_agreement(confusion_matrix(a[reg == k], b[reg == k], scale)), 2)
+                rg: round_or_nan(100.0 * exact_agreement(confusion_matrix(a[reg == k], b[reg == k], scale)), 2)
                 for k, rg in enumerate(REGIONS)},
         }
         out[c] = entry

@@ -45,7 +45,7 @@ from ergopose.pipeline.inputs import ModelUse, ensure_models, fingerprint_inputs
 from ergopose.pipeline.publish import WorkerOutput
 from ergopose.pipeline.score import RunEach
 from ergopose.pipeline.store import ResultStore
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.recon.settings import ReconSettings
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.session import Session, load_session
@@ -306,7 +306,7 @@ def score_and_publish(session: Session, tracks: track.Tracks, out_dir: Path, sco
         return publisher(named, scored, stage, out_dir, scoring, models, progress, bom=bom, store_dir=store_dir)
 
 
-def _chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
+def chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
     """Worker-process entry point: one chunk, stored before returning."""
     result = detect_chunk(job, start, stop)
     ResultStore.at(store_root).save_chunk(result)
@@ -323,14 +323,14 @@ def _run_chunks(job, store, todo: Sequence[tuple[int, int]], ranges, already: in
         return
     if processes == 1 or len(todo) == 1:
         for start, stop in todo:
-            _chunk_task(job, str(store.root), start, stop)
+            chunk_task(job, str(store.root), start, stop)
             done_frames += stop - start
             report(progress, "pose", done_frames, total_frames, unit="frame")
         return
     # 'spawn': every worker starts clean (no forked LiteRT or OpenCV thread state).
     ctx = multiprocessing.get_context("spawn")
     with cf.ProcessPoolExecutor(max_workers=min(processes, len(todo)), mp_context=ctx) as pool:
-        futures = {pool.submit(_chunk_task, job, str(store.root), s, e): (s, e) for s, e in todo}
+        futures = {pool.submit(chunk_task, job, str(store.root), s, e): (s, e) for s, e in todo}
         try:
             for fut in cf.as_completed(futures):
                 start, stop = fut.result()

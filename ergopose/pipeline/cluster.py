@@ -205,7 +205,7 @@ def _cluster_chunk(job: detect.DetectJob, store_root: str, start: int, stop: int
     """Dask task: one chunk computed and stored (as a local worker process does)."""
     _fetch(copies)
     with _INFERENCE_LOCK:
-        return local._chunk_task(job, store_root, start, stop)
+        return local.chunk_task(job, store_root, start, stop)
 
 
 def _cluster_finish(run: local.PreparedRun, ranges, reused: int, *chunks,

@@ -19,7 +19,9 @@ import numpy as np
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-from ergopose.pose.fisheye import FisheyePoseEstimator, FrameDetections, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.records import FrameDetections
+from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings

@@ -21,7 +21,9 @@ from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.image_circle import CircleSearch, find_image_circle, max_image
 from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
-from ergopose.pose.fisheye import Detector, FisheyePoseEstimator, Landmarker, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.records import Detector, Landmarker
+from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressCallback, report, warn
 from ergopose.video import read_frames, read_frames_checked
 

@@ -107,17 +107,18 @@ class WorkerScorer:
             if frontier is not None and frontier < hi + self.context:
                 return
             window = (rows.frame >= lo - self.context) & (rows.frame < hi + self.context)
-            win = _take(rows, window)
+            win = take_rows(rows, window)
             scored = self.score(win)
             core = (win.frame >= lo) & (win.frame < hi)
-            self.sink.write(scored.loc[core].reset_index(drop=True), _take(win, core))
+            self.sink.write(scored.loc[core].reset_index(drop=True), take_rows(win, core))
             self.blocks += 1
             self.frames += int(core.sum())
             self.done_until = hi
-            self._parts = [_take(rows, rows.frame >= hi - self.context)]
+            self._parts = [take_rows(rows, rows.frame >= hi - self.context)]
 
 
-def _take(rows, mask):
+def take_rows(rows, mask):
+    """The rows of a TrackFrames where ``mask`` holds (its array fields indexed, the rest kept)."""
     return TrackFrames(**{n: (v[mask] if isinstance(v, np.ndarray) else v) for n, v in rows.__dict__.items()})
 
 

@@ -43,7 +43,8 @@ from ergopose.progress import ProgressCallback
 DEFAULT_THREADS = 2
 
 
-def _sigmoid(x: np.ndarray) -> np.ndarray:
+def sigmoid(x: np.ndarray) -> np.ndarray:
+    """The logistic function of network logits (float64, clipped to +-100 against overflow)."""
     x = np.clip(np.asarray(x, dtype=np.float64), -100.0, 100.0)
     return 1.0 / (1.0 + np.exp(-x))
 
@@ -314,7 +315,7 @@ def decode_detections(
     iou_threshold: float = 0.3,
 ) -> list[PersonDetection]:
     """Turn the detector's raw outputs (N, 12) and (N,) into detections in input pixels."""
-    scores = _sigmoid(raw_scores.reshape(-1))
+    scores = sigmoid(raw_scores.reshape(-1))
     keep = np.flatnonzero(scores >= min_score)
     if keep.size == 0:
         return []
@@ -408,7 +409,7 @@ def refine_with_heatmap(
     rr = np.clip(rows, 0, hm_h - 1)
     cc = np.clip(cols, 0, hm_w - 1)
     chan = np.arange(k)[:, None, None]
-    weights = np.where(valid, _sigmoid(heatmap_logits[rr, cc, chan]), 0.0)  # (K, kernel, kernel)
+    weights = np.where(valid, sigmoid(heatmap_logits[rr, cc, chan]), 0.0)  # (K, kernel, kernel)
     total = weights.sum(axis=(1, 2))
     peak = weights.max(axis=(1, 2))
     safe = np.where(total > 0, total, 1.0)
@@ -475,10 +476,10 @@ class BlazePoseLandmarker:
             world = get(self._world)[0].reshape(-1, 3)[:NUM_JOINTS].astype(np.float64)
         return Keypoints2D(
             pixels=xy - 0.5,
-            confidence=_sigmoid(raw[:NUM_JOINTS, 3]),
+            confidence=sigmoid(raw[:NUM_JOINTS, 3]),
             presence=flag,
             depth=raw[:NUM_JOINTS, 2].copy(),
-            landmark_presence=_sigmoid(raw[:NUM_JOINTS, 4]),
+            landmark_presence=sigmoid(raw[:NUM_JOINTS, 4]),
             world_m=world,
             alignment=raw[NUM_JOINTS:NUM_JOINTS + 2, 0:2] - 0.5 if raw.shape[0] >= NUM_JOINTS + 2 else None,
         )

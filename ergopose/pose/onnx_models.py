@@ -47,7 +47,7 @@ import numpy as np
 
 from ergopose.errors import ConfigError, InputError, ModelError
 from ergopose.keypoints import COCO17, JOINT_INDEX, NUM_JOINTS
-from ergopose.pose.blazepose import DEFAULT_THREADS, Keypoints2D, _sigmoid
+from ergopose.pose.blazepose import DEFAULT_THREADS, Keypoints2D, sigmoid
 from ergopose.pose.models import Normalisation, sha256_file
 
 #: Halpe's 26 keypoints; the big toes become BlazePose's foot_index points, the heels its heels;
@@ -257,7 +257,7 @@ def to_schema(xy: np.ndarray, scores: np.ndarray, schema_index: Sequence[int], c
     """Model keypoints (N, K, 2), (N, K) -> one Keypoints2D per image in the BLAZEPOSE33 schema."""
     index = np.asarray(schema_index, dtype=np.int64)
     used = index >= 0
-    conf = _sigmoid(scores) if confidence == "sigmoid" else np.clip(scores, 0.0, 1.0)
+    conf = sigmoid(scores) if confidence == "sigmoid" else np.clip(scores, 0.0, 1.0)
     out = []
     for i in range(xy.shape[0]):
         pixels = np.full((NUM_JOINTS, 2), np.nan)

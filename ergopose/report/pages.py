@@ -24,7 +24,6 @@ from ergopose.report.context import (
     WorkerResults,
 )
 from ergopose.report.page_types import (
-    PeriodInputRow,
     BandRow,
     CalibrationRow,
     ConfidenceRow,
@@ -42,6 +41,7 @@ from ergopose.report.page_types import (
     MethodHeadline,
     MethodsSection,
     MomentCard,
+    PeriodInputRow,
     PrintPage,
     PrintRow,
     PrintWorker,
@@ -57,16 +57,14 @@ from ergopose.report.page_types import (
 from ergopose.report.periods import MAX_PERIODS
 from ergopose.report.quality import Finding, Verdict, quality_verdict
 from ergopose.report.sections import (
-    task_inputs_line,
     PRINT_FILE,
     PRINT_PERIODS,
-    _csv_label,
-    _csv_link,
-    _level_segments,
     act_summary,
     body_part_section,
     calibration_rows,
     confidence_rows,
+    csv_label,
+    csv_link,
     floor_section,
     glossary,
     headline,
@@ -74,11 +72,13 @@ from ergopose.report.sections import (
     hourly_section,
     input_rows,
     level_seconds,
+    level_segments,
     methods_section,
     print_link,
     quality_section,
     risk_figure,
     session_header,
+    task_inputs_line,
     timeline_figures,
     worst_moments,
     worst_note,
@@ -128,7 +128,7 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
                           longest=fmt_duration(f.longest_s), note=f.note)
                   for f in sorted(summ.flags, key=lambda f: -FLAG_ORDER.index(f.verdict)))
     floor_figs, floor_note = floor_section(frames, session, who)
-    downloads = tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in info.csv_files + session.csv_files)
+    downloads = tuple(csv_link(report_dir, f.path, csv_label(f.label)) for f in info.csv_files + session.csv_files)
     worst = worst_moments(summ, session, who, clock)
     return WorkerPage(
         page_title=f"{who}: ergonomic report, {header.title}", session=header, worker_id=info.worker_id,
@@ -174,7 +174,7 @@ def worker_row(res: WorkerResults, session: SessionInfo, report_dir: Path | None
         low_confidence=conf.get("low", "n/a"), unscored=conf.get("unscored", "n/a"),
         rula_high=highs["rula"], reba_high=highs["reba"],
         reliable=fmt_percent(d.frames_reliable, d.frames_observed), verdict_label=RATING_LABELS[verdict.rating],
-        verdict_rating=verdict.rating, csv=tuple(_csv_link(report_dir, f.path, f.label) for f in info.csv_files),
+        verdict_rating=verdict.rating, csv=tuple(csv_link(report_dir, f.path, f.label) for f in info.csv_files),
         periods=periods_text)
 
 
@@ -194,8 +194,8 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
         stack = []
         for res in workers:
             who = display_name(res.info.worker_id, res.info.name)
-            stack.append(svg.StackRow(who, _level_segments(level_seconds(res.summary, m.name),
-                                                           res.summary.unscored_s.get(m.name, 0.0), m)))
+            stack.append(svg.StackRow(who, level_segments(level_seconds(res.summary, m.name),
+                                                          res.summary.unscored_s.get(m.name, 0.0), m)))
         fig = svg.stacked_bars(stack, title=f"{METHOD_TITLES[m.name]}: share of the tracked time at each level, per worker",
                                desc="One bar per worker; segments are action levels, labelled; hatched grey is time "
                                     "not scored. Numbers are in the table and on each worker's page.",
@@ -209,7 +209,7 @@ def build_index_page(workers: Sequence[WorkerResults], session: SessionInfo, rep
                      risk_figure=session_risk_figure(workers, session),
                      overview_figures=tuple(figs), calibration_rows=cal_rows, calibration_note=cal_note,
                      methods=methods_section(session),
-                     downloads=tuple(_csv_link(report_dir, f.path, _csv_label(f.label)) for f in session.csv_files),
+                     downloads=tuple(csv_link(report_dir, f.path, csv_label(f.label)) for f in session.csv_files),
                      print_link=print_link(), glossary=glossary(session))
 
 

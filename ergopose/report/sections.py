@@ -61,10 +61,10 @@ from ergopose.report.wording import (
     TASK_INPUTS,
     UNCERTAIN_SD_DEG,
     Clock,
-    _band_colour,
-    _level_colours,
+    band_colour,
     fmt_duration,
     fmt_percent,
+    level_colours,
     safe_href,
 )
 
@@ -148,11 +148,14 @@ def _fmt_setting(v: bool | float | str) -> str:
     return str(v)
 
 
-def _csv_label(label: str) -> str:
+def csv_label(label: str) -> str:
+    """A link label that says it leads to a CSV file."""
     return label if "csv" in label.lower() else f"{label} (CSV)"
 
 
-def _csv_link(report_dir: Path | None, path: str, text: str) -> Link:
+def csv_link(report_dir: Path | None, path: str, text: str) -> Link:
+    """A link to a CSV file of the results at ``path`` (relative to the report); a note instead of
+    the link when the path is unsafe, or when the file is missing next to the report."""
     href = safe_href(path)
     if href is None:
         return Link(href="", text=text, note="unsafe path ignored")
@@ -170,7 +173,7 @@ def level_seconds(summary: WorkerSummary, method: str) -> dict[int, float]:
 
 def headline(summary: WorkerSummary, method: MethodInfo) -> MethodHeadline:
     secs = level_seconds(summary, method.name)
-    colours = _level_colours(method)
+    colours = level_colours(method)
     total = summary.observed_s
     rows = []
     for lv in method.action_levels:
@@ -255,8 +258,10 @@ def _settings_words(values: Sequence) -> str:
     return "; ".join(parts) or "none"
 
 
-def _level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time") -> tuple:
-    colours = _level_colours(method)
+def level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time") -> tuple:
+    """One stacked-bar segment per action level of ``method`` (seconds at that level, coloured by
+    ``level_colours``), then the unscored time."""
+    colours = level_colours(method)
     segs = []
     for lv in method.action_levels:
         t = secs.get(lv.level, 0.0)
@@ -270,8 +275,8 @@ def _level_segments(secs: dict[int, float], unscored: float, method: MethodInfo,
 def headline_figure(summary: WorkerSummary, session: SessionInfo, who: str) -> Figure:
     rows = []
     for m in session.methods:
-        rows.append(svg.StackRow(METHOD_TITLES[m.name], _level_segments(level_seconds(summary, m.name),
-                                                                        summary.unscored_s.get(m.name, 0.0), m)))
+        rows.append(svg.StackRow(METHOD_TITLES[m.name], level_segments(level_seconds(summary, m.name),
+                                                                       summary.unscored_s.get(m.name, 0.0), m)))
     fig = svg.stacked_bars(rows, title=f"Share of the tracked time at each action level, {who}",
                            desc="Stacked bars, one per method; each segment is an action level, labelled with its "
                                 "name or number; hatched grey is time not scored. The table beside gives the numbers.",
@@ -331,7 +336,7 @@ def timeline_figures(frames: pd.DataFrame, session: SessionInfo, who: str, clock
     for m, col in (("rula", "rula_grand"), ("reba", "reba_score")):
         meth = session.method(m)
         starts, worst, med = binned_scores(t, frames[col], session.duration_s, bin_s, meth.score_high)
-        colours = _level_colours(meth)
+        colours = level_colours(meth)
         bands = [svg.Band(lv.low - 0.5, lv.high + 0.5, colours[lv.level],
                           f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}") for lv in meth.action_levels]
         fig = svg.score_timeline(
@@ -366,7 +371,7 @@ def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, .
         stack = []
         for part, bands in parts.items():
             bands = sorted(bands, key=lambda b: b.score)
-            segs = [svg.Segment(b.seconds, _band_colour(b.score), str(b.score),
+            segs = [svg.Segment(b.seconds, band_colour(b.score), str(b.score),
                                 f"{part}, score {b.score} ({b.criterion}): {fmt_duration(b.seconds)}") for b in bands]
             rest = max(total - sum(b.seconds for b in bands), 0.0)
             segs.append(svg.Segment(rest, None, "", f"{part} not measured: {fmt_duration(rest)}"))
@@ -596,7 +601,7 @@ def hourly_section(summary: WorkerSummary, session: SessionInfo, who: str, clock
             secs = {lt.level: lt.seconds for lt in h.levels}
             label = f"{clock(max(h.start_s, 0.0), seconds=False)}"
             segs = tuple(svg.Segment(s.value / 60.0, s.colour, s.short, s.long)
-                         for s in _level_segments(secs, h.unscored_s, meth))
+                         for s in level_segments(secs, h.unscored_s, meth))
             cols.append(svg.StackColumn(label, segs))
             end = min(h.start_s + 3600.0, session.duration_s)
             rows.append(HourRow(hour=f"{clock(max(h.start_s, 0.0), seconds=False)}-{clock(end, seconds=False)}",

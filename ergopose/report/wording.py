@@ -143,14 +143,16 @@ def safe_href(path: str | None) -> str | None:
     return quote(p, safe="/")
 
 
-def _level_colours(method: MethodInfo) -> dict[int, str]:
+def level_colours(method: MethodInfo) -> dict[int, str]:
+    """{action level: colour} of a method (its palette by number of levels, else heat colours)."""
     pal = LEVEL_COLOURS[len(method.action_levels)] if len(method.action_levels) in LEVEL_COLOURS else None
     if pal is None:
         pal = tuple(svg.HEAT_COLOURS[min(i, 5)] for i in range(len(method.action_levels)))
     return {lv.level: pal[i] for i, lv in enumerate(method.action_levels)}
 
 
-def _band_colour(score: int) -> str:
+def band_colour(score: int) -> str:
+    """The colour of a score band (scores below 1 or above the palette take its ends)."""
     return BAND_COLOURS[min(max(score, 1), len(BAND_COLOURS)) - 1]
 
 

@@ -1,7 +1,7 @@
 """The [pose] table: the knobs of the fisheye 2D stage a user may want to turn
 (docs/pose-in-fisheye.md explains the stage).
 
-ergopose.pose.fisheye.PoseSettings is the record the stage uses, with angles in radians: a key
+ergopose.pose.settings.PoseSettings is the record the stage uses, with angles in radians: a key
 ending in ``_deg`` here is the field without that ending there, converted (degrees at the edge,
 radians inside); a key ending in ``_m`` is the field without it (metres both sides). The
 stage's other fields are measured choices, not settings.

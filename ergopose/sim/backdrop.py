@@ -11,8 +11,8 @@ import cv2
 import numpy as np
 
 from ergopose.geometry.camera import Camera
-from ergopose.sim.bodies import _unit
-from ergopose.sim.raycast import _dot, ray_aabb_planar, ray_capsule
+from ergopose.sim.bodies import unit_vectors
+from ergopose.sim.raycast import dot, ray_aabb_planar, ray_capsule
 from ergopose.sim.scene import Box, Scene
 
 LIGHT_WORLD = np.array([0.25, 0.35, 1.0]) / np.linalg.norm([0.25, 0.35, 1.0])
@@ -168,8 +168,10 @@ def _box_region(camera: Camera, lo: np.ndarray, hi: np.ndarray) -> tuple[int, in
     return u0, v0, max(u0, u1), max(v0, v1)
 
 
-def _shade(normal: np.ndarray) -> np.ndarray:
-    return AMBIENT + DIFFUSE * np.clip(_dot(normal, LIGHT_WORLD.astype(np.float32)), 0.0, 1.0)
+def lambert_shade(normal: np.ndarray) -> np.ndarray:
+    """Brightness of surfaces with these unit normals (world frame): ambient plus diffuse (Lambert)
+    light from LIGHT_WORLD."""
+    return AMBIENT + DIFFUSE * np.clip(dot(normal, LIGHT_WORLD.astype(np.float32)), 0.0, 1.0)
 
 
 def render_background(camera: Camera, static: StaticScene, rays: np.ndarray,
@@ -208,7 +210,7 @@ def render_background(camera: Camera, static: StaticScene, rays: np.ndarray,
         ab = b - a
         s = np.clip(((q - a) @ ab) / float(ab @ ab), 0.0, 1.0)
         nrm = q - (a + s[:, None] * ab)
-        normal[sel] = _unit(nrm)
+        normal[sel] = unit_vectors(nrm)
         length = float(np.linalg.norm(ab))
         along = s * length
         stripes = np.where(np.floor(along / 0.1) % 2 == 0, 0, 1)
@@ -216,7 +218,7 @@ def render_background(camera: Camera, static: StaticScene, rays: np.ndarray,
         caps = (along < 0.05) | (along > length - 0.05)
         col[caps] = (30, 30, 220)
         colour[sel] = col
-    shade = _shade(normal)
+    shade = lambert_shade(normal)
     shade[what < 0] = 0.0
     # Lens falloff (vignetting) towards the rim of the image circle.
     rays_cam = rays @ camera.rotation_world_from_cam.astype(np.float32)

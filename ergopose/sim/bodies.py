@@ -89,7 +89,8 @@ class BodyPrimitives:
         return self.capsule_a.shape[0]
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
+def unit_vectors(v: np.ndarray) -> np.ndarray:
+    """``v`` scaled to unit length along its last axis."""
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
@@ -105,9 +106,9 @@ def head_axes(joints: np.ndarray) -> np.ndarray:
     """(..., 33, 3) joints -> (..., 3, 3) head frame (columns forward, left, up) from ears and eyes."""
     ear_mid = 0.5 * (joints[..., J["left_ear"], :] + joints[..., J["right_ear"], :])
     eye_mid = 0.5 * (joints[..., J["left_eye"], :] + joints[..., J["right_eye"], :])
-    y = _unit(joints[..., J["left_ear"], :] - joints[..., J["right_ear"], :])
+    y = unit_vectors(joints[..., J["left_ear"], :] - joints[..., J["right_ear"], :])
     f = eye_mid - ear_mid
-    f = _unit(f - np.sum(f * y, axis=-1, keepdims=True) * y)
+    f = unit_vectors(f - np.sum(f * y, axis=-1, keepdims=True) * y)
     e3 = np.cross(f, y)
     a = _head_frame_angle()
     x = math.cos(a) * f - math.sin(a) * e3
@@ -138,11 +139,11 @@ def body_primitives(worker: WorkerMotion) -> BodyPrimitives:
 
     def foot(side: str, r: float) -> tuple[np.ndarray, np.ndarray]:
         heel, toe = p[:, J[f"{side}_heel"]], p[:, J[f"{side}_foot_index"]]
-        along = _unit(toe - heel)
+        along = unit_vectors(toe - heel)
         ankle = p[:, J[f"{side}_ankle"]]
         # the sole plane's up: perpendicular to the foot, towards the ankle
         up = ankle - heel
-        up = _unit(up - np.sum(up * along, axis=-1, keepdims=True) * along)
+        up = unit_vectors(up - np.sum(up * along, axis=-1, keepdims=True) * along)
         return heel + along * r + up * r, toe - along * 0.6 * r + up * r
 
     ends = {
@@ -163,9 +164,9 @@ def body_primitives(worker: WorkerMotion) -> BodyPrimitives:
     cap_b = np.stack([ends[n][1] for n in CAPSULE_NAMES], axis=1)
 
     # Trunk frame: up along mid-hip -> mid-shoulder, left along the shoulder line.
-    up = _unit(mid_sh - mid_hip)
+    up = unit_vectors(mid_sh - mid_hip)
     left = ls - rs
-    left = _unit(left - np.sum(left * up, axis=-1, keepdims=True) * up)
+    left = unit_vectors(left - np.sum(left * up, axis=-1, keepdims=True) * up)
     trunk = np.stack([np.cross(left, up), left, up], axis=-1)
     heading = np.asarray(worker.posture.heading, dtype=np.float64)
     c, s = np.cos(heading), np.sin(heading)

@@ -44,10 +44,10 @@ from ergopose.ergonomics.body import Posture, pose_skeleton
 from ergopose.errors import ConfigError
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.sim.legs import MAX_LEG_STRETCH, leg_ik
-from ergopose.sim.paths import _Grid, plan_path
+from ergopose.sim.paths import WalkGrid, plan_path
 from ergopose.sim.scene import Scene, Station
-from ergopose.sim.tasks import _do_task
-from ergopose.sim.timeline import UPPER_FIELDS, _Track
+from ergopose.sim.tasks import do_task
+from ergopose.sim.timeline import UPPER_FIELDS, TimelineBuilder
 from ergopose.sim.workforce import FactorPeriod, Motion, WorkerMotion, make_workers
 
 # --- the shift -----------------------------------------------------------------------------------------
@@ -86,12 +86,12 @@ def simulate_motion(scene: Scene, n_workers: int, duration_s: float, fps: float,
     root_seq = np.random.SeedSequence(seed)
     rng_workers, *rng_tracks = [np.random.default_rng(s) for s in root_seq.spawn(n_workers + 1)]
     specs = make_workers(n_workers, rng_workers)
-    grid = _Grid(scene)
+    grid = WalkGrid(scene)
     stations = {s.name: s for s in scene.stations}
     # Distinct start stations (not the pallets: a shift starts empty-handed).
     starts = [s for s in scene.stations if not s.tasks[0].startswith("lift")]
     order = rng_workers.permutation(len(starts))[:n_workers]
-    tracks = [_Track(spec, fps, starts[i], rng) for spec, i, rng in zip(specs, order, rng_tracks)]
+    tracks = [TimelineBuilder(spec, fps, starts[i], rng) for spec, i, rng in zip(specs, order, rng_tracks)]
     reservations = _Reservations()
     positions: dict[str, np.ndarray] = {}
     for tr in tracks:
@@ -101,7 +101,7 @@ def simulate_motion(scene: Scene, n_workers: int, duration_s: float, fps: float,
     for tr in tracks:
         first = tr.station.tasks[0] if tr.station.tasks[0] != "place_shelf" else "reach_overhead"
         t0 = tr.t
-        _do_task(tr, first, tr.station, tr.rng)
+        do_task(tr, first, tr.station, tr.rng)
         reservations.add(tr.station.name, t0, tr.t, tr.spec.worker_id)
     while True:
         live = [tr for tr in tracks if tr.t < end_time]
@@ -117,7 +117,7 @@ def _walk_time(path: np.ndarray, speed: float) -> float:
     return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) / speed + 2.5
 
 
-def _go(tr: _Track, station: Station, grid: _Grid, reservations: _Reservations, tracks: list[_Track],
+def _go(tr: TimelineBuilder, station: Station, grid: WalkGrid, reservations: _Reservations, tracks: list[TimelineBuilder],
         stations: dict[str, Station], carrying: bool, t_hold: float) -> None:
     """Walk to ``station`` avoiding stations other workers occupy meanwhile (and where they stand now)."""
     start = tr.root_xy.copy()
@@ -133,7 +133,7 @@ def _go(tr: _Track, station: Station, grid: _Grid, reservations: _Reservations, 
     tr.walk(path, station.heading, carrying)
 
 
-def _pick_station(tr: _Track, task: str, scene: Scene, reservations: _Reservations, grid: _Grid,
+def _pick_station(tr: TimelineBuilder, task: str, scene: Scene, reservations: _Reservations, grid: WalkGrid,
                   hold_s: float) -> Station | None:
     candidates = [s for s in scene.stations if task in s.tasks]
     free = []
@@ -146,8 +146,8 @@ def _pick_station(tr: _Track, task: str, scene: Scene, reservations: _Reservatio
     return free[int(tr.rng.integers(len(free)))]
 
 
-def _next_job(tr: _Track, scene: Scene, stations: dict[str, Station], grid: _Grid,
-              reservations: _Reservations, tracks: list[_Track]) -> None:
+def _next_job(tr: TimelineBuilder, scene: Scene, stations: dict[str, Station], grid: WalkGrid,
+              reservations: _Reservations, tracks: list[TimelineBuilder]) -> None:
     names = [j for j, _ in JOBS]
     weights = np.array([w for _, w in JOBS])
     job = names[int(tr.rng.choice(len(names), p=weights / weights.sum()))]
@@ -165,12 +165,12 @@ def _next_job(tr: _Track, scene: Scene, stations: dict[str, Station], grid: _Gri
             t_arrive = tr.t
             kg = round(float(tr.rng.uniform(4.0, 18.0)), 1)
             lift = "lift_squat" if tr.rng.uniform() < 0.45 else "lift_stoop"
-            _do_task(tr, lift, pallet, tr.rng, carton_kg=kg)
+            do_task(tr, lift, pallet, tr.rng, carton_kg=kg)
             reservations.busy[pallet.name] = [r for r in reservations.busy[pallet.name] if r != (t0, t0 + 30.0, wid)]
             reservations.add(pallet.name, t_arrive - 1.0, tr.t + 0.5, wid)
             shelf = _pick_station(tr, "place_shelf", scene, reservations, grid, 5.0)
             if shelf is None:  # put it back down where it came from
-                _do_task(tr, "place_shelf", dataclasses.replace(pallet, work_height=0.6), tr.rng, carton_kg=kg)
+                do_task(tr, "place_shelf", dataclasses.replace(pallet, work_height=0.6), tr.rng, carton_kg=kg)
                 return
             t1 = tr.t
             _go(tr, shelf, grid, reservations, tracks, stations, True, 8.0)
@@ -178,7 +178,7 @@ def _next_job(tr: _Track, scene: Scene, stations: dict[str, Station], grid: _Gri
             # the walk carried the carton: a load period for it
             tr.periods.append(FactorPeriod(round(t1, 6), round(tr.t, 6), kg, "intermittent", "fair"))
             t_arrive = tr.t
-            _do_task(tr, "place_shelf", shelf, tr.rng, carton_kg=kg)
+            do_task(tr, "place_shelf", shelf, tr.rng, carton_kg=kg)
             reservations.add(shelf.name, t_arrive - 1.0, tr.t + 0.5, wid)
             return
     if job == "rest" and tr.rng.uniform() < 0.5:
@@ -192,18 +192,18 @@ def _next_job(tr: _Track, scene: Scene, stations: dict[str, Station], grid: _Gri
     _go(tr, station, grid, reservations, tracks, stations, False, 8.0)
     tr.station = station
     t_arrive = tr.t
-    _do_task(tr, task, station, tr.rng)
+    do_task(tr, task, station, tr.rng)
     reservations.add(station.name, t_arrive - 1.0, tr.t + 0.5, wid)
 
 
-def _rest_here(tr: _Track, reservations: _Reservations) -> None:
+def _rest_here(tr: TimelineBuilder, reservations: _Reservations) -> None:
     """A short rest where the worker stands (the place stays reserved meanwhile)."""
     t0 = tr.t
-    _do_task(tr, "rest", tr.station, tr.rng)
+    do_task(tr, "rest", tr.station, tr.rng)
     reservations.add(tr.station.name, t0, tr.t + 0.5, tr.spec.worker_id)
 
 
-def _finish(tr: _Track, n_frames: int) -> WorkerMotion:
+def _finish(tr: TimelineBuilder, n_frames: int) -> WorkerMotion:
     """Concatenate the chunks, fix the pelvis height, solve the legs, run the skeleton."""
     chunks = tr.chunks
     f_end = chunks[-1].f1

@@ -19,7 +19,7 @@ GRID_STEP = 0.1
 # --- path planning ---------------------------------------------------------------------------------
 
 
-class _Grid:
+class WalkGrid:
     """Occupancy grid of the area for walking (furniture inflated by PATH_CLEARANCE)."""
 
     def __init__(self, scene: Scene):
@@ -58,7 +58,7 @@ def _box_distance(x, y, bx0, by0, bx1, by1):
     return np.hypot(dx, dy)
 
 
-def plan_path(grid: _Grid, start: np.ndarray, goal: np.ndarray,
+def plan_path(grid: WalkGrid, start: np.ndarray, goal: np.ndarray,
               circles: list[tuple[float, float, float]] = ()) -> np.ndarray:
     """Waypoints (n, 2) from start to goal around the furniture (and the given circles (x, y, r)).
 
@@ -129,7 +129,7 @@ def plan_path(grid: _Grid, start: np.ndarray, goal: np.ndarray,
     return np.array(out)
 
 
-def _rounded_curve(points: np.ndarray, radius: float = 0.6, spacing: float = 0.02) -> np.ndarray:
+def rounded_curve(points: np.ndarray, radius: float = 0.6, spacing: float = 0.02) -> np.ndarray:
     """A polyline with its corners rounded (quadratic Bezier from ``radius`` before to ``radius``
     after each corner, at most half of each segment), sampled every ``spacing`` metres."""
     if len(points) == 2:

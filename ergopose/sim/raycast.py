@@ -9,7 +9,8 @@ import numpy as np
 # --- ray intersections (broadcasting over any leading shape) -----------------------------------------
 
 
-def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Dot products of 3-vectors along the last axis (u, v broadcast)."""
     return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1] + u[..., 2] * v[..., 2]
 
 
@@ -22,11 +23,11 @@ def ray_capsule(origin: np.ndarray, d: np.ndarray, a: np.ndarray, b: np.ndarray,
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         ba = b - a
         oa = origin - a
-        baba = _dot(ba, ba)
-        bard = _dot(ba, d)
-        baoa = _dot(ba, oa)
-        rdoa = _dot(d, oa)
-        oaoa = _dot(oa, oa)
+        baba = dot(ba, ba)
+        bard = dot(ba, d)
+        baoa = dot(ba, oa)
+        rdoa = dot(d, oa)
+        oaoa = dot(oa, oa)
         r2 = r * r
         qa = baba - bard * bard
         qb = baba * rdoa - baoa * bard
@@ -39,8 +40,8 @@ def ray_capsule(origin: np.ndarray, d: np.ndarray, a: np.ndarray, b: np.ndarray,
         t1 = -rdoa - np.sqrt(h1)
         t_cyl = np.minimum(t_cyl, np.where((h1 > 0) & (t1 > 0), t1, np.inf))
         ob = origin - b
-        rdob = _dot(d, ob)
-        h2 = rdob * rdob - (_dot(ob, ob) - r2)
+        rdob = dot(d, ob)
+        h2 = rdob * rdob - (dot(ob, ob) - r2)
         t2 = -rdob - np.sqrt(h2)
         return np.minimum(t_cyl, np.where((h2 > 0) & (t2 > 0), t2, np.inf))
 
@@ -53,9 +54,9 @@ def ray_ellipsoid(origin: np.ndarray, d: np.ndarray, centre: np.ndarray, axes: n
         scaled = axes / radii[..., None, :]
         o_l = np.einsum("...ji,...j->...i", scaled, origin - centre)
         d_l = np.einsum("...ji,...j->...i", scaled, d)
-        qa = _dot(d_l, d_l)
-        qb = _dot(o_l, d_l)
-        qc = _dot(o_l, o_l) - 1.0
+        qa = dot(d_l, d_l)
+        qb = dot(o_l, d_l)
+        qc = dot(o_l, o_l) - 1.0
         disc = qb * qb - qa * qc
         t = (-qb - np.sqrt(disc)) / qa
         return np.where((disc > 0) & (t > 0), t, np.inf)

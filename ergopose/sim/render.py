@@ -37,7 +37,7 @@ import numpy as np
 from ergopose.atomic import atomic_path
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
-from ergopose.sim.backdrop import StaticScene, _shade, pixel_rays, render_background
+from ergopose.sim.backdrop import StaticScene, lambert_shade, pixel_rays, render_background
 from ergopose.sim.bodies import (
     CARTON,
     HEAD,
@@ -46,12 +46,12 @@ from ergopose.sim.bodies import (
     N_PRIMITIVES,
     PRIMITIVE_NAMES,
     BodyPrimitives,
-    _unit,
     all_body_primitives,
     body_primitives,
     head_axes,
+    unit_vectors,
 )
-from ergopose.sim.raycast import _dot, ray_box, ray_capsule, ray_ellipsoid
+from ergopose.sim.raycast import dot, ray_box, ray_capsule, ray_ellipsoid
 from ergopose.sim.scene import Scene
 from ergopose.sim.visibility import (
     OCCLUDED_BY_SCENE,
@@ -92,7 +92,7 @@ def _quiet(fn):
 def _sphere_samples() -> np.ndarray:
     pts = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
     pts += [(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
-    return _unit(np.array(pts, np.float64))
+    return unit_vectors(np.array(pts, np.float64))
 
 
 #: Points on a sphere, inflated: the fisheye image of a sphere is not exactly bounded by the
@@ -381,7 +381,7 @@ class CameraRenderer:
             k = local[cap]
             a = body.capsule_a[frame][k]
             ab = body.capsule_b[frame][k] - a
-            s = np.clip(_dot(p[cap] - a, ab) / np.maximum(_dot(ab, ab), 1e-12), 0.0, 1.0)
+            s = np.clip(dot(p[cap] - a, ab) / np.maximum(dot(ab, ab), 1e-12), 0.0, 1.0)
             normal[cap] = p[cap] - (a + s[:, None] * ab)
         ell = (local >= N_CAPSULES) & (local < CARTON)
         colour = body.colours[local].copy()
@@ -393,7 +393,7 @@ class CameraRenderer:
             normal[ell] = np.einsum("nij,nj->ni", axes, q / radii)
             head = e == HEAD - N_CAPSULES
             if head.any():
-                colour[np.flatnonzero(ell)[head]] = self._face(body, _unit(q[head]), colour[ell][head])
+                colour[np.flatnonzero(ell)[head]] = self._face(body, unit_vectors(q[head]), colour[ell][head])
         box = local == CARTON
         if box.any():
             axes = body.carton_axes[frame]
@@ -401,8 +401,8 @@ class CameraRenderer:
             ax = np.argmax(np.abs(q), axis=1)
             sign = np.sign(q[np.arange(len(q)), ax])
             normal[box] = axes.T[ax] * sign[:, None]
-        normal = _unit(normal)
-        shade = _shade(normal)
+        normal = unit_vectors(normal)
+        shade = lambert_shade(normal)
         return np.clip(colour * (shade * self._gain)[:, None], 0, 255).astype(np.uint8)
 
     @staticmethod
@@ -412,9 +412,9 @@ class CameraRenderer:
         hair = (q[:, 2] > 0.42) | ((q[:, 0] < -0.15) & (q[:, 2] > -0.3))
         col[hair] = body.hair
         for e in body.eye_dirs:
-            col[_dot(q, e) > math.cos(0.16)] = (35, 30, 30)
+            col[dot(q, e) > math.cos(0.16)] = (35, 30, 30)
         m = body.mouth_dir
-        mouth = (_dot(q, m) > math.cos(0.3)) & (np.abs(q[:, 2] - m[2]) < 0.05)
+        mouth = (dot(q, m) > math.cos(0.3)) & (np.abs(q[:, 2] - m[2]) < 0.05)
         col[mouth] = (60, 50, 150)
         return col
 

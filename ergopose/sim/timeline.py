@@ -1,4 +1,4 @@
-"""The timeline of one simulated worker (:class:`_Track`): key postures of the upper body blended
+"""The timeline of one simulated worker (:class:`TimelineBuilder`): key postures of the upper body blended
 with the minimum-jerk curve, planted and swinging feet, footsteps along a path, the pelvis over
 them, and the frames of the shift filled in from these.
 """
@@ -14,7 +14,7 @@ from scipy.interpolate import PchipInterpolator
 
 from ergopose.ergonomics.body import ANGLE_FIELDS
 from ergopose.sim.legs import MAX_LEG_STRETCH
-from ergopose.sim.paths import _rounded_curve
+from ergopose.sim.paths import rounded_curve
 from ergopose.sim.scene import Station
 from ergopose.sim.workforce import TASK_INDEX, FactorPeriod, WorkerSpec
 
@@ -62,7 +62,7 @@ def _rot2(h: float) -> np.ndarray:
     return np.array([[math.cos(h), -math.sin(h)], [math.sin(h), math.cos(h)]])
 
 
-def _expand(pose_deg: dict[str, float]) -> dict[str, float]:
+def expand_pose(pose_deg: dict[str, float]) -> dict[str, float]:
     """Degrees with bilateral names -> radians per field."""
     out: dict[str, float] = {}
     for name, value in pose_deg.items():
@@ -81,7 +81,7 @@ def _expand(pose_deg: dict[str, float]) -> dict[str, float]:
 def _full_pose(pose_deg: dict[str, float]) -> dict[str, float]:
     base = {f: 0.0 for f in UPPER_FIELDS}
     base.update({"dx": 0.0, "dy": 0.0, "dz": 0.0})
-    base.update(_expand(pose_deg))
+    base.update(expand_pose(pose_deg))
     return base
 
 
@@ -107,7 +107,7 @@ class _Chunk:
     pitch: np.ndarray | None = None   # (n, 2) foot pitch in swing (toes up positive); None = level
 
 
-class _Track:
+class TimelineBuilder:
     """Builds one worker's timeline segment by segment (continuous time, sampled at frames)."""
 
     def __init__(self, spec: WorkerSpec, fps: float, station: Station, rng: np.random.Generator):
@@ -236,7 +236,7 @@ class _Track:
         for run in runs:
             if len(run) < 2:
                 continue
-            curve = _rounded_curve(np.array(run))
+            curve = rounded_curve(np.array(run))
             seg = np.diff(curve, axis=0)
             seg_len = np.linalg.norm(seg, axis=1)
             cum = np.concatenate([[0.0], np.cumsum(seg_len)])

@@ -14,7 +14,7 @@ from ergopose.pipeline import assess as assess_module
 from ergopose.pipeline import rescore
 from ergopose.pipeline.assess import AssessOptions
 from ergopose.pipeline.store import ResultStore
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, landmark_card
 from ergopose.recon.settings import ReconSettings
 

@@ -327,7 +327,7 @@ def test_an_unknown_model_is_refused_before_anything_loads(tmp_path):
 
 
 def test_each_card_gives_its_gates_to_the_stage():
-    from ergopose.pose.fisheye import PoseSettings
+    from ergopose.pose.settings import PoseSettings
     from ergopose.pose.models import LANDMARK_MODELS, landmark_card
 
     base = PoseSettings(max_people=3)

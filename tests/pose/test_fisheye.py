@@ -17,14 +17,11 @@ from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import VirtualView, build_map
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pose.fisheye import (
-    SOURCE_REFOCUS,
-    SOURCE_SEARCH,
-    FisheyePoseEstimator,
-    PoseSettings,
-    ViewCache,
-    view_rotation,
-)
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.records import SOURCE_REFOCUS, SOURCE_SEARCH
+from ergopose.pose.settings import PoseSettings
+from ergopose.pose.view_cache import ViewCache
+from ergopose.pose.view_geometry import view_rotation
 from ergopose.records import Detections2D
 
 SIZE = 1024

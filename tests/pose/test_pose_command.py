@@ -26,7 +26,8 @@ from ergopose.geometry.camera import ceiling_camera
 from ergopose.geometry.image_circle import find_image_circle, max_image
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.pose_video import POSE_COLUMNS
-from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressEvent
 
 FPS = 12.0

@@ -23,7 +23,8 @@ from ergopose.evaluation.pose import (
     evaluate_session,
     score_prediction,
 )
-from ergopose.pose.fisheye import FrameDetections, PoseSettings
+from ergopose.pose.records import FrameDetections
+from ergopose.pose.settings import PoseSettings
 
 LENS = KannalaBrandt(fx=330.0, fy=330.0, cx=511.5, cy=511.5, k1=0.01, k2=-0.004)
 CAMERA_HEIGHT = 3.0

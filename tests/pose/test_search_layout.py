@@ -13,7 +13,8 @@ import pytest
 from ergopose.geometry.camera import Camera, ceiling_rotation, look_at_rotation
 from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.rectilinear import Rectilinear
-from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.settings import PoseSettings
 from ergopose.pose.search_layout import (
     SearchSizing,
     derive_layout,
@@ -183,7 +184,7 @@ def test_each_pass_runs_every_search_view_once_at_the_cost_per_frame(spread):
     camera = rig_cameras(1024, 768)[0]
     settings = PoseSettings(search_spread=spread, idle_search_views_per_frame=4.5, idle_search_every=4)
     stage = FisheyePoseEstimator(camera, 0, _NoLandmarker(), _CountingDetector(), settings)
-    views = len(stage._search_views)
+    views = len(stage.search.views)
     period = stage.search_period(False)
     assert period == max(4, math.ceil(views / 4.5))
     frame = np.full((768, 1024, 3), 90, np.uint8)
@@ -212,7 +213,7 @@ def test_an_unknown_layout_is_a_config_error():
 def test_fixed_layout_stays_available():
     camera = rig_cameras(1024, 768)[0]
     stage = FisheyePoseEstimator(camera, 0, _NoLandmarker(), _CountingDetector(), PoseSettings(search_layout="fixed"))
-    assert len(stage._search_views) == 17
+    assert len(stage.search.views) == 17
     assert stage.search_period(True) == 17  # at most one detector run per frame on average
     old = PoseSettings(search_layout="fixed", search_views_per_frame=1.5, search_spread=False)
     assert FisheyePoseEstimator(camera, 0, _NoLandmarker(), _CountingDetector(), old).search_period(True) == 12

@@ -19,16 +19,10 @@ from ergopose.geometry.camera import Camera, ceiling_camera, look_at_rotation
 from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pose.fisheye import (
-    SOURCE_REFOCUS,
-    FisheyePoseEstimator,
-    PoseSettings,
-    Target,
-    bounded_up,
-    roll_from_upright,
-    upright_defined,
-    view_rotation,
-)
+from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.records import SOURCE_REFOCUS, Target
+from ergopose.pose.settings import PoseSettings
+from ergopose.pose.view_geometry import bounded_up, roll_from_upright, upright_defined, view_rotation
 
 #: The stage before issue 19: views follow the body axis wherever it points, no re-check,
 #: duplicates ranked by confidence only, no left/right check.

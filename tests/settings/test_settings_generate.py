@@ -13,7 +13,7 @@ import pytest
 from ergopose import cli
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.geometry.calibration_file import save_calibration
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.recon.settings import ReconSettings
 from ergopose.session import Identification, TaskFactors, load_session
 from ergopose.settings.generate import settings_markdown, settings_text

@@ -14,7 +14,7 @@ import pytest
 from ergopose import cli
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError
-from ergopose.pose.fisheye import PoseSettings
+from ergopose.pose.settings import PoseSettings
 from ergopose.recon.settings import ReconSettings, from_table
 from ergopose.session import load_session
 from ergopose.settings.model import read_settings

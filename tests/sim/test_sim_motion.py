@@ -12,7 +12,7 @@ from ergopose.ergonomics.body import BodyMeasurements, Posture, pose_skeleton
 from ergopose.keypoints import JOINT_INDEX as J
 from ergopose.sim.legs import leg_ik
 from ergopose.sim.motion import simulate_motion
-from ergopose.sim.paths import PATH_CLEARANCE, _Grid, plan_path
+from ergopose.sim.paths import PATH_CLEARANCE, WalkGrid, plan_path
 from ergopose.sim.workforce import JOINT_LIMITS_DEG, TASKS
 from ergopose.sim.scene import default_scene
 
@@ -181,7 +181,7 @@ def test_leg_ik_reaches_random_targets(rng):
 
 
 def test_paths_keep_clear_of_furniture(scene, rng):
-    grid = _Grid(scene)
+    grid = WalkGrid(scene)
     obstacles = scene.obstacles_xy()
     stations = [np.array(s.position) for s in scene.stations]
     for _ in range(20):

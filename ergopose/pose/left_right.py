@@ -1,0 +1,141 @@
+"""Left and right of each followed person, kept consistent from frame to frame in one camera.
+
+Each person's skeleton is compared with their previous frame's: a skeleton whose left and right
+limbs match it the other way round is swapped back; when the network keeps the other labelling
+for most of the last ``left_right_window`` frames it is followed. Frames around such a change,
+and limbs whose own left/right disagrees with the body's, are flagged (``left_right_uncertain``);
+with ``uncertain_confidence`` set their confidence is lowered too (``PoseSettings.left_right_check``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ergopose.keypoints import JOINT_INDEX, MIRROR
+from ergopose.pose.settings import PoseSettings
+from ergopose.pose.view_geometry import angle_between
+
+#: Every left/right pair of the 33 keypoints (swapping a skeleton exchanges all of them).
+_LR_PAIRS = np.array([(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")])
+                      for n in JOINT_INDEX if "left" in n], dtype=np.int64)
+#: The pairs that decide a skeleton's left and right, and the two limb groups checked on their own.
+_LR_DECIDE = np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n])
+                       for n in ("shoulder", "hip", "elbow", "wrist", "knee", "ankle")], dtype=np.int64)
+_LR_LIMBS = {
+    "arms": (("elbow", "wrist"), ("elbow", "wrist", "pinky", "index", "thumb")),
+    "legs": (("knee", "ankle"), ("knee", "ankle", "heel", "foot_index")),
+}
+_LR_LIMB_PAIRS = {k: (np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n]) for n in check]),
+                      np.array([JOINT_INDEX[side + n] for n in joints for side in ("left_", "right_")]))
+                  for k, (check, joints) in _LR_LIMBS.items()}
+
+
+def _lowered(confidence: np.ndarray, joints: np.ndarray, ceiling: float) -> np.ndarray:
+    """``confidence`` with the given joints' values lowered to at most ``ceiling`` (a copy)."""
+    out = np.array(confidence, dtype=np.float64, copy=True)
+    out[joints] = np.minimum(out[joints], ceiling)
+    return out
+
+
+def swap_left_right(person: dict) -> None:
+    """Exchange the left and right keypoints of a detection (in place; the estimator's per-view
+    detection dict with "kp" and "rays_cam")."""
+    kp = person["kp"]
+    person["kp"] = replace(
+        kp, pixels=kp.pixels[MIRROR], confidence=kp.confidence[MIRROR],
+        depth=None if kp.depth is None else kp.depth[MIRROR],
+        landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[MIRROR],
+        world_m=None if kp.world_m is None else kp.world_m[MIRROR])
+    person["rays_cam"] = person["rays_cam"][MIRROR]
+    person["left_right_swapped"] = True
+
+
+class LeftRightCheck:
+    """The left/right check of one camera's followed people; keeps their recent history.
+
+    ``tracks``: one entry per person seen recently (hip-centre ray, angular radius, last rays
+    and confidences, recent votes, frames since the labelling was last followed, frames missed).
+    """
+
+    def __init__(self, settings: PoseSettings):
+        self.settings = settings
+        self.tracks: list[dict] = []
+
+    def verdict(self, before: dict, rays: np.ndarray, conf: np.ndarray, pairs: np.ndarray) -> int | None:
+        """0: ``rays`` keep the left and right of ``before`` (the previous frame's skeleton of the
+        same person), 1: they match it the other way round, None: cannot tell (fewer than two
+        confident pairs, or neither labelling clearly closer, e.g. a side view with left and
+        right on top of each other)."""
+        s = self.settings
+        left, right = pairs[:, 0], pairs[:, 1]
+        prev_rays, prev_conf = before["rays"], before["conf"]
+        good = ((conf >= s.min_keypoint_confidence) & (prev_conf >= s.min_keypoint_confidence)
+                & np.isfinite(rays).all(axis=1) & np.isfinite(prev_rays).all(axis=1))
+        ok = good[left] & good[right]
+        if ok.sum() < 2:
+            return None
+        l, r = left[ok], right[ok]
+        same = float(np.sum(angle_between(prev_rays[l], rays[l]) + angle_between(prev_rays[r], rays[r])))
+        swap = float(np.sum(angle_between(prev_rays[l], rays[r]) + angle_between(prev_rays[r], rays[l])))
+        if swap < s.left_right_ratio * same:
+            return 1
+        if same < s.left_right_ratio * swap:
+            return 0
+        return None
+
+    def __call__(self, people: list[dict]) -> list[dict]:
+        """Keep each person's left and right consistent with their previous frames (see
+        ``PoseSettings.left_right_check``); updates the per-person history. ``people``: the
+        estimator's merged detections of one frame, each with its "bearing"."""
+        s = self.settings
+        tracks, used, kept = self.tracks, set(), []
+        window = max(1, int(s.left_right_window))
+        for p in people:
+            centre, radius, _ = p["bearing"]
+            best = None
+            for k, t in enumerate(tracks):
+                a = float(angle_between(centre, t["centre"]))
+                if k not in used and a < s.same_person_angle * max(radius, t["radius"]) and \
+                        (best is None or a < best[0]):
+                    best = (a, k)
+            votes: list[int | None] = []
+            uncertain = False
+            since_flip = window
+            if best is not None:
+                used.add(best[1])
+                track = tracks[best[1]]
+                since_flip = track["since_flip"] + 1
+                verdict = self.verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE)
+                votes = (track["votes"] + [verdict])[-window:]
+                against = sum(1 for v in votes if v == 1)
+                if against > window // 2:
+                    # The network has labelled this person the other way round in most recent
+                    # frames: follow it (the votes flip with the track's labelling).
+                    votes = [None if v is None else 1 - v for v in votes]
+                    since_flip = 0
+                elif verdict == 1:
+                    swap_left_right(p)
+                # Split recent labelling, or a labelling change less than a window ago: the
+                # left and right of this frame are not to be trusted.
+                uncertain = against >= 2 or since_flip < window
+            conf = p["kp"].confidence.copy()
+            rays = p["rays_cam"]
+            if best is not None:
+                # Limbs whose own left and right disagree with the body's are not trusted.
+                for check, joints in _LR_LIMB_PAIRS.values():
+                    if self.verdict(tracks[best[1]], rays, conf, check) == 1 and s.uncertain_confidence is not None:
+                        p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, joints,
+                                                                      s.uncertain_confidence))
+            if uncertain and s.uncertain_confidence is not None:
+                paired = _LR_PAIRS.ravel()
+                p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, paired, s.uncertain_confidence))
+            p["left_right_uncertain"] = uncertain
+            kept.append({"centre": centre, "radius": radius, "rays": rays, "conf": conf, "votes": votes,
+                         "since_flip": since_flip, "missed": 0})
+        for k, t in enumerate(tracks):
+            if k not in used and t["missed"] < s.coast_frames:
+                kept.append({**t, "missed": t["missed"] + 1})
+        self.tracks = kept
+        return people
