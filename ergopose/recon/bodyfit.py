@@ -491,7 +491,8 @@ LIMB_SIDE_GROUPS = (_side_group("elbow", "wrist", "pinky", "index", "thumb"),
 
 
 def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
-                       reference_world: np.ndarray, margin: float = 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       reference_world: np.ndarray, margin: float = 0.5,
+                       trust_cameras: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Undo a 2D network's left/right swap, camera by camera, against a reference pose.
 
     The reference (R, 33, 3) -- the worker's previous fitted pose -- is projected into each
@@ -502,8 +503,15 @@ def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confide
     legs the wrong way round while the rest is right. A network that swaps sides in one camera
     makes the two cameras contradict each other on every limb; a triangulation can only reject
     those joints, the body model would be pulled between two bodies.
-    Returns (pixels, confidence, swapped (R, C) bool: the whole body or a limb exchanged). Rows
-    whose reference is NaN are left as they are.
+    The reference can itself be the one the wrong way round (a fit that once took a mirrored
+    labelling keeps every camera mirrored to it from then on). So for each side group the
+    function also tells whether the cameras were unanimous against the reference: two or more
+    cameras could tell and every one of them would be exchanged. For rows and groups where
+    ``trust_cameras`` (R, G) is set, such a unanimous exchange is not made: the cameras win (and
+    when they win for the whole body, the limbs are not checked against that reference either).
+    Returns (pixels, confidence, swapped (R, C) bool: the whole body or a limb exchanged,
+    unanimous (R, G) bool for the G = 1 + len(LIMB_SIDE_GROUPS) side groups: whole body, arms,
+    legs). Rows whose reference is NaN are left as they are.
     """
     P = np.asarray(projections, dtype=np.float64)
     Xh = np.concatenate([reference_world, np.ones(reference_world.shape[:-1] + (1,))], axis=-1)
@@ -519,16 +527,24 @@ def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confide
 
         px, conf = pixels_view, confidence
         swapped = np.zeros(P.shape[:2], bool)
-        for group, least in ((_LATERAL, 4), *((g, 2) for g in LIMB_SIDE_GROUPS)):
+        groups = ((_LATERAL, 4), *((g, 2) for g in LIMB_SIDE_GROUPS))
+        unanimous = np.zeros((P.shape[0], len(groups)), bool)
+        trust = np.zeros_like(unanimous) if trust_cameras is None else np.asarray(trust_cameras, bool)
+        for g, (group, least) in enumerate(groups):
             c_as, n_as = cost(px, conf, group)
             mirror = np.where(group, MIRROR, np.arange(J))
             px_sw, conf_sw = px[:, :, mirror], conf[:, :, mirror]
             c_sw, _ = cost(px_sw, conf_sw, group)
-            swap = (n_as >= least) & (c_sw < margin * c_as)
+            can_tell = n_as >= least
+            swap = can_tell & (c_sw < margin * c_as)
+            unanimous[:, g] = (can_tell.sum(axis=1) >= 2) & (swap == can_tell).all(axis=1)
+            # A reference the cameras overrule as a whole is mirrored everywhere: its limbs say nothing.
+            overruled = (unanimous[:, g] & trust[:, g]) | (unanimous[:, 0] & trust[:, 0])
+            swap &= ~overruled[:, None]
             px = np.where(swap[..., None, None], px_sw, px)
             conf = np.where(swap[..., None], conf_sw, conf)
             swapped |= swap
-    return px, conf, swapped
+    return px, conf, swapped, unanimous
 
 
 def raw_noise_scale(reprojection_error_px: np.ndarray, confidence: np.ndarray, views: np.ndarray) -> np.ndarray:
@@ -599,6 +615,13 @@ class ShiftBodies:
         self.lengths: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.last: dict[int, tuple[int, np.ndarray]] = {}
         self.swaps = 0  # camera-frames whose left and right were exchanged (correct_left_right)
+        # Consecutive fitted frames in which every camera disagreed with the worker's previous fit
+        # on its sides, per side group (whole body, arms, legs); from side_lock_break_frames on,
+        # the cameras win.
+        self.side_lock: dict[int, np.ndarray] = {}
+        self.side_lock_break_frames = int(round(settings.side_lock_break_s * self.fps)) \
+            if settings.side_lock_break_s > 0 else None
+        self.lock_breaks = 0  # worker-frames and groups where the cameras' unanimous sides beat the previous fit
         self.fitted_rows = 0  # worker-frames fitted, and the seconds spent (for the benchmark)
         self.fit_seconds = 0.0
         self.noise: dict[int, float] = {}  # keypoint noise measured per worker, x keypoint_sigma_px
@@ -686,8 +709,17 @@ class ShiftBodies:
         oc = rows["oc"][idx]
         have_prev = np.isfinite(prev_sigma)
         if have_prev.any():
-            px, oc, swapped = correct_left_right(P, px, oc, np.where(have_prev[:, None, None], prev, np.nan))
+            groups = 1 + len(LIMB_SIDE_GROUPS)
+            runs = np.stack([self.side_lock.get(int(i), np.zeros(groups, int)) for i in ids])
+            limit = self.side_lock_break_frames
+            trust = runs >= limit if limit is not None else np.zeros_like(runs, bool)
+            px, oc, swapped, unanimous = correct_left_right(P, px, oc, np.where(have_prev[:, None, None], prev, np.nan),
+                                                            trust_cameras=trust)
             self.swaps += int(swapped.sum())
+            self.lock_breaks += int((unanimous & trust).sum())
+            runs = np.where(unanimous & ~trust & have_prev[:, None], runs + 1, 0)
+            for k, ident in enumerate(ids):
+                self.side_lock[int(ident)] = runs[k]
             # The plain triangulation paired the cameras' keypoints as reported: not a start there.
             tri = np.where(swapped.any(axis=1)[:, None, None] & _LATERAL[None, :, None], np.nan, tri)
         pelvis = _pelvis_guess(tri, P, px, oc)

@@ -100,6 +100,9 @@ class ReconSettings:
             small rigid part (a hand, the head) keeps its orientation from frame to frame instead
             of flipping to its mirror image when one camera sees it poorly.
         fit_iterations: 10 -- Levenberg-Marquardt iterations per worker-frame.
+        side_lock_break_s: 0.5 -- the previous fit decides a camera's left and right
+            (correct_left_right); when every camera that can tell (two or more) has disagreed with
+            it for this long, the cameras win: the previous fit was the one mirrored. 0: never.
 
     Smoothing (Kalman filter + Rauch-Tung-Striebel smoother per joint and coordinate)
         smoothing: true -- false writes the raw triangulations.
@@ -162,6 +165,7 @@ class ReconSettings:
     fit_hand_prior_sigma_m: float = 0.05
     fit_turn_rate_rad_s: float = 4.0
     fit_iterations: int = 10
+    side_lock_break_s: float = 0.5
 
     smoothing: bool = True
     motion_model: str = "constant_velocity"

@@ -61,6 +61,9 @@ class ReconstructionTable(Table):
     fit_turn_rate_deg_s: float = Field(math.degrees(4.0), gt=0,
                                        description="how fast a segment may turn between fits (one standard deviation)")
     fit_iterations: int = Field(10, gt=0, description="Levenberg-Marquardt iterations per worker-frame")
+    side_lock_break_s: float = Field(0.5, ge=0, description="when every camera (two or more) has labelled a worker's "
+                                     "left and right against the previous fit for this long, the cameras win (seconds; "
+                                     "0: the previous fit always wins)")
 
     smoothing: bool = Field(True, description="Kalman filter and RTS smoother (false: the raw positions)")
     motion_model: Literal["constant_velocity", "constant_acceleration"] = Field(

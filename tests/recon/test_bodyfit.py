@@ -193,13 +193,73 @@ def test_a_camera_that_crossed_the_legs_or_the_whole_body_is_turned_back(rng):
     wrong[:10, 1] = px[:10, 1][:, MIRROR]                                  # whole body, camera 2
     wrong[10:20, 1] = np.where(legs[:, None], px[10:20, 1][:, MIRROR], px[10:20, 1])  # legs only
     wrong[20:, 0] = np.where(arms[:, None], px[20:, 0][:, MIRROR], px[20:, 0])  # arms only, camera 1
-    fixed, _, swapped = B.correct_left_right(P, wrong, conf, previous)
+    fixed, _, swapped, unanimous = B.correct_left_right(P, wrong, conf, previous)
     np.testing.assert_allclose(fixed, px)
     assert swapped[:20, 1].all() and not swapped[:20, 0].any()
     assert swapped[20:, 0].all() and not swapped[20:, 1].any()
+    assert not unanimous.any()  # one camera of two against the previous pose: it is turned back
+    # Trusting the cameras changes nothing when they are not unanimous.
+    again, _, _, _ = B.correct_left_right(P, wrong, conf, previous, trust_cameras=np.ones((30, 3), bool))
+    np.testing.assert_allclose(again, px)
     # As reported, the right views are untouched.
-    _, _, none = B.correct_left_right(P, px, conf, previous)
+    _, _, none, _ = B.correct_left_right(P, px, conf, previous)
     assert not none.any()
+
+
+def test_a_mirrored_previous_pose_against_unanimous_cameras(rng):
+    """When the previous fit is the one the wrong way round, every camera disagrees with it: the
+    function says so (unanimous), turns them all to it unless told to trust the cameras, and with
+    trust_cameras leaves them as reported."""
+    from ergopose.keypoints import MIRROR
+
+    truth = _bodies(20, rng)
+    P, px, conf = _views(truth, rng, noise_px=1.0)
+    mirrored = truth[:, MIRROR] + rng.normal(0.0, 0.01, truth.shape)
+    locked, _, swapped, unanimous = B.correct_left_right(P, px, conf, mirrored)
+    assert swapped.all() and unanimous[:, 0].all()
+    np.testing.assert_allclose(locked, px[:, :, MIRROR])
+    trust = np.zeros((20, 3), bool)
+    trust[:, 0] = True
+    kept, _, swapped, unanimous = B.correct_left_right(P, px, conf, mirrored, trust_cameras=trust)
+    assert unanimous[:, 0].all() and not swapped.any()
+    np.testing.assert_allclose(kept, px)
+
+
+def _shift_rows(truth, P, px, conf):
+    """The rows ShiftBodies.fit_range takes, for one worker (identity 0) over len(truth) frames."""
+    n = len(truth)
+    return {"frame": np.arange(n), "identity": np.zeros(n, np.int64), "points": truth.copy(),
+            "ungated": truth.copy(), "var": np.full(truth.shape, 1e-4), "views": np.full((n, NUM_JOINTS), 2),
+            "err": np.full((n, NUM_JOINTS), 1.0), "conf": np.full((n, NUM_JOINTS), 0.9),
+            "P": P, "px": px, "oc": conf,
+            "fit": np.full(truth.shape, np.nan), "fit_var": np.full(truth.shape, np.nan),
+            "inferred": np.zeros((n, NUM_JOINTS), bool), "fit_err": np.full((n, NUM_JOINTS), np.nan)}
+
+
+@pytest.mark.parametrize("lock_break_s, recovers", [(0.5, True), (0.0, False)])
+def test_a_worker_fitted_mirrored_comes_back_when_the_cameras_agree(rng, lock_break_s, recovers):
+    """A worker whose last fit is mirrored (left for right), then seen by two cameras that agree
+    with each other for 2 s: with side_lock_break_s = 0.5 the fit follows the cameras from about
+    half a second on; with 0 (the previous fit always wins) it stays mirrored the whole time."""
+    from ergopose.keypoints import MIRROR
+    from ergopose.recon.settings import ReconSettings
+
+    one = _bodies(1, rng)
+    truth = np.repeat(one, 24, axis=0) + rng.normal(0.0, 0.002, (24, NUM_JOINTS, 3))
+    P, px, conf = _views(truth, rng, noise_px=1.0)
+    rows = _shift_rows(truth, P, px, conf)
+    bodies = B.ShiftBodies(ReconSettings(side_lock_break_s=lock_break_s), fps=12.0)
+    bodies.last[0] = (-1, one[0][MIRROR])
+    bodies.fit_range(rows, 0, 24)
+    err = np.linalg.norm(rows["fit"] - truth, axis=-1).mean(axis=1)
+    err_mirrored = np.linalg.norm(rows["fit"] - truth[:, MIRROR], axis=-1).mean(axis=1)
+    assert err_mirrored[0] < 0.05  # the first frame follows the mirrored previous fit either way
+    if recovers:
+        assert (err[12:] < 0.03).all(), err
+        assert bodies.lock_breaks >= 1
+    else:
+        assert (err_mirrored[12:] < 0.05).all(), err_mirrored
+        assert bodies.lock_breaks == 0
 
 
 def _flexed_bodies(n, rng, wrist_flexion):
