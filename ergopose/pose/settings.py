@@ -105,7 +105,7 @@ class PoseSettings:
 
     search_every: int = 12
     idle_search_every: int = 4
-    search_views_per_frame: float = 1.0
+    search_views_per_frame: float = 0.5
     idle_search_views_per_frame: float = 4.5
     coast_frames: int = 2
     min_presence: float = 0.5

@@ -28,7 +28,7 @@ class PoseTable(Table):
                                                    "followed (spread over those frames)")
     idle_search_every: int = Field(4, gt=0, description="frames one pass over the search views takes while nobody is "
                                                         "followed")
-    search_views_per_frame: float = Field(1.0, gt=0, description="most detector runs per frame on search views, on "
+    search_views_per_frame: float = Field(0.5, gt=0, description="most detector runs per frame on search views, on "
                                                                  "average, while someone is followed (a pass takes longer)")
     idle_search_views_per_frame: float = Field(4.5, gt=0, description="the same while nobody is followed")
     search_layout: Literal["lens", "fixed"] = Field(
