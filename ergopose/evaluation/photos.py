@@ -35,7 +35,10 @@ Per case: the stage runs on ``frames`` identical frames (the first frame searche
 follow) and the last frame is scored. Found: a detection whose scored keypoints, mapped back to
 photo pixels through the known warp, have their centre within 0.5 torso lengths of the
 reference's; error: the median over the scored keypoints of the distance to the reference, in
-torso lengths (the closest such detection).
+torso lengths (the closest such detection). Two more references tell apart what is the
+network's own: the network on the photo shrunk to the fisheye's pixel density at the body
+(:func:`reference_at_density`; the stage's views can be no sharper) and with upright crops
+(:func:`upright_reference`; the stage's views are rolled at most ``max_body_roll`` from upright).
 
 Run: ``python -m ergopose.evaluation.photos --out table.md``. This module imports the product;
 the product never imports it.
@@ -59,6 +62,7 @@ import numpy as np
 
 from ergopose.evaluation.refisheye import reference_pose
 from ergopose.geometry.camera import Camera, ceiling_rotation
+from ergopose.geometry.image_circle import LEVEL_ROTATION
 from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import build_map
@@ -251,10 +255,13 @@ def cases(photos: Sequence[str], angles=ANGLES_DEG, directions=DIRECTIONS_DEG, d
     return [Case(p, a, d, rho, w, h) for p in photos for rho, w, h in densities for a in angles for d in directions]
 
 
-def score(reference: PhotoReference, warped: PhotoFisheye, detections) -> dict:
+def score(reference: PhotoReference, warped: PhotoFisheye, detections, same_density: np.ndarray | None = None
+          ) -> dict:
     """found, error (median, torso lengths; NaN when not found), errors per scored keypoint,
-    people (the stage's count)."""
-    out = {"found": False, "error": float("nan"), "errors": [], "people": int(detections.count)}
+    people (the stage's count); with ``same_density`` ((33, 2) photo pixels: the network on the
+    photo at the fisheye's pixel density), error_same_density: the same median against it."""
+    out = {"found": False, "error": float("nan"), "errors": [], "people": int(detections.count),
+           "error_same_density": float("nan")}
     if detections.count == 0:
         return out
     scored = np.nonzero(reference.scored)[0]
@@ -269,13 +276,58 @@ def score(reference: PhotoReference, warped: PhotoFisheye, detections) -> dict:
     err = np.linalg.norm(px[i] - ref, axis=1) / reference.torso_px
     err = np.where(np.isfinite(err), err, np.inf)
     out.update(found=True, error=float(np.median(err)), errors=[float(e) for e in err])
+    if same_density is not None:
+        e2 = np.linalg.norm(px[i] - same_density[scored], axis=1) / reference.torso_px
+        out["error_same_density"] = float(np.median(np.where(np.isfinite(e2), e2, np.inf)))
     return out
 
 
+def focal_px(reference: PhotoReference, distance: float = 3.0, shoulder_width: float = 0.40) -> float:
+    """The photo's focal length (pixels) that puts the body ``distance`` metres away."""
+    return reference.shoulders_px * distance / shoulder_width
+
+
+def reference_at_density(photo: np.ndarray, detector, landmarker, scale: float) -> np.ndarray | None:
+    """The network on the photo shrunk by ``scale`` (< 1: the pixel density the fisheye gives
+    the body, px_per_rad / focal), its keypoints in the full photo's pixels ((33, 2); None when
+    it finds nobody). Tells the loss of resolution apart from what the stage adds."""
+    if scale >= 1.0:
+        found = reference_pose(photo, detector, landmarker)
+        return None if found is None else found[0]
+    h, w = photo.shape[:2]
+    small = cv2.resize(photo, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+    found = reference_pose(small, detector, landmarker)
+    if found is None:
+        return None
+    sx, sy = w / small.shape[1], h / small.shape[0]
+    return (found[0] + 0.5) * np.array([sx, sy]) - 0.5
+
+
+def upright_reference(photo: np.ndarray, detector, landmarker) -> np.ndarray | None:
+    """The network on the photo with every crop upright (the photo's own up) instead of turned
+    to the body axis: (33, 2) pixels, or None. Against the main reference it shows how much the
+    network's keypoints move with the crop's orientation alone."""
+    h, w = photo.shape[:2]
+    level = Camera("photo", Rectilinear(float(max(w, h)), float(max(w, h)), (w - 1) / 2.0, (h - 1) / 2.0), w, h,
+                   LEVEL_ROTATION, np.array([0.0, 0.0, 1.5]))
+    found = reference_pose(photo, detector, landmarker, level)
+    return None if found is None else found[0]
+
+
+def median_error(reference: PhotoReference, pixels: np.ndarray | None) -> float:
+    """Median distance (torso lengths) of ``pixels`` to the reference over its scored keypoints."""
+    if pixels is None:
+        return float("nan")
+    e = np.linalg.norm(pixels[reference.scored] - reference.pixels[reference.scored], axis=1) / reference.torso_px
+    return float(np.median(np.where(np.isfinite(e), e, np.inf)))
+
+
 def run_case(case: Case, photo: np.ndarray, reference: PhotoReference, landmarker, detector, frames: int = 5,
-             distance: float = 3.0, shoulder_width: float = 0.40, settings: PoseSettings | None = None) -> dict:
-    """The stage on ``frames`` identical warped frames; the last one scored (see :func:`score`)."""
-    focal = reference.shoulders_px * distance / shoulder_width
+             distance: float = 3.0, shoulder_width: float = 0.40, settings: PoseSettings | None = None,
+             same_density: np.ndarray | None = None) -> dict:
+    """The stage on ``frames`` identical warped frames; the last one scored (see :func:`score`;
+    same_density: :func:`reference_at_density` at this case's density)."""
+    focal = focal_px(reference, distance, shoulder_width)
     warped = warp_photo(photo, reference.centre, focal, math.radians(case.off_axis_deg),
                         math.radians(case.direction_deg), case.px_per_rad, (case.width, case.height))
     if settings is None:
@@ -286,22 +338,25 @@ def run_case(case: Case, photo: np.ndarray, reference: PhotoReference, landmarke
     for f in range(frames):
         found = stage.process(warped.image, f)
     seconds = time.perf_counter() - t0
-    out = score(reference, warped, found)
+    out = score(reference, warped, found, same_density)
     out.update(photo=case.photo, off_axis_deg=case.off_axis_deg, direction_deg=case.direction_deg,
                px_per_rad=case.px_per_rad, width=case.width, height=case.height, seconds=seconds,
                torso_kind=reference.torso_kind, keypoints=int(reference.scored.sum()),
-               body_px=float(np.ptp(warped.fisheye_pixels(reference.pixels[reference.scored]), axis=0).max()))
+               body_px=float(np.ptp(warped.fisheye_pixels(reference.pixels[reference.scored]), axis=0).max()),
+               in_frame=int(warped.camera.in_image(warped.fisheye_pixels(reference.pixels[reference.scored])).sum()))
     return out
 
 
 def render(rows: list[dict]) -> str:
     """The case table (markdown) and a summary line per photo and density."""
     lines = ["| photo | px/rad (image) | off axis | direction | found | median error (torso lengths) | "
-             "body size (px) |", "|---|---|---|---|---|---|---|"]
+             "against the photo at the fisheye's density | body size (px) | scored keypoints in the frame |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['photo']} | {r['px_per_rad']:g} ({r['width']}x{r['height']}) | {r['off_axis_deg']:g} deg | "
                      f"{r['direction_deg']:g} deg | {'yes' if r['found'] else 'NO'} | "
-                     f"{r['error']:.3f} | {r['body_px']:.0f} |")
+                     f"{r['error']:.3f} | {r.get('error_same_density', float('nan')):.3f} | {r['body_px']:.0f} | "
+                     f"{r.get('in_frame', r['keypoints'])} of {r['keypoints']} |")
     return "\n".join(lines) + "\n"
 
 
@@ -321,6 +376,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     lm = BlazePoseLandmarker(model=a.model, model_dir=a.model_dir, num_threads=1)
     by_name = {x.name: x for x in PHOTOS}
     rows: list[dict] = []
+    notes: list[str] = []
     t0 = time.time()
     for name in a.photos.split(","):
         path = photo_file(by_name[name])
@@ -332,16 +388,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         if ref is None:
             print(f"{name}: the network finds nobody with both shoulders in the photo", file=sys.stderr)
             return 2
-        print(f"{name}: {ref.scored.sum()} keypoints scored, torso ({ref.torso_kind}) {ref.torso_px:.0f} px",
-              file=sys.stderr)
+        same = {rho: reference_at_density(image, det, lm, rho / focal_px(ref, a.distance)) for rho, _, _ in DENSITIES}
+        notes.append(f"{name}: {image.shape[1]}x{image.shape[0]} px, {ref.scored.sum()} keypoints scored, torso length "
+                     f"({ref.torso_kind}) {ref.torso_px:.0f} px, focal {focal_px(ref, a.distance):.0f} px; the network "
+                     f"on the photo with upright crops: {median_error(ref, upright_reference(image, det, lm)):.3f}; "
+                     "on the photo shrunk to each density: "
+                     + ", ".join(f"{rho:g} px/rad {median_error(ref, same[rho]):.3f}" for rho in same))
+        print(notes[-1], file=sys.stderr)
         for case in cases([name], [float(x) for x in a.angles.split(",")],
                           [float(x) for x in a.directions.split(",")]):
-            r = run_case(case, image, ref, lm, det, a.frames, a.distance)
+            r = run_case(case, image, ref, lm, det, a.frames, a.distance, same_density=same[case.px_per_rad])
             rows.append(r)
             print(f"[{time.time() - t0:.0f} s] {name} {case.px_per_rad:g} px/rad {case.off_axis_deg:g} deg "
                   f"dir {case.direction_deg:g}: found {r['found']} error {r['error']:.3f} "
                   f"({r['people']} people, {r['seconds']:.1f} s)", file=sys.stderr, flush=True)
-    text = render(rows)
+    text = render(rows) + "\n" + "\n".join(f"- {n}" for n in notes) + "\n"
     tmp = a.out.with_name(a.out.name + ".tmp")
     tmp.write_text(text)
     os.replace(tmp, a.out)
