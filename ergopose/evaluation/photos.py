@@ -53,9 +53,9 @@ import math
 import os
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import cv2
 import numpy as np
@@ -369,11 +369,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--distance", type=float, default=3.0, help="metres from the camera to the body")
     p.add_argument("--model", default=DEFAULT_LANDMARK_MODEL)
     p.add_argument("--model-dir", default=None)
+    p.add_argument("--setting", action="append", default=[], metavar="NAME=VALUE",
+                   help="a PoseSettings field changed (a number, radians for angles), e.g. body_margin=1.6")
     p.add_argument("--out", type=Path, required=True, help="markdown table; the rows go to OUT.json")
     a = p.parse_args(argv)
+    changes: dict[str, Any] = {}
+    for item in a.setting:
+        key, _, value = item.partition("=")
+        if key not in PoseSettings.__dataclass_fields__:
+            print(f"--setting: no PoseSettings field {key!r}", file=sys.stderr)
+            return 2
+        default = getattr(PoseSettings(), key)
+        changes[key] = int(value) if isinstance(default, int) and not isinstance(default, bool) else float(value)
     cv2.setNumThreads(1)
     det = BlazePoseDetector(model_dir=a.model_dir, num_threads=1)
     lm = BlazePoseLandmarker(model=a.model, model_dir=a.model_dir, num_threads=1)
+    settings = replace(PoseSettings().with_gates(lm.card.gates), **changes)
     by_name = {x.name: x for x in PHOTOS}
     rows: list[dict] = []
     notes: list[str] = []
@@ -397,7 +408,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(notes[-1], file=sys.stderr)
         for case in cases([name], [float(x) for x in a.angles.split(",")],
                           [float(x) for x in a.directions.split(",")]):
-            r = run_case(case, image, ref, lm, det, a.frames, a.distance, same_density=same[case.px_per_rad])
+            r = run_case(case, image, ref, lm, det, a.frames, a.distance, settings=settings,
+                         same_density=same[case.px_per_rad])
             rows.append(r)
             print(f"[{time.time() - t0:.0f} s] {name} {case.px_per_rad:g} px/rad {case.off_axis_deg:g} deg "
                   f"dir {case.direction_deg:g}: found {r['found']} error {r['error']:.3f} "
