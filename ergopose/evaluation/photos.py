@@ -370,7 +370,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--model", default=DEFAULT_LANDMARK_MODEL)
     p.add_argument("--model-dir", default=None)
     p.add_argument("--setting", action="append", default=[], metavar="NAME=VALUE",
-                   help="a PoseSettings field changed (a number, radians for angles), e.g. body_margin=1.6")
+                   help="a PoseSettings field changed (a number, radians for angles, or true/false), "
+                        "e.g. body_margin=1.6 or merge_prefers_upright=false")
     p.add_argument("--out", type=Path, required=True, help="markdown table; the rows go to OUT.json")
     a = p.parse_args(argv)
     changes: dict[str, Any] = {}
@@ -380,7 +381,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"--setting: no PoseSettings field {key!r}", file=sys.stderr)
             return 2
         default = getattr(PoseSettings(), key)
-        changes[key] = int(value) if isinstance(default, int) and not isinstance(default, bool) else float(value)
+        if isinstance(default, bool):
+            changes[key] = value.strip().lower() in ("1", "true", "yes")
+        elif isinstance(default, int):
+            changes[key] = int(value)
+        else:
+            changes[key] = float(value)
     cv2.setNumThreads(1)
     det = BlazePoseDetector(model_dir=a.model_dir, num_threads=1)
     lm = BlazePoseLandmarker(model=a.model, model_dir=a.model_dir, num_threads=1)
