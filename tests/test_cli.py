@@ -19,6 +19,7 @@ def test_help_lists_commands(capsys):
     assert "ergopose" in out and "commands" in out
 
 
+@pytest.mark.slow
 def test_version():
     out = subprocess.run([sys.executable, "-m", "ergopose", "--version"], capture_output=True, text=True)
     assert out.returncode == 0
@@ -39,6 +40,7 @@ def test_user_error_is_one_line_without_traceback(monkeypatch, capsys):
     assert err == "ergopose: error: day1/settings.toml: fps: expected a number, got 'abc'\n"
 
 
+@pytest.mark.slow
 def test_no_command_prints_the_help_and_exits_2(capsys):
     assert cli.main([]) == 2
     captured = capsys.readouterr()

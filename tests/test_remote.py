@@ -104,6 +104,7 @@ def with_url_videos(session, dst, videos_dir):
     return dst
 
 
+@pytest.mark.slow
 def test_a_session_reads_its_videos_from_urls(simulated, tmp_path, cache):
     session = with_url_videos(simulated, tmp_path / "day1", tmp_path / "store")
     local = load_session(simulated)
@@ -116,6 +117,7 @@ def test_a_session_reads_its_videos_from_urls(simulated, tmp_path, cache):
     assert all(c.video_url is None for c in local.cameras)
 
 
+@pytest.mark.slow
 def test_a_session_with_a_missing_url_video_stops_with_one_line(simulated, tmp_path, cache, capsys):
     session = with_url_videos(simulated, tmp_path / "day1", tmp_path / "store")
     (tmp_path / "store" / "cam_2.mp4").unlink()

@@ -10,6 +10,9 @@ from ergopose import cli
 from ergopose.errors import ConfigError
 from ergopose.session import load_session
 
+# Left out of make test-fast (still in make test): every test here reads a simulated session (simulated, 1.2 s of two workers).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory):

@@ -28,6 +28,7 @@ def videos(demo, *numbers):
     return [str(demo / "videos" / f"cam0{n}.mp4") for n in numbers]
 
 
+@pytest.mark.slow
 def test_four_cameras_from_a_pose2sim_calibration(demo, tmp_path, capsys):
     root = tmp_path / "s"
     code = cli.main(["session", "new", str(root), "--calibration", str(demo / "Calib_qualisys.toml"),
@@ -50,6 +51,7 @@ def test_four_cameras_from_a_pose2sim_calibration(demo, tmp_path, capsys):
     assert (root / "cam_03.mp4").read_bytes() == (demo / "videos" / "cam03.mp4").read_bytes()
 
 
+@pytest.mark.slow
 def test_a_camera_pair_with_cameras_and_links(demo, tmp_path):
     root = tmp_path / "pair"
     assert cli.main(["session", "new", str(root), "--calibration", str(demo / "Calib_qualisys.toml"),

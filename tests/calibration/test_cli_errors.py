@@ -61,6 +61,7 @@ def test_too_few_images(tmp_path, capsys, rng):
     assert "take more images" in err
 
 
+@pytest.mark.slow
 def test_boards_all_in_one_corner_fail_the_coverage_check(tmp_path, capsys, rng):
     _board_images(tmp_path / "corner", 9, 55, 225, rng)
     err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "corner"), "--board", BOARD,
@@ -101,6 +102,7 @@ def test_bad_board_spec(tmp_path, capsys, spec, expected):
     assert expected in err
 
 
+@pytest.mark.slow
 def test_extrinsics_errors(tmp_path, capsys, sim_room):
     calib = tmp_path / "c.toml"
     save_calibration(calib, sim_room.cameras)
@@ -127,6 +129,7 @@ def test_extrinsics_errors(tmp_path, capsys, sim_room):
     assert "line 2: point 'p9' is not in world.csv" in err
 
 
+@pytest.mark.slow
 def test_check_errors(tmp_path, capsys, sim_room):
     calib = tmp_path / "c.toml"
     save_calibration(calib, sim_room.cameras)

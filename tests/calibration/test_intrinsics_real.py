@@ -67,6 +67,7 @@ def test_our_lens_model_reprojects_with_the_same_rms(jy):
         np.testing.assert_allclose(res.lens.project(obj @ R.T + t), ref.reshape(-1, 2), atol=1e-8)
 
 
+@pytest.mark.slow
 def test_stereo_pose_matches_opencv_reference(jy):
     res = calibrate_stereo(jy.left, jy.right, jy.board, jy.size)
     assert res.dropped == ()
@@ -78,6 +79,7 @@ def test_stereo_pose_matches_opencv_reference(jy):
     np.testing.assert_allclose(res.translation_b, REF_T, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_pose_solver_through_our_lens_agrees_with_stereo_calibration(jy):
     """Per view, the LM pose of the board in each camera (our full KB model) gives the rig's
     relative pose; its median agrees with stereoCalibrate's to well under a millimetre."""
@@ -97,6 +99,7 @@ def test_pose_solver_through_our_lens_agrees_with_stereo_calibration(jy):
     assert np.degrees(angle_between(u @ vt, REF_R)) < 0.1
 
 
+@pytest.mark.slow
 def test_ill_conditioned_view_is_dropped_and_fit_retried(jy, monkeypatch):
     """OpenCV names the ill-conditioned view by its index in the list it got; we drop it and retry."""
     real = cv2.fisheye.calibrate
@@ -121,6 +124,7 @@ def test_ill_conditioned_view_is_dropped_and_fit_retried(jy, monkeypatch):
     np.testing.assert_allclose(res.camera_matrix, without.camera_matrix, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_view_opencv_refused_is_recovered_through_our_model(jy, monkeypatch):
     """By default a view OpenCV refused gets a pose through our full KB model and joins a joint
     refinement: with a good view refused, the result is OpenCV's fit of all 34 views."""
@@ -141,6 +145,7 @@ def test_view_opencv_refused_is_recovered_through_our_model(jy, monkeypatch):
     assert res.rms == pytest.approx(REF_RMS, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_degenerate_view_is_dropped_before_opencv_sees_it(jy):
     """A view with all corners on one spot makes InitExtrinsics assert without naming the view
     (and spoils other views); it is screened out first."""
@@ -154,6 +159,7 @@ def test_degenerate_view_is_dropped_before_opencv_sees_it(jy):
     np.testing.assert_allclose(res.camera_matrix, clean.camera_matrix, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_unnamed_opencv_failure_finds_the_view(jy, monkeypatch):
     """An OpenCV error without an index: the view whose removal lets the fit run is dropped."""
     real = cv2.fisheye.calibrate
@@ -173,6 +179,7 @@ def test_unnamed_opencv_failure_finds_the_view(jy, monkeypatch):
     assert res.recovered == ("left image_11",) and res.dropped == ()
 
 
+@pytest.mark.slow
 def test_opencv_version_is_pinned_below_5_and_works(jy):
     """OpenCV 5.0.0's cv2.fisheye.calibrate fails on this data: pyproject pins <5 and
     constraints.txt the tested 4.x; the version we run calibrates the real data."""

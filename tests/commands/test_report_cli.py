@@ -23,6 +23,7 @@ def stored(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 def test_report_from_a_report_folder(stored, tmp_path, capsys):
     folder = tmp_path / "shift-01"
     shutil.copytree(stored, folder)
@@ -37,6 +38,7 @@ def test_report_from_a_report_folder(stored, tmp_path, capsys):
     assert (folder / "worker-W1.html").read_text().startswith("<!DOCTYPE html>")
 
 
+@pytest.mark.slow
 def test_report_finds_reports_folder_of_a_session(stored, tmp_path, monkeypatch, capsys):
     """Given the session folder, the report goes to reports/<session name> (assess's default)."""
     session_dir = tmp_path / "sessions" / "shift-01"

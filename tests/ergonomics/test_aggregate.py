@@ -119,6 +119,7 @@ def test_chunks_give_the_same_answer(chunk):
     assert aggregate_shift(_shift(), "w1", chunk_frames=chunk) == whole
 
 
+@pytest.mark.slow
 def test_single_frame_chunks_on_a_short_series():
     frame = _shift().iloc[:2000]
     assert aggregate_shift(frame, chunk_frames=1, frame_period_s=P) == aggregate_shift(frame, frame_period_s=P)

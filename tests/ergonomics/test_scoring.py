@@ -459,6 +459,7 @@ def test_columns_and_dtypes():
             assert str(s[c].dtype).startswith("Int"), c
 
 
+@pytest.mark.slow
 def test_rows_score_independently_of_their_neighbours(rng):
     """Scoring a table equals scoring each row alone (no leakage between rows without a time series)."""
     rows = []

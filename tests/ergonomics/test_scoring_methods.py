@@ -77,6 +77,7 @@ CASES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method,name,prefix,labels", CASES)
 def test_every_cell_matches_the_reference(reference, method, name, prefix, labels):
     table = load_method(method).tables[name]
@@ -92,6 +93,7 @@ def test_every_cell_matches_the_reference(reference, method, name, prefix, label
     assert checked == table.values.size  # every cell of the loaded table was compared
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method,name,prefix,labels", CASES)
 def test_lookup_returns_every_cell(reference, method, name, prefix, labels):
     """The scoring's vectorised lookup, fed every index combination at once."""

@@ -158,6 +158,7 @@ def test_every_score_stays_in_its_range(rows, variant, unknown):
         assert not scores[FINAL].isna().any().any()
 
 
+@pytest.mark.slow
 @settings(derandomize=True, max_examples=30, deadline=None)
 @given(rows=postures(n_max=4), column=st.sampled_from(list(ANGLES)))
 def test_missing_angle_never_invents_a_score(rows, column):

@@ -11,6 +11,9 @@ from evaluation_helpers import ground_truth_tracks, write_results
 from ergopose.cli import main
 from ergopose.sim.ground_truth import load_ground_truth
 
+# Left out of make test-fast (still in make test): every test here evaluates a simulated 15 s session (small_session).
+pytestmark = pytest.mark.slow
+
 SECTIONS = ("source", "lens_regions", "matching", "detection", "errors_3d", "limbs", "angles", "scores", "bar",
             "notes")
 

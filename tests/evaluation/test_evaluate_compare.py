@@ -19,6 +19,9 @@ from ergopose.sim.ground_truth import load_ground_truth
 
 from evaluation_helpers import ground_truth_tracks, write_results
 
+# Left out of make test-fast (still in make test): every test here compares against a simulated 15 s session (small_session).
+pytestmark = pytest.mark.slow
+
 DRAWS = 40
 
 

@@ -12,6 +12,9 @@ from ergopose.evaluation.compare import evaluate_results
 from ergopose.evaluation.oracle import OracleOptions, run_oracle
 from ergopose.recon.table import read_metadata
 
+# Left out of make test-fast (still in make test): every test here runs the oracle evaluation on a simulated session.
+pytestmark = pytest.mark.slow
+
 EXACT = OracleOptions(noise_px=0.0, occluded_noise_px=0.0, person_dropout=0.0, joint_dropout=0.0)
 
 

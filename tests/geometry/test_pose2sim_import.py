@@ -60,6 +60,7 @@ def test_import_cli_writes_a_calibration_in_file_order(demo, tmp_path, capsys):
     assert list(cameras) == list(read_pose2sim_calibration(demo / "Calib_qualisys.toml"))
 
 
+@pytest.mark.slow
 def test_pose2sim_output_reprojects_onto_its_2d_keypoints(demo):
     cameras = read_pose2sim_calibration(demo / "Calib_qualisys.toml")
     errors = reprojection_errors(demo, cameras)

@@ -77,6 +77,7 @@ def test_the_doc_parser_finds_what_a_table_lists():
     assert "not_a_column" not in documented("Frames per worker")
 
 
+@pytest.mark.slow
 def test_every_frames_column_is_documented_and_every_documented_one_written(assessed):
     _, out, _, _ = assessed
     written = list(pd.read_csv(out / "csv" / "worker_1_frames.csv", nrows=0).columns)
@@ -87,6 +88,7 @@ def test_every_frames_column_is_documented_and_every_documented_one_written(asse
     assert sorted(set(doc) - set(written)) == [], "documented but not written"
 
 
+@pytest.mark.slow
 def test_every_summary_column_is_documented_and_every_documented_one_written(assessed):
     _, out, _, _ = assessed
     written = list(pd.read_csv(out / "csv" / "session_summary.csv", nrows=0).columns)
@@ -100,6 +102,7 @@ def test_every_summary_column_is_documented_and_every_documented_one_written(ass
 # ------------------------------------------------------------------------- the frames table
 
 
+@pytest.mark.slow
 def test_the_frames_table_has_one_row_per_tracked_frame_with_a_tz_aware_clock(assessed):
     session, out, frames, _ = assessed
     loaded = load_session(session, check_videos=False)
@@ -129,6 +132,7 @@ def test_the_frames_table_has_one_row_per_tracked_frame_with_a_tz_aware_clock(as
         assert (parquet["time"].dt.tz is not None) and (parquet["time"] == table["time"]).all()
 
 
+@pytest.mark.slow
 def test_the_steps_file_keeps_every_step_for_the_evaluation(assessed):
     _, out, frames, _ = assessed
     steps = pd.read_csv(out / "csv" / "worker_1_steps.csv")
@@ -138,6 +142,7 @@ def test_the_steps_file_keeps_every_step_for_the_evaluation(assessed):
     pd.testing.assert_series_equal(tidy["rula_grand"].astype("Float64"), steps["rula_grand"].astype("Float64"))
 
 
+@pytest.mark.slow
 def test_csv_bom_writes_excel_readable_utf8(assessed, tmp_path):
     session, out, _, _ = assessed
     copy = tmp_path / "out"
@@ -159,6 +164,7 @@ def _printed_shares(line: str) -> tuple[float, float]:
     return float(m.group(1)), float(m.group(2)) if m.group(2) != "n/a" else float("nan")
 
 
+@pytest.mark.slow
 def test_the_terminal_the_report_and_the_summary_csv_give_the_same_shares(assessed):
     _, out, _, outputs = assessed
     table = pd.read_csv(out / "csv" / "session_summary.csv").set_index("worker")

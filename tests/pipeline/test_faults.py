@@ -55,6 +55,7 @@ def model_dir(fetched_model_dir):
 # ------------------------------------------------------------------------------ output folder
 
 
+@pytest.mark.slow
 def test_out_naming_a_file_or_a_folder_below_a_file(tiny_session, model_dir, tmp_path, capsys):
     a_file = tmp_path / "notes.txt"
     a_file.write_text("keep me\n")
@@ -82,6 +83,7 @@ def test_read_only_output_folder(reference, tiny_session, model_dir, tmp_path, c
     assert _files(out) == before
 
 
+@pytest.mark.slow
 def test_read_only_file_system(reference, tiny_session, model_dir, tmp_path, capsys, monkeypatch):
     """A folder on a read-only mount (EROFS on every new file there, injected): one line, and the
     earlier results are untouched."""
@@ -103,6 +105,7 @@ def test_read_only_file_system(reference, tiny_session, model_dir, tmp_path, cap
     assert _files(out) == before
 
 
+@pytest.mark.slow
 def test_no_room_is_found_before_any_work(tiny_session, model_dir, tmp_path, capsys, monkeypatch):
     import collections
 
@@ -144,6 +147,7 @@ def _chunks(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted((out / "pipeline" / "chunks").glob("*"))}
 
 
+@pytest.mark.slow
 def test_full_disk_while_storing_chunks_keeps_the_finished_ones(reference, tiny_session, model_dir, tmp_path,
                                                                 capsys, monkeypatch):
     ref_out, expected = reference
@@ -163,6 +167,7 @@ def test_full_disk_while_storing_chunks_keeps_the_finished_ones(reference, tiny_
     assert csv_bytes(out) == expected
 
 
+@pytest.mark.slow
 def test_full_disk_while_writing_csv_files_keeps_the_earlier_results(reference, tiny_session, model_dir, tmp_path,
                                                                      capsys, monkeypatch):
     """ENOSPC in the middle of the per-frame CSV files of a second run over finished results: every
@@ -196,6 +201,7 @@ def _mount_tmpfs(path: Path, size: str) -> None:
                     "the injected ENOSPC tests cover a full disk")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("mount")),
                     reason="mounting a small tmpfs needs root; the injected ENOSPC tests cover a full disk")
 def test_a_really_full_disk_then_more_room(reference, tiny_session, model_dir, tmp_path, capsys, monkeypatch):
@@ -250,6 +256,7 @@ def _change_an_array(path: Path) -> None:
 CHUNK = "pipeline/chunks/chunk_000000012.npz"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("where, damage, message", [
     (CHUNK, _truncate, "cannot be read"),
     (CHUNK, _flip_a_byte, "cannot be read"),
@@ -284,6 +291,7 @@ def test_a_damaged_stored_piece_is_named_and_recomputed_alone(where, damage, mes
     assert (out / where).stat().st_size == (ref_out / where).stat().st_size  # whole again
 
 
+@pytest.mark.slow
 def test_report_names_a_damaged_results_file(reference, tmp_path, capsys):
     out = _copy(reference[0], tmp_path / "report")
     _truncate(out / "results" / "workers" / "worker_1" / "summary.json")
@@ -307,6 +315,7 @@ def other_session(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_results_carry_the_recordings_fingerprint(reference, tiny_session):
     from ergopose.pipeline.guard import fingerprint_of
     from ergopose.session import load_session
@@ -330,6 +339,7 @@ def test_assess_refuses_a_folder_with_another_recordings_results(reference, othe
     assert json.loads((out / "results" / "session.json").read_text())["data"]["session_id"] == "day2"
 
 
+@pytest.mark.slow
 def test_report_and_evaluate_refuse_another_recordings_results(reference, tiny_session, other_session, tmp_path,
                                                                capsys):
     out = _copy(reference[0], tmp_path / "report")
@@ -365,6 +375,7 @@ def _skipped(out: Path) -> list[str]:
     return (out / "csv" / "frames_skipped.csv").read_text().splitlines()
 
 
+@pytest.mark.slow
 def test_unreadable_frames_are_skipped_counted_and_reported(damaged_session, model_dir, tmp_path, capsys):
     import pandas as pd
 
@@ -387,6 +398,7 @@ def test_unreadable_frames_are_skipped_counted_and_reported(damaged_session, mod
         assert data["detections"][frame % 6, 1] == -1
 
 
+@pytest.mark.slow
 def test_too_many_bad_frames_in_a_piece_name_the_video_and_time(damaged_session, model_dir, tmp_path, capsys):
     out = tmp_path / "report"
     # 1 of the 6 frames of a 0.5 s piece is 17 %: refused with at most 10 % allowed

@@ -29,6 +29,7 @@ def test_assess_takes_a_model_name(capsys):
 
 
 
+@pytest.mark.slow
 def test_the_chosen_card_and_its_gates_reach_the_job(tiny_session, fetched_model_dir, tmp_path):
     run = assess_module.prepare(tiny_session, AssessOptions(out_dir=tmp_path / "out", model="heavy",
                                                             model_dir=str(fetched_model_dir[0])))

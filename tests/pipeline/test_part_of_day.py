@@ -75,6 +75,7 @@ def _clock(session, seconds: float) -> str:
     return (load_session(session, check_videos=False).recorded_at + dt.timedelta(seconds=seconds)).strftime("%H:%M:%S")
 
 
+@pytest.mark.slow
 def test_report_start_end_scores_the_window_again_beside_the_whole_day(assessed, capsys):
     session, out, frames = assessed
     whole = {p: p.read_bytes() for p in (out / "csv").iterdir()}
@@ -96,6 +97,7 @@ def test_report_start_end_scores_the_window_again_beside_the_whole_day(assessed,
     assert "part of the day" in html.lower()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("start, end, words", [
     ("2.5", "1", "--end: 1 is not after --start 2.5"),
     ("60", None, "--start: 60 is outside the session"),
@@ -111,6 +113,7 @@ def test_bad_report_windows_give_one_line_and_exit_2(assessed, capsys, start, en
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_assess_refuses_a_bad_window_before_any_work(tiny_session, tmp_path, capsys):
     out = tmp_path / "report"
     code = cli.main(["assess", "--session", str(tiny_session), "--out", str(out), "--start", "2", "--end", "1"])

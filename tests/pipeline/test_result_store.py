@@ -13,6 +13,7 @@ from ergopose.errors import InputError
 from ergopose.pipeline.store import ResultStore
 
 
+@pytest.mark.slow
 def test_a_second_run_on_the_same_folder_is_refused_while_the_first_holds_it(tmp_path):
     code = ("import sys, time\nfrom ergopose.pipeline.store import ResultStore\n"
             f"with ResultStore({str(tmp_path)!r}).lock():\n"

@@ -83,6 +83,7 @@ def plain():
     return _score(TaskFactors())
 
 
+@pytest.mark.slow
 def test_unseen_hand_is_scored_with_the_settings_wrist_flexion(given):
     left = np.degrees(given["left_wrist_flexion"].to_numpy())
     np.testing.assert_allclose(left[HIDDEN_LEFT], 20.0)
@@ -97,18 +98,21 @@ def test_unseen_hand_is_scored_with_the_settings_wrist_flexion(given):
     assert np.isnan(given["right_wrist_deviation"][NAN_RIGHT]).all()  # the settings give no deviation
 
 
+@pytest.mark.slow
 def test_the_frames_name_the_inputs_from_the_settings(given):
     expected = np.where(HIDDEN_LEFT, "left_wrist_flexion", "").astype(object)
     expected[NAN_RIGHT] = "left_wrist_flexion;right_wrist_flexion"
     assert given["inputs_from_settings"].tolist() == expected.tolist()
 
 
+@pytest.mark.slow
 def test_a_settings_value_adds_no_spread(given):
     sd = np.degrees(given["left_wrist_flexion_sd"].to_numpy())
     assert (sd[HIDDEN_LEFT] == 0).all()
     assert (sd[~HIDDEN_LEFT] > 0.1).all()  # measured from joints with 4 mm deviations
 
 
+@pytest.mark.slow
 def test_without_a_settings_value_the_measurement_stays(plain, given):
     np.testing.assert_allclose(np.degrees(plain["left_wrist_flexion"]), 5.0, atol=1e-6)
     assert np.isnan(plain["right_wrist_flexion"][NAN_RIGHT]).all()
@@ -124,6 +128,7 @@ def test_rows_without_inferred_flags_count_the_hands_as_seen():
     assert out["inputs_from_settings"].tolist() == np.where(NAN_RIGHT, "right_wrist_flexion", "").tolist()
 
 
+@pytest.mark.slow
 def test_the_shift_summary_gives_the_share_of_the_scored_time(given):
     summary = aggregate_shift(given.assign(time_s=np.arange(N) / FPS), "w1", frame_period_s=1 / FPS)
     scored = given["rula_grand"].notna() | given["reba_score"].notna()

@@ -4,11 +4,15 @@ them."""
 
 from __future__ import annotations
 
+import pytest
 from helpers import ground_truth_tracks
 
 from ergopose.pipeline.store import ResultStore
 from ergopose.pipeline.track import regroup, stored_tracks
 from ergopose.recon.settings import ReconSettings
+
+# Left out of make test-fast (still in make test): simulates the tiny session (tiny_session, 3 s of two workers).
+pytestmark = pytest.mark.slow
 
 
 def _frames_by_region(tracks) -> dict[str, int]:

@@ -90,6 +90,7 @@ def _csv_bytes(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted((out / "csv").iterdir())}
 
 
+@pytest.mark.slow
 def test_task_inputs_for_ids_nobody_has_are_named_in_a_warning_and_the_report(assessed):
     session, out, _, warnings = assessed
     assert len(warnings) == 1
@@ -103,6 +104,7 @@ def test_task_inputs_for_ids_nobody_has_are_named_in_a_warning_and_the_report(as
     assert "task inputs applied to nobody" in text and "[workers.w1], [workers.w2]" in text
 
 
+@pytest.mark.slow
 def test_assess_warns_at_the_start_before_the_video_work(copy, monkeypatch):
     from ergopose.pipeline import assess as assess_module
 
@@ -128,6 +130,7 @@ def test_assess_warns_at_the_start_before_the_video_work(copy, monkeypatch):
     assert not [e for e in events if e.unit == "note"]
 
 
+@pytest.mark.slow
 def test_naming_applies_the_task_inputs_and_the_scores_change(copy, capsys):
     session, out, frames = copy
     before = _frames(out, "worker_1")
@@ -152,6 +155,7 @@ def test_naming_applies_the_task_inputs_and_the_scores_change(copy, capsys):
     assert "worker_2 and worker_3 (scored as one worker)" in session_json and '"Anna"' in session_json
 
 
+@pytest.mark.slow
 def test_a_plain_name_is_only_a_name(copy):
     session, out, _ = copy
     rescore.rename(session, {"worker_2": "Ana López"}, out)
@@ -162,6 +166,7 @@ def test_a_plain_name_is_only_a_name(copy):
     assert not names.names_path(session).exists()
 
 
+@pytest.mark.slow
 def test_an_unknown_tracked_id_is_one_clear_line_and_changes_nothing(copy, capsys):
     session, out, _ = copy
     before = _csv_bytes(out)
@@ -173,6 +178,7 @@ def test_an_unknown_tracked_id_is_one_clear_line_and_changes_nothing(copy, capsy
     assert cli.main(["workers", "--session", str(session), "--results", str(out), "--name", "w1"]) == 2
 
 
+@pytest.mark.slow
 def test_the_listing_shows_every_tracked_id(copy, capsys):
     session, out, frames = copy
     names.write_names(session, {"worker_1": "w1"})
@@ -186,6 +192,7 @@ def test_the_listing_shows_every_tracked_id(copy, capsys):
     assert rows["worker_1"].split()[6] == start  # first seen, clock time
 
 
+@pytest.mark.slow
 def test_a_failure_while_scoring_leaves_outputs_and_names_as_they_were(copy, monkeypatch):
     session, out, _ = copy
     before = _csv_bytes(out)
@@ -203,6 +210,7 @@ def test_a_failure_while_scoring_leaves_outputs_and_names_as_they_were(copy, mon
     assert not [p for p in out.iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.slow
 def test_by_stature_names_the_matching_person_end_to_end(copy):
     session, out, _ = copy
     path = session / "settings.toml"
@@ -230,6 +238,7 @@ def test_rows_of_one_person_in_two_ids_keep_the_better_seen_row_per_frame():
     assert merged.points_world[:, 0, 0].tolist() == [1.0, 2.0, 3.0]  # frame 0: worker_3's row, seen by 2 cameras
 
 
+@pytest.mark.slow
 def test_names_of_ids_these_results_do_not_have_are_named_in_a_warning(copy):
     session, out, _ = copy
     names.write_names(session, {"worker_1": "w1", "worker_7": "w2"})

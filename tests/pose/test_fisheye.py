@@ -47,6 +47,7 @@ def camera():
     return ceiling_camera("cam_1", LENS, SIZE, SIZE, position_world=(0.0, 0.0, 3.0))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("target", [(1.2, 0.8, 1.0), (-2.0, 1.5, 1.0), (0.5, -2.6, 1.0),
                                     (0.35, -0.3, 1.0)])  # the last 12 deg off the axis, under the camera
 def test_stage_finds_and_refocuses_on_a_person(camera, landmarker, detector, target):
@@ -79,6 +80,7 @@ def stage_index(name):
     return JOINT_INDEX[name]
 
 
+@pytest.mark.slow
 def test_empty_frame_has_no_people(camera, landmarker, detector):
     frame = np.full((SIZE, SIZE, 3), 170, np.uint8)
     stage = FisheyePoseEstimator(camera, 0, landmarker, detector)
@@ -109,6 +111,7 @@ def _view_pixel_shift(requested: VirtualView, served: VirtualView) -> float:
     return float(np.nanmax(np.linalg.norm(in_served - pixels, axis=-1)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tolerance_px", [0.25, 0.5, 1.0])
 def test_view_cache_serves_views_within_its_pixel_tolerance(camera, tolerance_px):
     """Every cached view lies within the tolerance of the exact view requested (checked at every
@@ -158,6 +161,7 @@ def _rolled_view(camera, target_world, hfov_deg, roll):
     return VirtualView(camera, upright.lens, 512, 512, upright.rotation_cam_from_view @ rz)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lean_deg", [-60.0, 50.0])
 def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector, lean_deg):
     """A person leaning (drawn upright in a view rolled against the upright one): the stage's

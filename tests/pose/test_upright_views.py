@@ -53,6 +53,7 @@ CAMERAS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("bound_deg", [0.0, 30.0])
 @pytest.mark.parametrize("name", list(CAMERAS))
 def test_views_are_upright_to_the_world_within_the_bound(name, bound_deg):
@@ -120,6 +121,7 @@ def _upside_down_target(camera, frame_joints, roll_deg=180.0):
     return Target(hip, np.radians(20.0), SOURCE_REFOCUS, up_cam=down)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("target_world", [(1.2, 0.8, 1.0), (-2.0, 1.5, 1.0)])
 def test_a_view_that_starts_upside_down_comes_upright(camera, landmarker, target_world):
     frame, joints = fisheye_with_person(camera, target_world)
@@ -188,6 +190,7 @@ def _run(camera, landmarker, frame, joints, settings, frames):
     return correct, wrist_conf
 
 
+@pytest.mark.slow
 def test_a_left_right_swap_in_a_sequence_is_put_back(camera, landmarker):
     frame, joints = fisheye_with_person(camera, (1.2, 0.8, 1.0))
     # The drawn person faces the camera with left and right well apart; the network gets them right.
@@ -206,6 +209,7 @@ def test_a_left_right_swap_in_a_sequence_is_put_back(camera, landmarker):
     assert min(conf_default) > 0.5, conf_default
 
 
+@pytest.mark.slow
 def test_a_swap_the_network_keeps_is_followed_and_flagged(camera, landmarker):
     """From frame 2 on the network labels the person the other way round for good: the stage
     corrects the first frames of it, then follows the network (one labelling change, not one
@@ -228,6 +232,7 @@ def test_a_swap_the_network_keeps_is_followed_and_flagged(camera, landmarker):
     assert conf[1] > 0.5
 
 
+@pytest.mark.slow
 def test_on_real_frames_a_view_that_starts_upside_down_comes_upright(shared_data, landmarker, detector):
     """Real people: frames of the Pose2Sim recording's cam_02 re-rendered into a virtual
     equidistant fisheye (the person 75 degrees off the lens axis, 250 px/rad, the camera turned

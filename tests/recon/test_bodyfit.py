@@ -270,6 +270,7 @@ def _flexed_bodies(n, rng, wrist_flexion):
     return pose_skeleton(m, place_on_floor(m, posture))
 
 
+@pytest.mark.slow
 def test_a_hand_two_cameras_do_not_see_continues_its_forearm_and_a_seen_hand_keeps_its_bend(rng):
     """The hand prior (fit_hand_prior_sigma_m): a hand no camera sees, whose previous fit was bent
     back 100 deg (a fit gone wrong), comes back towards its forearm with the prior and stays bent

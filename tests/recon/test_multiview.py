@@ -56,6 +56,7 @@ def test_two_cameras_give_the_pairs_of_associate(crossing):
         np.testing.assert_array_equal(res.singles, np.array(expect, np.int64).reshape(-1, 2))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cams", [(0, 1, 2), (1, 2, 3), (0, 1, 2, 3)])
 def test_crossing_paths_every_set_right(crossing4, crossing, cams):
     frames, order = _select(*crossing4, cams)
@@ -115,6 +116,7 @@ def test_one_camera_every_detection_is_single(crossing4):
     assert np.all(np.isnan(people.points_world)) and np.isfinite(people.ray_world).all()
 
 
+@pytest.mark.slow
 def test_more_cameras_smaller_3d_error(crossing4, crossing):
     """The same people and joints, triangulated from 2, 3 and 4 cameras."""
     errors = {}
@@ -136,6 +138,7 @@ def test_more_cameras_smaller_3d_error(crossing4, crossing):
     assert np.isfinite(errors[4]).sum() >= np.isfinite(errors[2]).sum()
 
 
+@pytest.mark.slow
 def test_tracking_and_body_fit_with_four_cameras(crossing4, crossing, four_cameras):
     """The rest of the reconstruction takes sets of any size: same identities, smaller error."""
     from ergopose.recon import diagnostics as D
@@ -291,6 +294,7 @@ class Pose2SimDemo:
     chosen: np.ndarray  # (100, 4) the person Pose2Sim's association kept (-1: none)
 
 
+@pytest.mark.slow
 def test_pose2sim_demo_association(pose2sim_frames):
     """100 frames, 4 cameras; cameras 1 and 2 also report a second, static detection that no
     other camera supports. Pose2Sim's association kept one person per camera."""

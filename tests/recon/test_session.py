@@ -12,6 +12,7 @@ from ergopose.recon.table import read_tracks, table_to_frames
 from tests.recon.conftest import FPS
 
 
+@pytest.mark.slow
 def test_session_to_parquet(crossing, tmp_path):
     events = []
     path = tmp_path / "out" / "tracks.parquet"

@@ -90,6 +90,7 @@ def test_outliers_are_gated_and_long_runs_restart(rng):
     assert np.allclose(res.value[80:, 0], truth[80:, 0] + 0.4, atol=0.03)
 
 
+@pytest.mark.slow
 def test_fixed_lag_matches_full_smoother_and_chunking(rng):
     settings = ReconSettings()
     T, S = 900, 30

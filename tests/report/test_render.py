@@ -59,6 +59,7 @@ def expected_shares(frames, method_col, levels):
     return {k: f"{100.0 * np.sum(lv == k) / len(lv):.1f} %" for k in levels}
 
 
+@pytest.mark.slow
 def test_headline_numbers_come_from_the_frames(rendered_report):
     folder, session, workers, files = rendered_report
     for info, (_, _, frames) in zip(session.workers, workers):
@@ -68,6 +69,7 @@ def test_headline_numbers_come_from_the_frames(rendered_report):
                 assert page.shares[f"{method}-{k}"] == share, (info.worker_id, method, k)
 
 
+@pytest.mark.slow
 def test_pages_are_self_contained_and_small(rendered_report):
     folder, session, workers, files = rendered_report
     assert set(files.sizes) == {"index.html", "print.html"} | {worker_page_name(w.worker_id) for w in session.workers}
@@ -91,6 +93,7 @@ def test_pages_are_self_contained_and_small(rendered_report):
     assert not list(folder.glob(".*.tmp*")), "temporary files left behind"
 
 
+@pytest.mark.slow
 def test_every_figure_is_accessible(rendered_report):
     folder, session, workers, files = rendered_report
     for name in files.sizes:
@@ -106,6 +109,7 @@ def test_every_figure_is_accessible(rendered_report):
             assert root.find(f"{ns}title").text and root.find(f"{ns}desc").text
 
 
+@pytest.mark.slow
 def test_links_point_at_the_csv_files(rendered_report):
     folder, session, workers, files = rendered_report
     page = Page((folder / "worker-W1.html").read_text(encoding="utf-8"))
@@ -119,6 +123,7 @@ def test_links_point_at_the_csv_files(rendered_report):
     assert {"worker-W1.html", "worker-W2.html", "worker-W3.html", "csv/W3.csv"} <= {a.get("href") for t, a in index.tags if t == "a"}
 
 
+@pytest.mark.slow
 def test_pseudonymous_ids_unless_named(rendered_report):
     folder, session, workers, files = rendered_report
     w1 = Page((folder / "worker-W1.html").read_text(encoding="utf-8"))
@@ -137,6 +142,7 @@ def hostile_report(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page_name", ["index.html", "print.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
 def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
     text = (hostile_report / page_name).read_text(encoding="utf-8")
@@ -159,11 +165,13 @@ def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
     assert n_open == n_close == len(re.findall(r"<figure id=", text))
 
 
+@pytest.mark.slow
 def test_own_page_title_holds_the_hostile_name(hostile_report):
     page = Page((hostile_report / "worker-W3.html").read_text(encoding="utf-8"))
     assert page.title.startswith(HOSTILE_NAMES["W3"] + " (W3):")
 
 
+@pytest.mark.slow
 def test_pages_and_results_are_readable_by_others(rendered_report):
     """Reports live on shared drives: files get the umask's permissions, not the private 0600 of
     temporary files."""
@@ -199,6 +207,7 @@ def _visible_text(html: str) -> str:
     return markupsafe.Markup(re.sub(r"<[^>]+>", " ", html)).unescape()
 
 
+@pytest.mark.slow
 def test_no_report_defects_and_every_abbreviation_in_the_glossary(crowded_report):
     """Issue 15's defects are gone on a short, crowded session; each abbreviation the pages use is
     explained in the page's glossary."""
@@ -220,6 +229,7 @@ def test_no_report_defects_and_every_abbreviation_in_the_glossary(crowded_report
     assert cells and any(re.search(r"\d+ (s|min)", c) for c in cells) and not any(c.strip() in ("0.0", "0") for c in cells)
 
 
+@pytest.mark.slow
 def test_pages_show_the_sustained_periods(rendered_report):
     """Each worker page lists its stored periods in order, with clock times, durations of at least
     the minimum and the body parts; the timeline marks each."""

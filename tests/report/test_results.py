@@ -142,6 +142,7 @@ def test_summary_for_another_worker_is_refused(tmp_path, small):
         R.save_results(tmp_path, session, wrong)
 
 
+@pytest.mark.slow
 def test_results_in_memory_are_the_stored_results(tmp_path, small):
     """ergopose assess renders from session_results(...) instead of reading the folder back: the
     records, tables and every page must be what load_results gives."""

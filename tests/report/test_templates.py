@@ -94,6 +94,7 @@ def example_contexts(stored_report):
     return {pages.WorkerPage: worker, pages.IndexPage: index, pages.PrintPage: printed}
 
 
+@pytest.mark.slow
 def test_example_contexts_have_both_branches(example_contexts):
     """The examples are complete: links with and without a note, optional texts non-empty."""
     worker = example_contexts[pages.WorkerPage]
@@ -105,6 +106,7 @@ def test_example_contexts_have_both_branches(example_contexts):
     assert all(w.worst for w in printed.workers) and any(w.more for w in printed.workers) is False
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage],
                          ids=["worker", "index", "print"])
 def test_template_uses_every_documented_field_and_nothing_else(page_type, example_contexts):
@@ -150,6 +152,7 @@ def test_every_context_field_is_documented(cls):
     assert not missing, f"{cls.__name__} does not document: {', '.join(missing)}"
 
 
+@pytest.mark.slow
 def test_strict_undefined_catches_a_missing_field(example_contexts):
     """A template naming something the context lacks fails loudly (StrictUndefined), not silently."""
     env = environment()

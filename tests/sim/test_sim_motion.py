@@ -42,6 +42,7 @@ def test_same_seed_same_motion_other_seed_differs(scene):
     assert not np.array_equal(a.joints_world, c.joints_world)
 
 
+@pytest.mark.slow
 def test_statures_differ_and_lie_in_range(shift):
     statures = [w.spec.stature for w in shift.workers]
     assert all(1.55 <= s <= 1.95 for s in statures)
@@ -50,6 +51,7 @@ def test_statures_differ_and_lie_in_range(shift):
         assert w.spec.measurements == BodyMeasurements.from_stature(w.spec.stature)
 
 
+@pytest.mark.slow
 def test_every_task_occurs(shift):
     seen = set()
     for w in shift.workers:
@@ -57,6 +59,7 @@ def test_every_task_occurs(shift):
     assert seen == set(TASKS)
 
 
+@pytest.mark.slow
 def test_joints_are_the_skeleton_of_the_stored_angles(shift):
     w = shift.workers[0]
     again = pose_skeleton(w.spec.measurements, w.posture)
@@ -64,6 +67,7 @@ def test_joints_are_the_skeleton_of_the_stored_angles(shift):
     assert w.joints_world.shape == (shift.n_frames, 33, 3)
 
 
+@pytest.mark.slow
 def test_joint_angles_measured_from_the_joints_are_the_built_angles(shift):
     """The ground-truth angles are those joint_angles measures (the body model's contract)."""
     w = shift.workers[1]
@@ -77,6 +81,7 @@ def test_joint_angles_measured_from_the_joints_are_the_built_angles(shift):
         assert np.abs(got[ok] - built[name][ok]).max() < 1e-6, name
 
 
+@pytest.mark.slow
 def test_feet_on_the_floor_while_planted_and_never_below(shift):
     for w in shift.workers:
         j = w.joints_world
@@ -90,6 +95,7 @@ def test_feet_on_the_floor_while_planted_and_never_below(shift):
             assert swing.any() and j[swing, J[f"{side}_ankle"], 2].max() > w.spec.measurements.ankle_height + 0.03
 
 
+@pytest.mark.slow
 def test_planted_feet_do_not_slide(shift):
     for w in shift.workers:
         j = w.joints_world
@@ -115,6 +121,7 @@ def test_planted_feet_do_not_slide(shift):
             assert max(drift) < 0.02
 
 
+@pytest.mark.slow
 def test_joint_angles_stay_within_limits(shift):
     for w in shift.workers:
         for name, values in w.angles().items():
@@ -126,6 +133,7 @@ def test_joint_angles_stay_within_limits(shift):
             assert lo <= deg.min() and deg.max() <= hi, (w.worker_id, name, deg.min(), deg.max())
 
 
+@pytest.mark.slow
 def test_motion_is_smooth(shift):
     dt = 1.0 / FPS
     for w in shift.workers:
@@ -138,6 +146,7 @@ def test_motion_is_smooth(shift):
         assert acc.max() < 8.0
 
 
+@pytest.mark.slow
 def test_workers_keep_apart_while_working(shift):
     roots = np.stack([np.asarray(w.posture.root_position)[:, :2] for w in shift.workers], axis=1)
     moving = np.stack([np.isin(w.task, [TASKS.index(t) for t in ("walk", "turn", "carry")]) for w in shift.workers], 1)
@@ -148,6 +157,7 @@ def test_workers_keep_apart_while_working(shift):
             assert d[both_working].min() > 0.6
 
 
+@pytest.mark.slow
 def test_carton_only_between_lift_and_place_and_with_a_load(shift):
     for w in shift.workers:
         carrying = w.carrying

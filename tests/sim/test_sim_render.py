@@ -53,6 +53,7 @@ def test_ray_capsule_matches_brute_force(rng):
     assert np.abs(t[np.isfinite(t)] - ref[np.isfinite(ref)]).max() < 2e-4
 
 
+@pytest.mark.slow
 def test_ray_ellipsoid_and_box_match_brute_force(rng):
     origin = np.array([-0.3, 0.4, 3.0])
     centre = rng.uniform(-0.5, 0.5, (30, 3)) + [0, 0, 1.0]
@@ -112,6 +113,7 @@ def test_batched_kernels_equal_the_reference_intersections(world):
     assert np.percentile(err, 99) < 1e-3 and err.max() < 1e-2
 
 
+@pytest.mark.slow
 def test_every_primitive_is_inside_its_box(world):
     """No part of a mannequin is clipped: no surface pixel lies on the rim of its bounding box."""
     scene, motion, bodies, cams = world
@@ -133,6 +135,7 @@ def test_every_primitive_is_inside_its_box(world):
                         assert not np.isfinite(t[rim]).any()
 
 
+@pytest.mark.slow
 def test_joints_land_on_the_mannequins_and_far_pixels_show_the_background(world):
     scene, motion, bodies, cams = world
     sturdy = [J[n] for n in ("left_hip", "right_hip", "left_shoulder", "right_shoulder", "nose", "left_knee")]
@@ -160,6 +163,7 @@ def test_joints_land_on_the_mannequins_and_far_pixels_show_the_background(world)
         assert total > 50 and hits / total > 0.97, (cam.name, hits, total)
 
 
+@pytest.mark.slow
 def test_visibility_agrees_with_the_z_buffer(world):
     """Visible joints show their own worker; joints hidden by furniture show no worker there;
     joints hidden by another worker show that worker."""
@@ -204,6 +208,7 @@ def test_background_depth_is_the_distance_to_the_floor():
         assert np.linalg.norm(cam.position_world + t * ray - p) < 0.03
 
 
+@pytest.mark.slow
 def test_camera_effects_are_seeded(world):
     scene, motion, bodies, cams = world
     a = CameraRenderer(cams[1], scene, bodies, RenderOptions(seed=5)).render(10)
