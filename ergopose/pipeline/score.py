@@ -97,17 +97,21 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
     task_use: (inputs used from the settings, Session.task_angles) as in :func:`score_rows`: every
     draw gets the settings' value in those inputs, so they add no spread."""
     n = len(rows)
-    draws_world = U.sample_points(rows.points_world, rows.std_world, rows.frame)
     extra = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
+    keep = [c for c in U.SD_ANGLES if c in posture.columns]  # what U.angle_sd reads of a draw
     angle_draws, rula, reba = [], [], []
-    for pts in draws_world:
+    # one draw at a time, and of each only what is read after it (memory: a block of a shift is
+    # scored at once, and all draws' points together were 25 kB per frame)
+    for pts in U.iter_samples(rows.points_world, rows.std_world, rows.frame):
         a = joint_angles(pts, rows.time_s, angle_settings).to_frame().reset_index(drop=True)
+        del pts
         if task_use is not None:
             a = T.apply_settings(a, *task_use)
-        angle_draws.append(a)
         s = score_posture(pd.concat([a, extra], axis=1), settings=scoring)
-        rula.append(s["rula_grand"])
-        reba.append(s["reba_score"])
+        angle_draws.append(a[keep].copy())
+        rula.append(s["rula_grand"].copy())
+        reba.append(s["reba_score"].copy())
+        del a, s
     out = U.angle_sd(posture, angle_draws)
     for name, reported, draws in (("rula_grand", scores["rula_grand"], rula), ("reba_score", scores["reba_score"], reba)):
         p, low, high = U.score_spread(reported, draws)
