@@ -29,7 +29,7 @@ from ergopose.ergonomics.export import FRAMES_SUFFIX, FramesCsvWriter, StepsCsvW
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.names import merge_rows
-from ergopose.pipeline.scoring import WorkerScorer, _take, block_sizes
+from ergopose.pipeline.scoring import WorkerScorer, _take, block_sizes, scoring_rows
 from ergopose.pipeline.track import Tracks, read_track_parts
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.tracking import identity_name
@@ -216,7 +216,7 @@ def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring, iden
         report(progress, "scoring", 0, total, unit="frame")
         if tracks.workers:
             for part in read_track_parts(tracks.path):
-                part = merge_rows(part, tracks.groups)
+                part = scoring_rows(merge_rows(part, tracks.groups))  # only what scoring reads is kept
                 if tracks.window is not None:
                     part = _take(part, tracks.window.mask(part.frame, session.fps))
                     if not len(part):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import tracemalloc
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from ergopose.ergonomics import uncertainty as U
@@ -88,3 +89,22 @@ def test_scoring_memory_per_frame_stays_small(session):
     per_frame = (_peak_bytes(session, large, scoring) - _peak_bytes(session, small, scoring)) / (600 - 120)
     # measured 5.8 kB per frame; all draws at once: 26 kB
     assert 0 < per_frame < 15_000, per_frame
+
+
+def test_rows_kept_for_scoring_score_as_the_whole_rows(session):
+    from ergopose.pipeline.inputs import scoring_settings
+    from ergopose.pipeline.score import score_rows
+    from ergopose.pipeline.scoring import SCORED_FIELDS, scoring_rows
+
+    rows = _rows(150, seed=2)
+    rows.inferred[::7, 15:22] = True  # hands placed by the body model now and then
+    lean = scoring_rows(rows)
+    for name, v in rows.__dict__.items():
+        if isinstance(v, np.ndarray):
+            assert getattr(lean, name).shape == (v.shape if name in SCORED_FIELDS else (len(rows), 0)), name
+    size = {r: sum(a.nbytes for a in r.__dict__.values() if isinstance(a, np.ndarray)) for r in (rows, lean)}
+    assert size[lean] * 1.9 < size[rows]
+    scoring = scoring_settings(session)
+    whole = score_rows(session, rows, "worker_1", scoring, 0.5)
+    assert whole["rula_grand_p"].notna().all() and (whole["rula_grand_p"] < 1).any()  # the draws differ
+    pd.testing.assert_frame_equal(score_rows(session, lean, "worker_1", scoring, 0.5), whole, check_exact=True)
