@@ -84,9 +84,9 @@ def test_scoring_memory_per_frame_stays_small(session):
     from ergopose.pipeline.inputs import scoring_settings
 
     scoring = scoring_settings(session)
-    small, large = _rows(120), _rows(600)
+    small, large = _rows(100), _rows(400)
     _peak_bytes(session, small, scoring)  # first use: caches, the table of normal numbers
-    per_frame = (_peak_bytes(session, large, scoring) - _peak_bytes(session, small, scoring)) / (600 - 120)
+    per_frame = (_peak_bytes(session, large, scoring) - _peak_bytes(session, small, scoring)) / (400 - 100)
     # measured 5.8 kB per frame; all draws at once: 26 kB
     assert 0 < per_frame < 15_000, per_frame
 
