@@ -10,8 +10,9 @@ works chunk by chunk in worker processes whatever the shift length, so it is not
 Bounded memory means the LONG shift needs about what the SHORT one needs: the
 ``assess_memory_growth`` line is the ratio LONG / SHORT (1.0 = no growth), and
 ``assess_memory_per_shift_minute`` the peak's growth per minute of shift between them (MB/min;
-0 = bounded). Scoring holds one block of up to 10 minutes and its context per worker
-(ergopose.pipeline.scoring), so a SHORT of 10 minutes or more compares full blocks.
+0 = bounded). Scoring holds one block of up to 10 minutes and its context (92 s on both sides)
+per worker (ergopose.pipeline.scoring), so only a SHORT of 12 minutes or more compares full
+blocks (measured 2026-11-26: 24 min 405 MB, 60 min 423 MB, 120 min 428 MB; docs/assess.md).
 """
 
 from __future__ import annotations
