@@ -11,7 +11,8 @@ simulation is not measured.
 
 Bounded memory means the LONG session needs about what the SHORT one needs: the
 ``assess_cluster_worker_memory_growth`` line is the ratio LONG / SHORT of the peaks (1.0 = no
-growth); one line for the video work, one for the whole run. Environment:
+growth), and ``assess_cluster_worker_memory_per_session_minute`` the peak's growth per minute
+of session (MB/min); one line each for the video work and the whole run. Environment:
 ERGOPOSE_BENCH_CLUSTER_MEMORY_SHORT_MINUTES (default 0.5), ..._LONG_MINUTES (default 2).
 """
 
@@ -99,6 +100,8 @@ def main() -> None:
     for phase, what in (("pose", "video work (chunk tasks)"), ("all", "whole run")):
         emit("assess_cluster_worker_memory_growth", runs[LONG][phase] / runs[SHORT][phase], "x", goal=1.0,
              phase=what, short_minutes=SHORT, long_minutes=LONG)
+        emit("assess_cluster_worker_memory_per_session_minute", (runs[LONG][phase] - runs[SHORT][phase]) / (LONG - SHORT),
+             "MB/min", phase=what, short_minutes=SHORT, long_minutes=LONG)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,11 @@ stages on each in a fresh process, and prints each process's peak resident memor
 works chunk by chunk in worker processes whatever the shift length, so it is not part of this.
 
 Bounded memory means the LONG shift needs about what the SHORT one needs: the
-``assess_memory_growth`` line is the ratio LONG / SHORT (1.0 = no growth).
+``assess_memory_growth`` line is the ratio LONG / SHORT (1.0 = no growth), and
+``assess_memory_per_shift_minute`` the peak's growth per minute of shift between them (MB/min;
+0 = bounded). Scoring holds one block of up to 10 minutes and its context (92 s on both sides)
+per worker (ergopose.pipeline.scoring), so only a SHORT of 12 minutes or more compares full
+blocks (measured 2026-11-26: 24 min 405 MB, 60 min 423 MB, 120 min 428 MB; docs/assess.md).
 """
 
 from __future__ import annotations
@@ -94,6 +98,8 @@ def main() -> None:
             peaks[minutes] = float(done.stdout.strip().splitlines()[-1])
             emit("assess_stages_peak_rss_mb", peaks[minutes], "MB", shift_minutes=minutes, workers=2, fps=FPS)
     emit("assess_memory_growth", peaks[LONG] / peaks[SHORT], "x", goal=1.0, short_minutes=SHORT, long_minutes=LONG)
+    emit("assess_memory_per_shift_minute", (peaks[LONG] - peaks[SHORT]) / (LONG - SHORT), "MB/min",
+         short_minutes=SHORT, long_minutes=LONG, workers=2, fps=FPS)
 
 
 if __name__ == "__main__":

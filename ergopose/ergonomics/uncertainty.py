@@ -93,10 +93,19 @@ def _normals() -> np.ndarray:
 
 
 def sample_points(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray) -> np.ndarray:
-    """(n, 33, 3) estimate and deviations -> (SAMPLES, n, 33, 3) draws (a NaN deviation counts as 0)."""
-    z = _normals()[:, np.asarray(frames, dtype=np.int64) % _TABLE_FRAMES]
+    """(n, 33, 3) estimate and deviations -> (SAMPLES, n, 33, 3) draws (a NaN deviation counts as 0).
+    All draws at once: SAMPLES x 792 bytes per frame (:func:`iter_samples` makes one at a time)."""
+    return np.stack(list(iter_samples(points_world, std_world, frames)))
+
+
+def iter_samples(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray):
+    """The draws of :func:`sample_points` one at a time, each (n, 33, 3) (the same numbers): only
+    one draw's points are in memory at once."""
+    rows = np.asarray(frames, dtype=np.int64) % _TABLE_FRAMES
     sd = np.where(np.isfinite(std_world), std_world, 0.0)
-    return points_world[None] + sd[None] * z
+    table = _normals()
+    for k in range(SAMPLES):
+        yield points_world + sd * table[k, rows]
 
 
 def angle_sd(estimate: pd.DataFrame, draws: list[pd.DataFrame]) -> pd.DataFrame:

@@ -29,7 +29,7 @@ from ergopose.ergonomics.export import FRAMES_SUFFIX, FramesCsvWriter, StepsCsvW
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.names import merge_rows
-from ergopose.pipeline.scoring import WorkerScorer, block_sizes, take_rows
+from ergopose.pipeline.scoring import WorkerScorer, block_sizes, scoring_rows, take_rows
 from ergopose.pipeline.track import Tracks, read_track_parts
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.tracking import identity_name
@@ -97,17 +97,21 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
     task_use: (inputs used from the settings, Session.task_angles) as in :func:`score_rows`: every
     draw gets the settings' value in those inputs, so they add no spread."""
     n = len(rows)
-    draws_world = U.sample_points(rows.points_world, rows.std_world, rows.frame)
     extra = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
+    keep = [c for c in U.SD_ANGLES if c in posture.columns]  # what U.angle_sd reads of a draw
     angle_draws, rula, reba = [], [], []
-    for pts in draws_world:
+    # one draw at a time, and of each only what is read after it (memory: a block of a shift is
+    # scored at once, and all draws' points together were 25 kB per frame)
+    for pts in U.iter_samples(rows.points_world, rows.std_world, rows.frame):
         a = joint_angles(pts, rows.time_s, angle_settings).to_frame().reset_index(drop=True)
+        del pts
         if task_use is not None:
             a = T.apply_settings(a, *task_use)
-        angle_draws.append(a)
         s = score_posture(pd.concat([a, extra], axis=1), settings=scoring)
-        rula.append(s["rula_grand"])
-        reba.append(s["reba_score"])
+        angle_draws.append(a[keep].copy())
+        rula.append(s["rula_grand"].copy())
+        reba.append(s["reba_score"].copy())
+        del a, s
     out = U.angle_sd(posture, angle_draws)
     for name, reported, draws in (("rula_grand", scores["rula_grand"], rula), ("reba_score", scores["reba_score"], reba)):
         p, low, high = U.score_spread(reported, draws)
@@ -212,7 +216,7 @@ def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring, iden
         report(progress, "scoring", 0, total, unit="frame")
         if tracks.workers:
             for part in read_track_parts(tracks.path):
-                part = merge_rows(part, tracks.groups)
+                part = scoring_rows(merge_rows(part, tracks.groups))  # only what scoring reads is kept
                 if tracks.window is not None:
                     part = take_rows(part, tracks.window.mask(part.frame, session.fps))
                     if not len(part):
