@@ -29,12 +29,11 @@ check: $(STAMP)
 test: check install
 	$(PY) -m pytest -q
 
-# The edit-run loop: everything but the tests marked slow, browser or network: 934 of the 1,202
-# tests (176 more marked slow for it: over about 1 s, or simulating, assessing or running the networks;
-# make test still runs them all). Measured on a loaded 2-core machine: 47 s of CPU for the whole run,
-# collection included, in one process (so about that in wall time when a core is free; 87 s wall at
-# load average 9-13). That was with PYTHONDONTWRITEBYTECODE set: about 9 s of it went to compiling the
-# modules and rewriting the tests' asserts again, which __pycache__ saves when it may be written.
+# The edit-run loop: everything but the tests marked slow, browser or network: 943 of the 1,219
+# tests (the rest -- over about 1 s, or simulating, assessing or running the networks -- are marked
+# slow; make test still runs them all). Measured on a fresh clone on an idle 2-core machine
+# (2026-11-26): 56 s wall, 52 s of CPU, with PYTHONDONTWRITEBYTECODE set (about 9 s of it goes to
+# compiling the modules and rewriting the tests' asserts again, which __pycache__ saves).
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow and not browser and not network"
 
