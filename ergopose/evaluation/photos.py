@@ -50,7 +50,6 @@ import argparse
 import importlib.util
 import json
 import math
-import os
 import sys
 import time
 from dataclasses import dataclass, replace
@@ -60,6 +59,7 @@ from typing import Any, Sequence
 import cv2
 import numpy as np
 
+from ergopose import atomic
 from ergopose.evaluation.refisheye import reference_pose
 from ergopose.geometry.camera import Camera, ceiling_rotation
 from ergopose.geometry.image_circle import LEVEL_ROTATION
@@ -68,8 +68,9 @@ from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import build_map
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-from ergopose.pose.fisheye import FisheyePoseEstimator, PoseSettings
+from ergopose.pose.fisheye import FisheyePoseEstimator
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL
+from ergopose.pose.settings import PoseSettings
 
 
 @dataclass(frozen=True)
@@ -421,10 +422,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                   f"dir {case.direction_deg:g}: found {r['found']} error {r['error']:.3f} "
                   f"({r['people']} people, {r['seconds']:.1f} s)", file=sys.stderr, flush=True)
     text = render(rows) + "\n" + "\n".join(f"- {n}" for n in notes) + "\n"
-    tmp = a.out.with_name(a.out.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, a.out)
-    a.out.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+    atomic.write_text(a.out, text)
+    atomic.write_text(a.out.with_suffix(".json"), json.dumps(rows, indent=1))
     print(text)
     return 0
 

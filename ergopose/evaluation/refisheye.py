@@ -58,13 +58,13 @@ from typing import Sequence
 import cv2
 import numpy as np
 
+from ergopose import atomic
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import build_map
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
-from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-from ergopose.pose.blazepose import Roi
+from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker, Roi
 from ergopose.pose.fisheye import FisheyePoseEstimator
 from ergopose.pose.settings import PoseSettings
 from ergopose.session import load_session
@@ -556,10 +556,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             + ", ".join(f"cam_{c:02d} {n}/{a.frames}" for c, n in refs_found.items())
             + f" frames; {time.time() - t0:.0f} s, {a.processes} processes.\n\n" + render(rows, modes)
             + "\n".join(base) + "\n")
-    tmp = a.out.with_name(a.out.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, a.out)
-    a.out.with_suffix(".json").write_text(json.dumps(rows, indent=1))
+    atomic.write_text(a.out, text)
+    atomic.write_text(a.out.with_suffix(".json"), json.dumps(rows, indent=1))
     print(text)
     return 0
 
