@@ -92,15 +92,10 @@ def _normals() -> np.ndarray:
     return _TABLE
 
 
-def sample_points(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray) -> np.ndarray:
-    """(n, 33, 3) estimate and deviations -> (SAMPLES, n, 33, 3) draws (a NaN deviation counts as 0).
-    All draws at once: SAMPLES x 792 bytes per frame (:func:`iter_samples` makes one at a time)."""
-    return np.stack(list(iter_samples(points_world, std_world, frames)))
-
-
 def iter_samples(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray):
-    """The draws of :func:`sample_points` one at a time, each (n, 33, 3) (the same numbers): only
-    one draw's points are in memory at once."""
+    """(n, 33, 3) estimate and deviations -> the SAMPLES draws, one (n, 33, 3) array at a time (a
+    NaN deviation counts as 0; a frame's draws depend on its frame number only): only one draw's
+    points are in memory at once (all at once would be SAMPLES x 792 bytes per frame)."""
     rows = np.asarray(frames, dtype=np.int64) % _TABLE_FRAMES
     sd = np.where(np.isfinite(std_world), std_world, 0.0)
     table = _normals()

@@ -53,7 +53,9 @@ def _rows(n: int, seed: int = 0) -> TrackFrames:
 def test_draws_one_at_a_time_are_the_draws_of_all_at_once():
     rows = _rows(50)
     frames = rows.frame + 2000  # past the table's length: indexed modulo
-    every = U.sample_points(rows.points_world, rows.std_world, frames)
+    # all draws at once, as the scoring made them before (one table row per frame number)
+    sd = np.where(np.isfinite(rows.std_world), rows.std_world, 0.0)
+    every = rows.points_world[None] + sd[None] * U._normals()[:, frames % U._TABLE_FRAMES]
     one = U.iter_samples(rows.points_world, rows.std_world, frames)
     assert not isinstance(one, (list, tuple, np.ndarray))  # made on demand
     got = list(one)
