@@ -25,6 +25,10 @@ from ergopose.geometry.camera import Camera
 from ergopose.keypoints import MIRROR, NUM_JOINTS
 
 
+#: Numbers per person of Detections2D.appearance (ergopose.pose.appearance.APPEARANCE_DIMS).
+APPEARANCE_DIMS = 6
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     a.setflags(write=False)
     return a
@@ -47,6 +51,9 @@ class Detections2D:
     rays_world: optional (N, 33, 3) unit world directions from the camera centre towards each
         keypoint (NaN = not found). Computed from ``projection`` when not given (see
         :meth:`world_rays`).
+    appearance: optional (N, 6) float64 clothing colour of each person in this camera
+        (ergopose.pose.appearance: median L*a*b* of the upper body, then of the thighs; NaN where
+        unknown). None (no image, e.g. the simulator's oracle keypoints) is all NaN.
 
     The arrays are converted to float64 and made read-only. InputError names a wrong shape.
     """
@@ -58,6 +65,7 @@ class Detections2D:
     confidence: np.ndarray
     projection: np.ndarray
     rays_world: np.ndarray | None = None
+    appearance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         where = f"detections[{self.camera!r}, frame {self.frame}]"
@@ -92,6 +100,11 @@ class Detections2D:
             rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
             rays[~seen] = np.nan
             object.__setattr__(self, "rays_world", _readonly(rays))
+        look = np.full((n, APPEARANCE_DIMS), np.nan) if self.appearance is None else \
+            np.array(self.appearance, dtype=np.float64)
+        if look.shape != (n, APPEARANCE_DIMS):
+            raise InputError(f"appearance must have shape ({n}, {APPEARANCE_DIMS}), got {look.shape}", field=where)
+        object.__setattr__(self, "appearance", _readonly(look))
 
     @property
     def count(self) -> int:
@@ -133,7 +146,7 @@ class Detections2D:
         conf = np.where(flip, self.confidence[:, MIRROR], self.confidence)
         rays = None if self.rays_world is None else \
             np.where(flip[..., None], self.rays_world[:, MIRROR], self.rays_world)
-        return Detections2D(self.camera, self.frame, self.time_s, px, conf, self.projection, rays)
+        return Detections2D(self.camera, self.frame, self.time_s, px, conf, self.projection, rays, self.appearance)
 
     @classmethod
     def empty(cls, camera: str, frame: int, time_s: float) -> "Detections2D":

@@ -18,6 +18,7 @@ import numpy as np
 
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
+from ergopose.pose.appearance import appearance_fisheye
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.fisheye import FisheyePoseEstimator
 from ergopose.pose.records import FrameDetections
@@ -132,7 +133,8 @@ def video_2d(job: DetectJob, start: int, stop: int,
                 continue
             found = stage.process(image, index)
             counts[k, c] = found.count
-            per_camera.append(found.to_recon(cam, time_s))
+            look = appearance_fisheye(image, found.pixels_fisheye, found.confidence)
+            per_camera.append(found.to_recon(cam, time_s, look))
         frames_2d.append(per_camera)
         report(progress, "pose", k + 1, stop - start, unit="frame")
     return frames_2d, counts

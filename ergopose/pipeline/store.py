@@ -38,8 +38,9 @@ from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_
 from ergopose.progress import warn
 
 #: 2: chunk files carry the inputs' fingerprint and a checksum (version 1 chunks are computed again);
-#: 3: People3D chunks carry every camera's 2D observations (the body fit).
-FORMAT_VERSION = 3
+#: 3: People3D chunks carry every camera's 2D observations (the body fit);
+#: 4: and every person's clothing colour (the tracker's appearance signature).
+FORMAT_VERSION = 4
 
 #: Members of a chunk file besides the People3D arrays.
 _CHECKSUM = "sha256"

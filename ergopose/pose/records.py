@@ -86,12 +86,14 @@ class FrameDetections:
     def count(self) -> int:
         return int(self.presence.shape[0])
 
-    def to_recon(self, camera: Camera, time_s: float):
-        """The reconstruction stage's record (ergopose.recon.records.Detections2D) of these people."""
+    def to_recon(self, camera: Camera, time_s: float, appearance: np.ndarray | None = None):
+        """The reconstruction stage's record (ergopose.recon.records.Detections2D) of these people;
+        appearance: (N, 6) their clothing colours (ergopose.pose.appearance), None: unknown."""
         rotation = np.asarray(camera.rotation_world_from_cam, dtype=np.float64)
         return Detections2D(camera=camera.name, frame=self.frame_index, time_s=time_s,
                             pixels_view=self.pixels_view, confidence=self.confidence,
-                            projection=self.projection, rays_world=self.rays_cam @ rotation.T)
+                            projection=self.projection, rays_world=self.rays_cam @ rotation.T,
+                            appearance=appearance)
 
     @classmethod
     def empty(cls, camera_index: int, frame_index: int) -> "FrameDetections":

@@ -13,6 +13,7 @@ import numpy as np
 
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.records import APPEARANCE_DIMS
 
 #: Torso joints used for association, tracking centres and signatures: shoulders and hips.
 TORSO_JOINTS = np.array([JOINT_INDEX[n] for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")])
@@ -56,6 +57,8 @@ class People3D:
         in its view (NaN where not seen); obs_confidence: (M, C, 33) their confidences, without
         any gate (0 where not seen). The body model (recon.bodyfit) is fitted to these. None
         (rows made from 3D points only) gives zeros / NaN.
+    appearance: (M, 6) the person's clothing colour (ergopose.pose.appearance), the mean over
+        the cameras of the set that measured it; NaN where none did (None gives NaN).
     """
 
     cameras: tuple[str, ...]
@@ -75,9 +78,12 @@ class People3D:
     obs_projection: np.ndarray | None = None
     obs_pixels_view: np.ndarray | None = None
     obs_confidence: np.ndarray | None = None
+    appearance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m, c = len(self.frame), len(self.cameras)
+        if self.appearance is None:
+            object.__setattr__(self, "appearance", np.full((m, APPEARANCE_DIMS), np.nan))
         if self.obs_projection is None:
             object.__setattr__(self, "obs_projection", np.zeros((m, c, 3, 4)))
         if self.obs_pixels_view is None:
@@ -130,7 +136,7 @@ class People3D:
 
 _ROW_FIELDS = ("frame", "time_s", "n_cameras", "detection", "points_world", "reprojection_error_px", "views",
                "confidence", "rejected", "variance_world", "centre_world", "ray_origin_world", "ray_world",
-               "obs_projection", "obs_pixels_view", "obs_confidence")
+               "obs_projection", "obs_pixels_view", "obs_confidence", "appearance")
 
 
 def body_centres(points_world: np.ndarray) -> np.ndarray:

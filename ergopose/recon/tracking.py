@@ -10,8 +10,10 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    within ``track_gate_m`` plus ``track_gate_growth_m_per_s`` per second the track has gone
    unseen; globally optimal assignment among the candidates within the gates, maximising a
    log-likelihood gain in which a track's uncertainty grows with its gate (:func:`_match_gain`;
-   associate.gated_assignment, scipy.optimize.linear_sum_assignment). A matched track updates
-   its centre and velocity with an alpha-beta filter (gains ALPHA, BETA).
+   associate.gated_assignment, scipy.optimize.linear_sum_assignment), less the clothing colour's
+   (:func:`_colour_cost`: the person's colour against the track's mean, ergopose.pose.appearance;
+   a colour further than APPEARANCE_GATE is no match). A matched track updates its centre and
+   velocity with an alpha-beta filter (gains ALPHA, BETA).
 3. Matching people seen by one camera only. Tracks still unmatched are compared with the torso
    rays of single-view people: cost = horizontal distance between the predicted centre and the
    point where the ray reaches the track's height (in front of the camera), gated by
@@ -23,15 +25,19 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    TENTATIVE_MAX_COAST_S).
 6. Identities. A tentative track is resolved once it has ``relink_window_s`` of 3D data, or
    when it ends (dropped as noise if it has less than ``min_track_s``). It is then compared
-   with the identities that are not being followed right now (lost, or coasting since before
-   the track began): a candidate must have been able to walk from where it was last seen to
-   where the new track began (``relink_max_speed_m_s``), and its body-measurement signature --
+   with the identities that are not being followed right now (lost, or coasting -- or kept only
+   by one camera's rays -- since before the track began): a candidate must have been able to walk from where it was last seen to
+   where the new track began (``relink_max_speed_m_s``). Where the clothing colours are known
+   they decide first (:meth:`Tracker._by_colour`): the candidate within APPEARANCE_SAME and
+   APPEARANCE_MARGIN closer than any other is the person; a track further than APPEARANCE_NEW
+   from every identity is someone new. Otherwise its body-measurement signature --
    the medians of its limb lengths (keypoints.LIMBS) over everything seen so far -- must
    differ from the new track's by at most ``relink_max_signature_m`` (RMS over limbs), and by
    ``relink_margin_m`` less than the second best candidate -- unless it is the only fitting
    identity lost within RECENT_GAP_S before the track began (a worker re-appearing after a
    short occlusion) -- or, once as many identities exist as the area holds workers
-   (``expected_workers``), the candidate with the closest signature whatever its distance. The
+   (``expected_workers``), the candidate with the closest colour (else signature) whatever its
+   distance. The
    chosen candidate gives the track its identity (a coasting track of
    that identity ends); otherwise the track gets a new identity. While an identity the track
    could be is waiting for a contact decision (7.), the decision waits. Identities are numbered in order of appearance: worker_1, worker_2, ...
@@ -41,8 +47,9 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    wait); once the people have separated again and each live continuation has
    ``relink_window_s`` of 3D data since, with a comparable limb (at most GROUP_MAX_WAIT
    windows after the separation, GROUP_MAX_WAIT_S after the contact), the identities are
-   confirmed or crossed over by optimal assignment on the signatures -- crossed only if that
-   beats keeping them by ``relink_margin_m`` per changed identity
+   confirmed or crossed over by optimal assignment on the clothing colours where known (crossed
+   only if that beats keeping them by APPEARANCE_MARGIN per changed identity), else on the
+   signatures (by ``relink_margin_m``)
    (:meth:`Tracker._resolve_group`). A continuation that ends first keeps its identity.
 
 Single-view people never start tracks and are never triangulated. Frame times are frame / fps.
@@ -57,9 +64,11 @@ from scipy.optimize import linear_sum_assignment
 
 from ergopose.errors import InputError
 from ergopose.keypoints import LIMB_INDEX, LIMBS
+from ergopose.pose.appearance import appearance_distance
 from ergopose.recon.associate import gated_assignment
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
+from ergopose.records import APPEARANCE_DIMS
 
 #: Alpha-beta gains of the centre filter (position, velocity). The triangulated centre jumps by
 #: up to ~0.2 m when the set of visible torso joints changes (a bent-over worker's shoulders lie
@@ -83,6 +92,23 @@ RECENT_GAP_S = 10.0
 #: people separated, and at most GROUP_MAX_WAIT_S in all (people working side by side).
 GROUP_MAX_WAIT = 4
 GROUP_MAX_WAIT_S = 60.0
+#: Clothing colour (ergopose.pose.appearance; distances in its L*a*b* units, 0..255 scale). A
+#: worker's own 3D rows lie a median 2.5-5.5 (90th percentile 4-14) from the worker's mean, and
+#: the means of four simulated workers 21-40 from each other (seed 0, network keypoints, the first
+#: 10 s). APPEARANCE_SIGMA: the spread of one row about its track's mean in the matching's
+#: likelihood; APPEARANCE_GATE: a row further than this from a track's colour is not that
+#: track's person; an identity within APPEARANCE_SAME of a new track, APPEARANCE_MARGIN closer
+#: than any other, is its person; one further than APPEARANCE_NEW from every identity is someone
+#: new. A colour enters a mean only from APPEARANCE_MIN_ROWS rows on.
+APPEARANCE_SIGMA = 8.0
+APPEARANCE_GATE = 30.0
+APPEARANCE_SAME = 12.0
+APPEARANCE_MARGIN = 8.0
+APPEARANCE_NEW = 18.0
+APPEARANCE_MIN_ROWS = 5
+#: Two confirmed tracks whose colours are at least this far apart are not split at a contact
+#: (the colour term of the matching tells their people apart frame by frame).
+APPEARANCE_APART = 18.0
 #: Limb-length histogram: bin width and number of bins (0 .. 1.5 m in millimetres).
 HIST_BIN_M = 0.001
 HIST_BINS = 1500
@@ -125,6 +151,12 @@ def _match_gain(cost: np.ndarray, gate: np.ndarray, fresh_gate: float) -> np.nda
     with np.errstate(invalid="ignore"):
         nll = 0.5 * (cost / sigma) ** 2 + 2.0 * np.log(sigma)
     return np.maximum(ref - nll, 1e-3)
+
+
+def _colour_cost(colour: np.ndarray) -> np.ndarray:
+    """Negative log-likelihood of clothing-colour distances (APPEARANCE_SIGMA); 0 where unknown."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(colour), 0.5 * (colour / APPEARANCE_SIGMA) ** 2, 0.0)
 
 
 def _ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray):
@@ -196,6 +228,30 @@ class LimbHistogram:
         return float(total / frac)
 
 
+class Look:
+    """The running mean clothing colour of a track or identity (ergopose.pose.appearance)."""
+
+    def __init__(self) -> None:
+        self.total = np.zeros(APPEARANCE_DIMS)
+        self.count = np.zeros(APPEARANCE_DIMS, dtype=np.int64)
+
+    def add(self, looks: np.ndarray) -> None:
+        """looks: (n, APPEARANCE_DIMS); NaN entries are ignored."""
+        looks = np.asarray(looks, dtype=np.float64).reshape(-1, APPEARANCE_DIMS)
+        known = np.isfinite(looks)
+        self.total += np.where(known, looks, 0.0).sum(axis=0)
+        self.count += known.sum(axis=0)
+
+    def merge(self, other: "Look") -> None:
+        self.total += other.total
+        self.count += other.count
+
+    def mean(self) -> np.ndarray:
+        """(APPEARANCE_DIMS,) mean colour; NaN where fewer than APPEARANCE_MIN_ROWS rows gave it."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.count >= APPEARANCE_MIN_ROWS, self.total / np.maximum(self.count, 1), np.nan)
+
+
 def _group_costs(members: list[np.ndarray], identities: list[np.ndarray]) -> np.ndarray:
     """(M, I) RMS difference of limb medians between contact continuations and the group's
     identities, each row over the limbs known in that member and in every identity (so a row
@@ -227,12 +283,15 @@ class _Track:
     vel: np.ndarray
     last_frame: int            # frame of the last observation (3D or single view)
     last_update_frame: int     # frame of the last state update
+    last_3d_frame: int = -1    # frame of the last observation by two or more cameras
     frames_3d: int = 0
     identity: int | None = None
     hist: LimbHistogram = field(default_factory=LimbHistogram)
+    look: Look = field(default_factory=Look)
     pending_rows: list = field(default_factory=list)   # chunk rows not yet in hist
     group: int | None = None            # contact group whose decision is pending (provisional identity)
     hist_before: LimbHistogram | None = None  # a continuation's limb lengths before the separation
+    look_before: Look | None = None  # and its colours
     no_split_with: set = field(default_factory=set)  # identities it was resolved with, still close
 
 
@@ -243,6 +302,7 @@ class _Identity:
     last_frame: int
     last_pos: np.ndarray
     track: int | None  # id of the live track following it, if any
+    look: Look = field(default_factory=Look)
 
 
 @dataclass(frozen=True)
@@ -336,6 +396,7 @@ class Tracker:
         # medians: the ORACLE 2-worker 2-minute 1024 x 768 session went from 0 to 4 identity
         # switches at contacts.)
         self._lengths = limb_lengths(people.points_world)
+        looks = people.appearance
         resolved: dict[int, int | None] = {}
         ended: list[TrackEnd] = []
         cent_f, cent_t, cent_p = [], [], []
@@ -365,7 +426,10 @@ class Tracker:
             unmatched3 = rows3
             if tracks and len(rows3):
                 cost = np.linalg.norm(pred[:, None, :2] - centre[rows3][None, :, :2], axis=-1)
-                ti, ri = gated_assignment(cost, gate[:, None], _match_gain(cost, gate, gate0))
+                colour = appearance_distance(np.array([self._colour(t) for t in tracks])[:, None], looks[rows3][None])
+                cost = np.where(colour > APPEARANCE_GATE, np.inf, cost)
+                gain = _match_gain(cost, gate, gate0) - _colour_cost(colour)
+                ti, ri = gated_assignment(cost, gate[:, None], np.maximum(gain, 1e-3))
                 if len(ti):
                     used = np.zeros(len(rows3), bool)
                     for a, b in zip(ti, ri):
@@ -373,7 +437,9 @@ class Tracker:
                         row = rows3[b]
                         self._update_track(t, pred[a], centre[row], gap[a], f)
                         t.frames_3d += 1
+                        t.last_3d_frame = f
                         t.pending_rows.append(row)
+                        t.look.add(looks[row])
                         track_of[row] = t.id
                         matched_tracks.add(a)
                         used[b] = True
@@ -398,8 +464,9 @@ class Tracker:
                         matched_tracks.add(int(free[a]))
             for row in unmatched3:
                 t = _Track(id=self.next_track, first_frame=f, first_pos=centre[row].copy(), pos=centre[row].copy(),
-                           vel=np.zeros(3), last_frame=f, last_update_frame=f, frames_3d=1)
+                           vel=np.zeros(3), last_frame=f, last_update_frame=f, last_3d_frame=f, frames_3d=1)
                 t.pending_rows.append(row)
+                t.look.add(looks[row])
                 self.next_track += 1
                 track_of[row] = t.id
                 self.tracks.append(t)
@@ -522,6 +589,27 @@ class Tracker:
         """Identities of pending contact groups."""
         return {m.identity for g in self.groups.values() for m in g["members"]}
 
+    def _colour(self, t: _Track) -> np.ndarray:
+        """The clothing colour a track's person should have: its identity's while a contact
+        decision is pending (the continuation's own rows may be either person's), else its own
+        (shared with its identity once resolved)."""
+        if t.group is not None and t.identity is not None:
+            return self.identities[t.identity].look.mean()
+        return t.look.mean()
+
+    @staticmethod
+    def _by_colour(cands: list, colours: list[float]) -> tuple["_Identity | None", bool]:
+        """What the clothes say about a new track: (the candidate identity whose colour is within
+        APPEARANCE_SAME and APPEARANCE_MARGIN closer than every other candidate's, or None;
+        whether it is someone new: further than APPEARANCE_NEW from every identity, all known)."""
+        known = sorted((c for c in cands if np.isfinite(c[3])), key=lambda c: (c[3], c[1].number))
+        if known:
+            second = known[1][3] if len(known) > 1 else np.inf
+            if known[0][3] <= APPEARANCE_SAME and second - known[0][3] >= APPEARANCE_MARGIN:
+                return known[0][1], False
+        new = bool(colours) and all(np.isfinite(c) and c > APPEARANCE_NEW for c in colours)
+        return None, new
+
     def _resolve(self, t: _Track, resolved: dict, ended: list, final: bool = False) -> bool:
         """Give a tentative track its identity (see the module docstring). Returns False (and
         leaves it tentative) while an identity it could be is waiting for a contact group's
@@ -529,20 +617,26 @@ class Tracker:
         s = self.settings
         self._flush(t)
         mine = t.hist.medians()
+        mine_look = t.look.mean()
         live = {x.id: x for x in self.tracks}
         reserved = self._reserved()
         cands = []
+        colours = []  # clothing-colour distance to every identity it could be or is followed now
         for ident in self.identities.values():
+            if ident.number not in reserved:
+                colours.append(float(appearance_distance(mine_look, ident.look.mean())))
             if ident.number in reserved:
                 if not final and ident.track is None and ident.last_frame < t.first_frame:
                     return False
                 continue
             if ident.track is not None:
                 other = live.get(ident.track)
-                if other is None or other.last_frame >= t.first_frame:
+                if other is None or other.last_3d_frame >= t.first_frame:
                     continue  # being followed right now (seen together with the new track)
+                # Coasting, or kept by one camera's rays only, since before the new track began:
+                # the new track may be the same person, seen by two cameras again.
                 self._flush(other)
-                last_frame, last_pos = other.last_frame, other.pos
+                last_frame, last_pos = other.last_3d_frame, other.pos
             else:
                 last_frame, last_pos = ident.last_frame, ident.last_pos
             if last_frame >= t.first_frame:
@@ -551,12 +645,15 @@ class Tracker:
             reach = s.relink_max_speed_m_s * gap_s + s.track_gate_m
             if np.linalg.norm((t.first_pos - last_pos)[:2]) > reach:
                 continue
-            cands.append((signature_distance(mine, ident.hist.medians()), ident, gap_s))
-        choice = None
+            cands.append((signature_distance(mine, ident.hist.medians()), ident, gap_s,
+                          float(appearance_distance(mine_look, ident.look.mean()))))
+        choice, someone_new = self._by_colour(cands, colours)
         valid = sorted([c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
                        key=lambda c: (c[0], c[1].number))
         recent = [c for c in valid if c[2] <= RECENT_GAP_S]
-        if len(cands) == 1 and not np.isfinite(cands[0][0]):
+        if choice is not None or someone_new:
+            pass  # the clothes decided
+        elif len(cands) == 1 and not np.isfinite(cands[0][0]):
             choice = cands[0][1]  # the only identity that could be here; too little data to compare
         elif len(recent) == 1:
             choice = recent[0][1]  # the only fitting identity lost moments ago: the same person
@@ -568,7 +665,8 @@ class Tracker:
         if choice is None and cands and s.expected_workers and len(self.identities) >= s.expected_workers:
             # Every worker of the area has an identity: the track is one of those who could have
             # walked here, whatever the (noisy) signatures say.
-            choice = min(cands, key=lambda c: (c[0] if np.isfinite(c[0]) else np.inf, c[2], c[1].number))[1]
+            choice = min(cands, key=lambda c: (c[3] if np.isfinite(c[3]) else np.inf,
+                                               c[0] if np.isfinite(c[0]) else np.inf, c[2], c[1].number))[1]
         if choice is None:
             choice = _Identity(self.next_identity, LimbHistogram(), t.last_frame, t.pos.copy(), None)
             self.identities[choice.number] = choice
@@ -581,6 +679,8 @@ class Tracker:
             ended.append(TrackEnd(old.id, old.first_frame, old.last_frame, old.identity))
         choice.hist.merge(t.hist)
         t.hist = choice.hist
+        choice.look.merge(t.look)
+        t.look = choice.look
         choice.track = t.id
         t.identity = choice.number
         resolved[t.id] = choice.number
@@ -615,6 +715,12 @@ class Tracker:
         d = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
         close = d < s.contact_distance_m
         np.fill_diagonal(close, False)
+        if close.any() and APPEARANCE_APART > 0:
+            # People in clearly different clothes are told apart frame by frame by the colour
+            # term of the matching: no provisional split.
+            colours = np.array([self._colour(t) for t in live])
+            apart = appearance_distance(colours[:, None], colours[None]) >= APPEARANCE_APART
+            close &= ~apart
         for a in range(len(live)):
             for b in range(len(live)):
                 if close[a, b] and live[b].identity in live[a].no_split_with:
@@ -647,6 +753,7 @@ class Tracker:
                 gone.add(t.id)
                 c = _Track(id=self.next_track, first_frame=f + 1, first_pos=t.pos.copy(), pos=t.pos.copy(),
                            vel=t.vel.copy(), last_frame=t.last_frame, last_update_frame=t.last_update_frame,
+                           last_3d_frame=t.last_3d_frame,
                            identity=t.identity, group=gid)
                 self.next_track += 1
                 self.identities[t.identity].track = c.id
@@ -680,6 +787,8 @@ class Tracker:
                 self._flush(m)
                 m.hist_before = m.hist
                 m.hist = LimbHistogram()
+                m.look_before = m.look
+                m.look = Look()
                 m.frames_3d = 0
 
     def _member_medians(self, m: _Track) -> np.ndarray:
@@ -693,6 +802,17 @@ class Tracker:
         both.merge(m.hist)
         both.merge(m.hist_before)
         return both.medians()
+
+    @staticmethod
+    def _member_look(m: _Track) -> np.ndarray:
+        """Mean colour of a continuation: since the separation, else since the contact."""
+        look = m.look.mean()
+        if np.isfinite(look).any() or m.look_before is None:
+            return look
+        both = Look()
+        both.merge(m.look)
+        both.merge(m.look_before)
+        return both.mean()
 
     def _group_ready(self, gid: int, f: int) -> bool:
         """Decide a contact group once its people have separated and every live continuation
@@ -724,6 +844,13 @@ class Tracker:
         idents = [m.identity for m in members]
         cost = _group_costs([self._member_medians(m) for m in members],
                             [self.identities[k].hist.medians() for k in idents])
+        colour = np.array([[float(appearance_distance(self._member_look(m), self.identities[k].look.mean()))
+                            for k in idents] for m in members])
+        margin = s.relink_margin_m
+        if np.isfinite(colour).all(axis=1).sum() >= 2:
+            # The clothes decide where they are known (limb lengths from a pose network scatter
+            # more than workers differ: docs/reconstruction.md, 3. Identities).
+            cost, margin = colour, APPEARANCE_MARGIN
         comparable = np.flatnonzero(np.isfinite(cost).all(axis=1))
         final = list(idents)
         if len(comparable) >= 2:
@@ -732,7 +859,7 @@ class Tracker:
             now = float(np.trace(sub))
             new = float(sub[r, c].sum())
             changed = int(np.sum(r != c))
-            if changed and new + s.relink_margin_m * changed <= now:
+            if changed and new + margin * changed <= now:
                 for i, j in zip(r, c):
                     final[comparable[i]] = idents[comparable[j]]
         alive = {t.id for t in self.tracks}
@@ -748,7 +875,12 @@ class Tracker:
             if m.hist_before is not None:
                 m.hist.merge(m.hist_before)
                 m.hist_before = None
+            if m.look_before is not None:
+                m.look.merge(m.look_before)
+                m.look_before = None
             ident.hist.merge(m.hist)
             m.hist = ident.hist
+            ident.look.merge(m.look)
+            m.look = ident.look
             m.group = None
             resolved[m.id] = ident_no

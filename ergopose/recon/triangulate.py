@@ -26,7 +26,7 @@ from ergopose.progress import ProgressCallback, report
 from ergopose.recon.associate import associate_views, canonical_sides
 from ergopose.recon.records import TORSO_JOINTS, People3D, body_centres
 from ergopose.recon.settings import ReconSettings
-from ergopose.records import Detections2D
+from ergopose.records import APPEARANCE_DIMS, Detections2D
 
 
 def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: ReconSettings | None = None,
@@ -50,7 +50,7 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
         raise InputError(f"camera {twice[0]!r} is listed twice in a frame (cameras {list(cameras)})", field="frames")
     C = len(cameras)
     rows_frame, rows_time, rows_det, rows_ncam = [], [], [], []
-    set_P, set_px, set_w = [], [], []
+    set_P, set_px, set_w, set_look = [], [], [], []
     single_rows = []  # (row index, camera position, Detections2D, person index)
     last = None
     for k, dets in enumerate(frames):
@@ -73,12 +73,15 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
             P = np.zeros((C, nmax + 1, 3, 4))
             px = np.full((C, nmax + 1, NUM_JOINTS, 2), np.nan)
             w = np.zeros((C, nmax + 1, NUM_JOINTS))
+            look = np.full((C, nmax + 1, APPEARANCE_DIMS), np.nan)
             for c, d in enumerate(dets):
                 P[c, :d.count], px[c, :d.count], w[c, :d.count] = d.projection, d.pixels_view, d.confidence
+                look[c, :d.count] = d.appearance
             cam = np.arange(C)[None, :]
             set_P.append(P[cam, g])
             set_px.append(px[cam, g])
             set_w.append(w[cam, g])
+            set_look.append(_mean_over_cameras(look[cam, g]))
             rows_frame += [a.frame] * len(g)
             rows_time += [a.time_s] * len(g)
             rows_det += list(g)
@@ -106,14 +109,17 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     obs_P = np.zeros((m, C, 3, 4))
     obs_px = np.full((m, C, NUM_JOINTS, 2), np.nan)
     obs_conf = np.zeros((m, C, NUM_JOINTS))
+    appearance = np.full((m, APPEARANCE_DIMS), np.nan)
     is_set = n_cameras >= 2
     if set_P:
         P, px, w = np.concatenate(set_P), np.concatenate(set_px), np.concatenate(set_w)
         obs_P[is_set], obs_px[is_set], obs_conf[is_set] = P, px, w
+        appearance[is_set] = np.concatenate(set_look)
         tri = triangulate_pairs(P, px, w, settings)
         points[is_set], err[is_set], views[is_set], conf[is_set], rejected[is_set], variance[is_set] = tri
     for row, cam, det, i in single_rows:
         obs_P[row, cam], obs_px[row, cam], obs_conf[row, cam] = det.projection[i], det.pixels_view[i], det.confidence[i]
+        appearance[row] = det.appearance[i]
         c = det.confidence[i]
         used = c >= max(settings.min_confidence, 1e-12)
         views[row] = used
@@ -126,7 +132,17 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
         n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, C), points_world=points,
         reprojection_error_px=err, views=views, confidence=conf, rejected=rejected, variance_world=variance,
         centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray,
-        obs_projection=obs_P, obs_pixels_view=obs_px, obs_confidence=obs_conf)
+        obs_projection=obs_P, obs_pixels_view=obs_px, obs_confidence=obs_conf, appearance=appearance)
+
+
+def _mean_over_cameras(look: np.ndarray) -> np.ndarray:
+    """(G, C, D) per-camera appearance of G sets -> (G, D) mean over the cameras that measured
+    each number; NaN where none did."""
+    known = np.isfinite(look)
+    count = known.sum(axis=1)
+    total = np.where(known, look, 0.0).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 
 import numpy as np
@@ -210,3 +211,67 @@ def test_a_full_roster_keeps_a_returning_worker_whose_measurements_drifted(rng):
     tr.update(_stored(truth3, vis3, rng), 0, n)
     tr.finish()
     assert len(tr.identities) == 3
+
+
+def _dressed(people: People3D, person: np.ndarray, colours: np.ndarray, rng, noise: float = 3.0) -> People3D:
+    """The rows with clothing colours: colours[person of the row] + Gaussian noise (Lab units)."""
+    look = colours[person] + rng.normal(0.0, noise, (len(person), colours.shape[1]))
+    return dataclasses.replace(people, appearance=look)
+
+
+#: Two workers' clothing colours (L*a*b*, OpenCV's 8-bit scale, upper body then thighs): a red and
+#: a blue shirt over the same grey trousers.
+RED_AND_BLUE = np.array([[136.0, 208.0, 195.0, 120.0, 128.0, 128.0],
+                         [82.0, 207.0, 20.0, 120.0, 128.0, 128.0]])
+
+
+def test_clothes_keep_identities_where_body_measurements_cannot(rng):
+    """Two workers of the same build walk up to each other, stand 10 cm apart for 2.5 s and walk
+    back. Their limb lengths cannot tell them apart, so without colours the tracks cross over at
+    the turn; their shirts (red, blue) keep each worker's identity."""
+    n = int(14 * FPS)
+    scripts = [WorkerScript(1.75, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
+               WorkerScript(1.75, np.array([[2.0, 0.0], [0.05, 0.0], [2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0))]
+    truth = walk_workers(scripts, n, FPS)
+    plain = _stored(truth, np.ones((n, 2), bool), rng, sigma=0.01)
+    f, p = np.nonzero(np.ones((n, 2), bool))
+    dressed = _dressed(plain, p, RED_AND_BLUE, rng)
+
+    def kept(people):
+        tr = Tracker(ReconSettings(), FPS)
+        res = tr.update(people, 0, n)
+        resolved = {**res.resolved, **tr.finish().resolved}
+        ident = np.array([resolved[t] for t in res.track])
+        return all(set(ident[(p == q) & (f > n - 24)]) == set(ident[(p == q) & (f < 12)]) and
+                   len(set(ident[(p == q) & (f > n - 24)])) == 1 for q in (0, 1)), len(set(ident))
+
+    assert kept(dressed) == (True, 2)
+    assert not kept(plain)[0]
+
+
+def test_a_returning_worker_is_known_by_the_clothes(rng):
+    """Two workers of the same build leave for 20 s; only one returns, far from where either left.
+    Limb lengths cannot tell (a new identity, test_relink_uses_body_measurements_and_refuses_to_guess);
+    the blue shirt gives the blue worker's identity back. A worker in a green shirt coming back
+    instead is someone new."""
+    n = int(40 * FPS)
+    scripts = [WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+               WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0)]
+    truth = walk_workers(scripts, n, FPS)
+    vis = np.ones((n, 2), bool)
+    vis[int(10 * FPS):int(30 * FPS), :] = False
+    vis[int(30 * FPS):, 0] = False  # worker 0 never comes back
+    f, p = np.nonzero(vis)
+    green = np.array([150.0, 80.0, 170.0, 120.0, 128.0, 128.0])
+    for returning, expect_same in ((RED_AND_BLUE[1], True), (green, False)):
+        colours = np.stack([RED_AND_BLUE[0], RED_AND_BLUE[1], returning])
+        person = np.where((p == 1) & (f >= int(30 * FPS)), 2, p)
+        people = _dressed(_stored(truth, vis, rng), person, colours, rng)
+        tr = Tracker(ReconSettings(), FPS)
+        res = tr.update(people, 0, n)
+        resolved = {**res.resolved, **tr.finish().resolved}
+        before = {resolved[t] for t, q, fr in zip(res.track, p, f) if q == 1 and fr < 120}
+        after = {resolved[t] for t, q, fr in zip(res.track, p, f) if q == 1 and fr > 400}
+        assert len(before) == 1 and len(after) == 1
+        assert (before == after) is expect_same
+        assert len(tr.identities) == (2 if expect_same else 3)

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
 
+import numpy as np
+import pytest
+
+from ergopose.errors import InputError
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.triangulate import point_variance, reconstruct_frames, triangulate_pairs, view_focal_px
 from ergopose.records import Detections2D, detections_from_fisheye
@@ -115,3 +119,38 @@ def _point_of(a, b, n, joint):
     people = reconstruct_frames([(a, b)])
     r = np.flatnonzero(people.detection[:, 1] == n)[0]
     return people.points_world[r, joint]
+
+
+def test_a_person_carries_the_mean_clothing_colour_of_its_cameras(cameras):
+    """Each camera gives the person's colour (person p: 10 p + camera); a 3D person carries the
+    mean over the cameras that measured it, one camera's where the other did not."""
+    truth = walk_workers(crossing_scripts(), 2, FPS)
+    frames = []
+    for f in range(len(truth)):
+        dets = []
+        for c, cam in enumerate(cameras):
+            px = cam.project_world(truth[f])
+            det = detections_from_fisheye(cam, f, f / FPS, px, np.ones(px.shape[:2]))
+            look = np.repeat(10.0 * np.arange(len(px))[:, None] + c, 6, axis=1)
+            if c == 1:
+                look[0, 3:] = np.nan  # camera 1 did not see person 0's thighs
+            dets.append(dataclasses.replace(det, appearance=look))
+        frames.append(tuple(dets))
+    people = reconstruct_frames(frames)
+    assert np.all(people.n_cameras == 2)
+    for r in range(len(people)):
+        cam0, cam1 = people.detection[r]
+        assert cam0 == cam1  # the simulated people are in the same order in both cameras
+        expected = np.full(6, 10.0 * cam0 + 0.5)
+        if cam0 == 0:
+            expected[3:] = 0.0
+        np.testing.assert_allclose(people.appearance[r], expected)
+
+
+def test_detections_refuse_a_misshapen_appearance(cameras):
+    truth = walk_workers(crossing_scripts(), 1, FPS)
+    px = cameras[0].project_world(truth[0])
+    det = detections_from_fisheye(cameras[0], 0, 0.0, px, np.ones(px.shape[:2]))
+    assert np.isnan(det.appearance).all() and det.appearance.shape == (len(px), 6)
+    with pytest.raises(InputError, match="appearance must have shape"):
+        dataclasses.replace(det, appearance=np.zeros((len(px), 5)))
