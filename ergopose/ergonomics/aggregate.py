@@ -585,7 +585,7 @@ class ShiftAccumulator:
             if key in self.exposure_present and self.exposure_present[key] != present:
                 raise InputError(f"every chunk must carry the same angle columns ({key.split('|')[1]})")
             self.exposure_present[key] = present
-            if not present:
+            if z is None:
                 continue
             if key not in self.exposure_runs:
                 self.exposure_runs[key] = _Runs(self.period, self.s.max_gap_s, static_s=self.static_hold_s)
@@ -741,12 +741,13 @@ class ShiftAccumulator:
         exposure = []
         for spec in _exposure_specs():
             key = f"{spec.standard}|{spec.body_part}"
-            r = exposure_runs.get(key)
-            if r is None:
+            found = exposure_runs.get(key)
+            if found is None:
                 exposure.append(ExposureFinding(spec.standard, spec.body_part, "not measured", False,
                                                 MappingProxyType({}), MappingProxyType({}), MappingProxyType({}),
                                                 MappingProxyType({}), 0, 0.0))
                 continue
+            r = found
             names = spec.zone_names
             zone_time = {names[v]: r.frames.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
             static_time = {names[v]: r.static_time.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}

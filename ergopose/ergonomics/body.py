@@ -285,7 +285,7 @@ CHUNK_FRAMES = 8192
 def _fields_flat(posture: Posture) -> tuple[tuple[int, ...], dict[str, np.ndarray]]:
     """The frame shape S and every field broadcast to S and flattened to (N,) or (N, 3)."""
     shape = posture.shape
-    flat = {}
+    flat: dict[str, np.ndarray] = {}
     for f in dataclasses.fields(posture):
         v = np.asarray(getattr(posture, f.name), dtype=float)
         if f.name == "root_position":
