@@ -286,7 +286,9 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
         ia = [a.pixels.reshape(-1, 1, 2) for _, a, _ in pairs]
         ib = [b.pixels.reshape(-1, 1, 2) for _, _, b in pairs]
         try:
-            out = cv2.fisheye.stereoCalibrate(obj, ia, ib, None, None, None, None, tuple(image_size),
+            # cv2's stubs lack None for K1, D1, K2, D2 (estimated from scratch under FISHEYE_FLAGS)
+            out = cv2.fisheye.stereoCalibrate(obj, ia, ib, None, None, None, None,  # type: ignore[call-overload]
+                                              tuple(image_size),
                                               flags=FISHEYE_FLAGS, criteria=criteria)
         except cv2.error as exc:
             text = str(exc)

@@ -34,6 +34,7 @@ from ergopose.calibration.opencv_fisheye import (
     too_few_message,
 )
 from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.lenses.base import LensModel
 from ergopose.geometry.lenses.double_sphere import DoubleSphere
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.progress import ProgressCallback, report
@@ -74,7 +75,7 @@ class IntrinsicsResult:
     """
 
     model: str
-    lens: object
+    lens: LensModel
     image_size: tuple[int, int]
     rms: float
     camera_matrix: np.ndarray
@@ -200,7 +201,8 @@ def central_views(detections: Sequence[Detection], image_size: tuple[int, int]) 
     w, h = image_size
     centre = np.array([(w - 1) / 2.0, (h - 1) / 2.0])
     limit = CENTRAL_RADIUS * min(w, h) / 2.0
-    central, outer = [], []
+    central: list[Detection] = []
+    outer: list[Detection] = []
     for d in detections:
         (central if np.linalg.norm(d.pixels - centre, axis=-1).max() <= limit else outer).append(d)
     return central, outer
@@ -361,7 +363,7 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
     errors = reprojection_errors(lens, kept, board, R, tv)
     model_rms = _rms(errors)
     return IntrinsicsResult(
-        model="kannala_brandt", lens=lens, image_size=tuple(size), rms=model_rms if recovered else opencv_rms,
+        model="kannala_brandt", lens=lens, image_size=(size[0], size[1]), rms=model_rms if recovered else opencv_rms,
         camera_matrix=K, distortion=D, kb_rms=model_rms if recovered else opencv_rms,
         used=tuple(d.source for d in kept), dropped=tuple(dropped),
         rotations_cam_from_board=R, translations_cam=tv,
@@ -612,12 +614,10 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
         return np.where(np.isfinite(r), r, _BIG)
 
     # near the axis a Double Sphere with xi = 0 has the focal length of the KB fit: start from it
-    best = None
-    for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5)):
-        start = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0])
-        res = least_squares(resid_fit, start, bounds=(lower, upper), x_scale="jac", max_nfev=400)
-        if best is None or res.cost < best.cost:
-            best = res
+    fits = [least_squares(resid_fit, np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0]),
+                          bounds=(lower, upper), x_scale="jac", max_nfev=400)
+            for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5))]
+    best = min(fits, key=lambda res: res.cost)  # the first of equal costs, as before
     intr0 = best.x
     report(progress, "double_sphere", 1, 2, unit="step")
 

@@ -8,6 +8,7 @@ import datetime as dt
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -131,14 +132,14 @@ def _progress():
     return ProgressBars()
 
 
-def _floats(text: str, n: int, field: str) -> tuple[float, ...]:
+def _two_floats(text: str, field: str) -> tuple[float, float]:
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
-    if len(values) != n or not all(np.isfinite(values)):
-        raise ConfigError(f"expected {n} comma-separated numbers, got {text!r}", field=field)
-    return values
+    if len(values) != 2 or not all(np.isfinite(values)):
+        raise ConfigError(f"expected 2 comma-separated numbers, got {text!r}", field=field)
+    return values[0], values[1]
 
 
 # ------------------------------------------------------------------------- intrinsics
@@ -279,7 +280,7 @@ def run_extrinsics(args: argparse.Namespace) -> int:
         if not args.board:
             raise ConfigError("--board-image needs --board SPEC", field="--board")
         board = parse_board(args.board)
-        origin = _floats(args.board_origin, 2, "--board-origin")
+        origin = _two_floats(args.board_origin, "--board-origin")
         yaw = np.radians(args.board_yaw)
         for item in args.board_image:
             name, sep, image_path = item.partition("=")
@@ -334,7 +335,7 @@ def run_check(args: argparse.Namespace) -> int:
         if session.calibration_check is None:
             raise ConfigError("the settings name no reference bar: add a [calibration_check] table with "
                               "observations (a CSV of bar-end pixels) and length_m", path=session.settings_path)
-        cameras = list(session.calibrated_cameras)
+        cameras: Sequence[Camera] = list(session.calibrated_cameras)
         observations, length = session.calibration_check.observations_path, session.calibration_check.length_m
     else:
         missing = [o for o, v in (("--calibration", args.calibration), ("--observations", args.observations),
@@ -345,7 +346,7 @@ def run_check(args: argparse.Namespace) -> int:
         observations, length = args.observations, args.length
     if len(cameras) < 2:
         raise ConfigError(f"the check needs at least two cameras, the file has {len(cameras)}", path=args.calibration)
-    rings = _floats(args.rings, 2, "--rings")
+    rings = _two_floats(args.rings, "--rings")
     names = [c.name for c in cameras]
     labels, pixels = check.read_bar_observations(observations, names)
     report = check.measure_bar(cameras, pixels, length, ring_bounds_deg=rings, labels=labels)

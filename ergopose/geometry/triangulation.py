@@ -244,7 +244,7 @@ def _solve_sym3(M: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return x, ok
 
 
-def _residuals(diff_a: np.ndarray, diff_b: np.ndarray, in_front: np.ndarray, used: np.ndarray,
+def _residuals(diff_a: np.ndarray, diff_b: np.ndarray | float, in_front: np.ndarray, used: np.ndarray,
                ok: np.ndarray, views_used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per-view residual hypot(diff_a, diff_b) (..., V, J) and its RMS over views (..., J).
 
