@@ -440,8 +440,9 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
 def task_factors(table: TaskFactorsTable) -> TaskFactors:
     """The TaskFactors of a validated table of task factors (the wrist angles in radians)."""
     given = table.given()
-    return TaskFactors(**{_ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
-                          for k, v in given.items() if k in FACTOR_KEYS})
+    factors: dict[str, Any] = {_ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
+                               for k, v in given.items() if k in FACTOR_KEYS}
+    return TaskFactors(**factors)
 
 
 class _Times:

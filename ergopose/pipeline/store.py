@@ -27,6 +27,7 @@ import json
 import os
 import zipfile
 from pathlib import Path
+from types import ModuleType
 from typing import Any, Iterable, Iterator
 
 import numpy as np
@@ -108,6 +109,7 @@ class ResultStore:
         """
         self.root.mkdir(parents=True, exist_ok=True)
         with open(self.root / "lock", "a+b") as f:
+            fcntl: ModuleType | None
             try:
                 import fcntl
             except ImportError:  # not a POSIX system: no lock, the rest works the same
@@ -163,12 +165,13 @@ class ResultStore:
     def save_chunk(self, result: ChunkResult) -> Path:
         final = self.chunk_path(result.start)
         arrays = people_to_arrays(result.people)
-        arrays.update(start=np.int64(result.start), stop=np.int64(result.stop),
+        arrays.update(start=np.array(result.start, dtype=np.int64), stop=np.array(result.stop, dtype=np.int64),
                       detections=np.asarray(result.detections), **{_INPUTS: np.array(self._fingerprint())})
         arrays[_CHECKSUM] = np.array(arrays_checksum(arrays))
         with atomic_path(final) as tmp:
             with tmp.open("wb") as f:
-                np.savez(f, **arrays)
+                # numpy's stubs: a **dict might name savez's allow_pickle (these names never do)
+                np.savez(f, **arrays)  # type: ignore[arg-type]
         return final
 
     def read_chunk(self, start: int, stop: int) -> ChunkResult | None:

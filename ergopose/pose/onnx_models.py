@@ -136,7 +136,7 @@ def _triple(table: dict, key: str, path: Path) -> tuple[float, float, float]:
         or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     ):
         raise ConfigError(f"expected a list of 3 numbers, got {value!r}", path=path, field=f"input.{key}")
-    return tuple(float(v) for v in value)
+    return float(value[0]), float(value[1]), float(value[2])
 
 
 def load_onnx_card(path: str | os.PathLike) -> OnnxPoseCard:

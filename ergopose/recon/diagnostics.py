@@ -349,7 +349,7 @@ def identity_switches(tracks: TrackFrames, truth_points: np.ndarray, truth_frame
     switches = 0
     for ids in seq.values():
         # Runs of equal ids; a run shorter than min_frames is ignored (merged into its context).
-        runs = []
+        runs: list[list[int]] = []  # [id, frames]
         for w in ids:
             if runs and runs[-1][0] == w:
                 runs[-1][1] += 1

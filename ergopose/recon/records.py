@@ -113,7 +113,7 @@ class People3D:
         frame = np.asarray(frame, dtype=np.int64).reshape(-1)
         X = np.asarray(points_world, dtype=np.float64).reshape(-1, NUM_JOINTS, 3)
         m = X.shape[0]
-        ok = np.isfinite(X).all(axis=-1)
+        ok = np.asarray(np.isfinite(X).all(axis=-1))  # asarray: an array for numpy's stubs (no copy)
         conf = np.where(ok, 1.0, 0.0) if confidence is None else np.where(ok, confidence, 0.0)
         err = np.where(ok, 0.0, np.nan) if reprojection_error_px is None else np.where(ok, reprojection_error_px, np.nan)
         var = np.full(X.shape, sigma_m * sigma_m) if variance_world is None else np.asarray(variance_world, np.float64)

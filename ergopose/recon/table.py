@@ -42,7 +42,8 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from types import TracebackType
+from typing import Any, Literal, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -90,6 +91,7 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
                                             pa.array(names, pa.string())) if n else pa.array([], pa.string())
     joint = pa.DictionaryArray.from_arrays(pa.array(np.tile(np.arange(J, dtype=np.int32), n)),
                                            pa.array(BLAZEPOSE33, pa.string()))
+    assert tf.std_world is not None and tf.inferred is not None  # TrackFrames.__post_init__ fills them
     P = tf.points_world.reshape(-1, 3).astype(np.float32)
     R = tf.raw_points_world.reshape(-1, 3).astype(np.float32)
     S = tf.std_world.reshape(-1, 3).astype(np.float32)
@@ -152,7 +154,8 @@ class TracksWriter:
         """Per-worker summary (e.g. stature estimate, limb medians) stored in the metadata."""
         self.meta["workers"] = {k: dict(v) for k, v in workers.items()}
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> Literal[False]:
         assert self._stack is not None and self._writer is not None
         try:
             if exc_type is None:

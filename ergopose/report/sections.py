@@ -453,7 +453,7 @@ def task_inputs_line(inputs, high_s: float) -> str:
 def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIODS) -> str:
     """How much of the worker's high-risk time the periods shown hold, and the body parts that
     drove most of them (summed over the periods), in a sentence."""
-    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    frames: pd.DataFrame = res.frames
     shown = res.summary.worst[:limit]
     high = periods.high_frames(frames["rula_action_level"].to_numpy(dtype=np.float64, na_value=np.nan),
                                frames["reba_risk_level"].to_numpy(dtype=np.float64, na_value=np.nan))
