@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import cv2
 import numpy as np
@@ -208,10 +208,13 @@ def central_views(detections: Sequence[Detection], image_size: tuple[int, int]) 
     return central, outer
 
 
-def _calibrate_once(kept, board, image_size, flags, criteria):
+def _calibrate_once(kept: Sequence[Detection], board: Board, image_size: Sequence[int], flags: int,
+                    criteria: tuple[int, int, float]) -> tuple[Any, ...]:
+    """cv2.fisheye.calibrate over the kept views: (rms, K, D, rvecs, tvecs)."""
     objs, imgs = _opencv_points(kept, board)
-    return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None, flags=flags,
-                                 criteria=criteria)
+    # cv2's stubs lack None for K and D (estimated from scratch under these flags)
+    return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None,  # type: ignore[call-overload]
+                                 flags=flags, criteria=criteria)
 
 
 def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size: tuple[int, int], *,
