@@ -16,9 +16,10 @@ import math
 import os
 from pathlib import Path
 from types import TracebackType
-from typing import Iterable, Literal, Mapping, Self, Sequence, TextIO
+from typing import Any, Iterable, Literal, Mapping, Self, Sequence, TextIO
 
 import numpy as np
+from numpy.typing import ArrayLike
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -212,7 +213,7 @@ def frame_columns() -> tuple[str, ...]:
     return tuple(cols)
 
 
-def clock_times(recorded_at: dt.datetime | None, time_s) -> pd.DatetimeIndex | None:
+def clock_times(recorded_at: dt.datetime | None, time_s: ArrayLike) -> pd.DatetimeIndex | None:
     """The clock time of each time_s (seconds from the session's first frame), to the millisecond:
     tz-aware when recorded_at has an offset; None without recorded_at."""
     if recorded_at is None:
@@ -397,7 +398,7 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
     """A worker's shift summary as a long table (columns WORKER_SUMMARY_COLUMNS)."""
     rows: list[dict] = []
 
-    def row(**kw) -> None:
+    def row(**kw: Any) -> None:
         rows.append({"worker": summary.worker, **kw})
 
     for col, dist in summary.distributions.items():

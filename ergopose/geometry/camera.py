@@ -129,7 +129,7 @@ class Camera:
                      self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration,
                      self.image_circle))
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Camera], tuple[Any, ...]]:
         # Rebuild through __init__ (checks, read-only arrays) when unpickled in a worker process.
         return (Camera, (self.name, self.lens, self.width, self.height,
                          self.rotation_world_from_cam, self.position_world, self.calibration, self.image_circle))

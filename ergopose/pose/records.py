@@ -86,7 +86,7 @@ class FrameDetections:
     def count(self) -> int:
         return int(self.presence.shape[0])
 
-    def to_recon(self, camera: Camera, time_s: float):
+    def to_recon(self, camera: Camera, time_s: float) -> Detections2D:
         """The reconstruction stage's record (ergopose.recon.records.Detections2D) of these people."""
         rotation = np.asarray(camera.rotation_world_from_cam, dtype=np.float64)
         return Detections2D(camera=camera.name, frame=self.frame_index, time_s=time_s,

@@ -8,8 +8,10 @@ per person and frame, before tracking gives them identities. What the 2D pose st
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
@@ -88,7 +90,7 @@ class People3D:
     def __len__(self) -> int:
         return int(self.frame.shape[0])
 
-    def take(self, rows) -> "People3D":
+    def take(self, rows: np.ndarray | Sequence[int]) -> "People3D":
         """The subset of rows (index array or boolean mask), in that order."""
         return People3D(self.cameras, *(getattr(self, f)[rows] for f in _ROW_FIELDS))
 
@@ -102,8 +104,9 @@ class People3D:
         return cls(cams, *(np.concatenate([getattr(p, f) for p in parts]) for f in _ROW_FIELDS))
 
     @classmethod
-    def from_points(cls, frame, time_s, points_world, *, variance_world=None, confidence=None,
-                    reprojection_error_px=None, sigma_m: float = 0.03,
+    def from_points(cls, frame: ArrayLike, time_s: ArrayLike, points_world: ArrayLike, *,
+                    variance_world: ArrayLike | None = None, confidence: ArrayLike | None = None,
+                    reprojection_error_px: ArrayLike | None = None, sigma_m: float = 0.03,
                     cameras: tuple[str, ...] = ("cam_1", "cam_2")) -> "People3D":
         """Rows of already triangulated people (e.g. stored triangulations).
 

@@ -46,6 +46,7 @@ from types import TracebackType
 from typing import Any, Literal, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import DTypeLike
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -194,7 +195,7 @@ class TracksTable:
         return sorted(self.data["worker"].unique().tolist(), key=_worker_key)
 
 
-def _worker_key(name: str):
+def _worker_key(name: str) -> tuple[str, int]:
     head, _, num = str(name).rpartition("_")
     return (head, int(num)) if num.isdigit() else (str(name), 0)
 
@@ -257,8 +258,8 @@ def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     n = len(uniq)
     J = NUM_JOINTS
 
-    def grid(col, fill, dtype=np.float64, k=None):
-        out = np.full((n, J) if k is None else (n, J, k), fill, dtype=dtype)
+    def grid(col: None, fill: Any, dtype: DTypeLike = np.float64, k: int | None = None) -> np.ndarray:
+        out: np.ndarray = np.full((n, J) if k is None else (n, J, k), fill, dtype=dtype)
         return out
 
     pts = grid(None, np.nan, k=3)

@@ -141,7 +141,7 @@ def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
 
 
 def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
-                      settings: ReconSettings | None = None):
+                      settings: ReconSettings | None = None) -> tuple[np.ndarray, ...]:
     """Triangulate associated people (two or more views each), all at once.
 
     projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33). A view the

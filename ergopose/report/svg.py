@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from markupsafe import Markup, escape
 
 from ergopose.keypoints import JOINT_INDEX, LIMBS
@@ -268,10 +269,10 @@ def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median
     t1 = float(starts_s[-1] + bin_s) if starts_s.size else 1.0
     span = max(t1 - t0, 1e-9)
 
-    def xpix(t):
+    def xpix(t: ArrayLike) -> np.ndarray:
         return left + plot_w * (np.asarray(t, dtype=np.float64) - t0) / span
 
-    def ypix(v):
+    def ypix(v: ArrayLike) -> np.ndarray:
         return top + plot_h * (1 - (np.asarray(v, dtype=np.float64) - y_min) / (y_max - y_min))
 
     out = [_hatch(id_prefix)]
@@ -502,10 +503,10 @@ def heat_map(grid: np.ndarray, extent: tuple[float, float, float, float], *, tit
     width = pad_l + size + 16 + legend_w
     height = pad_t + size + 30
 
-    def px(x):
+    def px(x: float) -> float:
         return pad_l + (x - x0) * sx
 
-    def py(y):
+    def py(y: float) -> float:
         return pad_t + (y1 - y) * sy
 
     out = [f'<rect x="{pad_l}" y="{pad_t}" width="{_n(size)}" height="{_n(size)}" fill="#ffffff" stroke="{MUTED}"/>']
