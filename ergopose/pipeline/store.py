@@ -36,7 +36,7 @@ from ergopose import __version__
 from ergopose.atomic import atomic_path, clean_up, write_text
 from ergopose.errors import InputError
 from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
-from ergopose.progress import warn
+from ergopose.progress import ProgressCallback, warn
 
 #: 2: chunk files carry the inputs' fingerprint and a checksum (version 1 chunks are computed again);
 #: 3: People3D chunks carry every camera's 2D observations (the body fit).
@@ -215,7 +215,7 @@ class ResultStore:
             self._drop_damaged(start, str(exc))
             return None
 
-    def finished(self, ranges: Iterable[tuple[int, int]], progress=None) -> set[int]:
+    def finished(self, ranges: Iterable[tuple[int, int]], progress: ProgressCallback | None = None) -> set[int]:
         """Start frames of the chunks already stored, whole and of these inputs, for their range.
 
         Every stored chunk is read and its checksum checked. A damaged one is named (a warning
