@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
@@ -155,7 +156,8 @@ class Detections2D:
                    np.zeros((0, 3, 4)))
 
 
-def detections_from_fisheye(camera: Camera, frame: int, time_s: float, pixels_fisheye, confidence, *,
+def detections_from_fisheye(camera: Camera, frame: int, time_s: float, pixels_fisheye: ArrayLike,
+                            confidence: ArrayLike, *,
                             view_size: tuple[int, int] = (256, 256), margin_deg: float = 8.0,
                             min_fov_deg: float = 20.0, max_fov_deg: float = 150.0) -> Detections2D:
     """Detections2D from keypoints in fisheye pixels (e.g. the simulator's oracle).

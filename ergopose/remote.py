@@ -23,7 +23,7 @@ import shutil
 import tempfile
 import uuid
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Any
 
 from ergopose.errors import InputError
 
@@ -51,7 +51,7 @@ def _one_line(exc: BaseException) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
-def _filesystem(url: str):
+def _filesystem(url: str) -> tuple[Any, str]:
     try:
         import fsspec  # deferred: the optional extra "cluster", needed only for videos given as URLs
     except ImportError:

@@ -311,7 +311,7 @@ class Session:
             layers += [((t >= p.start_s) & (t < p.end_s), p.factors) for p in w.periods]
         return layers
 
-    def factor_table(self, worker_id: str, times_s: Sequence[float] | np.ndarray):
+    def factor_table(self, worker_id: str, times_s: Sequence[float] | np.ndarray) -> pd.DataFrame:
         """A pandas DataFrame of the task factors at each time, in the posture-table conventions
         (docs/posture-table.md): load_kg float (NaN unknown), load_mode / coupling strings (<NA>
         unknown), flags 0.0 / 1.0 (NaN unknown). One row per time, index 0..n-1. The angle factors
@@ -440,8 +440,9 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
 def task_factors(table: TaskFactorsTable) -> TaskFactors:
     """The TaskFactors of a validated table of task factors (the wrist angles in radians)."""
     given = table.given()
-    return TaskFactors(**{_ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
-                          for k, v in given.items() if k in FACTOR_KEYS})
+    factors: dict[str, Any] = {_ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
+                               for k, v in given.items() if k in FACTOR_KEYS}
+    return TaskFactors(**factors)
 
 
 class _Times:

@@ -120,7 +120,7 @@ class Board:
             return f"checkerboard:{self.cols}x{self.rows}:{self.square:g}"
         return f"charuco:{self.cols}x{self.rows}:{self.square:g}:{self.marker:g}:{self.dictionary}"
 
-    def _charuco(self):
+    def _charuco(self) -> cv2.aruco.CharucoBoard:
         dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary))
         return cv2.aruco.CharucoBoard((self.cols, self.rows), self.square, self.marker, dictionary)
 
@@ -232,7 +232,8 @@ def detect_board(image: np.ndarray, board: Board, source: str = "") -> Detection
     """
     gray = _gray(np.asarray(image))
     if gray.dtype != np.uint8:
-        gray = cv2.normalize(gray, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+        # cv2's stubs lack dst=None (OpenCV allocates the output)
+        gray = cv2.normalize(gray, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)  # type: ignore[call-overload]
     height, width = gray.shape[:2]
     if board.kind == "charuco":
         detector = cv2.aruco.CharucoDetector(board._charuco())

@@ -33,6 +33,7 @@ import numpy as np
 
 from ergopose.atomic import write_text
 from ergopose.errors import InputError
+from ergopose.geometry.camera import Camera
 from ergopose.geometry.regions import DEFAULT_LIMITS_DEG
 from ergopose.geometry.triangulation import triangulate_midpoint
 
@@ -95,13 +96,13 @@ class CheckReport:
     regions: tuple[RegionSummary, ...]
 
 
-def angles_from_axis(camera, pixels: np.ndarray) -> np.ndarray:
+def angles_from_axis(camera: Camera, pixels: np.ndarray) -> np.ndarray:
     """(...) angle in radians between the lens axis and the ray through each (..., 2) pixel."""
     rays = camera.lens.unproject(np.asarray(pixels, np.float64))
     return np.arccos(np.clip(rays[..., 2], -1.0, 1.0))
 
 
-def _rays_world(camera, pixels: np.ndarray) -> np.ndarray:
+def _rays_world(camera: Camera, pixels: np.ndarray) -> np.ndarray:
     rays_cam = camera.lens.unproject(np.asarray(pixels, np.float64))
     return rays_cam @ np.asarray(camera.rotation_world_from_cam, np.float64).T
 

@@ -38,6 +38,7 @@ from ergopose.calibration.opencv_fisheye import (
     too_few_message,
 )
 from ergopose.errors import InputError
+from ergopose.geometry.lenses.base import LensModel
 
 #: Rays further than this from the optical axis are not used for the pinhole start.
 INIT_MAX_THETA = np.radians(80.0)
@@ -106,7 +107,7 @@ def _virtual_pinhole(rays: np.ndarray) -> np.ndarray:
     return np.stack([x, y, axis])  # rows: the virtual camera's axes in the camera frame
 
 
-def initial_pose(lens, points_world: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def initial_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(rvec, tvec) of x_cam = R x_world + t: cv2.solvePnP on the rays (unprojected through the lens)
     as normalised coordinates of a virtual pinhole aimed at their mean direction (rays within
     80 degrees of that direction)."""
@@ -146,12 +147,12 @@ def initial_pose(lens, points_world: np.ndarray, pixels: np.ndarray) -> tuple[np
     return rotation_vectors(R_c), t_c
 
 
-def _project(lens, params: np.ndarray, points_world: np.ndarray) -> np.ndarray:
+def _project(lens: LensModel, params: np.ndarray, points_world: np.ndarray) -> np.ndarray:
     R = rotation_matrices(params[:3])
     return lens.project(points_world @ R.T + params[3:])
 
 
-def solve_pose(lens, points_world: np.ndarray, pixels: np.ndarray, *, names: Sequence[str] | None = None,
+def solve_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray, *, names: Sequence[str] | None = None,
                initial: tuple[np.ndarray, np.ndarray] | None = None) -> PoseResult:
     """Camera pose from 3D-2D correspondences through the full lens model.
 
@@ -167,7 +168,7 @@ def solve_pose(lens, points_world: np.ndarray, pixels: np.ndarray, *, names: Seq
         rvec = rotation_vectors(R_wc.T)
         tvec = -R_wc.T @ p_w
 
-    def resid(params):
+    def resid(params: np.ndarray) -> np.ndarray:
         r = (_project(lens, params, points_world) - pixels).ravel()
         return np.where(np.isfinite(r), r, _BIG)
 
@@ -188,7 +189,7 @@ def solve_pose(lens, points_world: np.ndarray, pixels: np.ndarray, *, names: Seq
                       float(np.sqrt(np.mean(res_px ** 2))), tuple(str(n) for n in names))
 
 
-def residuals_mm(lens, rotation_world_from_cam: np.ndarray, position_world: np.ndarray,
+def residuals_mm(lens: LensModel, rotation_world_from_cam: np.ndarray, position_world: np.ndarray,
                  points_world: np.ndarray, pixels: np.ndarray, floor_tolerance: float = 1e-3) -> np.ndarray:
     """Per point, millimetres between the point and the ray through its observed pixel.
 
@@ -228,7 +229,7 @@ def floor_board_points(board: Board, ids: np.ndarray | None = None, origin_xy: t
     return np.concatenate([xy, np.zeros((len(xy), 1))], axis=-1)
 
 
-def solve_pose_from_board(lens, detection: Detection, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0),
+def solve_pose_from_board(lens: LensModel, detection: Detection, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0),
                           yaw: float = 0.0) -> PoseResult:
     """Pose of a ceiling camera from one image of a board lying on the floor."""
     sx, sy = board.squares
@@ -262,7 +263,7 @@ class StereoResult:
 
 def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Sequence[Detection | None],
                      board: Board, image_size: tuple[int, int], *, min_images: int = 8,
-                     criteria=FISHEYE_CRITERIA) -> StereoResult:
+                     criteria: tuple[int, int, float] = FISHEYE_CRITERIA) -> StereoResult:
     """Relative pose (and intrinsics) of two fisheye cameras that saw the same boards.
 
     detections_a[i] and detections_b[i] are the same moment (None where the board was not found).
@@ -286,7 +287,9 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
         ia = [a.pixels.reshape(-1, 1, 2) for _, a, _ in pairs]
         ib = [b.pixels.reshape(-1, 1, 2) for _, _, b in pairs]
         try:
-            out = cv2.fisheye.stereoCalibrate(obj, ia, ib, None, None, None, None, tuple(image_size),
+            # cv2's stubs lack None for K1, D1, K2, D2 (estimated from scratch under FISHEYE_FLAGS)
+            out = cv2.fisheye.stereoCalibrate(obj, ia, ib, None, None, None, None,  # type: ignore[call-overload]
+                                              tuple(image_size),
                                               flags=FISHEYE_FLAGS, criteria=criteria)
         except cv2.error as exc:
             text = str(exc)

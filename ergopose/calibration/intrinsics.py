@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 import cv2
 import numpy as np
@@ -34,6 +34,7 @@ from ergopose.calibration.opencv_fisheye import (
     too_few_message,
 )
 from ergopose.errors import ConfigError, InputError
+from ergopose.geometry.lenses.base import LensModel
 from ergopose.geometry.lenses.double_sphere import DoubleSphere
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.progress import ProgressCallback, report
@@ -74,7 +75,7 @@ class IntrinsicsResult:
     """
 
     model: str
-    lens: object
+    lens: LensModel
     image_size: tuple[int, int]
     rms: float
     camera_matrix: np.ndarray
@@ -160,7 +161,7 @@ def image_coverage(detections: Sequence[Detection], image_size: tuple[int, int],
 
 
 # ------------------------------------------------------------------- Kannala-Brandt
-def _kb_lens(K: np.ndarray, D: np.ndarray):
+def _kb_lens(K: np.ndarray, D: np.ndarray) -> KannalaBrandt:
     return KannalaBrandt.from_opencv(K, D)
 
 
@@ -200,21 +201,26 @@ def central_views(detections: Sequence[Detection], image_size: tuple[int, int]) 
     w, h = image_size
     centre = np.array([(w - 1) / 2.0, (h - 1) / 2.0])
     limit = CENTRAL_RADIUS * min(w, h) / 2.0
-    central, outer = [], []
+    central: list[Detection] = []
+    outer: list[Detection] = []
     for d in detections:
         (central if np.linalg.norm(d.pixels - centre, axis=-1).max() <= limit else outer).append(d)
     return central, outer
 
 
-def _calibrate_once(kept, board, image_size, flags, criteria):
+def _calibrate_once(kept: Sequence[Detection], board: Board, image_size: Sequence[int], flags: int,
+                    criteria: tuple[int, int, float]) -> tuple[Any, ...]:
+    """cv2.fisheye.calibrate over the kept views: (rms, K, D, rvecs, tvecs)."""
     objs, imgs = _opencv_points(kept, board)
-    return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None, flags=flags,
-                                 criteria=criteria)
+    # cv2's stubs lack None for K and D (estimated from scratch under these flags)
+    return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None,  # type: ignore[call-overload]
+                                 flags=flags, criteria=criteria)
 
 
 def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size: tuple[int, int], *,
-                      min_images: int = DEFAULT_MIN_IMAGES, criteria=FISHEYE_CRITERIA,
-                      flags: int = FISHEYE_FLAGS, progress: ProgressCallback | None = None):
+                      min_images: int = DEFAULT_MIN_IMAGES, criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
+                      flags: int = FISHEYE_FLAGS, progress: ProgressCallback | None = None,
+                      ) -> tuple[float, np.ndarray, np.ndarray, Any, Any, list[Detection], list[DroppedImage]]:
     """cv2.fisheye.calibrate with bad views dropped and the fit retried.
 
     1. Views whose corners are degenerate (:func:`degenerate_reason`) are dropped up front.
@@ -267,7 +273,8 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
         return float(rms), np.asarray(K, np.float64), np.asarray(D, np.float64).ravel(), rv, tv, kept, dropped
 
 
-def _find_failing_view(kept, board, image_size, flags, criteria) -> int | None:
+def _find_failing_view(kept: list[Detection], board: Board, image_size: Sequence[int], flags: int,
+                       criteria: tuple[int, int, float]) -> int | None:
     """Index of a view whose removal lets the fit succeed (views with the least spread tried first)."""
     spread = [np.linalg.svd(d.pixels - d.pixels.mean(axis=0), compute_uv=False)[-1] for d in kept]
     for i in np.argsort(spread):
@@ -280,7 +287,7 @@ def _find_failing_view(kept, board, image_size, flags, criteria) -> int | None:
     return None
 
 
-def reprojection_errors(lens, detections: Sequence[Detection], board: Board,
+def reprojection_errors(lens: LensModel, detections: Sequence[Detection], board: Board,
                         rotations_cam_from_board: np.ndarray, translations_cam: np.ndarray) -> list[np.ndarray]:
     """Per view, (N,) distances (pixels) between detected corners and corners projected by ``lens``."""
     obj_all = board.object_points()
@@ -297,7 +304,7 @@ def _rms(errors: Sequence[np.ndarray]) -> float:
     return float(np.sqrt(np.mean(e ** 2)))
 
 
-def _max_theta(detections, board, R, t) -> float:
+def _max_theta(detections: Sequence[Detection], board: Board, R: np.ndarray, t: np.ndarray) -> float:
     obj_all = board.object_points()
     thetas = []
     for det, Ri, ti in zip(detections, R, t):
@@ -308,7 +315,7 @@ def _max_theta(detections, board, R, t) -> float:
 
 def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
                              *, min_images: int = DEFAULT_MIN_IMAGES, min_coverage: float = DEFAULT_MIN_COVERAGE,
-                             dropped: Sequence[DroppedImage] = (), criteria=FISHEYE_CRITERIA,
+                             dropped: Sequence[DroppedImage] = (), criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
                              recover: bool = True, progress: ProgressCallback | None = None) -> IntrinsicsResult:
     """Fit a Kannala-Brandt lens (cv2.fisheye.calibrate) to board detections.
 
@@ -361,7 +368,7 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
     errors = reprojection_errors(lens, kept, board, R, tv)
     model_rms = _rms(errors)
     return IntrinsicsResult(
-        model="kannala_brandt", lens=lens, image_size=tuple(size), rms=model_rms if recovered else opencv_rms,
+        model="kannala_brandt", lens=lens, image_size=(size[0], size[1]), rms=model_rms if recovered else opencv_rms,
         camera_matrix=K, distortion=D, kb_rms=model_rms if recovered else opencv_rms,
         used=tuple(d.source for d in kept), dropped=tuple(dropped),
         rotations_cam_from_board=R, translations_cam=tv,
@@ -416,9 +423,9 @@ def ds_project(params: np.ndarray, points_cam: np.ndarray) -> np.ndarray:
     return np.stack([u, v], axis=-1)
 
 
-def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+def refine_bundle(project: Callable[[np.ndarray, np.ndarray], np.ndarray], intr0: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                   detections: Sequence[Detection], board: Board, rotations: np.ndarray, translations: np.ndarray,
-                  max_iterations: int = 100):
+                  max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joint least squares over lens parameters and per-view board poses (bundle adjustment).
 
     project(params, points_cam (N, 3)) -> (N, 2) pixels (NaN where invalid). Returns
@@ -440,7 +447,7 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
     lower = np.asarray(lower, np.float64)
     upper = np.asarray(upper, np.float64)
 
-    def resid(intr, poses):
+    def resid(intr: np.ndarray, poses: np.ndarray) -> np.ndarray | None:
         if np.any(intr < lower) or np.any(intr > upper):
             return None
         R = rotation_matrices(poses[:, :3])
@@ -449,7 +456,7 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
             r = (project(intr, pts) - pix).ravel()
         return r if np.all(np.isfinite(r)) else None
 
-    def jacobian(intr, poses):
+    def jacobian(intr: np.ndarray, poses: np.ndarray) -> Any:
         J_i = np.empty((pix.size, n_intr))
         for j in range(n_intr):
             h = 1e-6 * max(1.0, abs(intr[j]))
@@ -460,6 +467,8 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
             if rp is None or rm is None:  # at a bound: one-sided
                 r0 = resid(intr, poses)
                 rp, rm, h = (rp, r0, h / 2) if rp is not None else (r0, rm, h / 2)
+            # None (a bound or a point that does not project) on both sides fails here, as it did before
+            assert rp is not None and rm is not None
             J_i[:, j] = (rp - rm) / (2 * h)
         J_p = np.empty((pix.size, 6))  # row r: derivative w.r.t. its own view's pose component
         for k in range(6):
@@ -467,7 +476,9 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
             pp, pm = poses.copy(), poses.copy()
             pp[:, k] += h
             pm[:, k] -= h
-            J_p[:, k] = (resid(intr, pp) - resid(intr, pm)) / (2 * h[row_view])
+            rp, rm = resid(intr, pp), resid(intr, pm)
+            assert rp is not None and rm is not None  # as above (the poses themselves have no bounds)
+            J_p[:, k] = (rp - rm) / (2 * h[row_view])
         return J_i, J_p
 
     intr = np.asarray(intr0, np.float64).copy()
@@ -513,11 +524,14 @@ def refine_bundle(project, intr0: np.ndarray, lower: np.ndarray, upper: np.ndarr
     return intr, rotation_matrices(poses[:, :3]), poses[:, 3:].copy()
 
 
-def _kb_from_params(p: np.ndarray):
+def _kb_from_params(p: np.ndarray) -> KannalaBrandt:
     return KannalaBrandt(*(float(v) for v in p))
 
 
-def _recover_views(lens, kept, R, t, ill, detections, board, progress):
+def _recover_views(lens: KannalaBrandt, kept: list[Detection], R: np.ndarray, t: np.ndarray,
+                   ill: Sequence[DroppedImage], detections: Sequence[Detection], board: Board,
+                   progress: ProgressCallback | None) -> tuple[KannalaBrandt, np.ndarray, np.ndarray, list[Detection],
+                                                               np.ndarray, np.ndarray, list[str], list[DroppedImage]]:
     """Take back views OpenCV dropped (ill-conditioned, failed) when our full KB model explains them.
 
     cv2.fisheye works with x/z, so boards near or beyond 90 degrees off-axis break its per-view
@@ -578,7 +592,7 @@ def _recover_views(lens, kept, R, t, ill, detections, board, progress):
 
 
 # --------------------------------------------------------------------- Double Sphere
-def _ds_lens(params: np.ndarray):
+def _ds_lens(params: np.ndarray) -> DoubleSphere:
     fx, fy, cx, cy, xi, alpha = (float(v) for v in params)
     return DoubleSphere(fx, fy, cx, cy, xi, alpha)
 
@@ -603,7 +617,7 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
     lower = np.array([1.0, 1.0, -np.inf, -np.inf, -0.999, 0.0])
     upper = np.array([np.inf, np.inf, np.inf, np.inf, 0.999, 1.0])
 
-    def resid_fit(p):
+    def resid_fit(p: np.ndarray) -> np.ndarray:
         try:
             proj = _ds_lens(p).project(rays)
         except ConfigError:  # parameters outside the model's valid range
@@ -612,12 +626,10 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
         return np.where(np.isfinite(r), r, _BIG)
 
     # near the axis a Double Sphere with xi = 0 has the focal length of the KB fit: start from it
-    best = None
-    for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5)):
-        start = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0])
-        res = least_squares(resid_fit, start, bounds=(lower, upper), x_scale="jac", max_nfev=400)
-        if best is None or res.cost < best.cost:
-            best = res
+    fits = [least_squares(resid_fit, np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0]),
+                          bounds=(lower, upper), x_scale="jac", max_nfev=400)
+            for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5))]
+    best = min(fits, key=lambda res: res.cost)  # the first of equal costs, as before
     intr0 = best.x
     report(progress, "double_sphere", 1, 2, unit="step")
 

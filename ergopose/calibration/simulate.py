@@ -11,10 +11,14 @@ Pixel convention: the centre of pixel (u, v) is at (u, v); subpixel j of a pixel
 
 from __future__ import annotations
 
+from typing import Any
+
 import cv2
 import numpy as np
 
 from ergopose.calibration.boards import Board, BoardTexture, board_texture
+from ergopose.geometry.camera import Camera
+from ergopose.geometry.lenses.base import LensModel
 
 _ROWS_PER_BLOCK_POINTS = 1 << 20
 
@@ -38,7 +42,7 @@ def board_pose_in_camera(rotation_world_from_cam: np.ndarray, position_world: np
     return R, t
 
 
-def board_region(lens, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
+def board_region(lens: LensModel, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
                  translation_cam: np.ndarray, texture: BoardTexture) -> tuple[int, int, int, int]:
     """(u0, v0, u1, v1) pixel box (end exclusive) that holds the whole board texture in the image.
 
@@ -68,7 +72,7 @@ def board_region(lens, image_size: tuple[int, int], board: Board, rotation_cam_f
     return int(u0), int(v0), int(u1), int(v1)
 
 
-def board_maps(lens, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
+def board_maps(lens: LensModel, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
                translation_cam: np.ndarray, texture: BoardTexture, supersample: int = 3,
                region: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """cv2.remap maps (float32, (h*s, w*s)) from the supersampled image (or the pixel box
@@ -104,7 +108,7 @@ def board_maps(lens, image_size: tuple[int, int], board: Board, rotation_cam_fro
     return map_x, map_y
 
 
-def render_board(lens, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
+def render_board(lens: LensModel, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
                  translation_cam: np.ndarray, *, supersample: int = 3, texture: BoardTexture | None = None,
                  background: int = 140, noise_std: float = 0.0, rng: np.random.Generator | None = None) -> np.ndarray:
     """A (H, W) uint8 image of the board seen through ``lens`` (board pose in the camera frame).
@@ -130,15 +134,15 @@ def render_board(lens, image_size: tuple[int, int], board: Board, rotation_cam_f
     return image
 
 
-def render_floor_board(camera, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0,
-                       **kwargs) -> np.ndarray:
+def render_floor_board(camera: Camera, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0,
+                       **kwargs: Any) -> np.ndarray:
     """A ceiling camera's view of a board lying on the floor (placed as extrinsics.floor_board_points)."""
     R, t = board_pose_in_camera(camera.rotation_world_from_cam, camera.position_world, floor_board_transform(yaw),
                                 np.array([origin_xy[0], origin_xy[1], 0.0]))
     return render_board(camera.lens, (camera.width, camera.height), board, R, t, **kwargs)
 
 
-def true_corner_pixels(lens, board: Board, rotation_cam_from_board: np.ndarray, translation_cam: np.ndarray) -> np.ndarray:
+def true_corner_pixels(lens: LensModel, board: Board, rotation_cam_from_board: np.ndarray, translation_cam: np.ndarray) -> np.ndarray:
     """(N, 2) pixels of every board corner through ``lens`` (the ground truth for a rendering)."""
     pts = board.object_points() @ np.asarray(rotation_cam_from_board).T + np.asarray(translation_cam)
     return lens.project(pts)

@@ -6,16 +6,18 @@ import argparse
 import glob
 import sys
 from pathlib import Path
+from typing import Sequence
 
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError
-from ergopose.pipeline.assess import AssessOptions, assess
+from ergopose.pipeline.assess import AssessOptions, AssessResult, assess
+from ergopose.pipeline.publish import WorkerOutput
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.ergonomics.shares import HIGH_WORDS, format_percent, shift_high_risk
 from ergopose.report.wording import CONFIDENCE_WORDS, fmt_duration, fmt_percent
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "assess",
         help="assess a session: videos in, RULA/REBA per worker, CSV files and an HTML report out",
@@ -95,6 +97,7 @@ def run_on_cluster(args: argparse.Namespace, options: AssessOptions) -> int:
     if args.session is not None:
         if outcomes[0].error is not None:
             raise outcomes[0].error
+        assert outcomes[0].result is not None  # no error: a result
         print_result(outcomes[0].result)
         return 0
     for o in outcomes:
@@ -108,7 +111,7 @@ def run_on_cluster(args: argparse.Namespace, options: AssessOptions) -> int:
     return 1 if failed else 0
 
 
-def expand_sessions(patterns) -> list[Path]:
+def expand_sessions(patterns: Sequence[str]) -> list[Path]:
     """Session folders from --sessions: each a folder, or a glob pattern (sorted matches)."""
     out: list[Path] = []
     for pat in patterns:
@@ -122,7 +125,7 @@ def expand_sessions(patterns) -> list[Path]:
     return out
 
 
-def print_result(result) -> None:
+def print_result(result: AssessResult) -> None:
     """The summary a user sees at the end: per worker the tracked time split by confidence (with
     causes), the shares at high risk of the tracked and of the scored time, where the files are.
     The figures are the shift summary's, formatted as in the report."""
@@ -135,7 +138,7 @@ def print_result(result) -> None:
     print(f"CSV files: {result.session_csv.parent}")
 
 
-def worker_lines(w) -> list[str]:
+def worker_lines(w: WorkerOutput) -> list[str]:
     """One worker's lines of the terminal summary (w: ergopose.pipeline.publish.WorkerOutput)."""
     s = w.summary
     total = s.observed_s

@@ -8,6 +8,7 @@ import datetime as dt
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -45,7 +46,7 @@ checkerboard:9x6:0.025), charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, e.g.
 charuco:7x5:0.04:0.03:DICT_5X5_100), or a board TOML file."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser("calibrate", help=HELP, description=DESCRIPTION,
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="calibrate_command", metavar="STEP", title="steps")
@@ -127,18 +128,18 @@ def _no_step(parser: argparse.ArgumentParser) -> int:
     return 2
 
 
-def _progress():
+def _progress() -> ProgressBars:
     return ProgressBars()
 
 
-def _floats(text: str, n: int, field: str) -> tuple[float, ...]:
+def _two_floats(text: str, field: str) -> tuple[float, float]:
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
-    if len(values) != n or not all(np.isfinite(values)):
-        raise ConfigError(f"expected {n} comma-separated numbers, got {text!r}", field=field)
-    return values
+    if len(values) != 2 or not all(np.isfinite(values)):
+        raise ConfigError(f"expected 2 comma-separated numbers, got {text!r}", field=field)
+    return values[0], values[1]
 
 
 # ------------------------------------------------------------------------- intrinsics
@@ -253,7 +254,7 @@ def read_point_csvs(world_csv: str | Path, pixels_csv: str | Path) -> dict[str, 
     return {cam: (names, np.array(pts), np.array(px)) for cam, (names, pts, px) in per_camera.items()}
 
 
-def _print_pose(camera, result) -> None:
+def _print_pose(camera: Camera, result: ext.PoseResult) -> None:
     axis = result.rotation_world_from_cam[:, 2]
     tilt = np.degrees(np.arccos(np.clip(-axis[2], -1.0, 1.0)))
     p = result.position_world
@@ -279,7 +280,7 @@ def run_extrinsics(args: argparse.Namespace) -> int:
         if not args.board:
             raise ConfigError("--board-image needs --board SPEC", field="--board")
         board = parse_board(args.board)
-        origin = _floats(args.board_origin, 2, "--board-origin")
+        origin = _two_floats(args.board_origin, "--board-origin")
         yaw = np.radians(args.board_yaw)
         for item in args.board_image:
             name, sep, image_path = item.partition("=")
@@ -334,7 +335,7 @@ def run_check(args: argparse.Namespace) -> int:
         if session.calibration_check is None:
             raise ConfigError("the settings name no reference bar: add a [calibration_check] table with "
                               "observations (a CSV of bar-end pixels) and length_m", path=session.settings_path)
-        cameras = list(session.calibrated_cameras)
+        cameras: Sequence[Camera] = list(session.calibrated_cameras)
         observations, length = session.calibration_check.observations_path, session.calibration_check.length_m
     else:
         missing = [o for o, v in (("--calibration", args.calibration), ("--observations", args.observations),
@@ -345,7 +346,7 @@ def run_check(args: argparse.Namespace) -> int:
         observations, length = args.observations, args.length
     if len(cameras) < 2:
         raise ConfigError(f"the check needs at least two cameras, the file has {len(cameras)}", path=args.calibration)
-    rings = _floats(args.rings, 2, "--rings")
+    rings = _two_floats(args.rings, "--rings")
     names = [c.name for c in cameras]
     labels, pixels = check.read_bar_observations(observations, names)
     report = check.measure_bar(cameras, pixels, length, ring_bounds_deg=rings, labels=labels)

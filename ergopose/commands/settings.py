@@ -18,7 +18,7 @@ where it has none) and a one-line explanation. Edit it into a session folder's s
 (docs/session-format.md); docs/settings.md lists every key."""
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser("settings", help="the settings.toml template",
                                    description="Settings files (docs/settings.md).")
     actions = parser.add_subparsers(dest="settings_action", metavar="ACTION", title="actions")
@@ -27,7 +27,12 @@ def register(subparsers) -> argparse.ArgumentParser:
     template.add_argument("--out", type=Path, metavar="FILE", default=None,
                           help="write to FILE (it must not exist) instead of the standard output")
     template.set_defaults(func=run_template)
-    parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
+
+    def show_help(args: argparse.Namespace) -> int:
+        parser.print_help()
+        return 2
+
+    parser.set_defaults(func=show_help)
     return parser
 
 

@@ -19,13 +19,15 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import Sequence
 
 from ergopose.cli_progress import ProgressBars, warnings_only
 from ergopose.pipeline import names, rescore
 from ergopose.session import load_session
+from ergopose.session import Session
 
 
-def register(subparsers) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "workers", help="list the tracked people of an assessed session and give them names (re-scored, no video)",
         description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
@@ -69,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def table_lines(session, people) -> list[str]:
+def table_lines(session: Session, people: Sequence[rescore.TrackedPerson]) -> list[str]:
     """The listing: one line per tracked id under a header."""
     rows = [("tracked id", "reported as", "stature", "tracked", "first seen", "last seen", "floor x, y (m)")]
     for p in people:

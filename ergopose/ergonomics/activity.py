@@ -30,6 +30,8 @@ increasing. Angles are in radians.
 
 from __future__ import annotations
 
+from typing import Literal, NamedTuple
+
 import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from scipy.signal import find_peaks
@@ -137,6 +139,17 @@ def repetition_events(time_s: np.ndarray, angle: np.ndarray, amplitude: float, w
     return events
 
 
+class _Windows(NamedTuple):
+    """Trailing windows of one length: first frame, reach (see rapid_change), the sparse table."""
+
+    start: np.ndarray
+    reach: np.ndarray
+    regular: bool
+    width: int
+    # (start of the second half-window, frames grouped by table level, top level); None if regular
+    sparse: tuple[np.ndarray, list[tuple[np.intp, np.ndarray]], int] | None
+
+
 class Timeline:
     """Window bounds of one worker's frames, computed once and shared by every body part.
 
@@ -147,10 +160,11 @@ class Timeline:
         self.time_s = np.asarray(time_s, dtype=np.float64)
         self.n = self.time_s.size
         self.period_s = frame_period(self.time_s)
-        self._cache: dict[tuple, np.ndarray] = {}
+        self._cache: dict[tuple[float, str], np.ndarray] = {}
+        self._windows: dict[float, _Windows] = {}
 
-    def searchsorted(self, offset_s: float, side: str) -> np.ndarray:
-        key = ("ss", offset_s, side)
+    def searchsorted(self, offset_s: float, side: Literal["left", "right"]) -> np.ndarray:
+        key = (offset_s, side)
         if key not in self._cache:
             self._cache[key] = np.searchsorted(self.time_s, self.time_s + offset_s, side=side)
         return self._cache[key]
@@ -162,10 +176,10 @@ class Timeline:
         c = np.concatenate(([0], np.cumsum(np.asarray(events, dtype=np.int64))))
         return c[hi] - c[lo]
 
-    def _sparse(self, window_s: float):
+    def _sparse(self, window_s: float) -> _Windows:
         """Trailing windows [start[i], i] of frames at most window_s (+1 ns for rounding) before i."""
-        key = ("sparse", window_s)
-        if key not in self._cache:
+        key = window_s
+        if key not in self._windows:
             n = self.n
             idx = np.arange(n)
             start = np.searchsorted(self.time_s, self.time_s - (window_s + 1e-9), side="left")
@@ -176,7 +190,7 @@ class Timeline:
             regular = bool(np.array_equal(length, np.minimum(idx + 1, width)))
             if regular:
                 reach = np.minimum(idx + width, n)
-                sparse = None
+                sparse: tuple[np.ndarray, list[tuple[np.intp, np.ndarray]], int] | None = None
             else:
                 lut = np.zeros(width + 1, dtype=np.intp)
                 lut[1:] = np.floor(np.log2(np.arange(1, width + 1))).astype(np.intp)
@@ -185,8 +199,8 @@ class Timeline:
                 groups = [(lv, np.flatnonzero(level == lv)) for lv in np.flatnonzero(np.bincount(level))]
                 reach = np.searchsorted(start, idx, side="right")
                 sparse = (hi_start, groups, int(lut[width]))
-            self._cache[key] = (start, reach, regular, width, sparse)
-        return self._cache[key]
+            self._windows[key] = _Windows(start, reach, regular, width, sparse)
+        return self._windows[key]
 
     def window_span(self, x: np.ndarray, window_s: float) -> np.ndarray:
         """max - min of x over the frames within window_s before each frame (NaN ignored)."""
@@ -202,6 +216,7 @@ class Timeline:
                 span = wmax - wmin
             span[np.isinf(wmax)] = np.nan  # no measured angle in the window
             return span
+        assert sparse is not None  # built whenever the frames are not regular
         hi_start, groups, top = sparse
         lmax, lmin = [x], [x]
         for k in range(1, top + 1):

@@ -48,7 +48,7 @@ import copy
 import math
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -344,7 +344,8 @@ class _Runs:
         self._close(vals[:-1], starts[:-1], ends[:-1], counts[:-1], pk[:-1])
         self.open = (int(vals[-1]), float(starts[-1]), float(ends[-1]), int(counts[-1]), float(pk[-1]))
 
-    def _close(self, vals, starts, ends, counts, peaks) -> None:
+    def _close(self, vals: np.ndarray, starts: np.ndarray, ends: np.ndarray, counts: np.ndarray,
+               peaks: np.ndarray) -> None:
         if vals.size == 0:
             return
         dur = ends - starts + self.period
@@ -585,7 +586,7 @@ class ShiftAccumulator:
             if key in self.exposure_present and self.exposure_present[key] != present:
                 raise InputError(f"every chunk must carry the same angle columns ({key.split('|')[1]})")
             self.exposure_present[key] = present
-            if not present:
+            if z is None:
                 continue
             if key not in self.exposure_runs:
                 self.exposure_runs[key] = _Runs(self.period, self.s.max_gap_s, static_s=self.static_hold_s)
@@ -665,7 +666,7 @@ class ShiftAccumulator:
                                          100.0 * k / self.scored_frames if self.scored_frames else math.nan))
         return tuple(out)
 
-    def _confidence_result(self, period: float, pct) -> tuple[ConfidenceShare, ...]:
+    def _confidence_result(self, period: float, pct: Callable[[float], float]) -> tuple[ConfidenceShare, ...]:
         if not self.confidence_frames:
             return ()
         out = []
@@ -741,12 +742,13 @@ class ShiftAccumulator:
         exposure = []
         for spec in _exposure_specs():
             key = f"{spec.standard}|{spec.body_part}"
-            r = exposure_runs.get(key)
-            if r is None:
+            found = exposure_runs.get(key)
+            if found is None:
                 exposure.append(ExposureFinding(spec.standard, spec.body_part, "not measured", False,
                                                 MappingProxyType({}), MappingProxyType({}), MappingProxyType({}),
                                                 MappingProxyType({}), 0, 0.0))
                 continue
+            r = found
             names = spec.zone_names
             zone_time = {names[v]: r.frames.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
             static_time = {names[v]: r.static_time.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
@@ -794,7 +796,7 @@ class ShiftAccumulator:
 
 def aggregate_shift(frames: pd.DataFrame, worker: str = "", *, chunk_frames: int | None = None,
                     progress: ProgressCallback | None = None, inferred: np.ndarray | None = None,
-                    **options) -> ShiftSummary:
+                    **options: Any) -> ShiftSummary:
     """Aggregate one worker's scored frames (in time order); inferred: (n, 33) joints placed by the
     body model (see :meth:`ShiftAccumulator.add`); options as :class:`ShiftAccumulator`."""
     acc = ShiftAccumulator(worker, **options)
@@ -807,7 +809,7 @@ def aggregate_shift(frames: pd.DataFrame, worker: str = "", *, chunk_frames: int
 
 
 def aggregate_session(frames: pd.DataFrame, *, by: str = "worker", progress: ProgressCallback | None = None,
-                      **options) -> dict[str, ShiftSummary]:
+                      **options: Any) -> dict[str, ShiftSummary]:
     """One ShiftSummary per worker (rows grouped by the ``by`` column, each in time order)."""
     if by not in frames.columns:
         return {"": aggregate_shift(frames, "", **options)}

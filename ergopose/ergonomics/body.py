@@ -59,9 +59,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any, Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ergopose.errors import ConfigError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
@@ -182,7 +184,7 @@ def _zero() -> float:
     return 0.0
 
 
-def _angle_field():
+def _angle_field() -> float:
     return field(default_factory=_zero)
 
 
@@ -231,7 +233,7 @@ class Posture:
     left_ankle_flexion: np.ndarray | float = _angle_field()
     right_ankle_flexion: np.ndarray | float = _angle_field()
 
-    def replace(self, **changes) -> "Posture":
+    def replace(self, **changes: Any) -> "Posture":
         """A copy with some fields changed."""
         return dataclasses.replace(self, **changes)
 
@@ -272,7 +274,7 @@ def rot_z(a: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
 
 
-def _apply(rot: np.ndarray, vec) -> np.ndarray:
+def _apply(rot: np.ndarray, vec: ArrayLike) -> np.ndarray:
     """rot (..., 3, 3) times a vector (3,) or (..., 3) -> (..., 3)."""
     vec = np.asarray(vec, dtype=float)
     return rot[..., 0] * vec[..., 0:1] + rot[..., 1] * vec[..., 1:2] + rot[..., 2] * vec[..., 2:3]
@@ -285,7 +287,7 @@ CHUNK_FRAMES = 8192
 def _fields_flat(posture: Posture) -> tuple[tuple[int, ...], dict[str, np.ndarray]]:
     """The frame shape S and every field broadcast to S and flattened to (N,) or (N, 3)."""
     shape = posture.shape
-    flat = {}
+    flat: dict[str, np.ndarray] = {}
     for f in dataclasses.fields(posture):
         v = np.asarray(getattr(posture, f.name), dtype=float)
         if f.name == "root_position":
@@ -295,7 +297,7 @@ def _fields_flat(posture: Posture) -> tuple[tuple[int, ...], dict[str, np.ndarra
     return shape, flat
 
 
-def _legs_local(m: BodyMeasurements, get, side: str) -> dict[str, np.ndarray]:
+def _legs_local(m: BodyMeasurements, get: Callable[[str], np.ndarray], side: str) -> dict[str, np.ndarray]:
     """Hip, knee, ankle, heel and foot_index of one side in the pelvis frame, (C, 3) each."""
     s = _SIGMA[side]
     n = get("heading").shape[0]
@@ -311,7 +313,7 @@ def _legs_local(m: BodyMeasurements, get, side: str) -> dict[str, np.ndarray]:
     return {"hip": hip, "knee": knee, "ankle": ankle, "heel": heel, "foot_index": toe}
 
 
-def _skeleton_local(m: BodyMeasurements, get) -> np.ndarray:
+def _skeleton_local(m: BodyMeasurements, get: Callable[[str], np.ndarray]) -> np.ndarray:
     """All 33 points in the pelvis frame for a block of frames, (C, 33, 3)."""
     n = get("heading").shape[0]
     out = np.empty((n, NUM_JOINTS, 3))
@@ -389,7 +391,7 @@ def place_on_floor(measurements: BodyMeasurements, posture: Posture) -> Posture:
     return posture.replace(root_position=root.reshape(shape + (3,)))
 
 
-def flat_foot_ankle(hip_flexion, knee_flexion):
+def flat_foot_ankle(hip_flexion: ArrayLike, knee_flexion: ArrayLike) -> np.ndarray:
     """Ankle flexion that keeps the foot level in the sagittal plane: knee_flexion - hip_flexion.
 
     Exact when the hip is not abducted (the hip, knee and ankle rotations then share one axis).

@@ -9,14 +9,17 @@ empty cell means "not scored" (a joint the score needs was not measured).
 from __future__ import annotations
 
 import abc
+import contextlib
 
 import datetime as dt
 import math
 import os
 from pathlib import Path
-from typing import Iterable, Mapping, Sequence
+from types import TracebackType
+from typing import Any, Iterable, Literal, Mapping, Self, Sequence, TextIO
 
 import numpy as np
+from numpy.typing import ArrayLike
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -130,8 +133,8 @@ class _PieceWriter(abc.ABC):
         self.bom = bool(bom)
         self.columns: list[str] | None = None
         self.rows = 0
-        self._ctx = None
-        self._file = None
+        self._ctx: contextlib.AbstractContextManager[Path] | None = None
+        self._file: TextIO | None = None
 
     @abc.abstractmethod
     def table(self, frames: pd.DataFrame) -> pd.DataFrame:
@@ -141,7 +144,7 @@ class _PieceWriter(abc.ABC):
     def empty(self) -> pd.DataFrame:
         """The table of no frames (its columns)."""
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         self._ctx = atomic_path(self.path)
         tmp = self._ctx.__enter__()
         self._file = open(tmp, "w", encoding=_encoding(self.bom), newline="")
@@ -158,11 +161,15 @@ class _PieceWriter(abc.ABC):
                 raise ValueError(f"every piece needs the columns of the first; this one differs in {missing}")
             table = table[self.columns]
             header = False
+        if self._file is None:
+            raise RuntimeError("write() is called inside the with block")
         table.to_csv(self._file, index=False, header=header, na_rep="", lineterminator="\n")
         self.rows += len(table)
         return table
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> Literal[False]:
+        assert self._ctx is not None and self._file is not None  # set by __enter__
         self._file.close()
         if exc_type is None and self.columns is None:  # no frames: the header of an empty table
             with open(self._file.name, "w", encoding=_encoding(self.bom), newline="") as f:
@@ -206,7 +213,7 @@ def frame_columns() -> tuple[str, ...]:
     return tuple(cols)
 
 
-def clock_times(recorded_at: dt.datetime | None, time_s) -> pd.DatetimeIndex | None:
+def clock_times(recorded_at: dt.datetime | None, time_s: ArrayLike) -> pd.DatetimeIndex | None:
     """The clock time of each time_s (seconds from the session's first frame), to the millisecond:
     tz-aware when recorded_at has an offset; None without recorded_at."""
     if recorded_at is None:
@@ -276,12 +283,12 @@ def frames_table(frames: pd.DataFrame, *, recorded_at: dt.datetime | None = None
         out[f"{a}_sd_deg"] = np.round(np.rad2deg(_float_column(frames, f"{a}_sd")), _DECIMALS["angle"])
     present = np.ones(n, dtype=bool)
     for score, level in FRAME_SCORES:
-        out[score] = _int_column(frames, score)
+        scores = out[score] = _int_column(frames, score)
         out[f"{score}_p"] = np.round(_float_column(frames, f"{score}_p"), 4)
         out[f"{score}_low"] = _int_column(frames, f"{score}_low")
         out[f"{score}_high"] = _int_column(frames, f"{score}_high")
         out[level] = _int_column(frames, level)
-        present &= out[score].notna().to_numpy()
+        present &= scores.notna().to_numpy()
     confidence = _text_column(frames, "confidence")
     if "confidence" not in frames.columns:  # frames without the uncertainty: scored or not
         confidence = np.where(present, "", "unscored").astype(object)
@@ -323,9 +330,9 @@ class FramesCsvWriter(_PieceWriter):
         self.recorded_at = recorded_at
         self.name = name
         self.parquet = Path(parquet) if parquet is not None else None
-        self._pq_ctx = None
-        self._pq_writer = None
-        self._pq_tmp = None
+        self._pq_ctx: contextlib.AbstractContextManager[Path] | None = None
+        self._pq_writer: pq.ParquetWriter | None = None
+        self._pq_tmp: Path | None = None
 
     def table(self, frames: pd.DataFrame) -> pd.DataFrame:
         return frames_table(frames, recorded_at=self.recorded_at, name=self.name)
@@ -333,7 +340,7 @@ class FramesCsvWriter(_PieceWriter):
     def empty(self) -> pd.DataFrame:
         return frames_table(pd.DataFrame({"time_s": []}), recorded_at=self.recorded_at, name=self.name)
 
-    def __enter__(self) -> "FramesCsvWriter":
+    def __enter__(self) -> Self:
         super().__enter__()
         if self.parquet is not None:
             self._pq_ctx = atomic_path(self.parquet)
@@ -353,7 +360,8 @@ class FramesCsvWriter(_PieceWriter):
             self._pq_writer = pq.ParquetWriter(self._pq_tmp, arrow.schema, compression="zstd")
         self._pq_writer.write_table(arrow.cast(self._pq_writer.schema))
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> Literal[False]:
         try:
             if self._pq_ctx is not None:
                 if exc_type is None and self._pq_writer is None:
@@ -390,7 +398,7 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
     """A worker's shift summary as a long table (columns WORKER_SUMMARY_COLUMNS)."""
     rows: list[dict] = []
 
-    def row(**kw) -> None:
+    def row(**kw: Any) -> None:
         rows.append({"worker": summary.worker, **kw})
 
     for col, dist in summary.distributions.items():
@@ -400,8 +408,9 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
         row(section="distribution", item=col, value="missing", time_s=dist.missing_time_s,
             percent=dist.missing_percent)
     for h in summary.hourly:
-        for v, secs in h.time_by_value.items():
-            row(section="hourly", item=h.column, hour=h.hour, value=str(v), time_s=secs, percent=h.percent(v))
+        for value, secs in h.time_by_value.items():
+            row(section="hourly", item=h.column, hour=h.hour, value=str(value), time_s=secs,
+                percent=h.percent(value))
         row(section="hourly", item=h.column, hour=h.hour, value="missing", time_s=h.missing_s,
             percent=100.0 * h.missing_s / h.observed_s if h.observed_s else 0.0)
     for col, episodes in summary.episodes.items():
@@ -439,10 +448,10 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
             count=u.frames, time_s=u.time_s, percent=u.percent)
     table = pd.DataFrame(rows, columns=list(WORKER_SUMMARY_COLUMNS))
     table["sd_deg"] = table["sd_deg"].astype(np.float64).round(_DECIMALS["angle"])
-    for c in ("hour", "holds", "peak_score", "count"):
-        table[c] = table[c].astype("Int64")
-    for c in ("time_s", "longest_hold_s", "longest_hold_start_s", "start_s", "end_s"):
-        table[c] = table[c].astype(np.float64).round(_DECIMALS["time"])
+    for name in ("hour", "holds", "peak_score", "count"):
+        table[name] = table[name].astype("Int64")
+    for name in ("time_s", "longest_hold_s", "longest_hold_start_s", "start_s", "end_s"):
+        table[name] = table[name].astype(np.float64).round(_DECIMALS["time"])
     table["percent"] = table["percent"].astype(np.float64).round(_DECIMALS["percent"])
     table["per_minute"] = table["per_minute"].astype(np.float64).round(_DECIMALS["rate"])
     return table
@@ -504,16 +513,16 @@ def _exposure_columns(s: ShiftSummary) -> dict[str, object]:
     for (standard, part), zones in EXPOSURE_COLUMNS.items():
         key = f"{_slug(standard)}_{_slug(part)}"
         f = found.get((standard, part))
-        measured = f is not None and f.measured
         r[key] = f.verdict if f is not None else "not measured"
+        m = f if f is not None and f.measured else None
         for index, term, held, rate in zones:
             zone = _zone_name(part, index)
-            r[f"{key}_{term}_s"] = f.zone_time_s.get(zone, 0.0) if measured else math.nan
+            r[f"{key}_{term}_s"] = m.zone_time_s.get(zone, 0.0) if m is not None else math.nan
             if held:
-                r[f"{key}_{term}_held_s"] = f.static_time_s.get(zone, 0.0) if measured else math.nan
-                r[f"{key}_{term}_longest_hold_s"] = f.longest_static_hold_s.get(zone, 0.0) if measured else math.nan
+                r[f"{key}_{term}_held_s"] = m.static_time_s.get(zone, 0.0) if m is not None else math.nan
+                r[f"{key}_{term}_longest_hold_s"] = m.longest_static_hold_s.get(zone, 0.0) if m is not None else math.nan
             if rate:
-                r[f"{key}_{term}_per_min"] = f.per_minute if measured else math.nan
+                r[f"{key}_{term}_per_min"] = m.per_minute if m is not None else math.nan
     return r
 
 
@@ -588,7 +597,7 @@ def session_summary_table(summaries: Sequence[ShiftSummary] | Mapping[str, Shift
             r[f"{method}_unscored_s"] = risk.unscored_s if known else math.nan
             r[f"{method}_unscored_pct_of_tracked"] = risk.unscored_pct_of_tracked if known else math.nan
             for lv in levels:
-                v = dist.at(lv) if known else None
+                v = dist.at(lv) if dist is not None else None
                 r[f"{method}_level{lv}_s"] = v.time_s if v else math.nan
                 r[f"{method}_level{lv}_pct_of_tracked"] = percent(v.time_s, tracked) if v else math.nan
                 r[f"{method}_level{lv}_pct_of_scored"] = percent(v.time_s, risk.scored_s) if v else math.nan

@@ -250,10 +250,11 @@ class _Reader:
             raise self.fail(field, f"expected a table, got {type(value).__name__}")
         return value
 
-    def string(self, data: Mapping, key: str, field: str, optional: bool = False) -> str | None:
+    def optional_string(self, data: Mapping, key: str, field: str) -> str | None:
+        return self.string(data, key, field) if key in data else None
+
+    def string(self, data: Mapping, key: str, field: str) -> str:
         if key not in data:
-            if optional:
-                return None
             raise self.fail(field, "missing")
         value = data[key]
         if not isinstance(value, str) or not value.strip():
@@ -367,13 +368,13 @@ def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Ba
             raise r.fail(f"{field}.edges", f"two edges at {edges[k]} only make sense around a single-point "
                          "(tolerance) posture")
     _check_valley(r, scores, f"{field}.scores")
-    tol = r.string(data, "tolerance_setting", f"{field}.tolerance_setting", optional=True)
+    tol = r.optional_string(data, "tolerance_setting", f"{field}.tolerance_setting")
     if "tolerance" in at_edge and tol is None:
         raise r.fail(f"{field}.tolerance_setting", "required when an edge is a 'tolerance' edge")
     if tol is not None:
         if tol not in setting_names() or not tol.endswith("_deg"):
             raise r.fail(f"{field}.tolerance_setting", f"{tol!r} is not an angle setting of the scoring settings")
-    not_when = r.string(data, "not_when", f"{field}.not_when", optional=True)
+    not_when = r.optional_string(data, "not_when", f"{field}.not_when")
     if not_when is not None and not_when not in KNOWN_FLAGS:
         raise r.fail(f"{field}.not_when", f"unknown flag {not_when!r}")
     if is_adjunct:  # points added to another step's score; adjusted_range is that step's range
@@ -492,7 +493,7 @@ def _load_rule(r: _Reader, data: Mapping, name: str) -> LoadRule:
 
 def _action_levels(r: _Reader, data: Mapping, score_range: tuple[int, int]) -> tuple[ActionLevel, ...]:
     items = r.any_list(data, "action_levels", "action_levels")
-    levels = []
+    levels: list[ActionLevel] = []
     expect_low = score_range[0]
     for i, item in enumerate(items):
         f = f"action_levels[{i + 1}]"

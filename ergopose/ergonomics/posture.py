@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Sequence, SupportsFloat
 
 import numpy as np
 import pandas as pd
@@ -138,6 +138,8 @@ def _show(value: object) -> str:
     """A cell value as a user typed it: text in quotes, numbers plain."""
     if isinstance(value, str):
         return repr(value)
+    if not isinstance(value, SupportsFloat):
+        return repr(str(value))
     try:
         return f"{float(value):g}"
     except (TypeError, ValueError):

@@ -123,7 +123,7 @@ def lookup(table: ScoreTable, *scores: np.ndarray) -> np.ndarray:
     if len(scores) != len(table.axes):
         raise ValueError(f"{table.name} takes {len(table.axes)} scores, got {len(scores)}")
     flat = np.zeros(np.shape(scores[0]), dtype=np.intp)
-    valid = None
+    valid = np.ones(np.shape(scores[0]), dtype=bool)
     stride = 1
     strides = []
     for size in reversed(table.sizes):
@@ -132,7 +132,7 @@ def lookup(table: ScoreTable, *scores: np.ndarray) -> np.ndarray:
     for s, size, st in zip(scores, table.sizes, reversed(strides)):
         s = np.asarray(s, dtype=np.float64)
         nan = np.isnan(s)
-        valid = ~nan if valid is None else valid & ~nan
+        valid = valid & ~nan
         with np.errstate(invalid="ignore"):
             i = np.clip(s, 1, size).astype(np.intp)  # NaN casts to garbage, masked below
         i -= 1
@@ -327,7 +327,10 @@ class _Shared:
                 lut = np.array([mapping.get(str(u), NAN) for u in uniques] + [NAN], dtype=np.float64)
                 out = lut[codes]  # code -1 (missing) picks the trailing NaN
             self._cols[key] = out
-        return self._cols[key]
+            return out
+        category = self._cols[key]
+        assert category is not None  # stored above, never None
+        return category
 
     def col(self, name: str) -> np.ndarray | None:
         """A numeric column as float64 (NaN = missing), or None if the table lacks it."""
@@ -351,6 +354,8 @@ class _Shared:
             else:
                 self._groups = [np.arange(n)] if n else []
             t = self.col("time_s")
+            if t is None:
+                raise ValueError("worker timelines need the time_s column (callers check has_time)")
             for g in self._groups:
                 try:
                     act.check_time(t[g])
@@ -482,7 +487,7 @@ def _worse(left: np.ndarray, right: np.ndarray, left_tie: np.ndarray | None = No
     both = ~(np.isnan(left) | np.isnan(right))
     worse = np.where(both, np.fmax(left, right), NAN)
     lk, rk = left.copy(), right.copy()
-    if left_tie is not None:
+    if left_tie is not None and right_tie is not None:
         tie = (left == right)
         lk = np.where(tie, left_tie, left)
         rk = np.where(tie, right_tie, right)
@@ -603,6 +608,7 @@ def score_reba(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
     knee_angle = np.fmax(inp.angle("knee_flexion", "left_"), inp.angle("knee_flexion", "right_"))
     knee_angle[np.isnan(inp.angle("knee_flexion", "left_")) | np.isnan(inp.angle("knee_flexion", "right_"))] = NAN
     knee = band_scores(knee_angle, knee_bands, s, ob)
+    assert knee_bands.not_when is not None  # load_method requires knee.not_when
     seated = inp.flag(knee_bands.not_when)
     knee = np.where(seated == 1, 0.0, np.where(np.isnan(seated), NAN, knee))
     c["reba_legs_band"] = legs_band

@@ -28,6 +28,7 @@ chunking, and the same input gives the same bytes.
 from __future__ import annotations
 
 import warnings
+from typing import Iterator
 
 import numpy as np
 import pandas as pd
@@ -92,7 +93,7 @@ def _normals() -> np.ndarray:
     return _TABLE
 
 
-def iter_samples(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray):
+def iter_samples(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray) -> Iterator[np.ndarray]:
     """(n, 33, 3) estimate and deviations -> the SAMPLES draws, one (n, 33, 3) array at a time (a
     NaN deviation counts as 0; a frame's draws depend on its frame number only): only one draw's
     points are in memory at once (all at once would be SAMPLES x 792 bytes per frame)."""

@@ -60,7 +60,7 @@ def bar_pixels(cameras: Sequence, bars: Sequence[dict], noise_px: float, draws: 
     return pixels, exact, labels
 
 
-def bar_section(session, gt, limits_deg: Sequence[float], *, noise_px: float = DEFAULT_NOISE_PX,
+def bar_section(session, gt, limits_deg: tuple[float, float], *, noise_px: float = DEFAULT_NOISE_PX,
                 draws: int = DEFAULT_DRAWS, seed: int = 0) -> dict[str, Any]:
     """The reference-bar table (module docstring) as a JSON-ready dictionary; ``table`` holds the
     text of :func:`ergopose.calibration.check.format_table` for each bar length."""
@@ -93,9 +93,9 @@ def bar_section(session, gt, limits_deg: Sequence[float], *, noise_px: float = D
     tables = []
     for target in np.unique(lengths):
         sel = lengths[bar_of] == target
-        rep = measure_bar(calib, pixels[sel], float(target), ring_bounds_deg=tuple(limits_deg),
+        rep = measure_bar(calib, pixels[sel], float(target), ring_bounds_deg=limits_deg,
                           labels=[lab for lab, s in zip(labels, sel) if s])
-        noiseless = measure_bar(calib, exact[lengths == target], float(target), ring_bounds_deg=tuple(limits_deg))
+        noiseless = measure_bar(calib, exact[lengths == target], float(target), ring_bounds_deg=limits_deg)
         tables.append(f"Reference bar {target:g} m ({int(sel.sum())} measurements, {noise_px:g} px noise):\n"
                       + format_table(rep))
         for r in rep.regions:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, SupportsFloat
 
 import numpy as np
 
@@ -67,7 +67,7 @@ def json_ready(value: Any) -> Any:
     return value
 
 
-def round_or_nan(x: float, nd: int = 3) -> float:
+def round_or_nan(x: SupportsFloat | None, nd: int = 3) -> float:
     """``x`` rounded to ``nd`` decimals for the JSON summaries; NaN when it is None or not finite."""
     return round(float(x), nd) if x is not None and math.isfinite(float(x)) else float("nan")
 

@@ -74,7 +74,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import cv2
 import numpy as np
@@ -153,8 +153,9 @@ class EvaluationSettings:
     def like_stage(cls, stage=None, **overrides) -> "EvaluationSettings":
         """Settings whose view fit equals the given (default) 2D stage settings."""
         s = stage if stage is not None else PoseSettings()
-        values = dict(margin=float(s.body_margin), min_half_fov=float(s.min_half_fov),
-                      max_half_fov=float(s.max_half_fov), min_presence=float(s.min_presence), stage=s)
+        values: dict[str, Any] = dict(margin=float(s.body_margin), min_half_fov=float(s.min_half_fov),
+                                      max_half_fov=float(s.max_half_fov), min_presence=float(s.min_presence),
+                                      stage=s)
         values.update(overrides)
         return cls(**values)
 
@@ -436,7 +437,8 @@ class _Rows:
                                 z.astype(np.int64), z, z, z, z.astype(bool), z, np.zeros((0, k)), np.zeros((0, k)))
         cols = list(zip(*self.rows))
         ints = [np.array(c, dtype=np.int64) for c in cols[:5]]
-        return PersonTrials(*ints, theta=np.array(cols[5], np.float64),
+        return PersonTrials(condition=ints[0], frame=ints[1], camera=ints[2], worker=ints[3], region=ints[4],
+                            theta=np.array(cols[5], np.float64),
                             trunk_inclination=np.array(cols[6], np.float64), presence=np.array(cols[7], np.float64),
                             found=np.array(cols[8], bool), hip_error_torso=np.array(cols[9], np.float64),
                             joint_error_px=np.stack(cols[10]), joint_error_torso=np.stack(cols[11]))
@@ -485,10 +487,13 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
                      conditions: tuple[str, ...], settings: EvaluationSettings, landmarker, detector,
                      progress: ProgressCallback | None, done_offset: int, total: int) -> tuple[PersonTrials, int, int]:
     session = load_session(session_dir)
+    if session.ground_truth_dir is None:
+        raise InputError("not a simulated session: no ground_truth/ folder (evaluation needs the truth)",
+                         path=session_dir)
     gt = load_ground_truth(session.ground_truth_dir)
     cam = session.cameras[camera_index]
     camera = cam.camera
-    size = tuple(int(s) for s in landmarker.input_size)
+    size = (int(landmarker.input_size[0]), int(landmarker.input_size[1]))
     start, stop, step = frames
     want = {c: CONDITIONS.index(c) for c in conditions}
     stage = None
@@ -524,10 +529,10 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
                 rays = view.view_pixels_to_rays_cam(kp.pixels)
                 rows.add(want[name], index, camera_index, w, p, kp.presence,
                          score_prediction(p, camera.lens.project(rays), rays, kp.presence, settings))
-            for name, make in (("crop", p.crop_roi), ("rotated_crop", p.rotated_roi)):
+            for name, make_roi in (("crop", p.crop_roi), ("rotated_crop", p.rotated_roi)):
                 if name not in want:
                     continue
-                roi = make(settings)
+                roi = make_roi(settings)
                 kp = landmarker(roi.crop(frame, size[0])).transformed(roi.crop_to_image(size[0]))
                 rays = _unit(camera.lens.unproject(kp.pixels))
                 rows.add(want[name], index, camera_index, w, p, kp.presence,

@@ -59,6 +59,7 @@ import cv2
 import numpy as np
 
 from ergopose import atomic
+from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.equidistant import Equidistant
 from ergopose.geometry.lenses.rectilinear import Rectilinear
@@ -109,7 +110,7 @@ def load_cameras(root: Path = DEFAULT_ROOT) -> list[Camera]:
 
 def read_frames(root: Path, camera_number: int, count: int) -> list[np.ndarray]:
     cap = cv2.VideoCapture(str(root / "videos" / f"cam{camera_number:02d}.mp4"))
-    frames = []
+    frames: list[np.ndarray] = []
     while len(frames) < count:
         ok, frame = cap.read()
         if not ok:
@@ -157,7 +158,7 @@ def reference_pose(frame: np.ndarray, detector, landmarker, upright_camera: Came
         a = kp.alignment
         v = a[1] - a[0]
         roi = Roi(a[0], 2.0 * 1.25 * float(np.linalg.norm(v)), turn(a[0], v))
-    if kp.presence < 0.5:
+    if kp is None or kp.presence < 0.5:  # kp is set: the loop runs twice
         return None
     return kp.pixels, kp.confidence
 
@@ -344,7 +345,7 @@ def run_config(args) -> list[dict]:
     stages = {m: FisheyePoseEstimator(vf.camera, 0, lm, det, _settings(m)) for m in modes}
     rays_ref_v = ref["rays"] @ vf.rotation_real_from_virtual  # real -> virtual frame
     others = {k: (refs[k]["rays"] @ vf.rotation_real_from_virtual, refs[k]["conf"]) for k in REFERENCES}
-    scores = {m: [] for m in modes}
+    scores: dict[str, list[dict]] = {m: [] for m in modes}
     seconds = {m: 0.0 for m in modes}
     for f, image in enumerate(read_frames(root, number, frames)):
         fisheye = view_map.apply(image)
@@ -386,12 +387,14 @@ def simulated_camera(args) -> list[dict]:
 
     cv2.setNumThreads(1)
     session = load_session(session_dir)
+    if session.ground_truth_dir is None:
+        raise InputError("not a simulated session: no ground_truth/ folder", path=session_dir)
     gt = load_ground_truth(session.ground_truth_dir)
     cam = session.cameras[camera_index]
     det = BlazePoseDetector(num_threads=1)
     lm = BlazePoseLandmarker(num_threads=1)
     stages = {m: FisheyePoseEstimator(cam.camera, camera_index, lm, det, _settings(m)) for m in modes}
-    scores = {m: [] for m in modes}
+    scores: dict[str, list[dict]] = {m: [] for m in modes}
     for index, frame in read_video(cam.video_path, 0, stop if stop is not None else gt.n_frames):
         found = {m: stages[m].process(frame, index) for m in modes}
         for w in range(len(gt.worker_ids)):
@@ -520,12 +523,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                 for c in cams for ang in a.angles.split(",") for d in a.densities.split(",")
                 for roll in a.rolls.split(",")]
         rows = []
-        for i, r in enumerate(pool.map(run_config, jobs)):
-            rows += r
-            print(f"[{time.time() - t0:.0f} s] {i + 1}/{len(jobs)} {r[0]['camera']} {r[0]['off_axis_deg']:g} deg "
-                  f"roll {r[0]['roll_deg']:g} {r[0]['px_per_rad']:g} px/rad: "
+        for i, batch in enumerate(pool.map(run_config, jobs)):
+            rows += batch
+            print(f"[{time.time() - t0:.0f} s] {i + 1}/{len(jobs)} {batch[0]['camera']} "
+                  f"{batch[0]['off_axis_deg']:g} deg roll {batch[0]['roll_deg']:g} {batch[0]['px_per_rad']:g} px/rad: "
                   + ", ".join(f"{x['mode']} {x['found']}/{x['counted']} p90 {x['p90']:.2f} "
-                              f"swap {x['swapped']}/{x['judged']}" for x in r), file=sys.stderr, flush=True)
+                              f"swap {x['swapped']}/{x['judged']}" for x in batch), file=sys.stderr, flush=True)
     refs_found = {c: int(np.isfinite(refs[c]["aligned"]["rays"][:, HIPS]).all(axis=(1, 2)).sum()) for c in cams}
     base = ["", "The references against each other on the pinhole frames (torso lengths of the aligned "
             "reference; median / p90 over the limb keypoints both give; frames with left and right crossed):", ""]
@@ -539,13 +542,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 torso = float(_angle(_unit(a_ref["rays"][f][SHOULDERS].mean(0)), _unit(a_ref["rays"][f][HIPS].mean(0))))
                 both = LIMBS[(a_ref["conf"][f][LIMBS] >= 0.5) & (b_ref["conf"][f][LIMBS] >= 0.5)]
                 errs.append(_angle(a_ref["rays"][f][both], b_ref["rays"][f][both]) / torso)
-                l, r = PAIRS[:, 0], PAIRS[:, 1]
-                okp = (a_ref["conf"][f][l] >= 0.5) & (a_ref["conf"][f][r] >= 0.5) & \
-                      (b_ref["conf"][f][l] >= 0.5) & (b_ref["conf"][f][r] >= 0.5)
+                lj, rj = PAIRS[:, 0], PAIRS[:, 1]
+                okp = (a_ref["conf"][f][lj] >= 0.5) & (a_ref["conf"][f][rj] >= 0.5) & \
+                      (b_ref["conf"][f][lj] >= 0.5) & (b_ref["conf"][f][rj] >= 0.5)
                 if okp.sum() >= 2:
                     ra, rb = a_ref["rays"][f], b_ref["rays"][f]
-                    st = _angle(ra[l[okp]], rb[l[okp]]) + _angle(ra[r[okp]], rb[r[okp]])
-                    cr = _angle(ra[l[okp]], rb[r[okp]]) + _angle(ra[r[okp]], rb[l[okp]])
+                    st = _angle(ra[lj[okp]], rb[lj[okp]]) + _angle(ra[rj[okp]], rb[rj[okp]])
+                    cr = _angle(ra[lj[okp]], rb[rj[okp]]) + _angle(ra[rj[okp]], rb[lj[okp]])
                     judged += 1
                     swaps += int((cr < st - 0.1 * torso).sum() * 2 > okp.sum())
             e = np.concatenate(errs) if errs else np.zeros(0)

@@ -48,7 +48,7 @@ import tomli_w
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, ErgoposeError
 from ergopose.geometry.camera import CalibrationInfo, Camera, check_rotation
-from ergopose.geometry.lenses import lens_from_dict
+from ergopose.geometry.lenses import LensModel, lens_from_dict
 from ergopose.geometry.lenses.brown_conrady import BrownConrady
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 
@@ -136,7 +136,7 @@ def _camera_from_table(table: dict[str, Any], where: str, path: Any) -> Camera:
     for key in ("name", "width", "height", "lens", "pose"):
         if key not in table:
             raise ConfigError(f"missing{label}", path=path, field=f"{where}.{key}")
-    if not label:
+    if not isinstance(name, str) or not name.strip():  # the same test as the label's
         raise ConfigError(f"expected a non-empty text, got {name!r}", path=path, field=f"{where}.name")
     for key in ("width", "height"):
         value = table[key]
@@ -497,6 +497,7 @@ def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tupl
             raise ConfigError(f"expected true or false, got {fisheye!r}", path=path, field=f"{where}.fisheye")
         info = CalibrationInfo(method=f"imported from {path.name} ({'fisheye' if fisheye else 'pinhole'} "
                                       "model, Pose2Sim/anipose layout)")
+        lens: LensModel
         try:
             if fisheye:
                 if dist.size != 4:

@@ -129,7 +129,7 @@ class Camera:
                      self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration,
                      self.image_circle))
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type[Camera], tuple[Any, ...]]:
         # Rebuild through __init__ (checks, read-only arrays) when unpickled in a worker process.
         return (Camera, (self.name, self.lens, self.width, self.height,
                          self.rotation_world_from_cam, self.position_world, self.calibration, self.image_circle))
@@ -319,7 +319,7 @@ def look_at_rotation(forward_world: Any, up_world: Any = (0.0, 0.0, 1.0)) -> np.
     z = z / nz
     x = np.cross(z, up)
     nx = np.linalg.norm(x)
-    if not nx > 1e-9 * max(np.linalg.norm(up), 1e-300):
+    if not nx > 1e-9 * max(float(np.linalg.norm(up)), 1e-300):
         raise ValueError("forward_world is parallel to up_world: the image rotation is undefined")
     x = x / nx
     y = np.cross(z, x)

@@ -10,13 +10,14 @@ three equal rings. The limits are a setting where a stage reports by region.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 REGION_NAMES: tuple[str, ...] = ("central", "outer", "edge")
 #: Angles (degrees from the lens axis) where "outer" and "edge" begin.
 DEFAULT_LIMITS_DEG: tuple[float, float] = (30.0, 60.0)
 
 
-def region_index(angle_deg, limits_deg: tuple[float, float] = DEFAULT_LIMITS_DEG) -> np.ndarray:
+def region_index(angle_deg: ArrayLike, limits_deg: tuple[float, float] = DEFAULT_LIMITS_DEG) -> np.ndarray:
     """Region of each angle (degrees, any shape): 0 central (< first limit), 1 outer, 2 edge
     (>= second limit), -1 where the angle is NaN. An angle on a limit belongs to the outer ring."""
     a = np.round(np.asarray(angle_deg, dtype=np.float64), 9)  # 30 deg via radians and back is 29.999...

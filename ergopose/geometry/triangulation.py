@@ -37,9 +37,10 @@ parallel), comes back NaN: a point is never invented.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ergopose.errors import InputError
 
@@ -105,7 +106,7 @@ class RayTriangulation:
 # Projection matrices
 
 
-def _as_float(a, name: str) -> np.ndarray:
+def _as_float(a: ArrayLike, name: str) -> np.ndarray:
     try:
         arr = np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -118,7 +119,8 @@ def _check_tail(arr: np.ndarray, tail: tuple[int, ...], name: str, what: str) ->
         raise InputError(f"expected shape {what}, got {arr.shape}", field=name)
 
 
-def projection_matrix(K, rotation_cam_from_view=None, pose_world_from_cam=None) -> np.ndarray:
+def projection_matrix(K: ArrayLike, rotation_cam_from_view: ArrayLike | None = None,
+                      pose_world_from_cam: ArrayLike | None = None) -> np.ndarray:
     """The paper's ``P = K [I|0] [[R^T, 0], [0, 1]] W^-1`` for one or many views.
 
     K: (..., 3, 3) pinhole matrix of the (virtual) view, pixels.
@@ -173,7 +175,7 @@ def _check_rotation(R: np.ndarray, name: str) -> None:
         raise InputError("not a rotation matrix (orthonormal, determinant +1)", field=name)
 
 
-def reproject(projections, points) -> np.ndarray:
+def reproject(projections: ArrayLike, points: ArrayLike) -> np.ndarray:
     """Project world points into each view.
 
     projections: (..., V, 3, 4); points: (..., J, 3) (leading dimensions broadcast).
@@ -200,7 +202,7 @@ def _project_h(P: np.ndarray, X: np.ndarray) -> np.ndarray:
 # Shared pieces
 
 
-def _weights(weights, name: str = "weights") -> np.ndarray | None:
+def _weights(weights: ArrayLike | None, name: str = "weights") -> np.ndarray | None:
     """Weights as float array broadcastable to ``shape`` (..., V, J), or None for all ones."""
     if weights is None:
         return None
@@ -244,7 +246,7 @@ def _solve_sym3(M: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return x, ok
 
 
-def _residuals(diff_a: np.ndarray, diff_b: np.ndarray, in_front: np.ndarray, used: np.ndarray,
+def _residuals(diff_a: np.ndarray, diff_b: np.ndarray | float, in_front: np.ndarray, used: np.ndarray,
                ok: np.ndarray, views_used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per-view residual hypot(diff_a, diff_b) (..., V, J) and its RMS over views (..., J).
 
@@ -264,7 +266,8 @@ def _residuals(diff_a: np.ndarray, diff_b: np.ndarray, in_front: np.ndarray, use
 # DLT
 
 
-def triangulate_dlt(projections, pixels, weights=None, min_views: int = 2, *,
+def triangulate_dlt(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLike | None = None,
+                    min_views: int = 2, *,
                     solver: Literal["normal", "svd"] = "normal",
                     normalize_rows: bool = True) -> Triangulation:
     """Weighted linear triangulation (DLT) of many joints in many frames at once.
@@ -302,7 +305,8 @@ def triangulate_dlt(projections, pixels, weights=None, min_views: int = 2, *,
         return _dlt(P, uv, w, min_views, solver, normalize_rows)
 
 
-def _dlt(P, uv, w, min_views, solver, normalize_rows) -> Triangulation:
+def _dlt(P: np.ndarray, uv: np.ndarray, w: np.ndarray | None, min_views: int, solver: str,
+         normalize_rows: bool) -> Triangulation:
     # Joints last throughout: (..., V, J) per observation, (..., V, 2, 4, J) rows, (..., 4, 4, J).
     u, v = uv[..., 0], uv[..., 1]
     used = np.isfinite(u + v)  # False when either is NaN or inf
@@ -348,7 +352,8 @@ def _dlt(P, uv, w, min_views, solver, normalize_rows) -> Triangulation:
 # Midpoint (rays)
 
 
-def triangulate_midpoint(origins, rays, weights=None, min_views: int = 2) -> RayTriangulation:
+def triangulate_midpoint(origins: ArrayLike, rays: ArrayLike, weights: ArrayLike | None = None,
+                         min_views: int = 2) -> RayTriangulation:
     """Weighted least-squares point closest to rays: the midpoint method for two or more rays.
 
     origins: (..., V, 3) ray origins (camera centres), metres.
@@ -376,7 +381,7 @@ def triangulate_midpoint(origins, rays, weights=None, min_views: int = 2) -> Ray
         return _midpoint(O, D, w, min_views)
 
 
-def _midpoint(O, D, w, min_views) -> RayTriangulation:
+def _midpoint(O: np.ndarray, D: np.ndarray, w: np.ndarray | None, min_views: int) -> RayTriangulation:
     d = np.swapaxes(D, -1, -2)  # (..., V, 3, J), joints last as in the DLT
     d = d / np.sqrt(np.einsum("...ij,...ij->...j", d, d))[..., None, :]
     o = O[..., :, :, None]  # (..., V, 3, 1)
@@ -414,8 +419,9 @@ def _midpoint(O, D, w, min_views) -> RayTriangulation:
 # Outlier rejection
 
 
-def reject_outliers(projections, pixels, weights=None, min_views: int = 2, *,
-                    threshold_px: float = 15.0, **dlt_options) -> tuple[Triangulation, np.ndarray]:
+def reject_outliers(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLike | None = None,
+                    min_views: int = 2, *, threshold_px: float = 15.0,
+                    **dlt_options: Any) -> tuple[Triangulation, np.ndarray]:
     """DLT, then drop the worst view of each badly reprojected joint and triangulate again.
 
     In every round, each joint whose ``reprojection_error_px`` exceeds ``threshold_px`` and which

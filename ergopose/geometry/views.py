@@ -126,7 +126,7 @@ def build_map(dst_lens: LensModel, dst_size: tuple[int, int], src_lens: LensMode
     valid = np.empty((height, width), dtype=bool)
     rows_per_block = max(1, _MAP_BLOCK_PIXELS // width)
     pinhole = isinstance(dst_lens, Rectilinear)
-    if pinhole:
+    if isinstance(dst_lens, Rectilinear):
         xn = (np.arange(width, dtype=np.float64) - dst_lens.cx) / dst_lens.fx
         yn_all = (np.arange(height, dtype=np.float64) - dst_lens.cy) / dst_lens.fy
         col_terms = [xn * rot[k, 0] for k in range(3)]

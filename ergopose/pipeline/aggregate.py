@@ -12,7 +12,7 @@ import dataclasses
 import functools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -20,8 +20,10 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from ergopose.ergonomics.aggregate import ShiftSummary
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
-from ergopose.pipeline.names import merge_rows, tracker_number
+from ergopose.ergonomics.settings import ScoringSettings
+from ergopose.pipeline.names import Naming, merge_rows, tracker_number
 from ergopose.pipeline.score import RunEach, WorkerSink, score_workers
 from ergopose.pipeline.track import Tracks
 from ergopose.progress import ProgressCallback, report
@@ -48,7 +50,7 @@ class ReportWorker:
     reliable_frames: int
 
 
-def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring, ident,
+def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring: ScoringSettings, ident: Naming,
                  progress: ProgressCallback | None, run_each: RunEach | None = None, *,
                  bom: bool = False) -> list[ReportWorker]:
     """Every tracked worker scored (:func:`ergopose.pipeline.score.score_workers`: the per-frame
@@ -98,7 +100,7 @@ _PERIOD_COLUMNS = ("time_s", "frame", "rula_grand", "rula_action_level", "reba_s
                    *BODY_PART_COLUMNS["rula"], *periods.INPUT_COLUMNS)
 
 
-def _period_frames(sink: WorkerSink, summary) -> tuple[pd.DataFrame, np.ndarray]:
+def _period_frames(sink: WorkerSink, summary: ShiftSummary) -> tuple[pd.DataFrame, np.ndarray]:
     """The scored frames of the worker's sustained periods of high risk (ergopose.report.periods,
     found on every frame of the timeline; read back from the scored-frames file, only the columns
     the report reads) and the frame numbers drawn for them: the periods are then described as from
@@ -116,7 +118,8 @@ def _period_frames(sink: WorkerSink, summary) -> tuple[pd.DataFrame, np.ndarray]
     return table, np.sort(frame[[p.drawn for p in found]])
 
 
-def _rows_of_frames(f, frames: np.ndarray, where: tuple[str, Sequence[str]] | None = None):
+def _rows_of_frames(f: pq.ParquetFile, frames: np.ndarray,
+                    where: tuple[str, Sequence[str]] | None = None) -> pa.Table:
     """The rows of a Parquet file (ordered by frame) whose frame is in ``frames`` (and whose column
     where[0] is one of where[1]), reading only the row groups whose frame range holds one of them."""
     col = f.schema_arrow.get_field_index("frame")
@@ -140,7 +143,8 @@ def _members(tracks: Tracks, worker: int) -> tuple[str, ...]:
     return tuple(identity_name(m) for m, g in tracks.groups.items() if g == worker) or (identity_name(worker),)
 
 
-def _joints_at(tracks_path: Path, tracked: tuple[str, ...], frames: np.ndarray):
+def _joints_at(tracks_path: Path, tracked: tuple[str, ...],
+               frames: np.ndarray) -> Callable[[float], np.ndarray | None] | None:
     """callable(seconds) -> (33, 3) joints (metres) at the nearest of ``frames`` (ascending frame
     numbers), from the tracks table (the rows of the tracked ids ``tracked``, merged as for scoring)."""
     if not len(frames):
@@ -151,7 +155,7 @@ def _joints_at(tracks_path: Path, tracked: tuple[str, ...], frames: np.ndarray):
                     else {})
     times, points = tf.time_s, tf.points_world
 
-    def joints_at(t: float):
+    def joints_at(t: float) -> np.ndarray | None:
         if not len(times):
             return None
         i = int(np.argmin(np.abs(times - t)))

@@ -35,7 +35,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import dask
 from distributed import Client, LocalCluster, WorkerPlugin, as_completed, worker_client
@@ -97,10 +97,10 @@ class PoseModels(WorkerPlugin):
         self.model_dir = model_dir
         self.model = model
 
-    def setup(self, worker=None) -> None:
+    def setup(self, worker: Any = None) -> None:
         detect.networks(self.model_dir, 1, self.model)
 
-    def teardown(self, worker=None) -> None:
+    def teardown(self, worker: Any = None) -> None:
         pass
 
 
@@ -208,7 +208,7 @@ def _cluster_chunk(job: detect.DetectJob, store_root: str, start: int, stop: int
         return local.chunk_task(job, store_root, start, stop)
 
 
-def _cluster_finish(run: local.PreparedRun, ranges, reused: int, *chunks,
+def _cluster_finish(run: local.PreparedRun, ranges: Sequence[tuple[int, int]], reused: int, *chunks: Any,
                     copies: Sequence[Copy] = ()) -> tuple[local.AssessResult, list]:
     """Dask task, once every chunk of the session is stored: tracking, scoring, CSV files and the
     report; returns the result and the warnings met."""
@@ -231,7 +231,7 @@ def _as_tasks(calls: list) -> list:
         return client.gather(client.map(_call, calls, pure=False))
 
 
-def _call(fn):
+def _call(fn: Callable[[], Any]) -> Any:
     return fn()
 
 
@@ -295,7 +295,7 @@ def assess_sessions(session_dirs: Sequence[str | Path], address: str,
     return [o for o in outcomes if o is not None]
 
 
-def _drop_copies(client, st: _Running) -> None:
+def _drop_copies(client: Client, st: _Running) -> None:
     """A session done: the copies of its videos given as URLs removed on every worker and here."""
     if not st.copies:
         return
@@ -305,7 +305,7 @@ def _drop_copies(client, st: _Running) -> None:
     remote.forget(paths)
 
 
-def _follow(client, running: list[_Running], outcomes: list, session_dirs: list[Path]) -> None:
+def _follow(client: Client, running: list[_Running], outcomes: list, session_dirs: list[Path]) -> None:
     """Progress per session as its tasks finish; each session's result or error into ``outcomes``."""
     owner: dict[Any, _Running] = {}
     for st in running:

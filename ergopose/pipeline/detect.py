@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from dataclasses import dataclass
-from typing import Protocol, Sequence
+from typing import Mapping, Protocol, Sequence
 
 import numpy as np
 
@@ -72,10 +72,11 @@ class ChunkResult:
     detections: np.ndarray
 
 
-_NETWORKS: dict[tuple, tuple] = {}
+_NETWORKS: dict[tuple[str | None, str | None, int], tuple[BlazePoseLandmarker, BlazePoseDetector]] = {}
 
 
-def networks(model_dir: str | None, num_threads: int, model: str | None = None):
+def networks(model_dir: str | None, num_threads: int,
+             model: str | None = None) -> tuple[BlazePoseLandmarker, BlazePoseDetector]:
     """The pose networks of this process (landmarker of ``model``, detector), loaded once and
     reused for every chunk (a Dask worker loads them when it starts: ergopose.pipeline.cluster)."""
     key = (model_dir, model, num_threads)
@@ -87,7 +88,7 @@ def networks(model_dir: str | None, num_threads: int, model: str | None = None):
     return _NETWORKS[key]
 
 
-def _networks(job: DetectJob):
+def _networks(job: DetectJob) -> tuple[BlazePoseLandmarker, BlazePoseDetector]:
     return networks(job.model_dir, job.num_threads, job.model)
 
 
@@ -193,7 +194,7 @@ def people_to_arrays(people: People3D) -> dict[str, np.ndarray]:
     return out
 
 
-def people_from_arrays(arrays) -> People3D:
+def people_from_arrays(arrays: Mapping[str, np.ndarray]) -> People3D:
     missing = [f for f in _FIELDS if f not in arrays]
     if missing:
         raise KeyError(f"stored chunk lacks {', '.join(missing)}")

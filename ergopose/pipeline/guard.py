@@ -28,9 +28,10 @@ from typing import Iterator, Sequence
 
 from ergopose.errors import OutputError, output_error, output_reason
 from ergopose.pipeline.store import file_fingerprint
-from ergopose.progress import warn
+from ergopose.progress import ProgressCallback, warn
 from ergopose.recon.table import read_metadata
 from ergopose.report.results import RESULTS_DIR, SESSION_FILE
+from ergopose.session import Session
 
 #: Bytes an assessment stores per tracked person and frame, measured (docs/assess.md, "Room on
 #: disk"): the chunk store (real 2D work: 3.7 kB), and tracks, scored frames, CSV files and
@@ -126,7 +127,7 @@ def output_faults(out_dir: str | os.PathLike) -> Iterator[None]:
         raise err from None
 
 
-def check_before_work(out_dir: Path, session, force: bool, progress=None) -> None:
+def check_before_work(out_dir: Path, session: Session, force: bool, progress: ProgressCallback | None = None) -> None:
     """Everything checked about the output folder before the work starts: a writable folder, room
     for the estimated output, and no results of another recording in it (unless ``force``)."""
     check_output_folder(out_dir)
@@ -145,7 +146,7 @@ def session_fingerprint(calibration_fingerprint: str, video_fingerprints: Sequen
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def fingerprint_of(session) -> str:
+def fingerprint_of(session: Session) -> str:
     """The fingerprint of a loaded session (:class:`ergopose.session.Session`)."""
     return session_fingerprint(file_fingerprint(session.calibration_path),
                                [file_fingerprint(c.video_path) for c in session.cameras])
@@ -198,7 +199,7 @@ def results_owner(out_dir: str | os.PathLike) -> ResultsOwner | None:
     return None
 
 
-def foreign_results(out_dir: str | os.PathLike, session, fingerprint: str) -> ResultsOwner | None:
+def foreign_results(out_dir: str | os.PathLike, session: Session, fingerprint: str) -> ResultsOwner | None:
     """The owner of the results in ``out_dir`` if they are of another recording than ``session``
     (with fingerprint ``fingerprint``); None if there are none or they are of this one.
 
@@ -214,8 +215,8 @@ def foreign_results(out_dir: str | os.PathLike, session, fingerprint: str) -> Re
     return None if same_name and same_length else owner
 
 
-def check_results_session(out_dir: str | os.PathLike, session, force: bool, *, advice: str,
-                          progress=None) -> None:
+def check_results_session(out_dir: str | os.PathLike, session: Session, force: bool, *, advice: str,
+                          progress: ProgressCallback | None = None) -> None:
     """OutputError if ``out_dir`` holds results of another recording than ``session``, unless
     ``force``; then a warning says so. ``advice``: what the user can do instead (the message
     adds "or add --force to ..."). """

@@ -9,14 +9,15 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ergopose import __version__
-from ergopose.ergonomics.settings import from_mapping
+from ergopose.ergonomics.settings import ScoringSettings, from_mapping
+from ergopose.pipeline.detect import DetectJob
 from ergopose.pipeline.store import file_fingerprint
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, ensure_model, landmark_card, model_card
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import Session
 
 
-def scoring_settings(session: Session):
+def scoring_settings(session: Session) -> ScoringSettings:
     """The scoring settings of the session's [scoring] table (defaults where not given)."""
     return from_mapping(dict(session.scoring), source=session.settings_path)
 
@@ -45,7 +46,7 @@ def ensure_models(model_dir: str | None, progress: ProgressCallback | None,
     return tuple(out)
 
 
-def fingerprint_inputs(session: Session, job, chunk_frames: int, models: Sequence[ModelUse],
+def fingerprint_inputs(session: Session, job: DetectJob, chunk_frames: int, models: Sequence[ModelUse],
                        source: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """What the stored chunks depend on: videos, calibration, 2D and 3D settings, models, version.
 

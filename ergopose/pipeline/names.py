@@ -36,7 +36,7 @@ import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import tomli_w
@@ -44,7 +44,8 @@ import tomli_w
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, InputError
 from ergopose.pipeline.identify import Identification, Identity, identify_by_stature
-from ergopose.session import TaskFactors, WorkerInfo
+from ergopose.recon.pipeline import TrackFrames
+from ergopose.session import Session, TaskFactors, WorkerInfo
 
 NAMES_FILE = "names.toml"
 NAMES_FORMAT_VERSION = 1
@@ -114,7 +115,7 @@ def parse_name_args(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
-def settings_id(session, alias: str) -> str | None:
+def settings_id(session: Session, alias: str) -> str | None:
     """The [workers.<id>] key an alias names (the key itself or that table's name), else None."""
     for w in session.workers:
         if w.worker_id == alias:
@@ -169,7 +170,7 @@ class Naming:
                 out.update({tracker_number(t): first for t in ids})
         return out
 
-    def session(self, session):
+    def session(self, session: Session) -> Session:
         """The session with the plain-text names as the reported workers' names (their task
         inputs stay those of the settings' table of the same id, if any)."""
         if not self.display:
@@ -185,7 +186,7 @@ class Naming:
         return dataclasses.replace(session, workers=tuple(workers))
 
 
-def resolve_naming(session, tracked: Sequence[str], names: Mapping[str, str],
+def resolve_naming(session: Session, tracked: Sequence[str], names: Mapping[str, str],
                    measured: Mapping[str, float | None] | None = None) -> Naming:
     """The reported id of every tracked id (in ``tracked``; names of other ids are ignored)."""
     tracked = sorted(tracked, key=tracker_number)
@@ -227,7 +228,7 @@ def resolve_naming(session, tracked: Sequence[str], names: Mapping[str, str],
 # ------------------------------------------------------------------ task inputs that reach nobody
 
 
-def unreachable_task_inputs(session, names: Mapping[str, str]) -> list[str]:
+def unreachable_task_inputs(session: Session, names: Mapping[str, str]) -> list[str]:
     """Before any work: the settings' workers with task inputs that no tracked person can be
     reported under (not a tracker pseudonym, not given by names.toml, not matched by stature)."""
     given = {settings_id(session, a) for a in names.values()}
@@ -241,13 +242,13 @@ def unreachable_task_inputs(session, names: Mapping[str, str]) -> list[str]:
     return out
 
 
-def unused_task_inputs(session, reported_ids: Sequence[str]) -> list[str]:
+def unused_task_inputs(session: Session, reported_ids: Sequence[str]) -> list[str]:
     """After tracking: the settings' workers with task inputs that no reported worker has."""
     have = set(reported_ids)
     return [w.worker_id for w in session.workers if has_task_inputs(w) and w.worker_id not in have]
 
 
-def unused_message(session, ids: Sequence[str], *, tracked_ids: Sequence[str] = ()) -> str:
+def unused_message(session: Session, ids: Sequence[str], *, tracked_ids: Sequence[str] = ()) -> str:
     """The warning naming settings ids whose task inputs are applied to nobody."""
     listing = ", ".join(f"[workers.{i}]" for i in ids)
     where = f"; the tracked people are {', '.join(tracked_ids)}" if tracked_ids else \
@@ -262,7 +263,7 @@ def unused_message(session, ids: Sequence[str], *, tracked_ids: Sequence[str] = 
 # ------------------------------------------------------------------ tracked ids scored together
 
 
-def merge_rows(rows, groups: Mapping[int, int]):
+def merge_rows(rows: TrackFrames, groups: Mapping[int, int]) -> TrackFrames:
     """TrackFrames with the tracker numbers of ``groups`` replaced by their group's number; where
     two members of a group have a row in the same frame, the row whose joints more cameras saw is
     kept (ties: the earlier tracker number). Rows stay sorted by frame, then worker."""
@@ -278,7 +279,7 @@ def merge_rows(rows, groups: Mapping[int, int]):
     keep = np.ones(order.size, bool)
     keep[1:] = (f[1:] != f[:-1]) | (g[1:] != g[:-1])
     take = order[keep]
-    fields = {n: (v[take] if isinstance(v, np.ndarray) else v) for n, v in rows.__dict__.items()}
+    fields: dict[str, Any] = {n: (v[take] if isinstance(v, np.ndarray) else v) for n, v in rows.__dict__.items()}
     fields["worker"] = new[take]
     return type(rows)(**fields)
 

@@ -27,6 +27,7 @@ from ergopose.ergonomics.export import (
     write_session_summary_csv,
     write_worker_summary_csv,
 )
+from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.pipeline.aggregate import ReportWorker
 from ergopose.pipeline.guard import fingerprint_of
 from ergopose.pipeline.inputs import ModelUse
@@ -39,7 +40,7 @@ from ergopose.pipeline.window import Window, describe
 from ergopose.progress import ProgressCallback
 from ergopose.report import adapters
 from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
-from ergopose.report.context import Assumption, DataFile, SessionInfo
+from ergopose.report.context import Assumption, DataFile, FloorPlan, SessionInfo
 from ergopose.report.quality import reliable_rule
 from ergopose.report.render import render_report
 from ergopose.report.results import save_results, session_results
@@ -85,7 +86,7 @@ def staging(out_dir: Path) -> Iterator[Path]:
         shutil.rmtree(stage, ignore_errors=True)
 
 
-def publish(named: NamedTracks, scored: Sequence[ReportWorker], stage: Path, out_dir: Path, scoring,
+def publish(named: NamedTracks, scored: Sequence[ReportWorker], stage: Path, out_dir: Path, scoring: ScoringSettings,
             models: Sequence[ModelUse], progress: ProgressCallback | None, *, bom: bool = False,
             store_dir: Path | None = None) -> Outputs:
     """The scored workers' summary CSV files, the session summary, the skipped frames, the stored
@@ -161,8 +162,8 @@ def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = Non
     return skipped_records(rows, session.camera_names, session.fps)
 
 
-def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring,
-                 models: Sequence[ModelUse], csv_files: dict, ident, progress: ProgressCallback | None,
+def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring: ScoringSettings,
+                 models: Sequence[ModelUse], csv_files: dict, ident: Any, progress: ProgressCallback | None,
                  skipped: tuple = (), unused: Sequence[str] = (), window: Window | None = None) -> Path:
     """Store the report results (ergopose.report.results) and render the pages.
 
@@ -209,7 +210,7 @@ def _title(session: Session, window: Window | None) -> str:
     return f"{title} ({part})" if title else part[0].upper() + part[1:]
 
 
-def calibration_check(session: Session):
+def calibration_check(session: Session) -> check.CheckReport | None:
     """The reference-bar check of the session's calibration (None when the settings give no bar)."""
     if session.calibration_check is None:
         return None
@@ -219,7 +220,7 @@ def calibration_check(session: Session):
     return check.measure_bar(session.calibrated_cameras, pixels, spec.length_m, labels=labels)
 
 
-def _with_identities(infos, ident, session: Session, unused: Sequence[str] = ()):
+def _with_identities(infos: Sequence[Any], ident: Any, session: Session, unused: Sequence[str] = ()) -> tuple[Any, ...]:
     """Each worker's assumptions, plus how the tracked person was matched to the settings' worker
     (names.toml or stature; ident: ergopose.pipeline.names.Naming or identify.Identification) and
     which settings ids' task inputs reach nobody."""
@@ -259,7 +260,7 @@ def _with_identities(infos, ident, session: Session, unused: Sequence[str] = ())
     return tuple(out)
 
 
-def _floor_plan(session: Session):
+def _floor_plan(session: Session) -> FloorPlan:
     """The monitored area for the floor map: the session's floor.toml when it has one, else 6 x 6 m."""
     cams = [(c.name, float(c.position_world[0]), float(c.position_world[1])) for c in session.calibrated_cameras]
     if session.floor_plan_path is not None:

@@ -15,7 +15,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pyarrow.compute as pc
@@ -33,6 +33,7 @@ from ergopose.pose.models import BLAZEPOSE_DETECTOR, DEFAULT_LANDMARK_MODEL, MOD
 from ergopose.progress import ProgressCallback, warn
 from ergopose.recon.table import read_metadata
 from ergopose.report.adapters import load_floor_plan
+from ergopose.report.context import FloorItem
 from ergopose.session import Session, load_session
 
 DEFAULT_REPORTS_DIR = "reports"
@@ -111,13 +112,13 @@ def tracked_people(session: Session, folder: Path) -> list[TrackedPerson]:
     return out
 
 
-def _furniture(session: Session) -> tuple:
+def _furniture(session: Session) -> tuple[FloorItem, ...]:
     if session.floor_plan_path is None:
         return ()
     return load_floor_plan(session.floor_plan_path).furniture
 
 
-def _nearest(furniture, x: float, y: float) -> str:
+def _nearest(furniture: Sequence[FloorItem], x: float, y: float) -> str:
     if not (math.isfinite(x) and math.isfinite(y)) or not furniture:
         return ""
     d = [math.hypot(max(f.x0 - x, 0.0, x - f.x1), max(f.y0 - y, 0.0, y - f.y1)) for f in furniture]
@@ -155,7 +156,7 @@ def _models(folder: Path | None = None) -> tuple:
 
 
 def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Path | None = None,
-           progress: ProgressCallback | None = None, *, bom: bool = False):
+           progress: ProgressCallback | None = None, *, bom: bool = False) -> Any:
     """Store names for tracked ids (``{tracked id: alias}``; an empty alias removes the name) in
     the session's names.toml and score the stored tracks again under them.
 
@@ -192,7 +193,8 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
         raise
 
 
-def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None, *, bom: bool = False):
+def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None, *,
+            bom: bool = False) -> Any:
     """Score the stored tracks of ``folder`` again with the session's settings and names (no video);
     bom: CSV files with a UTF-8 byte order mark (Excel)."""
     store = ResultStore(folder)
@@ -202,8 +204,8 @@ def rescore(session: Session, folder: Path, progress: ProgressCallback | None = 
                                  bom=bom)
 
 
-def rescore_window(session: Session, folder: Path, window, progress: ProgressCallback | None = None, *,
-                   bom: bool = False):
+def rescore_window(session: Session, folder: Path, window: part_of_day.Window,
+                   progress: ProgressCallback | None = None, *, bom: bool = False) -> Any:
     """Score the stored tracks of ``folder`` again for a part of the day (``window``: an
     :class:`ergopose.pipeline.window.Window`) into ``folder/part-HHMM-HHMM`` (CSV files, stored
     results, pages; replaced whole), leaving the whole day's outputs as they are. No video."""
@@ -215,7 +217,7 @@ def rescore_window(session: Session, folder: Path, window, progress: ProgressCal
                                  bom=bom, window=window, store_dir=Path(folder))
 
 
-def warn_unused(session: Session, people, progress: ProgressCallback | None) -> list[str]:
+def warn_unused(session: Session, people: Sequence[TrackedPerson], progress: ProgressCallback | None) -> list[str]:
     """Warn (through ``progress``) about settings ids whose task inputs none of ``people``
     (:class:`TrackedPerson`) is reported under."""
     unused = names.unused_task_inputs(session, sorted({p.reported_id for p in people}))

@@ -27,11 +27,13 @@ from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_shift
 from ergopose.ergonomics.angles import AngleSettings, joint_angles
 from ergopose.ergonomics.export import FRAMES_SUFFIX, FramesCsvWriter, StepsCsvWriter, steps_path
 from ergopose.ergonomics.scoring import score_posture
+from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.pipeline.names import merge_rows
+from ergopose.pipeline.names import Naming, merge_rows
 from ergopose.pipeline.scoring import WorkerScorer, block_sizes, scoring_rows, take_rows
 from ergopose.pipeline.track import Tracks, read_track_parts
 from ergopose.progress import ProgressCallback, report
+from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.tracking import identity_name
 from ergopose.report.quality import reliable_frames
 from ergopose.session import Session
@@ -57,7 +59,7 @@ class ScoredWorker:
     points_world: np.ndarray  # (n, 33, 3)
 
 
-def score_rows(session: Session, rows, worker_id: str, scoring,
+def score_rows(session: Session, rows: TrackFrames, worker_id: str, scoring: ScoringSettings,
                shoulder_reference_m: float | None = None) -> pd.DataFrame:
     """One worker's consecutive rows -> joint angles, the task factors of the settings, RULA and
     REBA: one row per row of ``rows`` (worker, frame, posture in radians, every score column, and
@@ -88,8 +90,9 @@ def score_rows(session: Session, rows, worker_id: str, scoring,
     return pd.concat([ident, posture, scores, spread, T.inputs_column(use, len(posture)).to_frame()], axis=1)
 
 
-def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors: pd.DataFrame,
-                      angle_settings, scoring, task_use: tuple[dict, pd.DataFrame] | None = None) -> pd.DataFrame:
+def score_uncertainty(rows: TrackFrames, posture: pd.DataFrame, scores: pd.DataFrame, factors: pd.DataFrame,
+                      angle_settings: AngleSettings | None, scoring: ScoringSettings,
+                      task_use: tuple[dict, pd.DataFrame] | None = None) -> pd.DataFrame:
     """Angle deviations, score probabilities and ranges, confidence and its cause per frame
     (:mod:`ergopose.ergonomics.uncertainty`): the joints resampled within the reconstruction's
     deviations and scored again with the same task inputs.
@@ -102,6 +105,7 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
     angle_draws, rula, reba = [], [], []
     # one draw at a time, and of each only what is read after it (memory: a block of a shift is
     # scored at once, and all draws' points together were 25 kB per frame)
+    assert rows.std_world is not None  # TrackFrames.__post_init__ fills it
     for pts in U.iter_samples(rows.points_world, rows.std_world, rows.frame):
         a = joint_angles(pts, rows.time_s, angle_settings).to_frame().reset_index(drop=True)
         del pts
@@ -126,7 +130,8 @@ def score_uncertainty(rows, posture: pd.DataFrame, scores: pd.DataFrame, factors
     return out
 
 
-def score_worker(session: Session, rows, worker_id: str, scoring, diagnostics) -> ScoredWorker:
+def score_worker(session: Session, rows: TrackFrames, worker_id: str, scoring: ScoringSettings,
+                 diagnostics: Any) -> ScoredWorker:
     """A worker's rows scored in one piece (:func:`score_rows`) and the shift summary; for
     evaluations of short sessions. ``ergopose assess`` scores in blocks (:func:`score_tracks`)."""
     frames = score_rows(session, rows, worker_id, scoring)
@@ -143,7 +148,8 @@ class WorkerSink:
     back for the report's worst moments), the shift aggregation and the report's timeline
     (eight numbers per frame, the only per-frame data kept in memory)."""
 
-    def __init__(self, stack, worker_id: str, csv_path: Path, scored_path: Path, scoring, fps: float,
+    def __init__(self, stack: contextlib.ExitStack, worker_id: str, csv_path: Path, scored_path: Path,
+                 scoring: ScoringSettings, fps: float,
                  limb_medians_m: np.ndarray, *, recorded_at: dt.datetime | None = None, name: str | None = None,
                  bom: bool = False) -> None:
         self.worker_id = worker_id
@@ -162,7 +168,7 @@ class WorkerSink:
             "time_s", "frame", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level", "floor_x_m",
             "floor_y_m", "reliable")}
 
-    def write(self, frames: pd.DataFrame, rows) -> None:
+    def write(self, frames: pd.DataFrame, rows: TrackFrames) -> None:
         self.csv.write(frames)
         self.steps.write(frames)
         self.acc.add(frames, getattr(rows, "inferred", None))
@@ -187,7 +193,7 @@ class WorkerSink:
         return np.concatenate(parts) if parts else np.zeros(0)
 
 
-def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring, ident,
+def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring: ScoringSettings, ident: Naming,
                   progress: ProgressCallback | None, *, bom: bool = False) -> dict[int, WorkerSink]:
     """Every worker of ``tracks`` scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
     from one pass over the tracks table, into ``out_dir``: the frames and steps CSV files under
@@ -209,7 +215,7 @@ def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring, iden
                                recorded_at=session.recorded_at, name=session.display_name(wid), bom=bom)
             sinks[w] = sink
 
-            def score(rows, wid=wid, ref=ref):
+            def score(rows: TrackFrames, wid: str = wid, ref: float | None = ref) -> pd.DataFrame:
                 return score_rows(session, rows, wid, scoring, ref)
 
             scorers[w] = WorkerScorer(score, sink, block, context)

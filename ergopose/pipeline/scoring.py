@@ -34,14 +34,16 @@ import numpy as np
 import pandas as pd
 
 from ergopose.ergonomics.angles import shoulder_heights
+from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.recon.diagnostics import LimbStatsAccumulator, histogram_percentiles
 from ergopose.recon.pipeline import TrackFrames
+from ergopose.recon.settings import ReconSettings
 
 #: Frames per block = BLOCK_SECONDS x fps.
 BLOCK_SECONDS = 600.0
 
 
-def context_seconds(scoring, walking_window_s: float = 1.0) -> float:
+def context_seconds(scoring: ScoringSettings, walking_window_s: float = 1.0) -> float:
     """Seconds of context each block is scored with: the longest time window of the settings
     (hold limits, repetition window, rapid-change window, walking window) plus half of it (the
     repetition peak search looks half a window further) plus the gap that breaks a hold."""
@@ -51,7 +53,7 @@ def context_seconds(scoring, walking_window_s: float = 1.0) -> float:
 
 
 class BlockSink(Protocol):
-    def write(self, frames: pd.DataFrame, rows) -> None:
+    def write(self, frames: pd.DataFrame, rows: TrackFrames) -> None:
         """frames: the scored frames of one block (score_rows columns); rows: the same frames'
         TrackFrames (points_world etc.), in the same order."""
 
@@ -70,12 +72,12 @@ class WorkerScorer:
         self.sink = sink
         self.block = int(block_frames)
         self.context = int(context_frames)
-        self._parts: list = []
+        self._parts: list[TrackFrames] = []
         self.done_until = -(1 << 62)  # frames before this were written
         self.blocks = 0
         self.frames = 0
 
-    def add(self, rows) -> None:
+    def add(self, rows: TrackFrames) -> None:
         """The worker's next rows (frame order, after every row given before)."""
         if len(rows):
             self._parts.append(rows)
@@ -89,7 +91,7 @@ class WorkerScorer:
         self._run(None)
         self._parts = []
 
-    def _rows(self):
+    def _rows(self) -> TrackFrames | None:
         if len(self._parts) > 1:
             self._parts = [TrackFrames.concat(self._parts)]
         return self._parts[0] if self._parts else None
@@ -132,9 +134,10 @@ def scoring_rows(rows: TrackFrames) -> TrackFrames:
     return TrackFrames(**kept)
 
 
-def take_rows(rows, mask):
+def take_rows(rows: TrackFrames, mask: np.ndarray) -> TrackFrames:
     """The rows of a TrackFrames where ``mask`` holds (its array fields indexed, the rest kept)."""
-    return TrackFrames(**{n: (v[mask] if isinstance(v, np.ndarray) else v) for n, v in rows.__dict__.items()})
+    fields: dict[str, Any] = {n: (v[mask] if isinstance(v, np.ndarray) else v) for n, v in rows.__dict__.items()}
+    return TrackFrames(**fields)
 
 
 class ShiftReferences:
@@ -150,11 +153,11 @@ class ShiftReferences:
     BIN_M = 0.001
     BINS = 1500
 
-    def __init__(self, recon_settings=None) -> None:
+    def __init__(self, recon_settings: ReconSettings | None = None) -> None:
         self.limbs = LimbStatsAccumulator(recon_settings, "final")
         self._shoulders: dict[int, np.ndarray] = {}
 
-    def add(self, tracks) -> None:
+    def add(self, tracks: TrackFrames) -> None:
         """Rows of the tracks table (TrackFrames, any workers, any chunk)."""
         if len(tracks) == 0:
             return
@@ -182,7 +185,7 @@ class ShiftReferences:
         return self.limbs.medians(int(worker))
 
 
-def block_sizes(scoring, fps: float, block_seconds: float = BLOCK_SECONDS) -> tuple[int, int]:
+def block_sizes(scoring: ScoringSettings, fps: float, block_seconds: float = BLOCK_SECONDS) -> tuple[int, int]:
     """(block_frames, context_frames) for a frame rate and the scoring settings."""
     context = int(math.ceil(context_seconds(scoring) * fps))
     block = max(int(round(block_seconds * fps)), 1)

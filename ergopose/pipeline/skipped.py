@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.atomic import atomic_path
+from ergopose.pipeline.store import ResultStore
 from ergopose.report.context import MAX_SKIPPED_SPANS, SkippedFrames
 from ergopose.video import SKIP_CODES
 
@@ -24,7 +25,7 @@ SKIPPED_CSV = "frames_skipped.csv"
 _REASONS = {code: reason for reason, code in SKIP_CODES.items()}
 
 
-def skipped_in_store(store) -> np.ndarray:
+def skipped_in_store(store: ResultStore) -> np.ndarray:
     """(k, 3) int64 rows (frame, camera index, code) of every skipped frame in the stored chunks
     (:class:`ergopose.pipeline.store.ResultStore`), in frame order, then camera order."""
     rows = [np.zeros((0, 3), np.int64)]
@@ -55,9 +56,9 @@ def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Seque
     return Path(path)
 
 
-def skipped_records(skipped: np.ndarray, camera_names: Sequence[str], fps: float):
+def skipped_records(skipped: np.ndarray, camera_names: Sequence[str], fps: float) -> tuple[SkippedFrames, ...]:
     """Per camera with skipped frames, a :class:`ergopose.report.context.SkippedFrames`."""
-    out = []
+    out: list[SkippedFrames] = []
     for c, name in enumerate(camera_names):
         frames = skipped[skipped[:, 1] == c, 0]
         if not frames.size:

@@ -27,6 +27,7 @@ import json
 import os
 import zipfile
 from pathlib import Path
+from types import ModuleType
 from typing import Any, Iterable, Iterator
 
 import numpy as np
@@ -35,7 +36,7 @@ from ergopose import __version__
 from ergopose.atomic import atomic_path, clean_up, write_text
 from ergopose.errors import InputError
 from ergopose.pipeline.detect import ChunkResult, people_from_arrays, people_to_arrays
-from ergopose.progress import warn
+from ergopose.progress import ProgressCallback, warn
 
 #: 2: chunk files carry the inputs' fingerprint and a checksum (version 1 chunks are computed again);
 #: 3: People3D chunks carry every camera's 2D observations (the body fit);
@@ -109,6 +110,7 @@ class ResultStore:
         """
         self.root.mkdir(parents=True, exist_ok=True)
         with open(self.root / "lock", "a+b") as f:
+            fcntl: ModuleType | None
             try:
                 import fcntl
             except ImportError:  # not a POSIX system: no lock, the rest works the same
@@ -164,12 +166,13 @@ class ResultStore:
     def save_chunk(self, result: ChunkResult) -> Path:
         final = self.chunk_path(result.start)
         arrays = people_to_arrays(result.people)
-        arrays.update(start=np.int64(result.start), stop=np.int64(result.stop),
+        arrays.update(start=np.array(result.start, dtype=np.int64), stop=np.array(result.stop, dtype=np.int64),
                       detections=np.asarray(result.detections), **{_INPUTS: np.array(self._fingerprint())})
         arrays[_CHECKSUM] = np.array(arrays_checksum(arrays))
         with atomic_path(final) as tmp:
             with tmp.open("wb") as f:
-                np.savez(f, **arrays)
+                # numpy's stubs: a **dict might name savez's allow_pickle (these names never do)
+                np.savez(f, **arrays)  # type: ignore[arg-type]
         return final
 
     def read_chunk(self, start: int, stop: int) -> ChunkResult | None:
@@ -213,7 +216,7 @@ class ResultStore:
             self._drop_damaged(start, str(exc))
             return None
 
-    def finished(self, ranges: Iterable[tuple[int, int]], progress=None) -> set[int]:
+    def finished(self, ranges: Iterable[tuple[int, int]], progress: ProgressCallback | None = None) -> set[int]:
         """Start frames of the chunks already stored, whole and of these inputs, for their range.
 
         Every stored chunk is read and its checksum checked. A damaged one is named (a warning

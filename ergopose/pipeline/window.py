@@ -17,6 +17,7 @@ import datetime as dt
 import math
 import re
 from dataclasses import dataclass
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -48,7 +49,7 @@ class Window:
         return {"start_s": float(self.start_s), "end_s": float(self.end_s)}
 
     @classmethod
-    def from_dict(cls, data) -> "Window | None":
+    def from_dict(cls, data: Mapping[str, Any] | None) -> "Window | None":
         if not data:
             return None
         return cls(float(data["start_s"]), float(data["end_s"]))

@@ -24,7 +24,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import cv2
 import numpy as np
@@ -175,7 +175,7 @@ class PersonDetection:
 # Interpreter loading and input checks
 
 
-def _load_interpreter(path: Path, card: ModelCard, num_threads: int):
+def _load_interpreter(path: Path, card: ModelCard, num_threads: int) -> Any:  # a LiteRT Interpreter
     # Deferred on purpose: the LiteRT runtime is heavy and only needed when a network runs
     # (not for scoring, reports or --help).
     from ai_edge_litert.interpreter import Interpreter

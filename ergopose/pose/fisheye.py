@@ -298,7 +298,7 @@ class FisheyePoseEstimator:
         s = self.settings
         if s.merge_prefers_upright:
             # A plausible body axis first, then the view closest to upright, then confidence.
-            def rank(i):
+            def rank(i: int) -> tuple[bool, int, float]:
                 implausible = s.recheck_roll is not None and abs(people[i]["body_roll"]) > s.recheck_roll
                 return implausible, round(abs(people[i]["view_roll"]) / s.merge_roll_step), -score[i]
             order = sorted(range(len(people)), key=rank)

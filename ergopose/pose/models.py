@@ -471,8 +471,9 @@ def model_status(name: str, model_dir: str | os.PathLike | None = None) -> Model
 
 def corrupt_message(status: ModelStatus) -> str:
     card = model_card(status.name)
+    got = f"{status.sha256[:12]}..." if status.sha256 is not None else "not read"  # read for every corrupt file
     return (
-        f"model file is corrupt or was changed (SHA-256 {status.sha256[:12]}..., expected "
+        f"model file is corrupt or was changed (SHA-256 {got}, expected "
         f"{card.file.sha256[:12]}...); run 'ergopose models fetch --force' to download it again"
     )
 

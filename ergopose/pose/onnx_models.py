@@ -41,7 +41,7 @@ import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -87,7 +87,7 @@ class OnnxPoseCard:
     def schema_index(self) -> tuple[int, ...]:
         return tuple(JOINT_INDEX[n] if n else -1 for n in self.keypoint_names)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         where = self.card_path
         if self.channel_order not in ("RGB", "BGR"):
             raise ConfigError(f"expected 'RGB' or 'BGR', got {self.channel_order!r}", path=where, field="input.channel_order")
@@ -116,7 +116,7 @@ class OnnxPoseCard:
             raise ConfigError("no keypoint maps onto the schema", path=where, field="output.keypoints")
 
 
-def _field(table: dict, key: str, kind, path: Path, prefix: str, default=...):
+def _field(table: dict, key: str, kind: type, path: Path, prefix: str, default: Any = ...) -> Any:
     if key not in table:
         if default is ...:
             raise ConfigError("missing", path=path, field=f"{prefix}{key}")
@@ -136,7 +136,7 @@ def _triple(table: dict, key: str, path: Path) -> tuple[float, float, float]:
         or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     ):
         raise ConfigError(f"expected a list of 3 numbers, got {value!r}", path=path, field=f"input.{key}")
-    return tuple(float(v) for v in value)
+    return float(value[0]), float(value[1]), float(value[2])
 
 
 def load_onnx_card(path: str | os.PathLike) -> OnnxPoseCard:
@@ -216,7 +216,7 @@ def decode_heatmaps(heatmaps: np.ndarray, input_size: tuple[int, int], refine: b
         ni, ki = np.meshgrid(np.arange(n), np.arange(k), indexing="ij")
         logs = np.log(np.maximum(hm, 1e-10))
 
-        def at(dr, dc):
+        def at(dr: int, dc: int) -> np.ndarray:
             return logs[ni, ki, r + dr, c + dc]
 
         gx = (at(0, 1) - at(0, -1)) / 2.0

@@ -86,7 +86,7 @@ class FrameDetections:
     def count(self) -> int:
         return int(self.presence.shape[0])
 
-    def to_recon(self, camera: Camera, time_s: float, appearance: np.ndarray | None = None):
+    def to_recon(self, camera: Camera, time_s: float, appearance: np.ndarray | None = None) -> Detections2D:
         """The reconstruction stage's record (ergopose.recon.records.Detections2D) of these people;
         appearance: (N, 6) their clothing colours (ergopose.pose.appearance), None: unknown."""
         rotation = np.asarray(camera.rotation_world_from_cam, dtype=np.float64)

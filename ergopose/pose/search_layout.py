@@ -31,6 +31,7 @@ the camera frame, in radians.
 from __future__ import annotations
 
 import math
+from typing import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -278,7 +279,8 @@ def _ring_reach(inner: float, polar: float, cover: float) -> tuple[int, float] |
     return count, float(np.arctan2(b, a) + np.arccos(np.cos(cover) / norm))
 
 
-def _next_ring(inner: float, top: float, band) -> tuple[SearchRing | None, float]:
+def _next_ring(inner: float, top: float,
+               band: Callable[[float, float], tuple[float, float]]) -> tuple[SearchRing | None, float]:
     """The ring that continues the coverage from ``inner`` with the most new area per view; its
     half field of view is the smallest the rule asks for over the band it covers (found by
     shrinking until the band and the view agree)."""

@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ergopose.pose.models import ConfidenceGates
 from ergopose.pose.search_layout import SearchSizing
 
 
@@ -148,7 +149,7 @@ class PoseSettings:
     view_cache_px: float = 0.0
     max_people: int = 8
 
-    def with_gates(self, gates) -> "PoseSettings":
+    def with_gates(self, gates: ConfidenceGates | None) -> "PoseSettings":
         """These settings with a landmark model card's confidence gates
         (:class:`ergopose.pose.models.ConfidenceGates`; None: unchanged)."""
         if gates is None:

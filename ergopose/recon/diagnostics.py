@@ -23,9 +23,10 @@ lens region, :func:`match_workers` pairs workers with ground-truth people and
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import linear_sum_assignment
 
 from ergopose.keypoints import LIMB_INDEX, LIMBS, NUM_JOINTS
@@ -38,7 +39,7 @@ REGIONS = ("central", "outer", "edge")
 PERCENTILES = (5, 25, 50, 75, 95)
 
 
-def lens_region(angle_deg, limits_deg=(30.0, 60.0)) -> np.ndarray:
+def lens_region(angle_deg: ArrayLike, limits_deg: tuple[float, float] = (30.0, 60.0)) -> np.ndarray:
     """Angle off-axis (degrees) -> region index 0 central, 1 outer, 2 edge; -1 for NaN."""
     a = np.asarray(angle_deg, dtype=np.float64)
     out = np.full(a.shape, -1, dtype=np.int8)
@@ -291,7 +292,7 @@ def _error_stats(region: str, e: np.ndarray) -> RegionError:
 
 
 def _frame_matches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray,
-                   max_distance_m: float):
+                   max_distance_m: float) -> Iterator[tuple[int, list[tuple[int, int]]]]:
     """Per frame: LSA of workers to ground-truth people by body-centre distance.
 
     Yields (frame, list of (worker, person)). truth_points: (F, P, 33, 3) at truth_frames (F,).
@@ -349,7 +350,7 @@ def identity_switches(tracks: TrackFrames, truth_points: np.ndarray, truth_frame
     switches = 0
     for ids in seq.values():
         # Runs of equal ids; a run shorter than min_frames is ignored (merged into its context).
-        runs = []
+        runs: list[list[int]] = []  # [id, frames]
         for w in ids:
             if runs and runs[-1][0] == w:
                 runs[-1][1] += 1

@@ -8,8 +8,10 @@ per person and frame, before tracking gives them identities. What the 2D pose st
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
@@ -94,7 +96,7 @@ class People3D:
     def __len__(self) -> int:
         return int(self.frame.shape[0])
 
-    def take(self, rows) -> "People3D":
+    def take(self, rows: np.ndarray | Sequence[int]) -> "People3D":
         """The subset of rows (index array or boolean mask), in that order."""
         return People3D(self.cameras, *(getattr(self, f)[rows] for f in _ROW_FIELDS))
 
@@ -108,8 +110,9 @@ class People3D:
         return cls(cams, *(np.concatenate([getattr(p, f) for p in parts]) for f in _ROW_FIELDS))
 
     @classmethod
-    def from_points(cls, frame, time_s, points_world, *, variance_world=None, confidence=None,
-                    reprojection_error_px=None, sigma_m: float = 0.03,
+    def from_points(cls, frame: ArrayLike, time_s: ArrayLike, points_world: ArrayLike, *,
+                    variance_world: ArrayLike | None = None, confidence: ArrayLike | None = None,
+                    reprojection_error_px: ArrayLike | None = None, sigma_m: float = 0.03,
                     cameras: tuple[str, ...] = ("cam_1", "cam_2")) -> "People3D":
         """Rows of already triangulated people (e.g. stored triangulations).
 
@@ -119,7 +122,7 @@ class People3D:
         frame = np.asarray(frame, dtype=np.int64).reshape(-1)
         X = np.asarray(points_world, dtype=np.float64).reshape(-1, NUM_JOINTS, 3)
         m = X.shape[0]
-        ok = np.isfinite(X).all(axis=-1)
+        ok = np.asarray(np.isfinite(X).all(axis=-1))  # asarray: an array for numpy's stubs (no copy)
         conf = np.where(ok, 1.0, 0.0) if confidence is None else np.where(ok, confidence, 0.0)
         err = np.where(ok, 0.0, np.nan) if reprojection_error_px is None else np.where(ok, reprojection_error_px, np.nan)
         var = np.full(X.shape, sigma_m * sigma_m) if variance_world is None else np.asarray(variance_world, np.float64)

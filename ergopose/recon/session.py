@@ -13,11 +13,12 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Iterator, Sequence, SupportsFloat
 
 import numpy as np
 
 from ergopose.errors import InputError
+from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMBS
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
@@ -49,8 +50,8 @@ class SessionSummary:
     seconds: float
 
 
-def _chunks(frames: Iterable[Sequence[Detections2D]], size: int):
-    buf = []
+def _chunks(frames: Iterable[Sequence[Detections2D]], size: int) -> Iterator[list[Sequence[Detections2D]]]:
+    buf: list[Sequence[Detections2D]] = []
     for f in frames:
         buf.append(f)
         if len(buf) >= size:
@@ -70,12 +71,12 @@ def worker_summary(shift: ShiftReconstruction) -> dict[str, dict]:
     return out
 
 
-def _num(v):
+def _num(v: SupportsFloat | None) -> float | None:
     return None if v is None or not math.isfinite(float(v)) else round(float(v), 6)
 
 
 def reconstruct_session(frames: Iterable[Sequence[Detections2D]], out_path: str | os.PathLike | None, *,
-                        fps: float, cameras=None, settings: ReconSettings | None = None,
+                        fps: float, cameras: Sequence[Camera] | None = None, settings: ReconSettings | None = None,
                         chunk_frames: int = 1200, first_frame: int = 0,
                         progress: ProgressCallback | None = None,
                         total_frames: int | None = None) -> tuple[SessionSummary, TrackFrames | None]:
@@ -96,7 +97,7 @@ def reconstruct_session(frames: Iterable[Sequence[Detections2D]], out_path: str 
     counts = {"pairs": 0, "single": 0, "frames": 0, "rows": 0}
     cam_names: tuple[str, ...] = tuple(c.name for c in cameras) if cameras else ()
 
-    def run(sink) -> None:
+    def run(sink: Callable[[TrackFrames], None]) -> None:
         for chunk in _chunks(frames, chunk_frames):
             people = reconstruct_frames(chunk, settings)
             counts["pairs"] += int(np.sum(people.n_cameras >= 2))

@@ -291,7 +291,8 @@ class KalmanRTS:
         return Smoothed(np.arange(stop - T, stop), value, variance, measured, filled, gated)
 
 
-def _rts_step_cv(xf, Pf, xs, Ps, dt, Q):
+def _rts_step_cv(xf: np.ndarray, Pf: np.ndarray, xs: np.ndarray, Ps: np.ndarray, dt: float,
+                 Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One RTS backward step for 2-state (constant velocity) series, written out per entry.
 
     Returns x_f + C (x_s - F x_f) and P_f + C (P_s - P_pred) C^T with C = P_f F^T P_pred^-1.

@@ -42,9 +42,11 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from types import TracebackType
+from typing import Any, Literal, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import DTypeLike
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -90,6 +92,7 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
                                             pa.array(names, pa.string())) if n else pa.array([], pa.string())
     joint = pa.DictionaryArray.from_arrays(pa.array(np.tile(np.arange(J, dtype=np.int32), n)),
                                            pa.array(BLAZEPOSE33, pa.string()))
+    assert tf.std_world is not None and tf.inferred is not None  # TrackFrames.__post_init__ fills them
     P = tf.points_world.reshape(-1, 3).astype(np.float32)
     R = tf.raw_points_world.reshape(-1, 3).astype(np.float32)
     S = tf.std_world.reshape(-1, 3).astype(np.float32)
@@ -152,7 +155,8 @@ class TracksWriter:
         """Per-worker summary (e.g. stature estimate, limb medians) stored in the metadata."""
         self.meta["workers"] = {k: dict(v) for k, v in workers.items()}
 
-    def __exit__(self, exc_type, exc, tb) -> bool:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> Literal[False]:
         assert self._stack is not None and self._writer is not None
         try:
             if exc_type is None:
@@ -191,7 +195,7 @@ class TracksTable:
         return sorted(self.data["worker"].unique().tolist(), key=_worker_key)
 
 
-def _worker_key(name: str):
+def _worker_key(name: str) -> tuple[str, int]:
     head, _, num = str(name).rpartition("_")
     return (head, int(num)) if num.isdigit() else (str(name), 0)
 
@@ -254,8 +258,8 @@ def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     n = len(uniq)
     J = NUM_JOINTS
 
-    def grid(col, fill, dtype=np.float64, k=None):
-        out = np.full((n, J) if k is None else (n, J, k), fill, dtype=dtype)
+    def grid(col: None, fill: Any, dtype: DTypeLike = np.float64, k: int | None = None) -> np.ndarray:
+        out: np.ndarray = np.full((n, J) if k is None else (n, J, k), fill, dtype=dtype)
         return out
 
     pts = grid(None, np.nan, k=3)

@@ -77,11 +77,11 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
             for c, d in enumerate(dets):
                 P[c, :d.count], px[c, :d.count], w[c, :d.count] = d.projection, d.pixels_view, d.confidence
                 look[c, :d.count] = d.appearance
-            cam = np.arange(C)[None, :]
-            set_P.append(P[cam, g])
-            set_px.append(px[cam, g])
-            set_w.append(w[cam, g])
-            set_look.append(_mean_over_cameras(look[cam, g]))
+            cams = np.arange(C)[None, :]
+            set_P.append(P[cams, g])
+            set_px.append(px[cams, g])
+            set_w.append(w[cams, g])
+            set_look.append(_mean_over_cameras(look[cams, g]))
             rows_frame += [a.frame] * len(g)
             rows_time += [a.time_s] * len(g)
             rows_det += list(g)
@@ -90,9 +90,9 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
             single_rows.append((len(rows_frame), int(c), dets[c], int(i)))
             rows_frame.append(a.frame)
             rows_time.append(a.time_s)
-            row = np.full(C, -1, np.int64)
-            row[c] = i
-            rows_det.append(row)
+            single = np.full(C, -1, np.int64)
+            single[c] = i
+            rows_det.append(single)
             rows_ncam.append(1)
         report(progress, "association", k + 1, len(frames), unit="frame")
 
@@ -157,7 +157,7 @@ def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
 
 
 def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
-                      settings: ReconSettings | None = None):
+                      settings: ReconSettings | None = None) -> tuple[np.ndarray, ...]:
     """Triangulate associated people (two or more views each), all at once.
 
     projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33). A view the
@@ -261,8 +261,11 @@ def triangulate_observations(people: People3D) -> np.ndarray:
         return people.points_world
     oc = people.obs_confidence
     P = people.obs_projection
-    absent = ~(oc > 0).any(axis=-1)  # cameras that did not see the person: any invertible matrix
+    assert oc is not None and P is not None  # People3D.__post_init__ fills them
+    # cameras that did not see the person: any invertible matrix (asarray: an array for numpy's stubs)
+    absent = ~np.asarray((oc > 0).any(axis=-1))
     P = np.where(absent[..., None, None], np.eye(3, 4) + np.array([0.0, 0.0, 0.0, 1.0]), P)
+    assert people.obs_pixels_view is not None
     px = np.where(oc[..., None] > 0, people.obs_pixels_view, np.nan)
     tri = triangulate_dlt(P, px, oc)
     X = np.where((tri.reprojection_error_px <= UNGATED_MAX_PX)[..., None], tri.points, np.nan)

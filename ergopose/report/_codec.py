@@ -52,7 +52,7 @@ def from_jsonable(tp: Any, data: Any, *, source: str, field: str = "") -> Any:
         return InputError(f"{what}, got {_short(data)}", path=source, field=field or "(top level)")
 
     origin = typing.get_origin(tp)
-    if dataclasses.is_dataclass(tp):
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):  # a dataclass type (not an instance)
         if not isinstance(data, dict):
             raise bad(f"expected an object ({tp.__name__})")
         hints = _hints(tp)
@@ -61,15 +61,15 @@ def from_jsonable(tp: Any, data: Any, *, source: str, field: str = "") -> Any:
         if unknown:
             raise InputError(f"unknown field(s) {', '.join(unknown)} in {tp.__name__}", path=source,
                              field=field or "(top level)")
-        kwargs = {}
+        kwargs: dict[str, Any] = {}
         for f in dataclasses.fields(tp):
             sub = f"{field}.{f.name}" if field else f.name
             if f.name not in data:
                 if f.default is not dataclasses.MISSING:
                     kwargs[f.name] = f.default
                     continue
-                if f.default_factory is not dataclasses.MISSING:  # type: ignore[misc]
-                    kwargs[f.name] = f.default_factory()  # type: ignore[misc]
+                if f.default_factory is not dataclasses.MISSING:
+                    kwargs[f.name] = f.default_factory()
                     continue
                 raise InputError(f"missing field ({tp.__name__})", path=source, field=sub)
             kwargs[f.name] = from_jsonable(hints[f.name], data[f.name], source=source, field=sub)

@@ -267,12 +267,12 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
     holds.sort(key=lambda h: -h.duration_s)
     hourly = []
     for h in summary.hourly:
-        m = next((k for k, (_, lc) in LEVEL_COLUMNS.items() if lc == h.column), None)
-        if m is None:
+        hm = next((k for k, (_, lc) in LEVEL_COLUMNS.items() if lc == h.column), None)
+        if hm is None:
             continue
-        hourly.append(HourLevels(start_s=3600.0 * h.hour, method=m,
-                                 levels=tuple(LevelTime(m, int(lv.level), float(h.time_by_value.get(lv.level, 0.0)))
-                                              for lv in methods[m].action_levels),
+        hourly.append(HourLevels(start_s=3600.0 * h.hour, method=hm,
+                                 levels=tuple(LevelTime(hm, int(lv.level), float(h.time_by_value.get(lv.level, 0.0)))
+                                              for lv in methods[hm].action_levels),
                                  unscored_s=float(h.missing_s), observed_s=float(h.observed_s)))
     s_limit = 4.0
     reps = tuple(Repetition(body_part=_angle_body_part(r.angle), angle=r.angle, actions=int(r.actions),
@@ -355,7 +355,8 @@ def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], fra
             start_s=float(p.start_s), end_s=float(p.end_s), peak_s=drawn_s, rula_grand=score("rula_grand"),
             rula_level=score("rula_action_level"), reba_score=score("reba_score"),
             reba_level=score("reba_risk_level"), reason=reason,
-            joints_world_m=None if joints is None else tuple(tuple(float(x) for x in q) for q in np.asarray(joints)),
+            joints_world_m=None if joints is None else tuple((float(q[0]), float(q[1]), float(q[2]))
+                                                              for q in np.asarray(joints)),
             high_s=float(p.high_s), rula_peak=peak("rula_grand"), reba_peak=peak("reba_score"), drivers=drivers,
             inputs=inputs))
     return tuple(out)
@@ -460,7 +461,7 @@ def calibration_info(path: str | Path, cameras: Sequence[str], *, reprojection_r
                      check: Any = None) -> Any:
     """A CalibrationInfo from the calibration file and, when run, its bar check
     (ergopose.calibration.check.CheckReport)."""
-    regions = ()
+    regions: tuple[RegionAccuracy, ...] = ()
     if check is not None:
         regions = tuple(RegionAccuracy(region=r.region, target_m=float(r.target), measured_m=float(r.mean),
                                        spread_m=float(r.std) if int(r.n) >= 2 else float("nan"), n=int(r.n),
@@ -535,7 +536,7 @@ def worker_assumptions(session: Any, worker: Any | None, settings_name: str = "s
     for name in FACTOR_USE:
         v_own = getattr(own, name) if own is not None else None
         v_def = getattr(session.defaults, name)
-        if v_own is not None:
+        if v_own is not None and worker is not None:  # v_own is only set with a worker
             value, src = v_own, f"{settings_name} [workers.{worker.worker_id}]"
         elif v_def is not None:
             value, src = v_def, f"{settings_name} [defaults]"

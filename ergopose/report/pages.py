@@ -102,7 +102,7 @@ FLAG_SEVERITY = {"acceptable": "ok", "conditionally acceptable": "caution", "tim
 def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path | None = None) -> WorkerPage:
     """The context of one worker's page."""
     info, summ = res.info, res.summary
-    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    frames: pd.DataFrame = res.frames
     who = display_name(info.worker_id, info.name)
     clock = Clock(session.start)
     header = session_header(session)
@@ -145,7 +145,7 @@ def build_worker_page(res: WorkerResults, session: SessionInfo, report_dir: Path
 
 def worker_risk_figure(res: WorkerResults, session: SessionInfo, clock: Clock, prefix: str = "") -> Figure:
     """A worker's shift by time of day (a RULA and a REBA strip) with the sustained periods marked."""
-    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    frames: pd.DataFrame = res.frames
     marks = [(w.start_s, w.end_s, str(k)) for k, w in enumerate(res.summary.worst[:MAX_PERIODS], start=1)]
     who = display_name(res.info.worker_id, res.info.name)
     return risk_figure([("RULA", frames, "rula"), ("REBA", frames, "reba")], session, clock, fig_id=f"{prefix}fig-risk",
@@ -181,7 +181,7 @@ def worker_row(res: WorkerResults, session: SessionInfo, report_dir: Path | None
 def session_risk_figure(workers: Sequence[WorkerResults], session: SessionInfo) -> Figure:
     """Every worker's shift by time of day, one strip each (the worse of RULA and REBA)."""
     rows = [(f"{r.info.worker_id} {r.info.name}" if r.info.name else r.info.worker_id, r.frames, None) for r in workers]
-    return risk_figure(rows, session, Clock(session.start), fig_id="fig-risk-all", label_width=170,  # type: ignore[misc]
+    return risk_figure(rows, session, Clock(session.start), fig_id="fig-risk-all", label_width=170,
                        title="Each worker's shift by time of day: high, medium and low risk (the worse of RULA "
                              "and REBA)")
 

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.report.context import CalibrationInfo, WorkerDiagnostics
@@ -150,7 +151,8 @@ def reliable_rule(tolerance: float = RELIABLE_LENGTH_TOLERANCE) -> str:
             f"shanks) reconstructed in 3D and within {100 * tolerance:.0f} % of the worker's median length")
 
 
-def reliable_frames(points_world, tolerance: float = RELIABLE_LENGTH_TOLERANCE, limb_medians_m=None):
+def reliable_frames(points_world: ArrayLike, tolerance: float = RELIABLE_LENGTH_TOLERANCE,
+                    limb_medians_m: ArrayLike | None = None) -> np.ndarray:
     """Per frame of one worker, whether the skeleton is reliable (the rule of :func:`reliable_rule`).
 
     points_world: (F, 33, 3) joints in metres, NaN = missing. Returns a bool array (F,).

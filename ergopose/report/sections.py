@@ -18,7 +18,9 @@ from ergopose.keypoints import LIMBS
 from ergopose.report import periods, svg
 from ergopose.report.context import (
     MAX_SKIPPED_SPANS,
+    LimbStats,
     MethodInfo,
+    PeriodInput,
     SessionInfo,
     WorkerResults,
     WorkerSummary,
@@ -434,7 +436,7 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
     return tuple(cards)
 
 
-def task_inputs_line(inputs, high_s: float) -> str:
+def task_inputs_line(inputs: Sequence[PeriodInput], high_s: float) -> str:
     """The task inputs of a period in one line: each given value (with its time when it held for
     only part of the high-risk time), then those not given; "not recorded" for older results."""
     if not inputs:
@@ -453,7 +455,7 @@ def task_inputs_line(inputs, high_s: float) -> str:
 def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIODS) -> str:
     """How much of the worker's high-risk time the periods shown hold, and the body parts that
     drove most of them (summed over the periods), in a sentence."""
-    frames: pd.DataFrame = res.frames  # type: ignore[assignment]
+    frames: pd.DataFrame = res.frames
     shown = res.summary.worst[:limit]
     high = periods.high_frames(frames["rula_action_level"].to_numpy(dtype=np.float64, na_value=np.nan),
                                frames["reba_risk_level"].to_numpy(dtype=np.float64, na_value=np.nan))
@@ -750,7 +752,7 @@ def _clock_s(seconds: float) -> str:
     return f"{int(h)}:{int(m):02d}:{sec:04.1f}"
 
 
-def _spread(s) -> str:
+def _spread(s: LimbStats | None) -> str:
     """A limb's length spread in one region: "1.2 cm (n = 3,456)", or "no data"."""
     if s is None or s.n == 0 or not (math.isfinite(s.q1_m) and math.isfinite(s.q3_m)):
         return "no data"

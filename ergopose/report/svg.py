@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from markupsafe import Markup, escape
 
 from ergopose.keypoints import JOINT_INDEX, LIMBS
@@ -268,10 +269,10 @@ def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median
     t1 = float(starts_s[-1] + bin_s) if starts_s.size else 1.0
     span = max(t1 - t0, 1e-9)
 
-    def xpix(t):
+    def xpix(t: ArrayLike) -> np.ndarray:
         return left + plot_w * (np.asarray(t, dtype=np.float64) - t0) / span
 
-    def ypix(v):
+    def ypix(v: ArrayLike) -> np.ndarray:
         return top + plot_h * (1 - (np.asarray(v, dtype=np.float64) - y_min) / (y_max - y_min))
 
     out = [_hatch(id_prefix)]
@@ -311,19 +312,19 @@ def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median
                     for i, y in zip(sel.tolist(), ys.tolist()))
         out.append(f'<path d="{d}" fill="{_e(b.colour)}" stroke="none"><title>worst score in {_e(b.label)}</title></path>')
     # not-measured bins: a hatched strip under the plot
-    for a, b in _runs(np.isnan(worst)):
-        xa, xb = float(xpix(starts_s[a])), float(xpix(starts_s[b - 1] + bin_s))
+    for a, z in _runs(np.isnan(worst)):
+        xa, xb = float(xpix(starts_s[a])), float(xpix(starts_s[z - 1] + bin_s))
         out.append(f'<rect x="{_n(xa)}" y="{_n(top + plot_h + 2)}" width="{_n(max(xb - xa, 0.8))}" height="9" '
                    f'fill="url(#{_e(id_prefix)}-hatch)" stroke="{MUTED}" stroke-width="0.3"><title>not tracked or '
                    f'not scored</title></rect>')
     out.append(f'<rect x="{left}" y="{top}" width="{_n(plot_w)}" height="{_n(plot_h)}" fill="none" stroke="{MUTED}"/>')
-    for a, b in _runs(np.isfinite(median)):
-        xs = xpix(np.concatenate([starts_s[a:b], [starts_s[b - 1] + bin_s]]))
-        ys = ypix(median[a:b])
+    for a, z in _runs(np.isfinite(median)):
+        xs = xpix(np.concatenate([starts_s[a:z], [starts_s[z - 1] + bin_s]]))
+        ys = ypix(median[a:z])
         pts = [f"M{_n(float(xs[0]))} {_n(float(ys[0]))}"]
-        for k in range(b - a):
+        for k in range(z - a):
             pts.append(f"H{_n(float(xs[k + 1]))}")
-            if k + 1 < b - a and ys[k + 1] != ys[k]:
+            if k + 1 < z - a and ys[k + 1] != ys[k]:
                 pts.append(f"V{_n(float(ys[k + 1]))}")
         d = "".join(pts)
         out.append(f'<path d="{d}" fill="none" stroke="#ffffff" stroke-width="3.2" stroke-opacity="0.8"/>'
@@ -502,10 +503,10 @@ def heat_map(grid: np.ndarray, extent: tuple[float, float, float, float], *, tit
     width = pad_l + size + 16 + legend_w
     height = pad_t + size + 30
 
-    def px(x):
+    def px(x: float) -> float:
         return pad_l + (x - x0) * sx
 
-    def py(y):
+    def py(y: float) -> float:
         return pad_t + (y1 - y) * sy
 
     out = [f'<rect x="{pad_l}" y="{pad_t}" width="{_n(size)}" height="{_n(size)}" fill="#ffffff" stroke="{MUTED}"/>']
@@ -675,8 +676,8 @@ def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix
                        f'stroke-width="3" stroke-linecap="round"/>')
             out.append(f'<circle cx="{_n(xb)}" cy="{_n(yb)}" r="{_n(0.09 * scale)}" fill="none" stroke="{TEXT}" '
                        f'stroke-width="2"/>')
-        for side, letter in (("left_wrist", "L"), ("right_wrist", "R")):
-            i = JOINT_INDEX[side]
+        for wrist, letter in (("left_wrist", "L"), ("right_wrist", "R")):
+            i = JOINT_INDEX[wrist]
             if known[i]:
                 x, y = P(hs[i], zs[i])
                 out.append(f'<text x="{_n(x + 5)}" y="{_n(y + 4)}" font-size="11" font-weight="bold">{letter}</text>')

@@ -6,7 +6,7 @@ defaults are these (a test holds the two together).
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, Any
 
 from pydantic import Field
 
@@ -16,7 +16,7 @@ Boundary = Literal["higher", "lower"]
 Variant = Literal["single", "separate"]
 
 
-def _deg(default: float, description: str):  # a tolerance or threshold angle below 90 degrees
+def _deg(default: float, description: str) -> Any:  # a tolerance or threshold angle below 90 degrees
     return Field(default, ge=0, lt=90, description=description)
 
 

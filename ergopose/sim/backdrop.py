@@ -56,7 +56,7 @@ def _bilinear_wrap(tex: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
 def _floor_colour(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Concrete floor: mottled grey, 1 m expansion joints, a yellow border around the 6 x 6 m area."""
     rng = np.random.default_rng(12345)  # fixed texture: the floor is the same in every session
-    coarse = rng.normal(0.0, 1.0, (64, 64)).astype(np.float32)
+    coarse: np.ndarray = rng.normal(0.0, 1.0, (64, 64)).astype(np.float32)
     coarse = cv2.GaussianBlur(coarse, (0, 0), 1.5)
     fine = rng.normal(0.0, 1.0, (512, 512)).astype(np.float32)
     # bilinear lookup in the periodic textures (10 m and 5 m periods)
@@ -214,7 +214,8 @@ def render_background(camera: Camera, static: StaticScene, rays: np.ndarray,
         length = float(np.linalg.norm(ab))
         along = s * length
         stripes = np.where(np.floor(along / 0.1) % 2 == 0, 0, 1)
-        col = np.where(stripes[:, None] == 0, np.float32([20, 200, 235]), np.float32([25, 25, 25]))
+        col = np.where(stripes[:, None] == 0, np.array([20, 200, 235], dtype=np.float32),
+                       np.array([25, 25, 25], dtype=np.float32))
         caps = (along < 0.05) | (along > length - 0.05)
         col[caps] = (30, 30, 220)
         colour[sel] = col

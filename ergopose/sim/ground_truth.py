@@ -52,7 +52,7 @@ GROUND_TRUTH_VERSION = 1
 class GroundTruth:
     """The ground truth of a simulated session (arrays as documented in the module docstring)."""
 
-    path: Path
+    path: Path | None  # None: made in memory (ergopose.sim.synthetic), not read from a folder
     fps: float
     worker_ids: tuple[str, ...]
     camera_names: tuple[str, ...]

@@ -101,7 +101,7 @@ class OracleSource:
             if not 0.0 <= v <= 1.0:
                 raise ValueError(f"{name} must be a probability in [0, 1], got {v!r}")
 
-    def observe(self, frames: Sequence[int] | slice | None = None) -> OracleObservations:
+    def observe(self, frames: Sequence[int] | np.ndarray | slice | None = None) -> OracleObservations:
         """ORACLE observations for the given frames (default: all). The random errors of a frame
         do not depend on which other frames are asked for."""
         gt = self.ground_truth

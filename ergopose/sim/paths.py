@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from typing import Sequence
 
 import numpy as np
 
@@ -59,7 +60,7 @@ def _box_distance(x, y, bx0, by0, bx1, by1):
 
 
 def plan_path(grid: WalkGrid, start: np.ndarray, goal: np.ndarray,
-              circles: list[tuple[float, float, float]] = ()) -> np.ndarray:
+              circles: Sequence[tuple[float, float, float]] = ()) -> np.ndarray:
     """Waypoints (n, 2) from start to goal around the furniture (and the given circles (x, y, r)).
 
     A* over the 8-connected grid, then shortened: from each waypoint, jump to the farthest later

@@ -4,6 +4,8 @@ axis-aligned box), broadcasting over any leading shape: distance along the ray, 
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 
 # --- ray intersections (broadcasting over any leading shape) -----------------------------------------
@@ -76,16 +78,17 @@ def ray_box(origin: np.ndarray, d: np.ndarray, centre: np.ndarray, axes: np.ndar
         return np.where((t_near <= t_far) & (t_near > 0), t_near, np.inf)
 
 
-def ray_aabb_planar(origin: np.ndarray, inv: tuple[np.ndarray, np.ndarray, np.ndarray],
+def ray_aabb_planar(origin: np.ndarray, inv: Sequence[np.ndarray],
                     lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """First-hit distance of rays given by their inverse direction components (planes of any
-    shape) with an axis-aligned box [lo, hi]; inf = miss."""
-    near = far = None
+    shape; inv: the three components) with an axis-aligned box [lo, hi]; inf = miss."""
     with np.errstate(invalid="ignore", over="ignore"):
+        los, his = [], []
         for k in range(3):
             t1 = (np.float32(lo[k] - origin[k])) * inv[k]
             t2 = (np.float32(hi[k] - origin[k])) * inv[k]
-            a, b = np.fmin(t1, t2), np.fmax(t1, t2)
-            near = a if near is None else np.fmax(near, a)
-            far = b if far is None else np.fmin(far, b)
+            los.append(np.fmin(t1, t2))
+            his.append(np.fmax(t1, t2))
+        near = np.fmax(np.fmax(los[0], los[1]), los[2])
+        far = np.fmin(np.fmin(his[0], his[1]), his[2])
         return np.where((near <= far) & (near > 0), near, np.float32(np.inf))

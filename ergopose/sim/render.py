@@ -119,8 +119,9 @@ class CameraRenderer:
         self.xx, self.yy, self.zz = self.rx * self.rx, self.ry * self.ry, self.rz * self.rz
         self.xy, self.xz, self.yz = self.rx * self.ry, self.rx * self.rz, self.ry * self.rz
         self.rays_flat = rays.reshape(-1, 3)
-        for name in ("rx", "ry", "rz", "xx", "yy", "zz", "xy", "xz", "yz"):
-            setattr(self, f"{name}_flat", getattr(self, name).reshape(-1))
+        self.rx_flat, self.ry_flat, self.rz_flat = (a.reshape(-1) for a in (self.rx, self.ry, self.rz))
+        self.xx_flat, self.yy_flat, self.zz_flat = (a.reshape(-1) for a in (self.xx, self.yy, self.zz))
+        self.xy_flat, self.xz_flat, self.yz_flat = (a.reshape(-1) for a in (self.xy, self.xz, self.yz))
         self.static = StaticScene.from_scene(scene)
         self.sharp_background, self.bg_depth = render_background(camera, self.static, rays, self.valid)
         self.bg_depth_flat = self.bg_depth.reshape(-1)
@@ -243,14 +244,15 @@ class CameraRenderer:
     def _obb(self, flat: np.ndarray, centre: np.ndarray, axes: np.ndarray, half: np.ndarray) -> np.ndarray:
         o_l = axes.T.astype(np.float64) @ (self.origin - centre)
         rx, ry, rz = self.rx_flat[flat], self.ry_flat[flat], self.rz_flat[flat]
-        near = far = None
+        los, his = [], []
         for i in range(3):
             d_l = rx * np.float32(axes[0, i]) + ry * np.float32(axes[1, i]) + rz * np.float32(axes[2, i])
             t1 = (np.float32(-half[i] - o_l[i])) / d_l
             t2 = (np.float32(half[i] - o_l[i])) / d_l
-            lo, hi = np.fmin(t1, t2), np.fmax(t1, t2)
-            near = lo if near is None else np.fmax(near, lo)
-            far = hi if far is None else np.fmin(far, hi)
+            los.append(np.fmin(t1, t2))
+            his.append(np.fmax(t1, t2))
+        near = np.fmax(np.fmax(los[0], los[1]), los[2])
+        far = np.fmin(np.fmin(his[0], his[1]), his[2])
         near[(near > far) | (near <= 0)] = _NAN
         return near
 
@@ -443,7 +445,7 @@ def _merge_regions(regions: list[list[int]]) -> list[list[int]]:
 
 def open_writer(path: Path, fps: float, width: int, height: int) -> cv2.VideoWriter:
     """An mp4v VideoWriter; InputError if OpenCV cannot write the file."""
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), float(fps), (int(width), int(height)))
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), float(fps), (int(width), int(height)))
     if not writer.isOpened():
         raise InputError("OpenCV cannot write an mp4v video here", path=path)
     return writer

@@ -252,13 +252,14 @@ def _rig_rotation(yaw_deg: float, tilt_x_deg: float, tilt_y_deg: float) -> np.nd
 def rig_cameras(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1]) -> tuple[Camera, Camera]:
     """The two ceiling cameras (cam_1, cam_2) at the given image size, each with its image circle
     (where IMAGE_CIRCLE_THETA lands; the simulator leaves the pixels beyond it dark)."""
-    return tuple(
+    first, second = (
         Camera(name=name, lens=lens, width=width, height=height,
                rotation_world_from_cam=_rig_rotation(*orient), position_world=np.array(pos),
                image_circle=_image_circle(lens))
         for k, (name, pos, orient) in enumerate(zip(CAMERA_NAMES, RIG_POSITIONS, RIG_ORIENTATIONS_DEG))
         for lens in (rig_lens(width, height, k),)
     )
+    return first, second
 
 
 def _image_circle(lens: KannalaBrandt) -> tuple[float, float, float]:

@@ -78,22 +78,30 @@ def _timeline(script: WorkerScript, t: np.ndarray):
     k = len(wp)
     pauses = np.broadcast_to(np.asarray(script.pause_s, dtype=np.float64), (k,))
     # Segments: [start wait], pause at wp0, walk wp0->wp1, pause at wp1, ...
-    starts, kinds, a_idx = [], [], []
+    start_list: list[float] = []
+    kind_list: list[int] = []
+    index_list: list[int] = []
+    dur_list: list[float] = []
     clock = 0.0
-    seg_dur = []
     for i in range(k):
-        dur = pauses[i] + (script.start_s if i == 0 else 0.0)
-        starts.append(clock), kinds.append(0), a_idx.append(i), seg_dur.append(dur)
+        dur = float(pauses[i] + (script.start_s if i == 0 else 0.0))
+        start_list.append(clock)
+        kind_list.append(0)
+        index_list.append(i)
+        dur_list.append(dur)
         clock += dur
         if i + 1 < k:
             dist = float(np.linalg.norm(wp[i + 1] - wp[i]))
             dur = dist / script.speed_m_s
-            starts.append(clock), kinds.append(1), a_idx.append(i), seg_dur.append(dur)
+            start_list.append(clock)
+            kind_list.append(1)
+            index_list.append(i)
+            dur_list.append(dur)
             clock += dur
-    starts = np.array(starts)
-    seg_dur = np.maximum(np.array(seg_dur), 1e-9)
-    kinds = np.array(kinds)
-    a_idx = np.array(a_idx)
+    starts = np.array(start_list)
+    seg_dur = np.maximum(np.array(dur_list), 1e-9)
+    kinds = np.array(kind_list)
+    a_idx = np.array(index_list)
     seg = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(starts) - 1)
     u = np.clip((t - starts[seg]) / seg_dur[seg], 0.0, 1.0)
     walking = kinds[seg] == 1

@@ -96,10 +96,10 @@ def do_task(track: TimelineBuilder, task: str, station: Station, rng: np.random.
         keys: list[tuple[float, dict[str, float]]] = [(1.2, {**work, "dx": 0.03})]
         period = float(rng.uniform(2.6, 3.6))
         t = 1.2
-        reach = True
+        reaching = True
         while t + period / 2 < d - 1.2:
             t += period / 2
-            if reach:
+            if reaching:
                 change = {"right_upper_arm_flexion": math.radians(_vary(rng, 56.0, 6.0)),
                           "right_elbow_flexion": math.radians(55.0), "right_wrist_flexion": math.radians(-15.0),
                           "right_wrist_deviation": math.radians(8.0), "left_wrist_flexion": math.radians(20.0),
@@ -109,7 +109,7 @@ def do_task(track: TimelineBuilder, task: str, station: Station, rng: np.random.
                           "right_wrist_flexion": math.radians(18.0), "right_wrist_deviation": math.radians(-6.0),
                           "left_wrist_flexion": math.radians(5.0), "trunk_flexion": math.radians(trunk)}
             keys.append((t, change))
-            reach = not reach
+            reaching = not reaching
         keys.append((t + 1.2, {**dict(NEUTRAL)}))
         track.pose_task("assembly", keys, period=(1.2, t, round(float(rng.uniform(0.5, 1.5)), 2), "repeated", "good"))
     else:

@@ -65,3 +65,47 @@ def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = 
         scored = score_worker(session, tracks.worker_rows(w), wid, scoring, None)
         write_worker_steps_csv(out / "csv" / f"{wid}_steps.csv", scored.frames)
     return out
+
+
+SETTINGS_TWO_WORKERS = """\
+format_version = 1
+recorded_at = 2024-03-04T08:00:00+01:00
+fps = 12.0
+
+[[cameras]]
+name = "cam_1"
+video = "a.mp4"
+
+[[cameras]]
+name = "cam_2"
+video = "b.mp4"
+
+[identification]
+by_stature = true
+
+[workers.w1]
+stature_m = 1.80
+
+[workers.w2]
+stature_m = 1.60
+"""
+
+
+def video_session(root: Path, frames: int = 3) -> Path:
+    """A session folder without ground truth, in a fraction of a second: the simulator's two-camera
+    rig at 160 x 120, two videos of ``frames`` grey frames, settings naming w1 (1.80 m) and w2
+    (1.60 m) with matching by stature on."""
+    import cv2
+
+    from ergopose.geometry.calibration_file import save_calibration
+    from ergopose.sim.scene import rig_cameras
+
+    root.mkdir(parents=True)
+    save_calibration(root / "calibration.toml", rig_cameras(160, 120))
+    for name in ("a.mp4", "b.mp4"):
+        writer = cv2.VideoWriter(str(root / name), cv2.VideoWriter.fourcc(*"mp4v"), 12.0, (160, 120))
+        for k in range(frames):
+            writer.write(np.full((120, 160, 3), 40 * k, np.uint8))
+        writer.release()
+    (root / "settings.toml").write_text(SETTINGS_TWO_WORKERS, encoding="utf-8")
+    return root

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 from abc import ABC, abstractmethod
-from typing import Any, ClassVar
+from typing import Any, Callable, ClassVar
 
 import numpy as np
 
@@ -101,7 +101,7 @@ class BlockwiseLens(LensModel):
     def _unproject_block(self, pixels: np.ndarray, out: np.ndarray) -> None: ...
 
 
-def _blockwise(kernel, data: Any, width_in: int, width_out: int, out: np.ndarray | None, what: str) -> np.ndarray:
+def _blockwise(kernel: Callable[..., Any], data: Any, width_in: int, width_out: int, out: np.ndarray | None, what: str) -> np.ndarray:
     arr = as_points(data, width_in, what)
     shape = arr.shape[:-1] + (width_out,)
     if out is None:
