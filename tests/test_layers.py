@@ -40,6 +40,8 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
 #: (module, imported module) deferred into a function on purpose, and why.
 DEFERRED_ON_PURPOSE = {
     ("ergopose.pose.blazepose", "ai_edge_litert.interpreter"): "heavy runtime, needed only when a network runs",
+    ("ergopose.pose.blazepose", "ai_edge_litert"): "LiteRT's model schema, needed only when a network loads",
+    ("ergopose.pose.blazepose", "flatbuffers"): "model rewriting, needed only when a network loads",
     ("ergopose.pose.onnx_models", "onnxruntime"): "heavy runtime, needed only for a user-brought ONNX model",
     ("ergopose.pipeline.store", "fcntl"): "POSIX only; without it the store works unlocked",
     ("ergopose.commands.assess", "ergopose.pipeline.cluster"): "needs Dask (an optional extra): only for --cluster",

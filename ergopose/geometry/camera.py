@@ -311,19 +311,30 @@ def look_at_rotation(forward_world: Any, up_world: Any = (0.0, 0.0, 1.0)) -> np.
     ValueError if forward is zero or parallel to up (use :func:`ceiling_rotation` for a
     camera looking straight down).
     """
-    z = np.asarray(forward_world, dtype=np.float64)
-    up = np.asarray(up_world, dtype=np.float64)
-    nz = np.linalg.norm(z)
+    # Scalar arithmetic for the two 3-vector cross products, in np.cross's order of operations,
+    # and norms as np.linalg.norm takes them (sqrt of the dot product): the same numbers as the
+    # numpy calls, without their overhead (this runs several times per person view).
+    z = np.asarray(forward_world, dtype=np.float64).reshape(3)
+    up = np.asarray(up_world, dtype=np.float64).reshape(3)
+    nz = math.sqrt(float(z.dot(z)))
     if not nz > 0:
         raise ValueError("forward_world must be a non-zero direction")
     z = z / nz
-    x = np.cross(z, up)
-    nx = np.linalg.norm(x)
-    if not nx > 1e-9 * max(float(np.linalg.norm(up)), 1e-300):
+    x = cross3(z, up)
+    nx = math.sqrt(float(x.dot(x)))
+    if not nx > 1e-9 * max(math.sqrt(float(up.dot(up))), 1e-300):
         raise ValueError("forward_world is parallel to up_world: the image rotation is undefined")
     x = x / nx
-    y = np.cross(z, x)
-    return np.stack([x, y, z], axis=1)
+    y = cross3(z, x)
+    return np.array([[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]])
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The cross product of two (3,) float64 vectors: np.cross's formula and result, without its
+    overhead for single vectors."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def ceiling_rotation(yaw: float = 0.0) -> np.ndarray:

@@ -9,11 +9,13 @@ finished, with the same result as an uninterrupted run.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 from dataclasses import dataclass
-from typing import Mapping, Protocol, Sequence
+from typing import Iterator, Mapping, Protocol, Sequence
 
+import cv2
 import numpy as np
 
 from ergopose.errors import InputError
@@ -40,7 +42,8 @@ class DetectJob:
     model_dir: the pose model cache (None: the default cache).
     model: the landmark model ("lite", "full", "heavy"; None: the default); ``pose`` should carry
         its card's confidence gates (PoseSettings.with_gates).
-    num_threads: LiteRT threads per network in one worker process.
+    num_threads: LiteRT threads per network in one worker process, and OpenCV's threads while
+        the 2D stage runs (:func:`opencv_threads`).
     max_bad_share: the share of a chunk's frames of one video that may be skipped (undecodable or
         of the wrong size); more is an error naming the video and the time.
     """
@@ -92,6 +95,24 @@ def _networks(job: DetectJob) -> tuple[BlazePoseLandmarker, BlazePoseDetector]:
     return networks(job.model_dir, job.num_threads, job.model)
 
 
+@contextlib.contextmanager
+def opencv_threads(n: int) -> Iterator[None]:
+    """OpenCV's worker threads set to ``n`` for the block, restored after.
+
+    The 2D stage runs one process per core, each network single-threaded; OpenCV's default (a
+    thread per core in every process) made each process's small remaps, resizes and the
+    background model hand work to threads competing with the other process: measured on a
+    simulated chunk (120 frames, 2 cameras), 9 % more CPU time than one thread, with identical
+    output (docs/assess.md, "Speed").
+    """
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(max(1, int(n)))
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
+
 class Source2D(Protocol):
     """Where the stages *find people* and *2D* get their records from: the pose networks on the
     session's videos (:func:`video_2d`, the product's), or a source an evaluation brings (the
@@ -114,6 +135,12 @@ def video_2d(job: DetectJob, start: int, stop: int,
     frame) and marked in the counts; more than ``job.max_bad_share`` of the chunk's frames of
     one video skipped is an InputError naming the video and the time.
     """
+    with opencv_threads(job.num_threads):
+        return _video_2d(job, start, stop, progress)
+
+
+def _video_2d(job: DetectJob, start: int, stop: int,
+              progress: ProgressCallback | None) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
     landmarker, detector = _networks(job)
     stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose, progress=progress)
               for i, cam in enumerate(job.cameras)]

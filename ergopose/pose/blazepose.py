@@ -175,7 +175,51 @@ class PersonDetection:
 # Interpreter loading and input checks
 
 
-def _load_interpreter(path: Path, card: ModelCard, num_threads: int) -> Any:  # a LiteRT Interpreter
+def without_outputs(model: bytes, shapes: Sequence[tuple[int, ...]]) -> bytes | None:
+    """A LiteRT model (its flatbuffer bytes) without the outputs of the given shapes and without
+    every operator that only they need (found backwards from the outputs kept); the kept outputs
+    are computed by the same operators from the same weights, so they are the same numbers.
+    None when no output has one of these shapes, when every output has, or when the model is not
+    one this reading understands (one subgraph): the caller then runs the whole model.
+
+    BlazePose's landmark models compute a 256 x 256 person mask that ergopose never reads: its
+    decoder is 46 of the full model's 332 operators and about a quarter of its time.
+    """
+    try:
+        # Deferred: needed only when a network is loaded; a LiteRT without its schema runs whole.
+        import flatbuffers
+        from ai_edge_litert import schema_py_generated as schema
+
+        tree = schema.ModelT.InitFromObj(schema.Model.GetRootAs(model, 0))
+        if not tree.subgraphs or len(tree.subgraphs) != 1:
+            return None
+        graph = tree.subgraphs[0]
+        drop = {tuple(int(n) for n in shape) for shape in shapes}
+        kept = [int(i) for i in graph.outputs if tuple(int(n) for n in graph.tensors[i].shape) not in drop]
+        if not kept or len(kept) == len(graph.outputs):
+            return None
+        needed = set(kept)
+        operators = []
+        for op in reversed(graph.operators):  # the operators are stored in execution order
+            if any(int(o) in needed for o in op.outputs):
+                operators.append(op)
+                needed.update(int(i) for i in op.inputs if i >= 0)
+                if op.intermediates is not None:
+                    needed.update(int(i) for i in op.intermediates if i >= 0)
+        graph.outputs = kept
+        graph.operators = operators[::-1]
+        builder = flatbuffers.Builder(len(model) + 4096)
+        builder.Finish(tree.Pack(builder), file_identifier=b"TFL3")
+        return bytes(builder.Output())
+    except Exception:  # a model this reading does not understand runs whole  # noqa: BLE001
+        return None
+
+
+def _load_interpreter(path: Path, card: ModelCard, num_threads: int, unused: Sequence[str] = ()) -> Any:
+    """The interpreter of the model at ``path`` (checked against its card), its input index and
+    its outputs' indices in the card's order. unused: names of the card's outputs never read;
+    the operators only they need are left out (:func:`without_outputs`) and their indices are
+    not returned."""
     # Deferred on purpose: the LiteRT runtime is heavy and only needed when a network runs
     # (not for scoring, reports or --help).
     from ai_edge_litert.interpreter import Interpreter
@@ -183,8 +227,16 @@ def _load_interpreter(path: Path, card: ModelCard, num_threads: int) -> Any:  # 
     path = Path(path)
     if not path.is_file():
         raise ModelError("model file not found; run 'ergopose models fetch'", path=path)
+    pruned = None
+    if unused:
+        shapes = [tuple(o.shape) for o in card.outputs if o.role in unused]
+        pruned = without_outputs(path.read_bytes(), shapes)
+    used = tuple(o for o in card.outputs if pruned is None or o.role not in unused)
     try:
-        interpreter = Interpreter(model_path=str(path), num_threads=int(num_threads))
+        if pruned is None:
+            interpreter = Interpreter(model_path=str(path), num_threads=int(num_threads))
+        else:
+            interpreter = Interpreter(model_content=pruned, num_threads=int(num_threads))
         interpreter.allocate_tensors()
     except (ValueError, RuntimeError) as exc:
         raise ModelError(
@@ -198,14 +250,14 @@ def _load_interpreter(path: Path, card: ModelCard, num_threads: int) -> Any:  # 
         found = [(tuple(d["shape"]), np.dtype(d["dtype"]).name) for d in inputs]
         raise ModelError(f"expected one float32 input of shape (1, {h}, {w}, 3) for {card.name}, found {found}", path=path)
     outputs = {tuple(d["shape"][1:]): d["index"] for d in interpreter.get_output_details()}
-    expected = [tuple(o.shape[1:]) for o in card.outputs]
+    expected = [tuple(o.shape[1:]) for o in used]
     missing = [s for s in expected if s not in outputs]
     if missing or len(outputs) != len(expected):
         raise ModelError(
             f"outputs do not match the {card.name} card: expected shapes {expected}, found {sorted(outputs)}",
             path=path,
         )
-    return interpreter, inputs[0]["index"], [outputs[s] for s in expected]
+    return interpreter, inputs[0]["index"], {o.role: outputs[s] for o, s in zip(used, expected)}
 
 
 def _check_image(image: np.ndarray, size: tuple[int, int], what: str) -> np.ndarray:
@@ -352,7 +404,8 @@ class BlazePoseDetector:
         self.card = model_card(BLAZEPOSE_DETECTOR)
         path = Path(model_path) if model_path is not None else ensure_model(BLAZEPOSE_DETECTOR, progress, model_dir=model_dir)
         self.model_path = path
-        self._interp, self._input, (self._regressors, self._scores) = _load_interpreter(path, self.card, num_threads)
+        self._interp, self._input, outs = _load_interpreter(path, self.card, num_threads)
+        self._regressors, self._scores = (outs[o.role] for o in self.card.outputs)
         self.input_size = self.card.input_size
         self.anchors = ssd_anchors(self.input_size[0])
         n = self.card.outputs[0].shape[1]
@@ -447,11 +500,15 @@ class BlazePoseLandmarker:
         self.card = landmark_card(model)
         path = Path(model_path) if model_path is not None else ensure_model(self.card.name, progress, model_dir=model_dir)
         self.model_path = path
-        self._interp, self._input, outs = _load_interpreter(path, self.card, num_threads)
-        self._landmarks, self._flag, _segmentation, self._heatmap, self._world = outs
+        # The person mask is never read, nor the world landmarks unless asked for: the network
+        # runs without the operators only they need (the same landmarks, about 25 % faster).
+        self.world = bool(world)
+        unused = ("segmentation",) if self.world else ("segmentation", "world_landmarks")
+        self._interp, self._input, outs = _load_interpreter(path, self.card, num_threads, unused)
+        self._landmarks, self._flag, self._heatmap = outs["landmarks"], outs["pose_flag"], outs["heatmap"]
+        self._world = outs.get("world_landmarks")
         self.input_size = self.card.input_size
         self.refine = bool(refine)
-        self.world = bool(world)
 
     def __call__(self, image_bgr: np.ndarray) -> Keypoints2D:
         image = _check_image(image_bgr, self.input_size, "landmark image")

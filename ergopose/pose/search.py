@@ -80,7 +80,7 @@ class SearchViews:
                 lens = Rectilinear.from_fov(size[0], size[1], 2 * float(half))
                 view = VirtualView(source=self.camera, lens=lens, width=size[0], height=size[1],
                                    rotation_cam_from_view=view_rotation(self.camera, d, up))
-            self.views.append((view, view.build_map()))
+            self.views.append((view, view.build_map(interpolated=True)))
         self.half_fov = halves
 
     def period(self, following: bool) -> int:

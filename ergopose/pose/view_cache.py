@@ -38,7 +38,7 @@ class ViewCache:
         lens = Rectilinear.from_fov(self.view_size[0], self.view_size[1], 2.0 * half_fov)
         view = VirtualView(source=self.camera, lens=lens, width=self.view_size[0], height=self.view_size[1],
                            rotation_cam_from_view=rolled_view_rotation(self.camera, direction_cam, roll))
-        return view, view.build_map()
+        return view, view.build_map(interpolated=True)
 
     def get(self, direction_cam: np.ndarray, half_fov: float,
             up_cam: np.ndarray | None = None) -> tuple[VirtualView, ViewMap]:

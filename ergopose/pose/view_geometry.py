@@ -8,9 +8,11 @@ radians, clockwise on screen.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ergopose.geometry.camera import Camera
+from ergopose.geometry.camera import Camera, cross3
 from ergopose.geometry.views import upright_rotation
 
 #: The world's vertical (z up).
@@ -72,7 +74,8 @@ def upright_defined(camera: Camera, direction_cam: np.ndarray, undefined_angle: 
     """True when a view along ``direction_cam`` is further than ``undefined_angle`` from the
     world's vertical (up or down), so that "upright" is well defined in it."""
     d = unit(np.asarray(direction_cam, dtype=np.float64))
-    return bool(np.linalg.norm(np.cross(d, world_up_cam(camera))) > np.sin(undefined_angle))
+    c = cross3(d, world_up_cam(camera))
+    return bool(math.sqrt(float(c.dot(c))) > np.sin(undefined_angle))  # np.linalg.norm's arithmetic
 
 
 def roll_from_upright(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None) -> float:
