@@ -20,10 +20,12 @@ $(STAMP): pyproject.toml constraints.txt | $(PY)
 install: $(STAMP)
 	$(PY) -m pip install -q --no-deps --force-reinstall --no-build-isolation .
 
-# Lint (ruff, no formatting) and type check (mypy, settings in pyproject.toml); tests/test_layers.py
-# holds the import layers and runs with the tests.
+# Lint and format check (ruff; `ruff format ergopose tests bench conftest.py` formats) and type
+# check (mypy, settings in pyproject.toml); tests/test_layers.py holds the import layers and runs
+# with the tests.
 check: $(STAMP)
 	$(PY) -m ruff check ergopose tests bench conftest.py
+	$(PY) -m ruff format --check ergopose tests bench conftest.py
 	$(PY) -m mypy
 
 test: check install

@@ -33,12 +33,24 @@ def main() -> None:
         t0 = time.perf_counter()
         result = assess(session, AssessOptions(out_dir=Path(tmp) / "report"))
         wall = time.perf_counter() - t0
-    peak_mb = max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
-                  resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss) / 1024.0
-    emit("assess_realtime_factor", wall / (MINUTES * 60.0), "x", goal=1.0, session_minutes=MINUTES, workers=2,
-         frames=result.frames, wall_s=round(wall, 1), processes=os.cpu_count(),
-         stage_s={k: round(v, 1) for k, v in result.stage_seconds.items()},
-         peak_rss_mb=round(peak_mb, 1), load_average=[round(x, 2) for x in os.getloadavg()])
+    peak_mb = (
+        max(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
+        / 1024.0
+    )
+    emit(
+        "assess_realtime_factor",
+        wall / (MINUTES * 60.0),
+        "x",
+        goal=1.0,
+        session_minutes=MINUTES,
+        workers=2,
+        frames=result.frames,
+        wall_s=round(wall, 1),
+        processes=os.cpu_count(),
+        stage_s={k: round(v, 1) for k, v in result.stage_seconds.items()},
+        peak_rss_mb=round(peak_mb, 1),
+        load_average=[round(x, 2) for x in os.getloadavg()],
+    )
 
 
 if __name__ == "__main__":

@@ -51,14 +51,32 @@ def main() -> None:
                 if outcome.error is not None:
                     raise outcome.error
                 result = outcome.result
-            timed.append((name, time.perf_counter() - t0, result.stage_seconds.get("pose", float("nan")),
-                          _csv_bytes(options.out_dir), result.frames, [round(x, 2) for x in os.getloadavg()]))
+            timed.append(
+                (
+                    name,
+                    time.perf_counter() - t0,
+                    result.stage_seconds.get("pose", float("nan")),
+                    _csv_bytes(options.out_dir),
+                    result.frames,
+                    [round(x, 2) for x in os.getloadavg()],
+                )
+            )
     base_wall, base_pose, base_csv = timed[0][1], timed[0][2], timed[0][3]
     for name, wall, pose, csv, frames, load in timed:
-        emit("assess_cluster_speedup", base_wall / wall, "x", run=name, wall_s=round(wall, 1),
-             pose_s=round(pose, 1), pose_speedup=round(base_pose / pose, 2), identical_csv=csv == base_csv,
-             session_minutes=MINUTES, workers=2, frames=frames,
-             load_average=load)  # at the end of this run
+        emit(
+            "assess_cluster_speedup",
+            base_wall / wall,
+            "x",
+            run=name,
+            wall_s=round(wall, 1),
+            pose_s=round(pose, 1),
+            pose_speedup=round(base_pose / pose, 2),
+            identical_csv=csv == base_csv,
+            session_minutes=MINUTES,
+            workers=2,
+            frames=frames,
+            load_average=load,
+        )  # at the end of this run
 
 
 if __name__ == "__main__":

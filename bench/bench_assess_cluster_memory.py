@@ -66,8 +66,9 @@ def measure(session: Path, out: Path) -> dict[str, float]:
                 figures["pose"] = next(iter(probe.run(_peak_mb).values()))
 
         t0 = time.perf_counter()
-        (outcome,) = assess_sessions([session], lc.scheduler_address, AssessOptions(out_dir=out, processes=1),
-                                     progress=watch)
+        (outcome,) = assess_sessions(
+            [session], lc.scheduler_address, AssessOptions(out_dir=out, processes=1), progress=watch
+        )
         if outcome.error is not None:
             raise outcome.error
         figures["wall_s"] = time.perf_counter() - t0
@@ -91,17 +92,40 @@ def main() -> None:
             simulate_session(session, SimulationConfig(workers=2, minutes=minutes, seed=0))
             f = runs[minutes] = measure(session, Path(tmp) / f"report_{minutes:g}")
             for phase, what in (("pose", "video work (chunk tasks)"), ("all", "whole run")):
-                emit("assess_cluster_worker_peak_rss_mb", f[phase], "MB", phase=what, session_minutes=minutes,
-                     frames=int(f["frames"]), chunks=int(f["chunks"]), rss_at_end_mb=round(f["rss_end"], 1),
-                     rss_after_first_chunk_mb=round(f["rss_first_chunk"], 1),
-                     rss_after_last_chunk_mb=round(f["rss_last_chunk"], 1),
-                     wall_s=round(f["wall_s"], 1), workers=2, cluster="local:1",
-                     load_average=[round(x, 2) for x in os.getloadavg()])
+                emit(
+                    "assess_cluster_worker_peak_rss_mb",
+                    f[phase],
+                    "MB",
+                    phase=what,
+                    session_minutes=minutes,
+                    frames=int(f["frames"]),
+                    chunks=int(f["chunks"]),
+                    rss_at_end_mb=round(f["rss_end"], 1),
+                    rss_after_first_chunk_mb=round(f["rss_first_chunk"], 1),
+                    rss_after_last_chunk_mb=round(f["rss_last_chunk"], 1),
+                    wall_s=round(f["wall_s"], 1),
+                    workers=2,
+                    cluster="local:1",
+                    load_average=[round(x, 2) for x in os.getloadavg()],
+                )
     for phase, what in (("pose", "video work (chunk tasks)"), ("all", "whole run")):
-        emit("assess_cluster_worker_memory_growth", runs[LONG][phase] / runs[SHORT][phase], "x", goal=1.0,
-             phase=what, short_minutes=SHORT, long_minutes=LONG)
-        emit("assess_cluster_worker_memory_per_session_minute", (runs[LONG][phase] - runs[SHORT][phase]) / (LONG - SHORT),
-             "MB/min", phase=what, short_minutes=SHORT, long_minutes=LONG)
+        emit(
+            "assess_cluster_worker_memory_growth",
+            runs[LONG][phase] / runs[SHORT][phase],
+            "x",
+            goal=1.0,
+            phase=what,
+            short_minutes=SHORT,
+            long_minutes=LONG,
+        )
+        emit(
+            "assess_cluster_worker_memory_per_session_minute",
+            (runs[LONG][phase] - runs[SHORT][phase]) / (LONG - SHORT),
+            "MB/min",
+            phase=what,
+            short_minutes=SHORT,
+            long_minutes=LONG,
+        )
 
 
 if __name__ == "__main__":

@@ -93,13 +93,21 @@ def main() -> None:
             out = Path(tmp) / f"report_{minutes:g}"
             me = [sys.executable, __file__]
             subprocess.run([*me, "chunks", str(out), str(minutes)], check=True)
-            done = subprocess.run([*me, "stages", str(session), str(out), str(minutes)], check=True,
-                                  capture_output=True, text=True)
+            done = subprocess.run(
+                [*me, "stages", str(session), str(out), str(minutes)], check=True, capture_output=True, text=True
+            )
             peaks[minutes] = float(done.stdout.strip().splitlines()[-1])
             emit("assess_stages_peak_rss_mb", peaks[minutes], "MB", shift_minutes=minutes, workers=2, fps=FPS)
     emit("assess_memory_growth", peaks[LONG] / peaks[SHORT], "x", goal=1.0, short_minutes=SHORT, long_minutes=LONG)
-    emit("assess_memory_per_shift_minute", (peaks[LONG] - peaks[SHORT]) / (LONG - SHORT), "MB/min",
-         short_minutes=SHORT, long_minutes=LONG, workers=2, fps=FPS)
+    emit(
+        "assess_memory_per_shift_minute",
+        (peaks[LONG] - peaks[SHORT]) / (LONG - SHORT),
+        "MB/min",
+        short_minutes=SHORT,
+        long_minutes=LONG,
+        workers=2,
+        fps=FPS,
+    )
 
 
 if __name__ == "__main__":

@@ -29,9 +29,16 @@ DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
 def lenses() -> dict[str, object]:
     out = {
         # cv2.fisheye.calibrate on opencv-fisheye-stereo-jy/left.xml (SOURCE.md), turns at 93 deg.
-        "kannala_brandt_jy_left": KannalaBrandt(558.478087865323, 560.506767351568, 620.458515360843,
-                                                381.939424848348, -0.0014613319981768, -0.00329861110580401,
-                                                0.00605760088590183, -0.00374209380722371),
+        "kannala_brandt_jy_left": KannalaBrandt(
+            558.478087865323,
+            560.506767351568,
+            620.458515360843,
+            381.939424848348,
+            -0.0014613319981768,
+            -0.00329861110580401,
+            0.00605760088590183,
+            -0.00374209380722371,
+        ),
         "kannala_brandt_paper_camera": KannalaBrandt(620.0, 620.0, 1295.5, 971.5, 0.02, -0.01, 0.003, -0.0005),
         "equidistant": Equidistant(620.0, 620.0, 1295.5, 971.5),
         "rectilinear": Rectilinear.from_fov(640, 640, math.radians(60)),

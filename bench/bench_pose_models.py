@@ -46,11 +46,24 @@ def main() -> None:
         for threads in (1, 2):
             landmarker = BlazePoseLandmarker(model=name, num_threads=threads)
             kp = landmarker(crop)
-            emit(f"pose_landmark_{name}_ms", best_time(lambda: landmarker(crop), repeat=20) * 1e3, "ms",
-                 model=landmarker.card.name, threads=threads, input="256x256", presence=round(kp.presence, 4))
+            emit(
+                f"pose_landmark_{name}_ms",
+                best_time(lambda: landmarker(crop), repeat=20) * 1e3,
+                "ms",
+                model=landmarker.card.name,
+                threads=threads,
+                input="256x256",
+                presence=round(kp.presence, 4),
+            )
             if threads == 1:
-                emit(f"pose_landmark_{name}_cpu_ms", best_cpu_time(lambda: landmarker(crop)) * 1e3, "ms",
-                     model=landmarker.card.name, threads=1, input="256x256")
+                emit(
+                    f"pose_landmark_{name}_cpu_ms",
+                    best_cpu_time(lambda: landmarker(crop)) * 1e3,
+                    "ms",
+                    model=landmarker.card.name,
+                    threads=1,
+                    input="256x256",
+                )
 
 
 if __name__ == "__main__":

@@ -66,8 +66,21 @@ def _simulate(folder: Path) -> Path:
 
     out = folder / "session"
     with contextlib.redirect_stdout(sys.stderr):
-        code = cli_main(["simulate", "--out", str(out), "--workers", "2", "--minutes", str(MINUTES),
-                         "--seed", str(SEED), "--size", "1024x768"])
+        code = cli_main(
+            [
+                "simulate",
+                "--out",
+                str(out),
+                "--workers",
+                "2",
+                "--minutes",
+                str(MINUTES),
+                "--seed",
+                str(SEED),
+                "--size",
+                "1024x768",
+            ]
+        )
     if code != 0:
         raise RuntimeError(f"ergopose simulate failed with exit code {code}")
     return out
@@ -117,10 +130,20 @@ def bench_view(session_dir: Path) -> None:
         t_cached = best_time(cached, repeat=30)
         t_map = best_time(lambda: view.build_map(), repeat=30)
         presence = landmarker(view_map.apply(frame)).presence
-        emit("pose_view_ms", t_full * 1e3, "ms", threads=threads, view="256x256", frame="1024x768",
-             cached_map_ms=round(t_cached * 1e3, 3), map_build_ms=round(t_map * 1e3, 3),
-             theta_deg=round(float(np.degrees(person.theta)), 1), presence=round(float(presence), 3),
-             goal_ms=15.0, load=_load())
+        emit(
+            "pose_view_ms",
+            t_full * 1e3,
+            "ms",
+            threads=threads,
+            view="256x256",
+            frame="1024x768",
+            cached_map_ms=round(t_cached * 1e3, 3),
+            map_build_ms=round(t_map * 1e3, 3),
+            theta_deg=round(float(np.degrees(person.theta)), 1),
+            presence=round(float(presence), 3),
+            goal_ms=15.0,
+            load=_load(),
+        )
 
 
 def _run_stage(args) -> tuple[float, int, int]:
@@ -169,9 +192,19 @@ def bench_stage(session_dir: Path) -> None:
         if best_single is None or seconds < best_single[0]:
             best_single = (seconds, pairs, found)
     seconds, pairs, found = best_single
-    emit("pose_frames_per_s", pairs / seconds, "frame pairs/s", processes=1, threads=2, frames=pairs,
-         people_per_frame=round(found / pairs / 2, 2), decode_only_pairs_per_s=round(n / decode, 1),
-         size="1024x768", goal=12.0, load=_load())
+    emit(
+        "pose_frames_per_s",
+        pairs / seconds,
+        "frame pairs/s",
+        processes=1,
+        threads=2,
+        frames=pairs,
+        people_per_frame=round(found / pairs / 2, 2),
+        decode_only_pairs_per_s=round(n / decode, 1),
+        size="1024x768",
+        goal=12.0,
+        load=_load(),
+    )
     half = n // 2
     best = None
     # Spawned, not forked: this process already runs LiteRT and OpenCV thread pools, and a fork
@@ -186,9 +219,19 @@ def bench_stage(session_dir: Path) -> None:
                 best = (wall, parts)
     wall, parts = best
     pairs = sum(p[1] for p in parts)
-    emit("pose_frames_per_s", pairs / wall, "frame pairs/s", processes=2, threads=1, frames=pairs,
-         people_per_frame=round(sum(p[2] for p in parts) / pairs / 2, 2),
-         process_seconds=[round(p[0], 2) for p in parts], size="1024x768", goal=12.0, load=_load())
+    emit(
+        "pose_frames_per_s",
+        pairs / wall,
+        "frame pairs/s",
+        processes=2,
+        threads=1,
+        frames=pairs,
+        people_per_frame=round(sum(p[2] for p in parts) / pairs / 2, 2),
+        process_seconds=[round(p[0], 2) for p in parts],
+        size="1024x768",
+        goal=12.0,
+        load=_load(),
+    )
 
 
 def _warm(_: int) -> int:
@@ -208,8 +251,23 @@ def _simulate_workers(folder: Path, workers: int, seed: int) -> Path:
 
     out = folder / f"w{workers}s{seed}"
     with contextlib.redirect_stdout(sys.stderr):
-        code = cli_main(["simulate", "--out", str(out), "--workers", str(workers), "--minutes", str(STAGE_MINUTES),
-                         "--seed", str(seed), "--size", "1024x768", "--processes", "1"])
+        code = cli_main(
+            [
+                "simulate",
+                "--out",
+                str(out),
+                "--workers",
+                str(workers),
+                "--minutes",
+                str(STAGE_MINUTES),
+                "--seed",
+                str(seed),
+                "--size",
+                "1024x768",
+                "--processes",
+                "1",
+            ]
+        )
     if code != 0:
         raise RuntimeError(f"ergopose simulate failed with exit code {code}")
     return out
@@ -258,10 +316,14 @@ def _stage_cost(camera, frames: list[np.ndarray], model: str, settings) -> dict:
         found += stage.process(frame, i).count
     cpu, wall = time.process_time() - t0, time.perf_counter() - w0
     n = len(frames)
-    return {"cpu_ms": 1e3 * cpu / n, "wall_ms": round(1e3 * wall / n, 2),
-            "detector_runs_per_frame": round(stage.detector_runs / n, 3),
-            "landmark_runs_per_frame": round(stage.landmark_runs / n, 3),
-            "people_per_frame": round(found / n, 2), "search_views": len(stage.search.views)}
+    return {
+        "cpu_ms": 1e3 * cpu / n,
+        "wall_ms": round(1e3 * wall / n, 2),
+        "detector_runs_per_frame": round(stage.detector_runs / n, 3),
+        "landmark_runs_per_frame": round(stage.landmark_runs / n, 3),
+        "people_per_frame": round(found / n, 2),
+        "search_views": len(stage.search.views),
+    }
 
 
 def bench_stage_people(folder: Path) -> None:
@@ -283,8 +345,19 @@ def bench_stage_people(folder: Path) -> None:
                 continue
             for people, frames in crowds.items():
                 r = _stage_cost(camera, frames, model, settings)
-                emit("pose_stage_frame_ms", r.pop("cpu_ms"), "ms cpu", people=people, model=model, layout=layout,
-                     frames=len(frames), size="1024x768", threads=1, **r, load=_load())
+                emit(
+                    "pose_stage_frame_ms",
+                    r.pop("cpu_ms"),
+                    "ms cpu",
+                    people=people,
+                    model=model,
+                    layout=layout,
+                    frames=len(frames),
+                    size="1024x768",
+                    threads=1,
+                    **r,
+                    load=_load(),
+                )
 
 
 def main() -> None:

@@ -54,8 +54,15 @@ def quadrant_scripts(rng: np.random.Generator, hours: float) -> list[WorkerScrip
         wp = np.c_[sx * rng.uniform(0.3, 2.6, n_way), sy * rng.uniform(0.3, 2.6, n_way)]
         trips = rng.random(n_way) < 0.15  # now and then to the middle (paths cross there)
         wp[trips] = rng.uniform(-0.6, 0.6, (trips.sum(), 2)) + 0.5 * np.array([sx, sy])
-        out.append(WorkerScript(STATURES[k], wp, pause_s=tuple(rng.uniform(2.0, 12.0, n_way)),
-                                speed_m_s=1.1 + 0.1 * k, work_phase=1.3 * k))
+        out.append(
+            WorkerScript(
+                STATURES[k],
+                wp,
+                pause_s=tuple(rng.uniform(2.0, 12.0, n_way)),
+                speed_m_s=1.1 + 0.1 * k,
+                work_phase=1.3 * k,
+            )
+        )
     return out
 
 
@@ -78,7 +85,7 @@ def stored_triangulations(truth: np.ndarray, start: int, rng: np.random.Generato
     out = rng.random(X.shape[:2]) < 0.001
     X[out] += 0.3
     order = np.lexsort((rng.random(len(f)), f))
-    var = np.broadcast_to(sigma ** 2, X.shape)
+    var = np.broadcast_to(sigma**2, X.shape)
     people = People3D.from_points(frames[f[order]], frames[f[order]] / FPS, X[order], variance_world=var)
     return people, vis
 
@@ -142,8 +149,12 @@ def track_smooth_8h(hours: float = 8.0, write: bool = True) -> None:
         from ergopose.recon.table import TracksWriter
 
         tmpdir = tempfile.TemporaryDirectory()
-        writer = TracksWriter(Path(tmpdir.name) / "tracks.parquet", fps=FPS, cameras=[c.name for c in cameras],
-                              settings=settings.as_dict())
+        writer = TracksWriter(
+            Path(tmpdir.name) / "tracks.parquet",
+            fps=FPS,
+            cameras=[c.name for c in cameras],
+            settings=settings.as_dict(),
+        )
         writer.__enter__()
     peak_people = 0
     for start in range(0, total, chunk):
@@ -178,16 +189,30 @@ def track_smooth_8h(hours: float = 8.0, write: bool = True) -> None:
         writer.write(tf)
         writer.__exit__(None, None, None)
         t_write += time.perf_counter() - t0
-    context = dict(hours=hours, frames=total, workers=4, joints=33, chunk_s=3600, worker_frame_rows=rows,
-                   identities=len(shift.tracker.identities), identity_switches=ev.switches,
-                   mpjpe_smoothed_mm=round(1000 * ev.err_sum / max(ev.err_n, 1), 2),
-                   mpjpe_raw_mm=round(1000 * ev.raw_sum / max(ev.raw_n, 1), 2),
-                   data_generation_s=round(t_gen, 1), goal_s=600 * hours / 8.0, cpu_s=round(cpu_track, 1),
-                   peak_rss_mb=_peak_rss_mb())
+    context = dict(
+        hours=hours,
+        frames=total,
+        workers=4,
+        joints=33,
+        chunk_s=3600,
+        worker_frame_rows=rows,
+        identities=len(shift.tracker.identities),
+        identity_switches=ev.switches,
+        mpjpe_smoothed_mm=round(1000 * ev.err_sum / max(ev.err_n, 1), 2),
+        mpjpe_raw_mm=round(1000 * ev.raw_sum / max(ev.raw_n, 1), 2),
+        data_generation_s=round(t_gen, 1),
+        goal_s=600 * hours / 8.0,
+        cpu_s=round(cpu_track, 1),
+        peak_rss_mb=_peak_rss_mb(),
+    )
     emit("track_smooth_8h" if hours == 8.0 else f"track_smooth_{hours:g}h", t_track, "s", **context)
     if writer is not None:
-        emit("track_smooth_8h_parquet_write" if hours == 8.0 else f"track_smooth_{hours:g}h_parquet_write", t_write,
-             "s", rows=rows * 33)
+        emit(
+            "track_smooth_8h_parquet_write" if hours == 8.0 else f"track_smooth_{hours:g}h_parquet_write",
+            t_write,
+            "s",
+            rows=rows * 33,
+        )
 
 
 def synthetic_scenario(minutes: float, seed: int = 10):
@@ -201,7 +226,7 @@ def synthetic_scenario(minutes: float, seed: int = 10):
     s = lambda a, b: slice(int(a * FPS), int(b * FPS))  # noqa: E731
     for k in range(int(minutes)):
         base = 60 * k
-        vis[s(base + 5, base + 10), 0, k % 4] = False        # behind a shelf for camera 1 (5 s)
+        vis[s(base + 5, base + 10), 0, k % 4] = False  # behind a shelf for camera 1 (5 s)
         vis[s(base + 20, base + 21), :, (k + 1) % 4] = False  # hidden from both for 1 s
         vis[s(base + 30, base + 34), :, (k + 2) % 4] = False  # hidden from both for 4 s
         if k % 3 == 1:
@@ -259,40 +284,64 @@ def recon_synthetic(minutes: float = 10.0) -> None:
         results[name] = tf
         err_filled = err_measured = float("nan")
         if tf.smoothed:
-            e = np.concatenate([np.linalg.norm(tf.worker_rows(w).points_world - gt[w], axis=-1).reshape(-1)
-                                for w in gt])
+            e = np.concatenate(
+                [np.linalg.norm(tf.worker_rows(w).points_world - gt[w], axis=-1).reshape(-1) for w in gt]
+            )
             filled = np.concatenate([tf.worker_rows(w).gap_filled.reshape(-1) for w in gt])
-            measured = np.concatenate([np.isfinite(tf.worker_rows(w).raw_points_world).all(axis=-1).reshape(-1)
-                                       for w in gt])
+            measured = np.concatenate(
+                [np.isfinite(tf.worker_rows(w).raw_points_world).all(axis=-1).reshape(-1) for w in gt]
+            )
             err_filled = round(1000 * float(np.nanmean(e[filled])), 2)
             err_measured = round(1000 * float(np.nanmean(e[measured])), 2)
-        emit(f"recon_synthetic_{minutes:g}min_{name}", 1000 * reg["all"].mean_m, "mm",
-             identity_switches_sustained_1s=D.identity_switches(tf, truth, min_frames=int(FPS)),
-             mpjpe_gap_filled_mm=err_filled, mpjpe_where_triangulated_mm=err_measured,
-             gap_filled_share=round(float(tf.gap_filled.mean()), 4),
-             identity_switches=D.identity_switches(tf, truth), workers=len(tf.workers),
-             limb_cv_major_pct=round(100 * _cv(tf, "final"), 2),
-             mpjpe_by_region_mm={k: round(1000 * v.mean_m, 1) for k, v in reg.items()},
-             points_by_region={k: v.points for k, v in reg.items()},
-             coverage=round(float(np.isfinite(tf.points_world).all(axis=-1).mean()), 4),
-             track_smooth_s=round(dt, 2))
-    emit(f"recon_synthetic_{minutes:g}min_association_triangulation", t_tri, "s", frames=n,
-         scenario_generation_s=round(t_gen, 1))
+        emit(
+            f"recon_synthetic_{minutes:g}min_{name}",
+            1000 * reg["all"].mean_m,
+            "mm",
+            identity_switches_sustained_1s=D.identity_switches(tf, truth, min_frames=int(FPS)),
+            mpjpe_gap_filled_mm=err_filled,
+            mpjpe_where_triangulated_mm=err_measured,
+            gap_filled_share=round(float(tf.gap_filled.mean()), 4),
+            identity_switches=D.identity_switches(tf, truth),
+            workers=len(tf.workers),
+            limb_cv_major_pct=round(100 * _cv(tf, "final"), 2),
+            mpjpe_by_region_mm={k: round(1000 * v.mean_m, 1) for k, v in reg.items()},
+            points_by_region={k: v.points for k, v in reg.items()},
+            coverage=round(float(np.isfinite(tf.points_world).all(axis=-1).mean()), 4),
+            track_smooth_s=round(dt, 2),
+        )
+    emit(
+        f"recon_synthetic_{minutes:g}min_association_triangulation",
+        t_tri,
+        "s",
+        frames=n,
+        scenario_generation_s=round(t_gen, 1),
+    )
     # Limb-length statistics by lens region (smoothed): the paper's figure, per worker.
     diag = D.limb_diagnostics(results["smoothed"], ReconSettings())
     raw_diag = D.limb_diagnostics(results["smoothed"], ReconSettings(), source="raw")
     for d, r in zip(diag, raw_diag):
         for limb in ("left_upper_arm", "left_forearm", "left_thigh", "left_shank", "shoulder_width"):
-            emit(f"recon_synthetic_limb_{d.worker}_{limb}", 100 * d.get(limb).cv, "% cv",
-                 raw_cv_pct=round(100 * r.get(limb).cv, 2), frequency=round(r.get(limb).frequency, 3),
-                 by_region={g: dict(cv_pct=round(100 * d.get(limb, g).cv, 2),
-                                    raw_cv_pct=round(100 * r.get(limb, g).cv, 2),
-                                    frequency=round(r.get(limb, g).frequency, 3), frames=r.get(limb, g).frames)
-                            for g in D.REGIONS})
+            emit(
+                f"recon_synthetic_limb_{d.worker}_{limb}",
+                100 * d.get(limb).cv,
+                "% cv",
+                raw_cv_pct=round(100 * r.get(limb).cv, 2),
+                frequency=round(r.get(limb).frequency, 3),
+                by_region={
+                    g: dict(
+                        cv_pct=round(100 * d.get(limb, g).cv, 2),
+                        raw_cv_pct=round(100 * r.get(limb, g).cv, 2),
+                        frequency=round(r.get(limb, g).frequency, 3),
+                        frames=r.get(limb, g).frames,
+                    )
+                    for g in D.REGIONS
+                },
+            )
 
 
-def recon_oracle(minutes: float = 10.0, size: tuple[int, int] = (2592, 1944), noise_px: float = 2.0,
-                 seed: int = 3) -> None:
+def recon_oracle(
+    minutes: float = 10.0, size: tuple[int, int] = (2592, 1944), noise_px: float = 2.0, seed: int = 3
+) -> None:
     """The simulator's scripted workers, room and visibility (no video), ORACLE 2D with
     ``noise_px`` (hidden joints reported with 6 px noise and confidence 0.1-0.4, 2 % person and
     joint dropouts): the whole reconstruction against the simulation's truth."""
@@ -335,17 +384,28 @@ def recon_oracle(minutes: float = 10.0, size: tuple[int, int] = (2592, 1944), no
         reg = D.region_errors(tf, gtw, settings)
         raw = D.region_errors(tf, gtw, settings, source="raw")
         est = sr.stature_estimates()
-        emit(f"{tag}_{name}", 1000 * reg["all"].mean_m, "mm", identity_switches=D.identity_switches(tf, truth),
-             identity_switches_sustained_1s=D.identity_switches(tf, truth, min_frames=int(gt.fps)),
-             workers=len(tf.workers), raw_mpjpe_mm=round(1000 * raw["all"].mean_m, 2),
-             mpjpe_by_region_mm={k: round(1000 * v.mean_m, 1) for k, v in reg.items()},
-             points_by_region={k: v.points for k, v in reg.items()},
-             coverage=round(float(np.isfinite(tf.points_world).all(axis=-1).mean()), 4),
-             raw_coverage=round(float(np.isfinite(tf.raw_points_world).all(axis=-1).mean()), 4),
-             limb_cv_major_pct=round(100 * _cv(tf, "final"), 2), raw_limb_cv_major_pct=round(100 * _cv(tf, "raw"), 2),
-             stature_error_cm={f"worker_{w}": round(100 * (est[f"worker_{w}"] - statures[gt.worker_ids[p]]), 1)
-                               for w, p in mapping.items()},
-             triangulation_s=round(t_tri, 2), track_smooth_s=round(dt, 2), noise_px=noise_px)
+        emit(
+            f"{tag}_{name}",
+            1000 * reg["all"].mean_m,
+            "mm",
+            identity_switches=D.identity_switches(tf, truth),
+            identity_switches_sustained_1s=D.identity_switches(tf, truth, min_frames=int(gt.fps)),
+            workers=len(tf.workers),
+            raw_mpjpe_mm=round(1000 * raw["all"].mean_m, 2),
+            mpjpe_by_region_mm={k: round(1000 * v.mean_m, 1) for k, v in reg.items()},
+            points_by_region={k: v.points for k, v in reg.items()},
+            coverage=round(float(np.isfinite(tf.points_world).all(axis=-1).mean()), 4),
+            raw_coverage=round(float(np.isfinite(tf.raw_points_world).all(axis=-1).mean()), 4),
+            limb_cv_major_pct=round(100 * _cv(tf, "final"), 2),
+            raw_limb_cv_major_pct=round(100 * _cv(tf, "raw"), 2),
+            stature_error_cm={
+                f"worker_{w}": round(100 * (est[f"worker_{w}"] - statures[gt.worker_ids[p]]), 1)
+                for w, p in mapping.items()
+            },
+            triangulation_s=round(t_tri, 2),
+            track_smooth_s=round(dt, 2),
+            noise_px=noise_px,
+        )
     emit(f"{tag}_generation", t_gen, "s", frames=n, note="motion, visibility ray casts, oracle, Detections2D")
 
 
@@ -384,13 +444,22 @@ def recon_cameras(minutes: float = 1.0, size: tuple[int, int] = (2592, 1944), se
             e[f0[r], p] = np.linalg.norm(people.points_world[r] - truth[f0[r], p], axis=-1)
         errors[len(sel)] = e
         common = np.isfinite(e) & np.isfinite(errors[2])
-        emit(f"recon_cameras_{len(sel)}", 1000 * cpu, "ms/frame", note="CPU time of association + triangulation",
-             sets=len(sets), sets_mixing_workers=int(mixed), workers_split=len(keys) - len(set(keys)),
-             detections_of_people_seen_by_2plus=int(seen[seen >= 2].sum()),
-             left_out_of_their_set=int(seen[seen >= 2].sum() - (w[sets] >= 0).sum()),
-             single_view_rows=int((people.n_cameras == 1).sum()), joints=int(np.isfinite(e).sum()),
-             raw_mpjpe_mm=round(1000 * float(np.nanmean(e)), 2),
-             raw_mpjpe_on_2camera_joints_mm=round(1000 * float(np.mean(e[common])), 2), frames=len(fr))
+        emit(
+            f"recon_cameras_{len(sel)}",
+            1000 * cpu,
+            "ms/frame",
+            note="CPU time of association + triangulation",
+            sets=len(sets),
+            sets_mixing_workers=int(mixed),
+            workers_split=len(keys) - len(set(keys)),
+            detections_of_people_seen_by_2plus=int(seen[seen >= 2].sum()),
+            left_out_of_their_set=int(seen[seen >= 2].sum() - (w[sets] >= 0).sum()),
+            single_view_rows=int((people.n_cameras == 1).sum()),
+            joints=int(np.isfinite(e).sum()),
+            raw_mpjpe_mm=round(1000 * float(np.nanmean(e)), 2),
+            raw_mpjpe_on_2camera_joints_mm=round(1000 * float(np.mean(e[common])), 2),
+            frames=len(fr),
+        )
 
 
 def recon_vs_aniposelib(seconds: float = 60.0) -> None:
@@ -412,16 +481,25 @@ def recon_vs_aniposelib(seconds: float = 60.0) -> None:
             view_px = det.pixels_view
             for k, person in enumerate(order[f][c]):
                 rays = det.world_rays()[k] @ cameras[c].rotation_world_from_cam  # world -> cam
-                px[c, f, person] = np.where(np.isfinite(view_px[k]).all(axis=-1)[:, None],
-                                            cameras[c].lens.project(rays), np.nan)
+                px[c, f, person] = np.where(
+                    np.isfinite(view_px[k]).all(axis=-1)[:, None], cameras[c].lens.project(rays), np.nan
+                )
 
     lens = cameras[0].lens
     K = np.array([[lens.fx, 0.0, lens.cx], [0.0, lens.fy, lens.cy], [0.0, 0.0, 1.0]])
-    group = CameraGroup([
-        FisheyeCamera(matrix=K, dist=np.array([lens.k1, lens.k2, lens.k3, lens.k4]), size=(cam.width, cam.height),
-                      rvec=cv2.Rodrigues(cam.rotation_world_from_cam.T)[0].ravel(),
-                      tvec=-cam.rotation_world_from_cam.T @ cam.position_world, name=cam.name)
-        for cam in cameras])
+    group = CameraGroup(
+        [
+            FisheyeCamera(
+                matrix=K,
+                dist=np.array([lens.k1, lens.k2, lens.k3, lens.k4]),
+                size=(cam.width, cam.height),
+                rvec=cv2.Rodrigues(cam.rotation_world_from_cam.T)[0].ravel(),
+                tvec=-cam.rotation_world_from_cam.T @ cam.position_world,
+                name=cam.name,
+            )
+            for cam in cameras
+        ]
+    )
 
     def err_mm(X):
         e = np.linalg.norm(X - truth, axis=-1)
@@ -433,8 +511,9 @@ def recon_vs_aniposelib(seconds: float = 60.0) -> None:
     t_tri = time.perf_counter() - t0
     # aniposelib triangulate_optim per person (temporal smoothness + limb-length constraints).
     t0 = time.perf_counter()
-    opt = np.stack([group.triangulate_optim(px[:, :, p], constraints=LIMB_INDEX.tolist(), verbose=False)
-                    for p in range(4)], axis=1)
+    opt = np.stack(
+        [group.triangulate_optim(px[:, :, p], constraints=LIMB_INDEX.tolist(), verbose=False) for p in range(4)], axis=1
+    )
     t_opt = time.perf_counter() - t0
     # ours: association + triangulation + tracking + smoothing, from the Detections2D records.
     t0 = time.perf_counter()
@@ -451,22 +530,50 @@ def recon_vs_aniposelib(seconds: float = 60.0) -> None:
         ours_raw[r.frame, p] = r.raw_points_world
     both = np.isfinite(ours).all(axis=-1) & np.isfinite(opt).all(axis=-1) & np.isfinite(tri).all(axis=-1)
     common = {}
-    for name, X in (("ours", ours), ("ours_raw", ours_raw), ("aniposelib_triangulate", tri),
-                    ("aniposelib_triangulate_optim", opt)):
+    for name, X in (
+        ("ours", ours),
+        ("ours_raw", ours_raw),
+        ("aniposelib_triangulate", tri),
+        ("aniposelib_triangulate_optim", opt),
+    ):
         common[name] = 1000 * float(np.nanmean(np.where(both, np.linalg.norm(X - truth, axis=-1), np.nan)))
-    for name, X, t in (("ours", ours, t_ours), ("ours_raw", ours_raw, None), ("aniposelib_triangulate", tri, t_tri),
-                       ("aniposelib_triangulate_optim", opt, t_opt)):
+    for name, X, t in (
+        ("ours", ours, t_ours),
+        ("ours_raw", ours_raw, None),
+        ("aniposelib_triangulate", tri, t_tri),
+        ("aniposelib_triangulate_optim", opt, t_opt),
+    ):
         e, cov = err_mm(X)
-        emit(f"recon_vs_aniposelib_{name}", e, "mm", seconds_of_video=seconds, people=4, coverage=round(cov, 4),
-             mpjpe_on_common_points_mm=round(common[name], 2), time_s=None if t is None else round(t, 3),
-             limb_cv_major_pct=round(100 * _cv_points(X), 2))
-    emit("recon_vs_aniposelib_speedup_vs_optim", t_opt / t_ours, "x", ours_s=round(t_ours, 3),
-         optim_s=round(t_opt, 3), goal=10.0)
+        emit(
+            f"recon_vs_aniposelib_{name}",
+            e,
+            "mm",
+            seconds_of_video=seconds,
+            people=4,
+            coverage=round(cov, 4),
+            mpjpe_on_common_points_mm=round(common[name], 2),
+            time_s=None if t is None else round(t, 3),
+            limb_cv_major_pct=round(100 * _cv_points(X), 2),
+        )
+    emit(
+        "recon_vs_aniposelib_speedup_vs_optim",
+        t_opt / t_ours,
+        "x",
+        ours_s=round(t_ours, 3),
+        optim_s=round(t_opt, 3),
+        goal=10.0,
+    )
     # The body model fit alone, per worker-frame, beside triangulate_optim per worker-frame (same keypoints).
     fit_ms = 1000 * sr.bodies.fit_seconds / max(sr.bodies.fitted_rows, 1)
     optim_ms = 1000 * t_opt / (n * 4)
-    emit("skeleton_fit_worker_frame_ms", fit_ms, "ms", worker_frames=sr.bodies.fitted_rows,
-         aniposelib_triangulate_optim_ms=round(optim_ms, 3), ratio_optim_to_ours=round(optim_ms / fit_ms, 2))
+    emit(
+        "skeleton_fit_worker_frame_ms",
+        fit_ms,
+        "ms",
+        worker_frames=sr.bodies.fitted_rows,
+        aniposelib_triangulate_optim_ms=round(optim_ms, 3),
+        ratio_optim_to_ours=round(optim_ms / fit_ms, 2),
+    )
 
 
 def _peak_rss_mb() -> float:

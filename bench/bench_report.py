@@ -30,8 +30,7 @@ FPS = 12.0
 
 def main() -> None:
     t0 = time.perf_counter()
-    session, workers = synthetic_session(n_workers=WORKERS, duration_s=HOURS * 3600.0, fps=FPS, seed=8,
-                                          gaps=False)
+    session, workers = synthetic_session(n_workers=WORKERS, duration_s=HOURS * 3600.0, fps=FPS, seed=8, gaps=False)
     frames = len(workers[0][2])
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "shift"
@@ -45,9 +44,20 @@ def main() -> None:
             sizes.update(files.sizes)
 
         seconds = best_time(run, repeat=3, warmup=1)
-    emit("report_8h_4workers", seconds, "s", goal_s=10.0, workers=WORKERS, hours=HOURS, fps=FPS,
-         frames_session=int(HOURS * 3600 * FPS), frames_per_worker=frames, results_mb=round(results_mb, 2),
-         max_page_mb=round(max(sizes.values()) / 1e6, 3), prepare_s=round(prepare, 2))
+    emit(
+        "report_8h_4workers",
+        seconds,
+        "s",
+        goal_s=10.0,
+        workers=WORKERS,
+        hours=HOURS,
+        fps=FPS,
+        frames_session=int(HOURS * 3600 * FPS),
+        frames_per_worker=frames,
+        results_mb=round(results_mb, 2),
+        max_page_mb=round(max(sizes.values()) / 1e6, 3),
+        prepare_s=round(prepare, 2),
+    )
     for name, size in sorted(sizes.items()):
         emit("report_8h_4workers_page_size", size / 1e6, "MB", page=name, goal_mb=3.0)
 

@@ -31,15 +31,26 @@ from ergopose.ergonomics.scoring import score_posture  # noqa: E402
 FPS = 12.0
 # angle column -> (centre, swing) in degrees
 JOINTS = {
-    "trunk_flexion": (20, 25), "trunk_side_bend": (0, 10), "trunk_twist": (0, 12),
-    "neck_flexion": (12, 15), "neck_side_bend": (0, 8), "neck_twist": (0, 15),
-    "left_upper_arm_flexion": (40, 45), "right_upper_arm_flexion": (35, 45),
-    "left_upper_arm_abduction": (20, 15), "right_upper_arm_abduction": (20, 15),
-    "left_elbow_flexion": (80, 40), "right_elbow_flexion": (80, 40),
-    "left_wrist_flexion": (0, 25), "right_wrist_flexion": (0, 25),
-    "left_knee_flexion": (15, 20), "right_knee_flexion": (15, 20),
-    "left_shoulder_elevation": (5, 8), "right_shoulder_elevation": (5, 8),
-    "left_wrist_deviation": (0, 12), "right_wrist_deviation": (0, 12),
+    "trunk_flexion": (20, 25),
+    "trunk_side_bend": (0, 10),
+    "trunk_twist": (0, 12),
+    "neck_flexion": (12, 15),
+    "neck_side_bend": (0, 8),
+    "neck_twist": (0, 15),
+    "left_upper_arm_flexion": (40, 45),
+    "right_upper_arm_flexion": (35, 45),
+    "left_upper_arm_abduction": (20, 15),
+    "right_upper_arm_abduction": (20, 15),
+    "left_elbow_flexion": (80, 40),
+    "right_elbow_flexion": (80, 40),
+    "left_wrist_flexion": (0, 25),
+    "right_wrist_flexion": (0, 25),
+    "left_knee_flexion": (15, 20),
+    "right_knee_flexion": (15, 20),
+    "left_shoulder_elevation": (5, 8),
+    "right_shoulder_elevation": (5, 8),
+    "left_wrist_deviation": (0, 12),
+    "right_wrist_deviation": (0, 12),
 }
 
 
@@ -54,7 +65,7 @@ def posture_table(n: int, rng: np.random.Generator, start_s: float = 0.0) -> pd.
         drift *= 0.5 * swing / (np.std(drift) + 1e-9)
         deg = centre + 0.5 * swing * np.sin(2 * np.pi * f1 * t) + 0.3 * swing * np.sin(2 * np.pi * f2 * t + 1) + drift
         deg = np.clip(deg, -170.0, 170.0)
-        deg[rng.random(n) < 0.01] = np.nan   # 1 % of joints not measured
+        deg[rng.random(n) < 0.01] = np.nan  # 1 % of joints not measured
         cols[name] = np.deg2rad(deg)
     frame = pd.DataFrame(cols)
     frame["load_kg"] = np.where(rng.random(n) < 0.2, 8.0, 1.0)
@@ -83,8 +94,17 @@ def main() -> None:
     load = os.getloadavg()[0]
     t_score = best_time(lambda: score_posture(table, ("rula", "reba")), repeat=3)
     cpu_score = best_cpu_time(lambda: score_posture(table, ("rula", "reba")))
-    emit("score_1M_frames", t_score, "s", goal_s=2.0, frames=n, methods="rula+reba",
-         per_frame_us=t_score / n * 1e6, cpu_s=cpu_score, load_average=load)
+    emit(
+        "score_1M_frames",
+        t_score,
+        "s",
+        goal_s=2.0,
+        frames=n,
+        methods="rula+reba",
+        per_frame_us=t_score / n * 1e6,
+        cpu_s=cpu_score,
+        load_average=load,
+    )
 
     per_worker = int(8 * 3600 * FPS)
     parts = []
@@ -98,8 +118,18 @@ def main() -> None:
     load = os.getloadavg()[0]
     t_agg = best_time(lambda: aggregate_session(shift), repeat=3)
     cpu_agg = best_cpu_time(lambda: aggregate_session(shift))
-    emit("aggregate_8h_shift", t_agg, "s", goal_s=5.0, workers=4, hours=8, fps=FPS, frames=len(shift),
-         cpu_s=cpu_agg, load_average=load)
+    emit(
+        "aggregate_8h_shift",
+        t_agg,
+        "s",
+        goal_s=5.0,
+        workers=4,
+        hours=8,
+        fps=FPS,
+        frames=len(shift),
+        cpu_s=cpu_agg,
+        load_average=load,
+    )
 
 
 if __name__ == "__main__":

@@ -56,17 +56,33 @@ def bench_render_fps() -> None:
     fps = motion.n_frames / elapsed
     cpu_ms = cpu * 1e3 / motion.n_frames
     # Other jobs on the machine slow the wall clock; the CPU time per frame pair does not depend on them.
-    emit("simulate_render_fps", fps, "frame_pairs/s", goal=20.0, size=f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]}",
-         workers=WORKERS, frames=motion.n_frames, processes="one per camera",
-         includes="render + mp4v encoding + joint visibility, both cameras (process start included)",
-         five_minute_session_s=round(3600 / fps, 1), video_mb_per_minute=round(size_mb * 60.0 / SECONDS, 1),
-         cpu_ms_per_frame_pair=round(cpu_ms, 2), idle_two_core_estimate_fps=round(2000.0 / cpu_ms, 1),
-         load_average_1min=round(os.getloadavg()[0], 2))
+    emit(
+        "simulate_render_fps",
+        fps,
+        "frame_pairs/s",
+        goal=20.0,
+        size=f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]}",
+        workers=WORKERS,
+        frames=motion.n_frames,
+        processes="one per camera",
+        includes="render + mp4v encoding + joint visibility, both cameras (process start included)",
+        five_minute_session_s=round(3600 / fps, 1),
+        video_mb_per_minute=round(size_mb * 60.0 / SECONDS, 1),
+        cpu_ms_per_frame_pair=round(cpu_ms, 2),
+        idle_two_core_estimate_fps=round(2000.0 / cpu_ms, 1),
+        load_average_1min=round(os.getloadavg()[0], 2),
+    )
     r = CameraRenderer(cams[0], scene, bodies, RenderOptions())
     frames = iter(range(10_000_000))
     t = best_time(lambda: r.render(next(frames) % motion.n_frames), repeat=5, number=40)
-    emit("sim_render_frame_ms", t * 1e3, "ms", size=f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]}", workers=WORKERS,
-         camera=cams[0].name)
+    emit(
+        "sim_render_frame_ms",
+        t * 1e3,
+        "ms",
+        size=f"{DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]}",
+        workers=WORKERS,
+        camera=cams[0].name,
+    )
 
 
 def _cpu_seconds() -> float:
@@ -130,10 +146,16 @@ def bench_blazepose_found() -> None:
                     extents.append(float(np.max(seen.max(axis=0) - seen.min(axis=0))))
         found = sum(c[0] for c in counts.values())
         total = sum(c[1] for c in counts.values())
-        emit("sim_blazepose_found", found / max(total, 1), "fraction", size=f"{size[0]}x{size[1]}",
-             people=total, per_region={k: f"{v[0]}/{v[1]}" for k, v in counts.items()},
-             median_person_extent_px=round(float(np.median(extents)), 1),
-             rule="presence >= 0.5 and hip centre within 0.5 torso lengths; view aimed at the true hips")
+        emit(
+            "sim_blazepose_found",
+            found / max(total, 1),
+            "fraction",
+            size=f"{size[0]}x{size[1]}",
+            people=total,
+            per_region={k: f"{v[0]}/{v[1]}" for k, v in counts.items()},
+            median_person_extent_px=round(float(np.median(extents)), 1),
+            rule="presence >= 0.5 and hip centre within 0.5 torso lengths; view aimed at the true hips",
+        )
 
 
 def main() -> None:

@@ -104,13 +104,32 @@ def triangulate_18x2() -> None:
     }
     errors = {k: 1000 * float(np.mean(np.linalg.norm(v - people, axis=-1))) for k, v in errors.items()}
     context = {"joints": 18, "views": 2, "view": f"{VIEW_SIZE}x{VIEW_SIZE} 60deg", "noise_px": 1.0}
-    emit("triangulate_18x2", times["normal"] * 1e3, "ms", goal_ms=0.1, paper_ms=10.0,
-         solver="normal (closed-form 3x3, rows normalised)", mean_error_mm=errors["normal"], **context)
-    emit("triangulate_18x2_svd", times["svd"] * 1e3, "ms", solver="svd (eigh of 4x4 A^T A)",
-         mean_error_mm=errors["svd"], **context)
-    emit("triangulate_18x2_linalg_svd", times["linalg_svd"] * 1e3, "ms",
-         solver="np.linalg.svd of raw A, no residuals/NaN handling", mean_error_mm=errors["linalg_svd"],
-         **context)
+    emit(
+        "triangulate_18x2",
+        times["normal"] * 1e3,
+        "ms",
+        goal_ms=0.1,
+        paper_ms=10.0,
+        solver="normal (closed-form 3x3, rows normalised)",
+        mean_error_mm=errors["normal"],
+        **context,
+    )
+    emit(
+        "triangulate_18x2_svd",
+        times["svd"] * 1e3,
+        "ms",
+        solver="svd (eigh of 4x4 A^T A)",
+        mean_error_mm=errors["svd"],
+        **context,
+    )
+    emit(
+        "triangulate_18x2_linalg_svd",
+        times["linalg_svd"] * 1e3,
+        "ms",
+        solver="np.linalg.svd of raw A, no residuals/NaN handling",
+        mean_error_mm=errors["linalg_svd"],
+        **context,
+    )
 
 
 def triangulate_batch() -> None:
@@ -120,8 +139,15 @@ def triangulate_batch() -> None:
     P = views_aimed_at(np.array([0.5, 0.5, 1.0]))
     pixels = reproject(P, X)  # (frames, 2, 33, 2)
     t = best_time(lambda: triangulate_dlt(P, pixels), repeat=3)
-    emit("triangulate_batch_per_point_us", t / (frames * joints) * 1e6, "us", frames=frames, joints=joints,
-         views=2, total_s=t)
+    emit(
+        "triangulate_batch_per_point_us",
+        t / (frames * joints) * 1e6,
+        "us",
+        frames=frames,
+        joints=joints,
+        views=2,
+        total_s=t,
+    )
 
 
 #: Kannala-Brandt coefficients of a real fisheye: D1 of OpenCV's JY stereo calibration test
@@ -160,8 +186,16 @@ def triangulate_vs_aniposelib() -> None:
     from ergopose.geometry.camera import ceiling_camera
     from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 
-    lens = KannalaBrandt(fx=620.0, fy=620.0, cx=(FISHEYE_W - 1) / 2, cy=(FISHEYE_H - 1) / 2,
-                         k1=JY_D1[0], k2=JY_D1[1], k3=JY_D1[2], k4=JY_D1[3])
+    lens = KannalaBrandt(
+        fx=620.0,
+        fy=620.0,
+        cx=(FISHEYE_W - 1) / 2,
+        cy=(FISHEYE_H - 1) / 2,
+        k1=JY_D1[0],
+        k2=JY_D1[1],
+        k3=JY_D1[2],
+        k4=JY_D1[3],
+    )
     cameras = [ceiling_camera(f"cam_{i + 1}", lens, FISHEYE_W, FISHEYE_H, c) for i, c in enumerate(CENTRES)]
     rng = np.random.default_rng(85)
     people, joints = 300, 33
@@ -175,12 +209,21 @@ def triangulate_vs_aniposelib() -> None:
 
     # aniposelib: world -> camera rvec/tvec, K and D as in cv2.fisheye.
     import cv2
+
     K_fish = np.array([[lens.fx, 0.0, lens.cx], [0.0, lens.fy, lens.cy], [0.0, 0.0, 1.0]])
-    group = CameraGroup([
-        FisheyeCamera(matrix=K_fish, dist=np.array(JY_D1), size=(FISHEYE_W, FISHEYE_H),
-                      rvec=cv2.Rodrigues(cam.rotation_world_from_cam.T)[0].ravel(),
-                      tvec=-cam.rotation_world_from_cam.T @ cam.position_world, name=cam.name)
-        for cam in cameras])
+    group = CameraGroup(
+        [
+            FisheyeCamera(
+                matrix=K_fish,
+                dist=np.array(JY_D1),
+                size=(FISHEYE_W, FISHEYE_H),
+                rvec=cv2.Rodrigues(cam.rotation_world_from_cam.T)[0].ravel(),
+                tvec=-cam.rotation_world_from_cam.T @ cam.position_world,
+                name=cam.name,
+            )
+            for cam in cameras
+        ]
+    )
     points_2d = np.ascontiguousarray(pixels[:, keep])  # (2, N, 2)
 
     def anipose() -> np.ndarray:
@@ -205,15 +248,27 @@ def triangulate_vs_aniposelib() -> None:
     err_anipose = 1000 * np.linalg.norm(anipose() - truth[keep], axis=-1)
     err_ours = 1000 * np.linalg.norm(ours()[keep] - truth[keep], axis=-1)
     n = int(keep.sum())
-    emit("triangulate_vs_aniposelib", t_anipose / t_ours, "x", goal_x=5.0,
-         points=n, points_left_out=int(keep.size - n), noise_px=1.0, max_theta_deg=MAX_THETA_DEG,
-         ours_ms=t_ours * 1e3, aniposelib_ms=t_anipose * 1e3,
-         ours_us_per_point=t_ours / n * 1e6, aniposelib_us_per_point=t_anipose / n * 1e6,
-         ours_mean_error_mm=float(np.mean(err_ours)), aniposelib_mean_error_mm=float(np.mean(err_anipose)),
-         ours_median_error_mm=float(np.median(err_ours)),
-         aniposelib_median_error_mm=float(np.median(err_anipose)),
-         ours_nan=int(np.isnan(err_ours).sum()), aniposelib_nan=int(np.isnan(err_anipose).sum()),
-         aniposelib_version=_version("aniposelib"))
+    emit(
+        "triangulate_vs_aniposelib",
+        t_anipose / t_ours,
+        "x",
+        goal_x=5.0,
+        points=n,
+        points_left_out=int(keep.size - n),
+        noise_px=1.0,
+        max_theta_deg=MAX_THETA_DEG,
+        ours_ms=t_ours * 1e3,
+        aniposelib_ms=t_anipose * 1e3,
+        ours_us_per_point=t_ours / n * 1e6,
+        aniposelib_us_per_point=t_anipose / n * 1e6,
+        ours_mean_error_mm=float(np.mean(err_ours)),
+        aniposelib_mean_error_mm=float(np.mean(err_anipose)),
+        ours_median_error_mm=float(np.median(err_ours)),
+        aniposelib_median_error_mm=float(np.median(err_anipose)),
+        ours_nan=int(np.isnan(err_ours).sum()),
+        aniposelib_nan=int(np.isnan(err_anipose).sum()),
+        aniposelib_version=_version("aniposelib"),
+    )
 
 
 def _version(package: str) -> str:

@@ -39,8 +39,14 @@ def main() -> None:
         out = np.empty((size, size, 3), np.uint8)
         t_apply = best_time(lambda: view_map.apply(fisheye, out=out), repeat=50, number=5)
         context = {"source": f"{W}x{H} Kannala-Brandt", "view": f"{size}x{size}", "threads": cv2.getNumThreads()}
-        emit(f"view_map_build_{size}", t_build * 1e3, "ms", goal_ms=10.0 if size == 640 else 3.0,
-             paper_view_generation_ms=100.0 if size == 640 else 20.0, **context)
+        emit(
+            f"view_map_build_{size}",
+            t_build * 1e3,
+            "ms",
+            goal_ms=10.0 if size == 640 else 3.0,
+            paper_view_generation_ms=100.0 if size == 640 else 20.0,
+            **context,
+        )
         emit(f"view_remap_{size}", t_apply * 1e3, "ms", goal_ms=1.0 if size == 640 else 0.3, **context)
 
 

@@ -121,7 +121,7 @@ def clean_up(folder: str | os.PathLike) -> list[Path]:
             continue  # inside a folder removed a moment ago
         name = path.name
         if name.endswith(".old") and path.is_dir():
-            final = path.with_name(name[1:-len(".old")])
+            final = path.with_name(name[1 : -len(".old")])
             if not final.exists():
                 os.replace(path, final)
                 continue

@@ -68,8 +68,10 @@ def output_error(exc: OSError) -> OutputError | None:
         return None
     where = exc.filename
     if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-        advice = ("make room (or give another folder with --out) and run the same command again: "
-                  "the finished pieces are kept and the run continues where it stopped")
+        advice = (
+            "make room (or give another folder with --out) and run the same command again: "
+            "the finished pieces are kept and the run continues where it stopped"
+        )
     else:
         advice = "give a folder you can write to with --out"
     return OutputError(f"cannot write ({what}); {advice}", path=where)

@@ -12,35 +12,67 @@ import numpy as np
 
 BLAZEPOSE33: tuple[str, ...] = (
     "nose",
-    "left_eye_inner", "left_eye", "left_eye_outer",
-    "right_eye_inner", "right_eye", "right_eye_outer",
-    "left_ear", "right_ear",
-    "mouth_left", "mouth_right",
-    "left_shoulder", "right_shoulder",
-    "left_elbow", "right_elbow",
-    "left_wrist", "right_wrist",
-    "left_pinky", "right_pinky",
-    "left_index", "right_index",
-    "left_thumb", "right_thumb",
-    "left_hip", "right_hip",
-    "left_knee", "right_knee",
-    "left_ankle", "right_ankle",
-    "left_heel", "right_heel",
-    "left_foot_index", "right_foot_index",
+    "left_eye_inner",
+    "left_eye",
+    "left_eye_outer",
+    "right_eye_inner",
+    "right_eye",
+    "right_eye_outer",
+    "left_ear",
+    "right_ear",
+    "mouth_left",
+    "mouth_right",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+    "left_pinky",
+    "right_pinky",
+    "left_index",
+    "right_index",
+    "left_thumb",
+    "right_thumb",
+    "left_hip",
+    "right_hip",
+    "left_knee",
+    "right_knee",
+    "left_ankle",
+    "right_ankle",
+    "left_heel",
+    "right_heel",
+    "left_foot_index",
+    "right_foot_index",
 )
 NUM_JOINTS = len(BLAZEPOSE33)
 JOINT_INDEX: dict[str, int] = {name: i for i, name in enumerate(BLAZEPOSE33)}
 #: Each keypoint's mirror partner (left <-> right, mouth_left <-> mouth_right); the nose is its
 #: own. ``keypoints[..., MIRROR, :]`` is the same skeleton with its left and right exchanged.
-MIRROR = np.array([JOINT_INDEX[n.replace("left", "#").replace("right", "left").replace("#", "right")]
-                   for n in BLAZEPOSE33], dtype=np.int64)
+MIRROR = np.array(
+    [JOINT_INDEX[n.replace("left", "#").replace("right", "left").replace("#", "right")] for n in BLAZEPOSE33],
+    dtype=np.int64,
+)
 
 #: COCO's 17 keypoints in COCO order; each is also a BlazePose landmark of the same name.
 COCO17: tuple[str, ...] = (
-    "nose", "left_eye", "right_eye", "left_ear", "right_ear",
-    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
-    "left_wrist", "right_wrist", "left_hip", "right_hip",
-    "left_knee", "right_knee", "left_ankle", "right_ankle",
+    "nose",
+    "left_eye",
+    "right_eye",
+    "left_ear",
+    "right_ear",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+    "left_hip",
+    "right_hip",
+    "left_knee",
+    "right_knee",
+    "left_ankle",
+    "right_ankle",
 )
 #: For each COCO keypoint (in COCO order), its index in BLAZEPOSE33.
 COCO17_TO_BLAZEPOSE33 = np.array([JOINT_INDEX[n] for n in COCO17], dtype=np.int64)

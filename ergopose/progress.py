@@ -37,8 +37,14 @@ def no_progress(event: ProgressEvent) -> None:
     """The default callback: ignore every event."""
 
 
-def report(progress: ProgressCallback | None, stage: str, done: int, total: int | None = None,
-           unit: str = "item", message: str = "") -> None:
+def report(
+    progress: ProgressCallback | None,
+    stage: str,
+    done: int,
+    total: int | None = None,
+    unit: str = "item",
+    message: str = "",
+) -> None:
     """Send one event if a callback was given."""
     if progress is not None:
         progress(ProgressEvent(stage=stage, done=done, total=total, unit=unit, message=message))

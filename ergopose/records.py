@@ -75,12 +75,15 @@ class Detections2D:
             conf = np.array(self.confidence, dtype=np.float64).reshape(-1, NUM_JOINTS)
             P = np.array(self.projection, dtype=np.float64).reshape(-1, 3, 4)
         except (TypeError, ValueError) as exc:
-            raise InputError(f"expected pixels_view (N, 33, 2), confidence (N, 33), projection (N, 3, 4): {exc}",
-                             field=where) from None
+            raise InputError(
+                f"expected pixels_view (N, 33, 2), confidence (N, 33), projection (N, 3, 4): {exc}", field=where
+            ) from None
         n = px.shape[0]
         if conf.shape[0] != n or P.shape[0] != n:
-            raise InputError(f"{n} people in pixels_view but {conf.shape[0]} in confidence and "
-                             f"{P.shape[0]} projection matrices", field=where)
+            raise InputError(
+                f"{n} people in pixels_view but {conf.shape[0]} in confidence and {P.shape[0]} projection matrices",
+                field=where,
+            )
         if not np.all(np.isfinite(P)):
             raise InputError("projection matrices must be finite", field=where)
         conf = np.where(np.isfinite(conf), conf, 0.0)
@@ -101,8 +104,11 @@ class Detections2D:
             rays = rays / np.linalg.norm(rays, axis=-1, keepdims=True)
             rays[~seen] = np.nan
             object.__setattr__(self, "rays_world", _readonly(rays))
-        look = np.full((n, APPEARANCE_DIMS), np.nan) if self.appearance is None else \
-            np.array(self.appearance, dtype=np.float64)
+        look = (
+            np.full((n, APPEARANCE_DIMS), np.nan)
+            if self.appearance is None
+            else np.array(self.appearance, dtype=np.float64)
+        )
         if look.shape != (n, APPEARANCE_DIMS):
             raise InputError(f"appearance must have shape ({n}, {APPEARANCE_DIMS}), got {look.shape}", field=where)
         object.__setattr__(self, "appearance", _readonly(look))
@@ -145,21 +151,29 @@ class Detections2D:
         flip = people[:, None]
         px = np.where(flip[..., None], self.pixels_view[:, MIRROR], self.pixels_view)
         conf = np.where(flip, self.confidence[:, MIRROR], self.confidence)
-        rays = None if self.rays_world is None else \
-            np.where(flip[..., None], self.rays_world[:, MIRROR], self.rays_world)
+        rays = (
+            None if self.rays_world is None else np.where(flip[..., None], self.rays_world[:, MIRROR], self.rays_world)
+        )
         return Detections2D(self.camera, self.frame, self.time_s, px, conf, self.projection, rays, self.appearance)
 
     @classmethod
     def empty(cls, camera: str, frame: int, time_s: float) -> "Detections2D":
         """No people in this camera's frame."""
-        return cls(camera, frame, time_s, np.zeros((0, NUM_JOINTS, 2)), np.zeros((0, NUM_JOINTS)),
-                   np.zeros((0, 3, 4)))
+        return cls(camera, frame, time_s, np.zeros((0, NUM_JOINTS, 2)), np.zeros((0, NUM_JOINTS)), np.zeros((0, 3, 4)))
 
 
-def detections_from_fisheye(camera: Camera, frame: int, time_s: float, pixels_fisheye: ArrayLike,
-                            confidence: ArrayLike, *,
-                            view_size: tuple[int, int] = (256, 256), margin_deg: float = 8.0,
-                            min_fov_deg: float = 20.0, max_fov_deg: float = 150.0) -> Detections2D:
+def detections_from_fisheye(
+    camera: Camera,
+    frame: int,
+    time_s: float,
+    pixels_fisheye: ArrayLike,
+    confidence: ArrayLike,
+    *,
+    view_size: tuple[int, int] = (256, 256),
+    margin_deg: float = 8.0,
+    min_fov_deg: float = 20.0,
+    max_fov_deg: float = 150.0,
+) -> Detections2D:
     """Detections2D from keypoints in fisheye pixels (e.g. the simulator's oracle).
 
     camera: the :class:`ergopose.geometry.camera.Camera` that took the frame.
@@ -176,8 +190,10 @@ def detections_from_fisheye(camera: Camera, frame: int, time_s: float, pixels_fi
     px = np.asarray(pixels_fisheye, dtype=np.float64).reshape(-1, NUM_JOINTS, 2)
     conf = np.nan_to_num(np.asarray(confidence, dtype=np.float64).reshape(-1, NUM_JOINTS))
     if conf.shape[0] != px.shape[0]:
-        raise InputError(f"{px.shape[0]} people in pixels but {conf.shape[0]} in confidence",
-                         field=f"detections[{camera.name!r}, frame {frame}]")
+        raise InputError(
+            f"{px.shape[0]} people in pixels but {conf.shape[0]} in confidence",
+            field=f"detections[{camera.name!r}, frame {frame}]",
+        )
     rays_cam = camera.lens.unproject(px)  # (N, 33, 3) unit rays, NaN where not representable
     seen = np.isfinite(rays_cam).all(axis=-1) & (conf > 0)
     keep = seen.any(axis=1)
@@ -203,8 +219,13 @@ def detections_from_fisheye(camera: Camera, frame: int, time_s: float, pixels_fi
     with np.errstate(invalid="ignore", divide="ignore"):
         z = rays_view[..., 2]
         ok = seen & (z > 0)
-        pv = np.stack([f[:, None] * rays_view[..., 0] / z + K[:, None, 0, 2],
-                       f[:, None] * rays_view[..., 1] / z + K[:, None, 1, 2]], axis=-1)
+        pv = np.stack(
+            [
+                f[:, None] * rays_view[..., 0] / z + K[:, None, 0, 2],
+                f[:, None] * rays_view[..., 1] / z + K[:, None, 1, 2],
+            ],
+            axis=-1,
+        )
     pv = np.where(ok[..., None], pv, np.nan)
     R_wc = np.asarray(camera.rotation_world_from_cam, dtype=np.float64)
     c = np.asarray(camera.position_world, dtype=np.float64)

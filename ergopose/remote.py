@@ -55,8 +55,9 @@ def _filesystem(url: str) -> tuple[Any, str]:
     try:
         import fsspec  # deferred: the optional extra "cluster", needed only for videos given as URLs
     except ImportError:
-        raise InputError("reading videos from URLs needs fsspec: install ergopose with the extra 'cluster'",
-                         path=url) from None
+        raise InputError(
+            "reading videos from URLs needs fsspec: install ergopose with the extra 'cluster'", path=url
+        ) from None
     try:
         return fsspec.core.url_to_fs(url)
     except (ImportError, ValueError) as exc:  # unknown protocol, or its package missing (s3fs for s3://)
@@ -91,8 +92,9 @@ def fetch(url: str, dest: str | os.PathLike | None = None, *, size: int | None =
     (a worker is given the client's): another size now is an InputError (the video changed)."""
     actual = remote_size(url)
     if size is not None and actual != int(size):
-        raise InputError(f"the video changed during the run (now {actual} bytes, {int(size)} when the run started)",
-                         path=url)
+        raise InputError(
+            f"the video changed during the run (now {actual} bytes, {int(size)} when the run started)", path=url
+        )
     target = Path(dest) if dest is not None else cached_path(url, actual)
     if target.is_file() and target.stat().st_size == actual:
         return target

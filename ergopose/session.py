@@ -129,8 +129,9 @@ class TaskFactors:
 
     def over(self, base: "TaskFactors") -> "TaskFactors":
         """These factors where given, ``base``'s elsewhere."""
-        return TaskFactors(**{f: (getattr(self, f) if getattr(self, f) is not None else getattr(base, f))
-                              for f in FACTOR_NAMES})
+        return TaskFactors(
+            **{f: (getattr(self, f) if getattr(self, f) is not None else getattr(base, f)) for f in FACTOR_NAMES}
+        )
 
     def given(self) -> dict[str, Any]:
         """The factors that are given, by field name (angles in radians)."""
@@ -138,8 +139,10 @@ class TaskFactors:
 
     def settings_values(self) -> dict[str, Any]:
         """The factors that are given, as settings.toml has them (keys and degrees)."""
-        return {ANGLE_FACTORS.get(f, f): (round(math.degrees(v), 9) if f in ANGLE_FACTORS else v)
-                for f, v in self.given().items()}
+        return {
+            ANGLE_FACTORS.get(f, f): (round(math.degrees(v), 9) if f in ANGLE_FACTORS else v)
+            for f, v in self.given().items()
+        }
 
 
 @dataclass(frozen=True)
@@ -332,10 +335,14 @@ class Session:
                 v = getattr(f, name)
                 if v is not None:
                     cats[name][mask] = v
-        frame = pd.DataFrame({"load_kg": load,
-                              "load_mode": pd.array(cats["load_mode"], dtype="string"),
-                              "coupling": pd.array(cats["coupling"], dtype="string"),
-                              **flags})
+        frame = pd.DataFrame(
+            {
+                "load_kg": load,
+                "load_mode": pd.array(cats["load_mode"], dtype="string"),
+                "coupling": pd.array(cats["coupling"], dtype="string"),
+                **flags,
+            }
+        )
         return frame
 
     def task_angles(self, worker_id: str, times_s: Sequence[float] | np.ndarray) -> pd.DataFrame:
@@ -381,8 +388,11 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
         name, url = entry.name, entry.video if remote.is_url(entry.video) else None
         vpath = remote.fetch(url) if url else root / entry.video  # a URL: read from this machine's copy
         if name not in calibrated:
-            raise ConfigError(f"camera {name!r} is not in {calibration_path.name} (it has "
-                              f"{', '.join(map(repr, calibrated))})", path=settings_path, field=f"cameras[{i}].name")
+            raise ConfigError(
+                f"camera {name!r} is not in {calibration_path.name} (it has {', '.join(map(repr, calibrated))})",
+                path=settings_path,
+                field=f"cameras[{i}].name",
+            )
         cam = calibrated[name]
         try:
             count, fps_video, size = probe_video(vpath, full=check_videos)
@@ -391,57 +401,93 @@ def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Sessi
                 raise
             raise InputError(str(exc).removeprefix(f"{exc.path}: "), path=url) from None  # name the URL, not the copy
         if size != (cam.width, cam.height):
-            raise ConfigError(f"camera {name!r} is calibrated for {cam.width} x {cam.height} pixels but its video "
-                              f"{vpath.name} is {size[0]} x {size[1]}", path=calibration_path,
-                              field=f"cameras[{list(calibrated).index(name)}].width")
-        session_cams.append(SessionCamera(camera=cam, video_path=vpath, frame_count=count, video_fps=fps_video,
-                                          video_url=url))
+            raise ConfigError(
+                f"camera {name!r} is calibrated for {cam.width} x {cam.height} pixels but its video "
+                f"{vpath.name} is {size[0]} x {size[1]}",
+                path=calibration_path,
+                field=f"cameras[{list(calibrated).index(name)}].width",
+            )
+        session_cams.append(
+            SessionCamera(camera=cam, video_path=vpath, frame_count=count, video_fps=fps_video, video_url=url)
+        )
     counts = [c.frame_count for c in session_cams]
     if len(set(counts)) > 1:
         listing = ", ".join(f"{c.video_path.name}: {c.frame_count}" for c in session_cams)
-        raise InputError(f"the videos have different numbers of frames ({listing}); the cameras must be "
-                         "recorded in sync, frame for frame", path=root)
+        raise InputError(
+            f"the videos have different numbers of frames ({listing}); the cameras must be "
+            "recorded in sync, frame for frame",
+            path=root,
+        )
     fps = model.fps
     for c in session_cams:
         if not (c.video_fps > 0 and math.isfinite(c.video_fps)):
             if fps is None:
-                raise InputError("the video does not state its frame rate; give fps in settings.toml",
-                                 path=c.video_path)
+                raise InputError(
+                    "the video does not state its frame rate; give fps in settings.toml", path=c.video_path
+                )
             continue
         if fps is None:
             fps = c.video_fps
         elif abs(c.video_fps - fps) > FPS_TOLERANCE * fps:
-            raise ConfigError(f"fps = {fps:g} but {c.video_path.name} plays at {c.video_fps:g} frames per second",
-                              path=settings_path, field="fps")
+            raise ConfigError(
+                f"fps = {fps:g} but {c.video_path.name} plays at {c.video_fps:g} frames per second",
+                path=settings_path,
+                field="fps",
+            )
     assert fps is not None
     times = _Times(settings_path, recorded_at, counts[0] / fps)
-    workers = tuple(WorkerInfo(worker_id=wid, name=w.name, factors=task_factors(w),
-                               periods=times.periods(w.periods, f"workers.{wid}.periods"), stature_m=w.stature_m)
-                    for wid, w in model.workers.items())
+    workers = tuple(
+        WorkerInfo(
+            worker_id=wid,
+            name=w.name,
+            factors=task_factors(w),
+            periods=times.periods(w.periods, f"workers.{wid}.periods"),
+            stature_m=w.stature_m,
+        )
+        for wid, w in model.workers.items()
+    )
     check = None
     if model.calibration_check is not None:
-        check = CalibrationCheck(observations_path=root / model.calibration_check.observations,
-                                 length_m=model.calibration_check.length_m)
+        check = CalibrationCheck(
+            observations_path=root / model.calibration_check.observations, length_m=model.calibration_check.length_m
+        )
         if not check.observations_path.is_file():
-            raise ConfigError(f"the file {model.calibration_check.observations!r} does not exist in the session "
-                              "folder", path=settings_path, field="calibration_check.observations")
+            raise ConfigError(
+                f"the file {model.calibration_check.observations!r} does not exist in the session folder",
+                path=settings_path,
+                field="calibration_check.observations",
+            )
     gt = root / GROUND_TRUTH_DIR
-    return Session(path=root, format_version=model.format_version, recorded_at=recorded_at, fps=float(fps),
-                   frame_count=counts[0], cameras=tuple(session_cams), defaults=task_factors(model.defaults),
-                   periods=times.periods(model.periods, "periods"), workers=workers,
-                   scoring={k: getattr(model.scoring, k) for k in data.get("scoring", {})},
-                   description=model.description, ground_truth_dir=gt if gt.is_dir() else None,
-                   settings_path=settings_path, calibration_path=calibration_path,
-                   identification=Identification(**model.identification.model_dump()), calibration_check=check,
-                   pose=dataclasses.replace(PoseSettings(), **model.pose.record_values()),
-                   reconstruction=recon_from_table(model.reconstruction))
+    return Session(
+        path=root,
+        format_version=model.format_version,
+        recorded_at=recorded_at,
+        fps=float(fps),
+        frame_count=counts[0],
+        cameras=tuple(session_cams),
+        defaults=task_factors(model.defaults),
+        periods=times.periods(model.periods, "periods"),
+        workers=workers,
+        scoring={k: getattr(model.scoring, k) for k in data.get("scoring", {})},
+        description=model.description,
+        ground_truth_dir=gt if gt.is_dir() else None,
+        settings_path=settings_path,
+        calibration_path=calibration_path,
+        identification=Identification(**model.identification.model_dump()),
+        calibration_check=check,
+        pose=dataclasses.replace(PoseSettings(), **model.pose.record_values()),
+        reconstruction=recon_from_table(model.reconstruction),
+    )
 
 
 def task_factors(table: TaskFactorsTable) -> TaskFactors:
     """The TaskFactors of a validated table of task factors (the wrist angles in radians)."""
     given = table.given()
-    factors: dict[str, Any] = {_ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
-                               for k, v in given.items() if k in FACTOR_KEYS}
+    factors: dict[str, Any] = {
+        _ANGLE_KEYS.get(k, k): (math.radians(v) if k in _ANGLE_KEYS else v)
+        for k, v in given.items()
+        if k in FACTOR_KEYS
+    }
     return TaskFactors(**factors)
 
 
@@ -456,13 +502,17 @@ class _Times:
         at = self.recorded_at
         if isinstance(value, dt.datetime):
             if (value.tzinfo is None) != (at.tzinfo is None):
-                raise ConfigError("give a time zone offset on both this time and recorded_at, or on neither",
-                                  path=self.path, field=field)
+                raise ConfigError(
+                    "give a time zone offset on both this time and recorded_at, or on neither",
+                    path=self.path,
+                    field=field,
+                )
             return (value - at).total_seconds()
         if isinstance(value, dt.time):
             if value.tzinfo is not None:
-                raise ConfigError("a clock time cannot carry a time zone; use a full date-time",
-                                  path=self.path, field=field)
+                raise ConfigError(
+                    "a clock time cannot carry a time zone; use a full date-time", path=self.path, field=field
+                )
             return (dt.datetime.combine(at.date(), value, tzinfo=at.tzinfo) - at).total_seconds()
         return float(value)
 
@@ -475,12 +525,16 @@ class _Times:
             if not end > start:
                 raise ConfigError(f"ends ({end:g} s) before it starts ({start:g} s)", path=self.path, field=at)
             if end <= 0 or start >= self.duration:
-                raise ConfigError(f"lies outside the recording ({start:g} s to {end:g} s; the videos last "
-                                  f"{self.duration:g} s)", path=self.path, field=at)
+                raise ConfigError(
+                    f"lies outside the recording ({start:g} s to {end:g} s; the videos last {self.duration:g} s)",
+                    path=self.path,
+                    field=at,
+                )
             for j, other in enumerate(out):
                 if start < other.end_s and other.start_s < end:
-                    raise ConfigError(f"overlaps {where}[{j}] ({other.start_s:g} s to {other.end_s:g} s)",
-                                      path=self.path, field=at)
+                    raise ConfigError(
+                        f"overlaps {where}[{j}] ({other.start_s:g} s to {other.end_s:g} s)", path=self.path, field=at
+                    )
             out.append(FactorPeriod(start_s=start, end_s=end, factors=task_factors(item)))
         return tuple(out)
 
@@ -507,8 +561,11 @@ def probe_video(path: Path, *, full: bool = True) -> tuple[int, float, tuple[int
         count = int(round(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
         if count <= 0:
             raise InputError("the video does not state its number of frames", path=path)
-        return (count, float(cap.get(cv2.CAP_PROP_FPS)),
-                (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))))
+        return (
+            count,
+            float(cap.get(cv2.CAP_PROP_FPS)),
+            (int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))),
+        )
     finally:
         cap.release()
 
@@ -516,12 +573,20 @@ def probe_video(path: Path, *, full: bool = True) -> tuple[int, float, tuple[int
 # --- writing ----------------------------------------------------------------------------------------------
 
 
-def settings_to_toml(*, recorded_at: dt.datetime, cameras: Iterable[tuple[str, str]], fps: float | None = None,
-                     description: str | None = None, defaults: TaskFactors | None = None,
-                     periods: Sequence[FactorPeriod] = (), workers: Sequence[WorkerInfo] = (),
-                     scoring: Mapping[str, Any] | None = None, header: str = "",
-                     calibration_check: tuple[str, float] | None = None,
-                     reconstruction: Mapping[str, Any] | None = None) -> str:
+def settings_to_toml(
+    *,
+    recorded_at: dt.datetime,
+    cameras: Iterable[tuple[str, str]],
+    fps: float | None = None,
+    description: str | None = None,
+    defaults: TaskFactors | None = None,
+    periods: Sequence[FactorPeriod] = (),
+    workers: Sequence[WorkerInfo] = (),
+    scoring: Mapping[str, Any] | None = None,
+    header: str = "",
+    calibration_check: tuple[str, float] | None = None,
+    reconstruction: Mapping[str, Any] | None = None,
+) -> str:
     """The text of a settings.toml (format_version 1) for these values, every other key commented
     with its default and a one-line explanation (ergopose.settings.generate); load_session reads
     it back. ``header``: comment lines to start with."""

@@ -72,8 +72,11 @@ def probe_video(path: str | os.PathLike) -> VideoInfo:
             cap.set(cv2.CAP_PROP_POS_FRAMES, frames - 1)
             ok, last = cap.read()
             if not ok or last is None:
-                raise InputError(f"the video says it has {frames} frames but frame {frames - 1} cannot be "
-                                 "read (truncated or corrupt file)", path=path)
+                raise InputError(
+                    f"the video says it has {frames} frames but frame {frames - 1} cannot be "
+                    "read (truncated or corrupt file)",
+                    path=path,
+                )
         if not (np.isfinite(fps) and fps > 0):
             raise InputError(f"the video states no valid frame rate ({fps!r})", path=path)
         return VideoInfo(str(path), frames, fps, width, height)
@@ -108,8 +111,7 @@ WRONG_SIZE = "has the wrong size (short or damaged frame)"
 SKIP_CODES = {UNDECODABLE: -1, WRONG_SIZE: -2}
 
 
-def read_frames_checked(path: str | os.PathLike, start: int,
-                        stop: int) -> Iterator[tuple[int, np.ndarray | None, str]]:
+def read_frames_checked(path: str | os.PathLike, start: int, stop: int) -> Iterator[tuple[int, np.ndarray | None, str]]:
     """Yield (frame index, BGR frame or None, "" or why it was skipped) for frames start .. stop-1.
 
     A frame that cannot be decoded (UNDECODABLE) or whose size differs from the video's

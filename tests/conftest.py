@@ -25,8 +25,10 @@ def need_shared(path: Path, what: str = "data") -> Path:
     """``path`` under ../shared, or skip the test (fail when ERGOPOSE_REQUIRE_SHARED=1) naming it."""
     if path.exists():
         return path
-    reason = (f"needs ../shared ({what}): {path} is missing; put the shared data beside the clone "
-              f"or name it with ERGOPOSE_SHARED")
+    reason = (
+        f"needs ../shared ({what}): {path} is missing; put the shared data beside the clone "
+        f"or name it with ERGOPOSE_SHARED"
+    )
     if os.environ.get(REQUIRE_SHARED, "") not in ("", "0"):
         pytest.fail(f"{reason} ({REQUIRE_SHARED} is set)", pytrace=False)
     pytest.skip(reason)

@@ -70,7 +70,8 @@ def test_clean_up_removes_what_a_killed_writer_left(tmp_path):
         "    (d / 'a.txt').write_text('half')\n"
         f"    with atomic_path({str(tmp_path / 'keep.csv')!r}) as t:\n"
         "        t.write_text('half')\n"
-        "        os._exit(9)\n")
+        "        os._exit(9)\n"
+    )
     left = sorted(p.name for p in tmp_path.iterdir())
     assert any(n.startswith(".keep.") for n in left) and any(n.startswith(".results.") for n in left)
     removed = clean_up(tmp_path)
@@ -95,7 +96,8 @@ def test_clean_up_puts_back_a_folder_moved_aside_by_a_killed_swap(tmp_path):
         "        os._exit(9)\n"
         "atomic.os.replace = replace\n"
         f"with atomic.atomic_dir({str(tmp_path / 'results')!r}) as d:\n"
-        "    (d / 'a.txt').write_text('v2')\n")
+        "    (d / 'a.txt').write_text('v2')\n"
+    )
     assert not (tmp_path / "results").exists()
     clean_up(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]

@@ -20,8 +20,20 @@ PACKAGE = Path(__file__).resolve().parents[1] / "ergopose"
 #: sim/ and evaluation/ stand beside the product: they import it and nothing in it imports them;
 #: the commands, on top, run them for ``ergopose simulate`` / ``evaluate`` / ``demo``.
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("base", ("ergopose", "ergopose.errors", "ergopose.progress", "ergopose.atomic", "ergopose.keypoints",
-              "ergopose.resources", "ergopose.video", "ergopose.remote", "ergopose.cli_progress")),
+    (
+        "base",
+        (
+            "ergopose",
+            "ergopose.errors",
+            "ergopose.progress",
+            "ergopose.atomic",
+            "ergopose.keypoints",
+            "ergopose.resources",
+            "ergopose.video",
+            "ergopose.remote",
+            "ergopose.cli_progress",
+        ),
+    ),
     ("geometry", ("ergopose.geometry",)),
     ("records", ("ergopose.records",)),
     ("settings", ("ergopose.settings",)),
@@ -192,7 +204,8 @@ def test_the_product_does_not_import_the_simulator_or_the_evaluation(graph):
 def test_the_checks_catch_what_they_forbid():
     # the import issue 17 found: the 2D stage reaching up into the reconstruction
     assert layer_violations({("ergopose.pose.fisheye", "ergopose.recon.records")}) == [
-        "ergopose.pose.fisheye (pose) imports ergopose.recon.records (recon)"]
+        "ergopose.pose.fisheye (pose) imports ergopose.recon.records (recon)"
+    ]
     assert layer_violations({("ergopose.pipeline.stages", "ergopose.sim.ground_truth")}) != []
     assert layer_violations({("ergopose.recon.records", "ergopose.records")}) == []
     assert circles({("a", "b"), ("b", "c"), ("c", "a"), ("c", "d")}) == [["a", "b", "c"]]

@@ -14,10 +14,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 def test_every_subpackage_is_listed_in_pyproject():
     declared = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    found = {
-        ".".join(p.parent.relative_to(REPO).parts)
-        for p in (REPO / "ergopose").rglob("__init__.py")
-    }
+    found = {".".join(p.parent.relative_to(REPO).parts) for p in (REPO / "ergopose").rglob("__init__.py")}
     missing = found - declared
     assert not missing, f"add these subpackages to [tool.setuptools] packages in pyproject.toml: {sorted(missing)}"
 
@@ -35,7 +32,9 @@ def test_installed_copy_carries_assessments_and_templates(tmp_path):
     assert out.returncode == 0, out.stderr
     a_dir, t_dir, files = out.stdout.strip().splitlines()
     assert "site-packages" in a_dir and "site-packages" in t_dir, "run 'make test' (it installs the package first)"
-    repo_files = sorted(p.name for p in resource_dir("assessments").iterdir() if p.is_file() and not p.name.endswith(".py"))
+    repo_files = sorted(
+        p.name for p in resource_dir("assessments").iterdir() if p.is_file() and not p.name.endswith(".py")
+    )
     assert files == str(repo_files)
 
 

@@ -68,11 +68,14 @@ def test_a_video_changed_since_the_client_saw_it_is_refused(cache, memory_video)
     assert str(err.value).startswith(url)
 
 
-@pytest.mark.parametrize("url,words", [
-    ("memory://no-such-bucket/cam_1.mp4", "video file not found"),
-    ("file:///no/such/folder/cam_1.mp4", "video file not found"),
-    ("nosuchprotocol://host/cam_1.mp4", "cannot open this URL"),
-])
+@pytest.mark.parametrize(
+    "url,words",
+    [
+        ("memory://no-such-bucket/cam_1.mp4", "video file not found"),
+        ("file:///no/such/folder/cam_1.mp4", "video file not found"),
+        ("nosuchprotocol://host/cam_1.mp4", "cannot open this URL"),
+    ],
+)
 def test_an_unreadable_url_is_one_line_naming_it(cache, url, words):
     with pytest.raises(InputError) as err:
         remote.fetch(url)
@@ -109,7 +112,9 @@ def test_a_session_reads_its_videos_from_urls(simulated, tmp_path, cache):
     session = with_url_videos(simulated, tmp_path / "day1", tmp_path / "store")
     local = load_session(simulated)
     s = load_session(session)
-    assert [c.video_url for c in s.cameras] == [(tmp_path / "store" / c.video_path.name).as_uri() for c in local.cameras]
+    assert [c.video_url for c in s.cameras] == [
+        (tmp_path / "store" / c.video_path.name).as_uri() for c in local.cameras
+    ]
     assert all(cache in c.video_path.parents for c in s.cameras)
     assert s.frame_count == local.frame_count and s.fps == local.fps
     for a, b in zip(s.cameras, local.cameras):

@@ -44,11 +44,18 @@ def test_check_command_reads_the_session(simulated, capsys):
     assert "target 1.500 m" in out and "central" in out
 
 
-@pytest.mark.parametrize("old,new,field", [
-    ("stature_m = ", "stature_m = 17", "stature_m"),
-    ('observations = "reference_bars.csv"', 'observations = "nope.csv"', "calibration_check.observations"),
-    ("[calibration_check]", "[identification]\nstature_tolerance = 0.1\n\n[calibration_check]", "stature_tolerance"),
-])
+@pytest.mark.parametrize(
+    "old,new,field",
+    [
+        ("stature_m = ", "stature_m = 17", "stature_m"),
+        ('observations = "reference_bars.csv"', 'observations = "nope.csv"', "calibration_check.observations"),
+        (
+            "[calibration_check]",
+            "[identification]\nstature_tolerance = 0.1\n\n[calibration_check]",
+            "stature_tolerance",
+        ),
+    ],
+)
 def test_bad_values_name_the_field(simulated, tmp_path, old, new, field):
     session = _edit(simulated, tmp_path / "day1", old, new)
     with pytest.raises(ConfigError, match=field.replace(".", r"\.")):

@@ -102,10 +102,15 @@ def test_task_factors_most_specific_wins(tmp_path):
 def test_written_settings_read_back(tmp_path):
     from ergopose.session import FactorPeriod, WorkerInfo
 
-    text = settings_to_toml(recorded_at=START, fps=12.0, cameras=[("cam_1", "a.mp4"), ("cam_2", "b.mp4")],
-                            defaults=TaskFactors(load_kg=0.0, shock=False),
-                            workers=[WorkerInfo("w1", "Bo", TaskFactors(coupling="fair"),
-                                                (FactorPeriod(0.1, 0.4, TaskFactors(load_kg=12.5)),))])
+    text = settings_to_toml(
+        recorded_at=START,
+        fps=12.0,
+        cameras=[("cam_1", "a.mp4"), ("cam_2", "b.mp4")],
+        defaults=TaskFactors(load_kg=0.0, shock=False),
+        workers=[
+            WorkerInfo("w1", "Bo", TaskFactors(coupling="fair"), (FactorPeriod(0.1, 0.4, TaskFactors(load_kg=12.5)),))
+        ],
+    )
     s = load_session(make_session(tmp_path / "s", settings=text))
     assert s.camera_names == ("cam_1", "cam_2")
     assert s.factors_at("w1", 0.2) == TaskFactors(load_kg=12.5, coupling="fair", shock=False)
@@ -132,7 +137,7 @@ def test_unknown_top_level_key(tmp_path):
 
 
 def test_wrong_types_are_named(tmp_path):
-    msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace('load_kg = 1.0', 'load_kg = "heavy"'))
+    msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace("load_kg = 1.0", 'load_kg = "heavy"'))
     assert "defaults.load_kg" in msg and "expected a number" in msg
     msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace('coupling = "good"', 'coupling = "ok"'))
     assert "defaults.coupling" in msg and "good, fair, poor, unacceptable" in msg
@@ -208,8 +213,11 @@ def test_period_problems(tmp_path):
 def test_version_and_structure(tmp_path):
     msg = _error(tmp_path / "a", ConfigError, settings=SETTINGS.replace("format_version = 1", "format_version = 2"))
     assert "format_version" in msg and "unsupported" in msg
-    no_camera = SETTINGS.replace('[[cameras]]\nname = "cam_1"\nvideo = "a.mp4"\n', "").replace(
-        '[[cameras]]\nname = "cam_2"\nvideo = "b.mp4"\n', "").replace('description = "test"', 'description = "test"\ncameras = []')
+    no_camera = (
+        SETTINGS.replace('[[cameras]]\nname = "cam_1"\nvideo = "a.mp4"\n', "")
+        .replace('[[cameras]]\nname = "cam_2"\nvideo = "b.mp4"\n', "")
+        .replace('description = "test"', 'description = "test"\ncameras = []')
+    )
     assert "at least one [[cameras]]" in _error(tmp_path / "b", ConfigError, settings=no_camera)
     assert "not valid TOML" in _error(tmp_path / "c", ConfigError, settings=SETTINGS + "\n[[oops\n")
 
@@ -229,7 +237,8 @@ def test_scoring_table_is_checked(tmp_path):
 
 
 WRIST_SETTINGS = SETTINGS.replace('coupling = "good"\n', 'coupling = "good"\nwrist_flexion_deg = -20.0\n').replace(
-    'load_mode = "static"\n', 'load_mode = "static"\nwrist_flexion_deg = 35\nwrist_deviation_deg = 10.0\n')
+    'load_mode = "static"\n', 'load_mode = "static"\nwrist_flexion_deg = 35\nwrist_deviation_deg = 10.0\n'
+)
 
 
 def test_wrist_posture_is_read_in_degrees_and_held_in_radians(tmp_path):
@@ -250,31 +259,49 @@ def test_written_wrist_posture_reads_back_in_degrees(tmp_path):
     from ergopose.session import FactorPeriod, WorkerInfo
 
     defaults = TaskFactors(wrist_flexion=float(np.radians(-20.0)))
-    text = settings_to_toml(recorded_at=START, fps=12.0, cameras=[("cam_1", "a.mp4"), ("cam_2", "b.mp4")],
-                            defaults=defaults,
-                            workers=[WorkerInfo("w1", None, TaskFactors(wrist_deviation=float(np.radians(-5.0))),
-                                                (FactorPeriod(0.1, 0.4, TaskFactors(wrist_flexion=0.0)),))])
+    text = settings_to_toml(
+        recorded_at=START,
+        fps=12.0,
+        cameras=[("cam_1", "a.mp4"), ("cam_2", "b.mp4")],
+        defaults=defaults,
+        workers=[
+            WorkerInfo(
+                "w1",
+                None,
+                TaskFactors(wrist_deviation=float(np.radians(-5.0))),
+                (FactorPeriod(0.1, 0.4, TaskFactors(wrist_flexion=0.0)),),
+            )
+        ],
+    )
     assert "wrist_flexion_deg = -20.0" in text and "wrist_deviation_deg = -5.0" in text
     s = load_session(make_session(tmp_path / "s", settings=text))
-    assert s.factors_at("w1", 0.5) == TaskFactors(wrist_flexion=pytest.approx(np.radians(-20.0)),
-                                                  wrist_deviation=pytest.approx(np.radians(-5.0)))
+    assert s.factors_at("w1", 0.5) == TaskFactors(
+        wrist_flexion=pytest.approx(np.radians(-20.0)), wrist_deviation=pytest.approx(np.radians(-5.0))
+    )
     assert s.factors_at("w1", 0.2).wrist_flexion == 0.0
 
 
-@pytest.mark.parametrize("line, field, words", [
-    ("wrist_flexion_deg = 95.0", "defaults.wrist_flexion_deg", "from -90 to 90"),
-    ("wrist_deviation_deg = -90.5", "defaults.wrist_deviation_deg", "from -90 to 90"),
-    ('wrist_flexion_deg = "20"', "defaults.wrist_flexion_deg", "expected a number"),
-    ("wrist_flexion_deg = true", "defaults.wrist_flexion_deg", "expected a number"),
-    ("wrist_flexion = 20.0", "defaults.wrist_flexion", "did you mean 'wrist_flexion_deg'"),
-])
+@pytest.mark.parametrize(
+    "line, field, words",
+    [
+        ("wrist_flexion_deg = 95.0", "defaults.wrist_flexion_deg", "from -90 to 90"),
+        ("wrist_deviation_deg = -90.5", "defaults.wrist_deviation_deg", "from -90 to 90"),
+        ('wrist_flexion_deg = "20"', "defaults.wrist_flexion_deg", "expected a number"),
+        ("wrist_flexion_deg = true", "defaults.wrist_flexion_deg", "expected a number"),
+        ("wrist_flexion = 20.0", "defaults.wrist_flexion", "did you mean 'wrist_flexion_deg'"),
+    ],
+)
 def test_bad_wrist_posture_is_named(tmp_path, line, field, words):
-    msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace('coupling = "good"\n', f'coupling = "good"\n{line}\n'))
+    msg = _error(
+        tmp_path, ConfigError, settings=SETTINGS.replace('coupling = "good"\n', f'coupling = "good"\n{line}\n')
+    )
     assert "settings.toml" in msg and field in msg and words in msg
 
 
 def test_wrist_posture_in_a_period_is_checked_and_may_be_the_only_factor(tmp_path):
     msg = _error(tmp_path, ConfigError, settings=SETTINGS.replace("load_kg = 3.0", "wrist_deviation_deg = 120"))
     assert "periods[0].wrist_deviation_deg" in msg and "from -90 to 90" in msg
-    s = load_session(make_session(tmp_path / "ok", settings=SETTINGS.replace("load_kg = 3.0", "wrist_flexion_deg = 15")))
+    s = load_session(
+        make_session(tmp_path / "ok", settings=SETTINGS.replace("load_kg = 3.0", "wrist_flexion_deg = 15"))
+    )
     assert s.periods[0].factors == TaskFactors(wrist_flexion=pytest.approx(np.radians(15.0)))

@@ -31,8 +31,18 @@ def videos(demo, *numbers):
 @pytest.mark.slow
 def test_four_cameras_from_a_pose2sim_calibration(demo, tmp_path, capsys):
     root = tmp_path / "s"
-    code = cli.main(["session", "new", str(root), "--calibration", str(demo / "Calib_qualisys.toml"),
-                     *videos(demo, 1, 2, 3, 4), "--recorded-at", "2024-02-28T10:00:00+01:00"])
+    code = cli.main(
+        [
+            "session",
+            "new",
+            str(root),
+            "--calibration",
+            str(demo / "Calib_qualisys.toml"),
+            *videos(demo, 1, 2, 3, 4),
+            "--recorded-at",
+            "2024-02-28T10:00:00+01:00",
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     session = load_session(root)
@@ -54,8 +64,22 @@ def test_four_cameras_from_a_pose2sim_calibration(demo, tmp_path, capsys):
 @pytest.mark.slow
 def test_a_camera_pair_with_cameras_and_links(demo, tmp_path):
     root = tmp_path / "pair"
-    assert cli.main(["session", "new", str(root), "--calibration", str(demo / "Calib_qualisys.toml"),
-                     "--cameras", "cam_04,cam_02", *videos(demo, 4, 2), "--link"]) == 0
+    assert (
+        cli.main(
+            [
+                "session",
+                "new",
+                str(root),
+                "--calibration",
+                str(demo / "Calib_qualisys.toml"),
+                "--cameras",
+                "cam_04,cam_02",
+                *videos(demo, 4, 2),
+                "--link",
+            ]
+        )
+        == 0
+    )
     session = load_session(root)
     assert session.camera_names == ("cam_04", "cam_02")
     assert (root / "cam_04.mp4").is_symlink()
@@ -68,8 +92,21 @@ def test_count_mismatch_and_bad_cameras(demo, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("ergopose: error") == 1 and "4 camera(s)" in err and "3 video(s)" in err
     assert not (tmp_path / "a").exists()
-    assert cli.main(["session", "new", str(tmp_path / "b"), "--calibration", calibration, "--cameras", "cam_9",
-                     *videos(demo, 1)]) == 2
+    assert (
+        cli.main(
+            [
+                "session",
+                "new",
+                str(tmp_path / "b"),
+                "--calibration",
+                calibration,
+                "--cameras",
+                "cam_9",
+                *videos(demo, 1),
+            ]
+        )
+        == 2
+    )
     assert "--cameras" in capsys.readouterr().err
 
 
@@ -82,12 +119,15 @@ def write_video(path: Path, frames: int, fps: float = 12.0, size=(W, H)) -> str:
     return str(path)
 
 
-@pytest.mark.parametrize("case, message", [
-    ("rates", "different frame rates"),
-    ("lengths", "different numbers of frames"),
-    ("unreadable", "cannot open"),
-    ("size", "calibrated for 160 x 120"),
-])
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("rates", "different frame rates"),
+        ("lengths", "different numbers of frames"),
+        ("unreadable", "cannot open"),
+        ("size", "calibrated for 160 x 120"),
+    ],
+)
 def test_bad_videos_give_one_clear_line(tmp_path, capsys, case, message):
     calibration = save_calibration(tmp_path / "cal.toml", rig_cameras(W, H))
     a = write_video(tmp_path / "a.mp4", 12)

@@ -32,11 +32,23 @@ def test_a_clone_without_shared_skips_and_ci_fails(tmp_path):
     files = ["tests/geometry/lenses/test_eucm.py", "tests/ergonomics/test_scoring_methods.py"]
     env = {**os.environ, "ERGOPOSE_SHARED": str(tmp_path / "shared"), "PYTHONPATH": str(REPO)}
     env.pop(REQUIRE_SHARED, None)
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", *files],
-                          cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", *files],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stdout[-3000:]
     assert "skipped" in done.stdout and "needs ../shared" in done.stdout and str(tmp_path / "shared") in done.stdout
     env[REQUIRE_SHARED] = "1"
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *files],
-                          cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *files],
+        cwd=REPO,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 1 and "needs ../shared" in done.stdout, done.stdout[-3000:]

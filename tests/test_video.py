@@ -72,7 +72,7 @@ def damage_middle(path, out, length=1000, seed=0):
     """A copy of a video with ``length`` seeded random bytes written over the middle of the file."""
     data = bytearray(path.read_bytes())
     at = len(data) // 2
-    data[at:at + length] = np.random.default_rng(seed).integers(0, 256, length, dtype=np.uint8).tobytes()
+    data[at : at + length] = np.random.default_rng(seed).integers(0, 256, length, dtype=np.uint8).tobytes()
     out.write_bytes(bytes(data))
     return out
 
@@ -111,8 +111,12 @@ class _FakeCapture:
         self.frames, self.fps, self.pos = frames, fps, 0
 
     def get(self, prop):
-        return {cv2.CAP_PROP_FRAME_HEIGHT: 120, cv2.CAP_PROP_FRAME_WIDTH: 160, cv2.CAP_PROP_FPS: self.fps,
-                cv2.CAP_PROP_POS_MSEC: 1000.0 * (self.pos - 1) / self.fps}[prop]
+        return {
+            cv2.CAP_PROP_FRAME_HEIGHT: 120,
+            cv2.CAP_PROP_FRAME_WIDTH: 160,
+            cv2.CAP_PROP_FPS: self.fps,
+            cv2.CAP_PROP_POS_MSEC: 1000.0 * (self.pos - 1) / self.fps,
+        }[prop]
 
     def set(self, prop, value):
         self.pos = int(value)

@@ -21,8 +21,9 @@ def rotation_matrices(rvecs: np.ndarray) -> np.ndarray:
     R = eye + sin * K + (1.0 - cos) * (K @ K)
     # first-order form near zero: I + [r]x
     rx, ry, rz = r[..., 0], r[..., 1], r[..., 2]
-    Rs = eye + np.stack([np.stack([zero, -rz, ry], -1), np.stack([rz, zero, -rx], -1),
-                         np.stack([-ry, rx, zero], -1)], -2)
+    Rs = eye + np.stack(
+        [np.stack([zero, -rz, ry], -1), np.stack([rz, zero, -rx], -1), np.stack([-ry, rx, zero], -1)], -2
+    )
     return np.where(small, Rs, R)
 
 

@@ -56,17 +56,19 @@ class Board:
         if self.kind not in KINDS:
             raise ConfigError(f"unknown board kind {self.kind!r}; expected one of {', '.join(KINDS)}", field="board")
         if self.cols < 2 or self.rows < 2:
-            raise ConfigError(f"a board needs at least 2 x 2 corners/squares, got {self.cols}x{self.rows}",
-                              field="board")
+            raise ConfigError(
+                f"a board needs at least 2 x 2 corners/squares, got {self.cols}x{self.rows}", field="board"
+            )
         if not (self.square > 0 and np.isfinite(self.square)):
             raise ConfigError(f"square size must be a positive number of metres, got {self.square}", field="board")
         if self.kind == "charuco":
             if not (0 < self.marker < self.square):
-                raise ConfigError(f"charuco marker size must be between 0 and the square size "
-                                  f"({self.square} m), got {self.marker}", field="board")
+                raise ConfigError(
+                    f"charuco marker size must be between 0 and the square size ({self.square} m), got {self.marker}",
+                    field="board",
+                )
             if not self.dictionary.startswith("DICT_") or not hasattr(cv2.aruco, self.dictionary):
-                raise ConfigError(f"unknown ArUco dictionary {self.dictionary!r} (e.g. DICT_5X5_100)",
-                                  field="board")
+                raise ConfigError(f"unknown ArUco dictionary {self.dictionary!r} (e.g. DICT_5X5_100)", field="board")
             if self.cols < 3 or self.rows < 3:
                 raise ConfigError("a charuco board needs at least 3 x 3 squares", field="board")
 
@@ -152,21 +154,34 @@ def parse_board(spec: str) -> Board:
         parts = text.split(":")
         if kind == "checkerboard":
             if len(parts) != 3:
-                raise ConfigError(f"expected checkerboard:COLSxROWS:SQUARE (inner corners, metres), got {spec!r}",
-                                  field="board")
+                raise ConfigError(
+                    f"expected checkerboard:COLSxROWS:SQUARE (inner corners, metres), got {spec!r}", field="board"
+                )
             cols, rows = _parse_size(parts[1], "inner corners")
             return Board("checkerboard", cols, rows, _parse_float(parts[2], "square size"))
         if len(parts) != 5:
-            raise ConfigError(f"expected charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, metres, "
-                              f"e.g. charuco:7x5:0.04:0.03:DICT_5X5_100), got {spec!r}", field="board")
+            raise ConfigError(
+                f"expected charuco:COLSxROWS:SQUARE:MARKER:DICT (squares, metres, "
+                f"e.g. charuco:7x5:0.04:0.03:DICT_5X5_100), got {spec!r}",
+                field="board",
+            )
         cols, rows = _parse_size(parts[1], "squares")
-        return Board("charuco", cols, rows, _parse_float(parts[2], "square size"),
-                     _parse_float(parts[3], "marker size"), parts[4].strip().upper())
+        return Board(
+            "charuco",
+            cols,
+            rows,
+            _parse_float(parts[2], "square size"),
+            _parse_float(parts[3], "marker size"),
+            parts[4].strip().upper(),
+        )
     path = Path(text)
     if path.suffix.lower() == ".toml" or path.exists():
         return load_board_file(path)
-    raise ConfigError(f"{spec!r} is neither a board spec (checkerboard:9x6:0.025, "
-                      f"charuco:7x5:0.04:0.03:DICT_5X5_100) nor an existing board file", field="board")
+    raise ConfigError(
+        f"{spec!r} is neither a board spec (checkerboard:9x6:0.025, "
+        f"charuco:7x5:0.04:0.03:DICT_5X5_100) nor an existing board file",
+        field="board",
+    )
 
 
 def load_board_file(path: str | Path) -> Board:
@@ -240,8 +255,9 @@ def detect_board(image: np.ndarray, board: Board, source: str = "") -> Detection
         corners, ids, _, _ = detector.detectBoard(gray)
         if corners is None or ids is None or len(ids) < 6:
             return None
-        return Detection(np.asarray(corners, np.float64).reshape(-1, 2), np.asarray(ids, int).ravel(),
-                         (width, height), source)
+        return Detection(
+            np.asarray(corners, np.float64).reshape(-1, 2), np.asarray(ids, int).ravel(), (width, height), source
+        )
     pattern = board.pattern_size
     flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE | cv2.CALIB_CB_FAST_CHECK
     ok, corners = cv2.findChessboardCorners(gray, pattern, flags=flags)
@@ -250,8 +266,9 @@ def detect_board(image: np.ndarray, board: Board, source: str = "") -> Detection
         if not ok:
             return None
     grid = corners.reshape(pattern[1], pattern[0], 2)
-    spacing = min(np.linalg.norm(np.diff(grid, axis=0), axis=-1).min(),
-                  np.linalg.norm(np.diff(grid, axis=1), axis=-1).min())
+    spacing = min(
+        np.linalg.norm(np.diff(grid, axis=0), axis=-1).min(), np.linalg.norm(np.diff(grid, axis=1), axis=-1).min()
+    )
     half = int(np.clip(0.4 * spacing, 2, 11))  # search window stays inside the neighbouring squares
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 50, 1e-3)
     corners = cv2.cornerSubPix(gray, np.ascontiguousarray(corners, np.float32), (half, half), (-1, -1), criteria)
@@ -323,9 +340,9 @@ def board_texture(board: Board, px_per_square: int = 48, margin_squares: float =
     if board.kind == "charuco":
         inner = board._charuco().generateImage((sx * px_per_square, sy * px_per_square), marginSize=0, borderBits=1)
     else:
-        v, u = np.mgrid[0:sy * px_per_square, 0:sx * px_per_square]
+        v, u = np.mgrid[0 : sy * px_per_square, 0 : sx * px_per_square]
         black = ((u // px_per_square) + (v // px_per_square)) % 2 == 0
         inner = np.where(black, 0, 255).astype(np.uint8)
     tex = np.full((inner.shape[0] + 2 * m, inner.shape[1] + 2 * m), 255, np.uint8)
-    tex[m:m + inner.shape[0], m:m + inner.shape[1]] = inner
+    tex[m : m + inner.shape[0], m : m + inner.shape[1]] = inner
     return BoardTexture(tex, px_per_square / board.square, m)

@@ -112,9 +112,14 @@ def region_of(angle: np.ndarray, ring_bounds: tuple[float, float]) -> np.ndarray
     return np.searchsorted(np.asarray(ring_bounds, np.float64), np.asarray(angle), side="right")
 
 
-def measure_bar(cameras: Sequence, pixels: np.ndarray, target_length: float, *,
-                ring_bounds_deg: tuple[float, float] = DEFAULT_RING_BOUNDS_DEG,
-                labels: Sequence[str] | None = None) -> CheckReport:
+def measure_bar(
+    cameras: Sequence,
+    pixels: np.ndarray,
+    target_length: float,
+    *,
+    ring_bounds_deg: tuple[float, float] = DEFAULT_RING_BOUNDS_DEG,
+    labels: Sequence[str] | None = None,
+) -> CheckReport:
     """Measure a bar of ``target_length`` metres seen by ``cameras``.
 
     cameras: V objects with ``lens`` (project/unproject), ``rotation_world_from_cam`` (3, 3) and
@@ -146,16 +151,27 @@ def measure_bar(cameras: Sequence, pixels: np.ndarray, target_length: float, *,
     regions = tuple(REGIONS[i] for i in region_idx)
     if labels is None:
         labels = [str(i + 1) for i in range(M)]
-    meas = BarMeasurements(tuple(str(x) for x in labels), lengths, ends, max_angle, regions,
-                           np.asarray(tri.rms_distance_m))
+    meas = BarMeasurements(
+        tuple(str(x) for x in labels), lengths, ends, max_angle, regions, np.asarray(tri.rms_distance_m)
+    )
     ranges = ((0.0, lo), (lo, hi), (hi, 180.0))
     rows = []
     for i, name in enumerate(REGIONS):
         sel = (region_idx == i) & np.isfinite(lengths)
         L = lengths[sel]
         if L.size:
-            rows.append(RegionSummary(name, ranges[i], int(L.size), float(target_length), float(L.mean()),
-                                      float(L.std(ddof=1)) if L.size > 1 else 0.0, float(L.min()), float(L.max())))
+            rows.append(
+                RegionSummary(
+                    name,
+                    ranges[i],
+                    int(L.size),
+                    float(target_length),
+                    float(L.mean()),
+                    float(L.std(ddof=1)) if L.size > 1 else 0.0,
+                    float(L.min()),
+                    float(L.max()),
+                )
+            )
         else:
             rows.append(RegionSummary(name, ranges[i], 0, float(target_length), *(float("nan"),) * 4))
     return CheckReport(float(target_length), (float(lo), float(hi)), meas, tuple(rows))
@@ -163,8 +179,10 @@ def measure_bar(cameras: Sequence, pixels: np.ndarray, target_length: float, *,
 
 def format_table(report: CheckReport) -> str:
     """The per-region table as text (like the paper's Table 1)."""
-    lines = [f"{'Region':<9} {'Angle from axis':<16} {'N':>4}  {'Target (m)':>10}  {'Measured (m)':>18}  "
-             f"{'Error':>7}  {'Min..max (m)':>15}"]
+    lines = [
+        f"{'Region':<9} {'Angle from axis':<16} {'N':>4}  {'Target (m)':>10}  {'Measured (m)':>18}  "
+        f"{'Error':>7}  {'Min..max (m)':>15}"
+    ]
     for r in report.regions:
         lo, hi = r.angle_range_deg
         angle = f"< {hi:g} deg" if lo == 0 else (f"> {lo:g} deg" if hi >= 180 else f"{lo:g}-{hi:g} deg")
@@ -175,8 +193,10 @@ def format_table(report: CheckReport) -> str:
         else:
             measured, err, rng = "no measurements", "", ""
         lines.append(f"{r.region:<9} {angle:<16} {r.n:>4}  {r.target:>10.3f}  {measured:>18}  {err:>7}  {rng:>15}")
-    lines.append("(+- is the standard deviation over the measurements; a measurement's region is that of its "
-                 "ray furthest from a lens axis)")
+    lines.append(
+        "(+- is the standard deviation over the measurements; a measurement's region is that of its "
+        "ray furthest from a lens axis)"
+    )
     return "\n".join(lines)
 
 
@@ -200,8 +220,9 @@ def read_bar_observations(path: str | Path, camera_names: Sequence[str]) -> tupl
     header = [h.strip() for h in (reader.fieldnames or [])]
     missing = [c for c in OBSERVATION_COLUMNS if c not in header]
     if missing:
-        raise InputError(f"missing column(s) {', '.join(missing)}; expected a header "
-                         f"{','.join(OBSERVATION_COLUMNS)}", path=path)
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}; expected a header {','.join(OBSERVATION_COLUMNS)}", path=path
+        )
     index = {name: i for i, name in enumerate(camera_names)}
     labels: list[str] = []
     where: dict[str, int] = {}
@@ -212,16 +233,18 @@ def read_bar_observations(path: str | Path, camera_names: Sequence[str]) -> tupl
             continue
         cam = row["camera"]
         if cam not in index:
-            raise InputError(f"line {line}: unknown camera {cam!r}; the calibration has "
-                             f"{', '.join(camera_names)}", path=path)
+            raise InputError(
+                f"line {line}: unknown camera {cam!r}; the calibration has {', '.join(camera_names)}", path=path
+            )
         end = row["end"].lower()
         if end not in ("a", "b"):
             raise InputError(f"line {line}: end must be 'a' or 'b', got {row['end']!r}", path=path)
         try:
             u, v = float(row["u"]), float(row["v"])
         except ValueError:
-            raise InputError(f"line {line}: u and v must be numbers (pixels), got {row['u']!r}, {row['v']!r}",
-                             path=path) from None
+            raise InputError(
+                f"line {line}: u and v must be numbers (pixels), got {row['u']!r}, {row['v']!r}", path=path
+            ) from None
         if not (np.isfinite(u) and np.isfinite(v)):
             raise InputError(f"line {line}: u and v must be finite numbers", path=path)
         label = row["measurement"]
@@ -230,8 +253,9 @@ def read_bar_observations(path: str | Path, camera_names: Sequence[str]) -> tupl
             labels.append(label)
         key = (where[label], index[cam], 0 if end == "a" else 1)
         if key in values:
-            raise InputError(f"line {line}: measurement {label!r}, camera {cam!r}, end {end!r} appears twice",
-                             path=path)
+            raise InputError(
+                f"line {line}: measurement {label!r}, camera {cam!r}, end {end!r} appears twice", path=path
+            )
         values[key] = (u, v)
     if not labels:
         raise InputError("no observations in this file", path=path)
@@ -241,13 +265,15 @@ def read_bar_observations(path: str | Path, camera_names: Sequence[str]) -> tupl
     seen = np.all(np.isfinite(pixels), axis=-1).sum(axis=1)  # (M, 2) cameras per end
     bad = np.flatnonzero(np.any(seen < 2, axis=1))
     if bad.size:
-        raise InputError(f"measurement {labels[bad[0]]!r}: each bar end needs pixels from at least two cameras",
-                         path=path)
+        raise InputError(
+            f"measurement {labels[bad[0]]!r}: each bar end needs pixels from at least two cameras", path=path
+        )
     return labels, pixels
 
 
-def write_bar_observations(path: str | Path, camera_names: Sequence[str], pixels: np.ndarray,
-                           labels: Sequence[str] | None = None) -> Path:
+def write_bar_observations(
+    path: str | Path, camera_names: Sequence[str], pixels: np.ndarray, labels: Sequence[str] | None = None
+) -> Path:
     """Write (M, V, 2, 2) pixels as an observation CSV (atomically); NaN entries are skipped."""
     px = np.asarray(pixels, np.float64)
     labels = labels if labels is not None else [str(i + 1) for i in range(px.shape[0])]

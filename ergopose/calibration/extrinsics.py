@@ -87,8 +87,10 @@ def _check_points(points_world: np.ndarray, pixels: np.ndarray) -> tuple[np.ndar
     if not (np.all(np.isfinite(points_world)) and np.all(np.isfinite(pixels))):
         raise InputError("a point or pixel position is not a finite number")
     if len(points_world) < MIN_POINTS:
-        raise InputError(f"only {len(points_world)} point(s); a camera pose needs at least {MIN_POINTS} "
-                         f"(better 8 or more, spread over the view)")
+        raise InputError(
+            f"only {len(points_world)} point(s); a camera pose needs at least {MIN_POINTS} "
+            f"(better 8 or more, spread over the view)"
+        )
     centred = points_world - points_world.mean(axis=0)
     sv = np.linalg.svd(centred, compute_uv=False)
     if sv[1] < 1e-3 * max(sv[0], 1e-12):
@@ -114,14 +116,18 @@ def initial_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray) 
     rays = lens.unproject(pixels)
     finite = np.all(np.isfinite(rays), axis=-1)
     if finite.sum() < MIN_POINTS:
-        raise InputError(f"only {int(finite.sum())} pixel position(s) lie inside the lens model's image; at least "
-                         f"{MIN_POINTS} are needed (check the pixel positions and the camera's intrinsics)")
+        raise InputError(
+            f"only {int(finite.sum())} pixel position(s) lie inside the lens model's image; at least "
+            f"{MIN_POINTS} are needed (check the pixel positions and the camera's intrinsics)"
+        )
     R_vc = _virtual_pinhole(rays[finite])
     rays_v = rays @ R_vc.T
     ok = finite & (rays_v[:, 2] > np.cos(INIT_MAX_THETA))
     if ok.sum() < MIN_POINTS:
-        raise InputError(f"the points are spread over more than {2 * np.degrees(INIT_MAX_THETA):.0f} degrees of the "
-                         f"view; cannot find a starting pose")
+        raise InputError(
+            f"the points are spread over more than {2 * np.degrees(INIT_MAX_THETA):.0f} degrees of the "
+            f"view; cannot find a starting pose"
+        )
     normalised = rays_v[ok, :2] / rays_v[ok, 2:3]
     obj = points_world[ok].reshape(-1, 1, 3)
     img = normalised.reshape(-1, 1, 2)
@@ -140,8 +146,10 @@ def initial_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray) 
         if best is None or err < best[0]:
             best = (err, R, tvec.ravel())
     if best is None or not np.isfinite(best[0]):
-        raise InputError("could not find a starting pose from these points (cv2.solvePnP failed); "
-                         "check that the 3D points and pixel positions are listed in matching order")
+        raise InputError(
+            "could not find a starting pose from these points (cv2.solvePnP failed); "
+            "check that the 3D points and pixel positions are listed in matching order"
+        )
     R_c = R_vc.T @ best[1]
     t_c = R_vc.T @ best[2]
     return rotation_vectors(R_c), t_c
@@ -152,8 +160,14 @@ def _project(lens: LensModel, params: np.ndarray, points_world: np.ndarray) -> n
     return lens.project(points_world @ R.T + params[3:])
 
 
-def solve_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray, *, names: Sequence[str] | None = None,
-               initial: tuple[np.ndarray, np.ndarray] | None = None) -> PoseResult:
+def solve_pose(
+    lens: LensModel,
+    points_world: np.ndarray,
+    pixels: np.ndarray,
+    *,
+    names: Sequence[str] | None = None,
+    initial: tuple[np.ndarray, np.ndarray] | None = None,
+) -> PoseResult:
     """Camera pose from 3D-2D correspondences through the full lens model.
 
     lens: a lens model (project / unproject).
@@ -172,8 +186,9 @@ def solve_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray, *,
         r = (_project(lens, params, points_world) - pixels).ravel()
         return np.where(np.isfinite(r), r, _BIG)
 
-    res = least_squares(resid, np.concatenate([rvec, tvec]), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                        max_nfev=2000)
+    res = least_squares(
+        resid, np.concatenate([rvec, tvec]), method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000
+    )
     R_cw = rotation_matrices(res.x[:3])
     t = res.x[3:]
     R_wc = R_cw.T
@@ -185,12 +200,26 @@ def solve_pose(lens: LensModel, points_world: np.ndarray, pixels: np.ndarray, *,
     res_mm = residuals_mm(lens, R_wc, position, points_world, pixels)
     if names is None:
         names = [str(i) for i in range(len(points_world))]
-    return PoseResult(R_wc, position, points_world, pixels, res_px, res_mm,
-                      float(np.sqrt(np.mean(res_px ** 2))), tuple(str(n) for n in names))
+    return PoseResult(
+        R_wc,
+        position,
+        points_world,
+        pixels,
+        res_px,
+        res_mm,
+        float(np.sqrt(np.mean(res_px**2))),
+        tuple(str(n) for n in names),
+    )
 
 
-def residuals_mm(lens: LensModel, rotation_world_from_cam: np.ndarray, position_world: np.ndarray,
-                 points_world: np.ndarray, pixels: np.ndarray, floor_tolerance: float = 1e-3) -> np.ndarray:
+def residuals_mm(
+    lens: LensModel,
+    rotation_world_from_cam: np.ndarray,
+    position_world: np.ndarray,
+    points_world: np.ndarray,
+    pixels: np.ndarray,
+    floor_tolerance: float = 1e-3,
+) -> np.ndarray:
     """Per point, millimetres between the point and the ray through its observed pixel.
 
     Floor points (|z| < floor_tolerance): distance on the floor to where the ray meets z = 0.
@@ -211,8 +240,9 @@ def residuals_mm(lens: LensModel, rotation_world_from_cam: np.ndarray, position_
 
 
 # ------------------------------------------------------------------ floor board
-def floor_board_points(board: Board, ids: np.ndarray | None = None, origin_xy: tuple[float, float] = (0.0, 0.0),
-                       yaw: float = 0.0) -> np.ndarray:
+def floor_board_points(
+    board: Board, ids: np.ndarray | None = None, origin_xy: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0
+) -> np.ndarray:
     """World positions (N, 3) of board corners for a board lying face up on the floor.
 
     With origin (0, 0) and yaw 0, corner 0 is at the world origin, world x runs along the board's
@@ -229,14 +259,17 @@ def floor_board_points(board: Board, ids: np.ndarray | None = None, origin_xy: t
     return np.concatenate([xy, np.zeros((len(xy), 1))], axis=-1)
 
 
-def solve_pose_from_board(lens: LensModel, detection: Detection, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0),
-                          yaw: float = 0.0) -> PoseResult:
+def solve_pose_from_board(
+    lens: LensModel, detection: Detection, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0
+) -> PoseResult:
     """Pose of a ceiling camera from one image of a board lying on the floor."""
     sx, sy = board.squares
     if board.kind == "checkerboard" and (sx + sy) % 2 == 0:
-        raise InputError(f"a checkerboard with {sx}x{sy} squares looks the same turned by 180 degrees, so its "
-                         f"position on the floor is ambiguous; use a board with an odd number of squares one "
-                         f"way and an even number the other way (e.g. 9x6 inner corners), or a ChArUco board")
+        raise InputError(
+            f"a checkerboard with {sx}x{sy} squares looks the same turned by 180 degrees, so its "
+            f"position on the floor is ambiguous; use a board with an odd number of squares one "
+            f"way and an even number the other way (e.g. 9x6 inner corners), or a ChArUco board"
+        )
     points = floor_board_points(board, detection.ids, origin_xy, yaw)
     return solve_pose(lens, points, detection.pixels, names=[f"corner {i}" for i in detection.ids])
 
@@ -261,9 +294,15 @@ class StereoResult:
     dropped: tuple[DroppedImage, ...]
 
 
-def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Sequence[Detection | None],
-                     board: Board, image_size: tuple[int, int], *, min_images: int = 8,
-                     criteria: tuple[int, int, float] = FISHEYE_CRITERIA) -> StereoResult:
+def calibrate_stereo(
+    detections_a: Sequence[Detection | None],
+    detections_b: Sequence[Detection | None],
+    board: Board,
+    image_size: tuple[int, int],
+    *,
+    min_images: int = 8,
+    criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
+) -> StereoResult:
     """Relative pose (and intrinsics) of two fisheye cameras that saw the same boards.
 
     detections_a[i] and detections_b[i] are the same moment (None where the board was not found).
@@ -288,9 +327,18 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
         ib = [b.pixels.reshape(-1, 1, 2) for _, _, b in pairs]
         try:
             # cv2's stubs lack None for K1, D1, K2, D2 (estimated from scratch under FISHEYE_FLAGS)
-            out = cv2.fisheye.stereoCalibrate(obj, ia, ib, None, None, None, None,  # type: ignore[call-overload]
-                                              tuple(image_size),
-                                              flags=FISHEYE_FLAGS, criteria=criteria)
+            out = cv2.fisheye.stereoCalibrate(
+                obj,
+                ia,
+                ib,
+                None,
+                None,
+                None,
+                None,  # type: ignore[call-overload]
+                tuple(image_size),
+                flags=FISHEYE_FLAGS,
+                criteria=criteria,
+            )
         except cv2.error as exc:
             text = str(exc)
             match = ILL_CONDITIONED.search(text)
@@ -300,5 +348,14 @@ def calibrate_stereo(detections_a: Sequence[Detection | None], detections_b: Seq
                 continue
             raise InputError(f"cv2.fisheye.stereoCalibrate failed: {text.strip().splitlines()[-1]}") from None
         rms, K1, D1, K2, D2, R, T = out[:7]
-        return StereoResult(float(rms), K1, np.ravel(D1), K2, np.ravel(D2), np.asarray(R, np.float64),
-                            np.ravel(T).astype(np.float64), tuple(p[0] for p in pairs), tuple(dropped))
+        return StereoResult(
+            float(rms),
+            K1,
+            np.ravel(D1),
+            K2,
+            np.ravel(D2),
+            np.asarray(R, np.float64),
+            np.ravel(T).astype(np.float64),
+            tuple(p[0] for p in pairs),
+            tuple(dropped),
+        )

@@ -109,13 +109,16 @@ def read_gray(path: str | Path) -> np.ndarray:
     path = Path(path)
     image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
     if image is None:
-        raise InputError("cannot read this image (missing, corrupt or not an image); "
-                         "replace it or remove it from the folder", path=path)
+        raise InputError(
+            "cannot read this image (missing, corrupt or not an image); replace it or remove it from the folder",
+            path=path,
+        )
     return image
 
 
-def detect_in_images(paths: Sequence[str | Path], board: Board,
-                     progress: ProgressCallback | None = None) -> tuple[list[Detection], list[DroppedImage]]:
+def detect_in_images(
+    paths: Sequence[str | Path], board: Board, progress: ProgressCallback | None = None
+) -> tuple[list[Detection], list[DroppedImage]]:
     """Detect the board in every image; images without a board are returned as dropped.
 
     All images must have the same size (InputError naming the first that differs).
@@ -130,8 +133,11 @@ def detect_in_images(paths: Sequence[str | Path], board: Board,
         if size is None:
             size, first = this, Path(path).name
         elif this != size:
-            raise InputError(f"image is {this[0]}x{this[1]} but {first} is {size[0]}x{size[1]}; "
-                             f"all images of one camera must have the same size", path=path)
+            raise InputError(
+                f"image is {this[0]}x{this[1]} but {first} is {size[0]}x{size[1]}; "
+                f"all images of one camera must have the same size",
+                path=path,
+            )
         det = detect_board(image, board, source=Path(path).name)
         if det is None:
             dropped.append(DroppedImage(Path(path).name, "no board found", "no_board"))
@@ -196,7 +202,9 @@ def degenerate_reason(detection: Detection) -> str | None:
 CENTRAL_RADIUS = 0.65
 
 
-def central_views(detections: Sequence[Detection], image_size: tuple[int, int]) -> tuple[list[Detection], list[Detection]]:
+def central_views(
+    detections: Sequence[Detection], image_size: tuple[int, int]
+) -> tuple[list[Detection], list[Detection]]:
     """Split views into (central, outer) by their corner farthest from the image centre."""
     w, h = image_size
     centre = np.array([(w - 1) / 2.0, (h - 1) / 2.0])
@@ -208,19 +216,33 @@ def central_views(detections: Sequence[Detection], image_size: tuple[int, int]) 
     return central, outer
 
 
-def _calibrate_once(kept: Sequence[Detection], board: Board, image_size: Sequence[int], flags: int,
-                    criteria: tuple[int, int, float]) -> tuple[Any, ...]:
+def _calibrate_once(
+    kept: Sequence[Detection], board: Board, image_size: Sequence[int], flags: int, criteria: tuple[int, int, float]
+) -> tuple[Any, ...]:
     """cv2.fisheye.calibrate over the kept views: (rms, K, D, rvecs, tvecs)."""
     objs, imgs = _opencv_points(kept, board)
     # cv2's stubs lack None for K and D (estimated from scratch under these flags)
-    return cv2.fisheye.calibrate(objs, imgs, tuple(int(v) for v in image_size), None, None,  # type: ignore[call-overload]
-                                 flags=flags, criteria=criteria)
+    return cv2.fisheye.calibrate(
+        objs,
+        imgs,
+        tuple(int(v) for v in image_size),
+        None,
+        None,  # type: ignore[call-overload]
+        flags=flags,
+        criteria=criteria,
+    )
 
 
-def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size: tuple[int, int], *,
-                      min_images: int = DEFAULT_MIN_IMAGES, criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
-                      flags: int = FISHEYE_FLAGS, progress: ProgressCallback | None = None,
-                      ) -> tuple[float, np.ndarray, np.ndarray, Any, Any, list[Detection], list[DroppedImage]]:
+def fisheye_calibrate(
+    detections: Sequence[Detection],
+    board: Board,
+    image_size: tuple[int, int],
+    *,
+    min_images: int = DEFAULT_MIN_IMAGES,
+    criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
+    flags: int = FISHEYE_FLAGS,
+    progress: ProgressCallback | None = None,
+) -> tuple[float, np.ndarray, np.ndarray, Any, Any, list[Detection], list[DroppedImage]]:
     """cv2.fisheye.calibrate with bad views dropped and the fit retried.
 
     1. Views whose corners are degenerate (:func:`degenerate_reason`) are dropped up front.
@@ -253,32 +275,42 @@ def fisheye_calibrate(detections: Sequence[Detection], board: Board, image_size:
             match = ILL_CONDITIONED.search(text)
             if "CALIB_CHECK_COND" in text and match and int(match.group(1)) < len(kept):
                 bad = kept.pop(int(match.group(1)))
-                dropped.append(DroppedImage(bad.source, "ill-conditioned for OpenCV (board too small, too far, "
-                                                        "too oblique or too far off-axis in this view)",
-                                            "ill_conditioned"))
+                dropped.append(
+                    DroppedImage(
+                        bad.source,
+                        "ill-conditioned for OpenCV (board too small, too far, "
+                        "too oblique or too far off-axis in this view)",
+                        "ill_conditioned",
+                    )
+                )
                 continue
             culprit = _find_failing_view(kept, board, image_size, flags, criteria)
             last_line = text.strip().splitlines()[-1]
             if culprit is None:
-                raise InputError(f"cv2.fisheye.calibrate failed on {len(kept)} boards ({last_line}); take more "
-                                 f"images with the whole board sharp and at different distances and angles") from None
+                raise InputError(
+                    f"cv2.fisheye.calibrate failed on {len(kept)} boards ({last_line}); take more "
+                    f"images with the whole board sharp and at different distances and angles"
+                ) from None
             bad = kept.pop(culprit)
             dropped.append(DroppedImage(bad.source, f"OpenCV failed on this view ({last_line})", "opencv_failed"))
             continue
         if not (np.isfinite(rms) and np.all(np.isfinite(K)) and np.all(np.isfinite(D))):
-            raise InputError("the fisheye fit did not converge (non-finite result); take more images "
-                             "with the board at different distances and angles")
+            raise InputError(
+                "the fisheye fit did not converge (non-finite result); take more images "
+                "with the board at different distances and angles"
+            )
         rv = np.asarray(rvecs, np.float64).reshape(-1, 3)
         tv = np.asarray(tvecs, np.float64).reshape(-1, 3)
         return float(rms), np.asarray(K, np.float64), np.asarray(D, np.float64).ravel(), rv, tv, kept, dropped
 
 
-def _find_failing_view(kept: list[Detection], board: Board, image_size: Sequence[int], flags: int,
-                       criteria: tuple[int, int, float]) -> int | None:
+def _find_failing_view(
+    kept: list[Detection], board: Board, image_size: Sequence[int], flags: int, criteria: tuple[int, int, float]
+) -> int | None:
     """Index of a view whose removal lets the fit succeed (views with the least spread tried first)."""
     spread = [np.linalg.svd(d.pixels - d.pixels.mean(axis=0), compute_uv=False)[-1] for d in kept]
     for i in np.argsort(spread):
-        trial = kept[:i] + kept[i + 1:]
+        trial = kept[:i] + kept[i + 1 :]
         try:
             _calibrate_once(trial, board, image_size, flags, criteria)
         except cv2.error:
@@ -287,8 +319,13 @@ def _find_failing_view(kept: list[Detection], board: Board, image_size: Sequence
     return None
 
 
-def reprojection_errors(lens: LensModel, detections: Sequence[Detection], board: Board,
-                        rotations_cam_from_board: np.ndarray, translations_cam: np.ndarray) -> list[np.ndarray]:
+def reprojection_errors(
+    lens: LensModel,
+    detections: Sequence[Detection],
+    board: Board,
+    rotations_cam_from_board: np.ndarray,
+    translations_cam: np.ndarray,
+) -> list[np.ndarray]:
     """Per view, (N,) distances (pixels) between detected corners and corners projected by ``lens``."""
     obj_all = board.object_points()
     out = []
@@ -301,7 +338,7 @@ def reprojection_errors(lens: LensModel, detections: Sequence[Detection], board:
 
 def _rms(errors: Sequence[np.ndarray]) -> float:
     e = np.concatenate(errors)
-    return float(np.sqrt(np.mean(e ** 2)))
+    return float(np.sqrt(np.mean(e**2)))
 
 
 def _max_theta(detections: Sequence[Detection], board: Board, R: np.ndarray, t: np.ndarray) -> float:
@@ -313,10 +350,18 @@ def _max_theta(detections: Sequence[Detection], board: Board, R: np.ndarray, t: 
     return float(np.max(np.concatenate(thetas)))
 
 
-def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
-                             *, min_images: int = DEFAULT_MIN_IMAGES, min_coverage: float = DEFAULT_MIN_COVERAGE,
-                             dropped: Sequence[DroppedImage] = (), criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
-                             recover: bool = True, progress: ProgressCallback | None = None) -> IntrinsicsResult:
+def calibrate_kannala_brandt(
+    detections: Sequence[Detection],
+    board: Board,
+    image_size: tuple[int, int] | None = None,
+    *,
+    min_images: int = DEFAULT_MIN_IMAGES,
+    min_coverage: float = DEFAULT_MIN_COVERAGE,
+    dropped: Sequence[DroppedImage] = (),
+    criteria: tuple[int, int, float] = FISHEYE_CRITERIA,
+    recover: bool = True,
+    progress: ProgressCallback | None = None,
+) -> IntrinsicsResult:
     """Fit a Kannala-Brandt lens (cv2.fisheye.calibrate) to board detections.
 
     recover: give views OpenCV dropped (ill-conditioned or failing, typically boards far off-axis)
@@ -328,8 +373,10 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
     """
     dropped = list(dropped)
     if not detections:
-        raise InputError("the board was not found in any image; check the board spec (inner corners for a "
-                         "checkerboard, squares for ChArUco) and that the whole board is visible")
+        raise InputError(
+            "the board was not found in any image; check the board spec (inner corners for a "
+            "checkerboard, squares for ChArUco) and that the whole board is visible"
+        )
     if len(detections) < min_images:
         raise InputError(too_few_message(len(detections), min_images, dropped))
     size = image_size if image_size is not None else image_size_of(detections)
@@ -338,11 +385,13 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
         raise InputError(
             f"poor coverage: the detected corners fill {coverage:.0%} of the image (4x4 cells), at least "
             f"{min_coverage:.0%} is needed; take more images with the board near the image edges and corners, "
-            f"not only in one place")
+            f"not only in one place"
+        )
     first_min = min(min_images, MIN_OPENCV_VIEWS) if recover else min_images
     try:
-        rms, K, D, rv, tv, kept, ill = fisheye_calibrate(detections, board, size, min_images=first_min,
-                                                         criteria=criteria, progress=progress)
+        rms, K, D, rv, tv, kept, ill = fisheye_calibrate(
+            detections, board, size, min_images=first_min, criteria=criteria, progress=progress
+        )
     except InputError:
         # OpenCV's per-view start (x / z) breaks on boards far off-axis, and with a poor start it
         # refuses good views too. Second try: OpenCV on the central views only; the others are
@@ -350,30 +399,41 @@ def calibrate_kannala_brandt(detections: Sequence[Detection], board: Board, imag
         central, outer = central_views(detections, size)
         if not recover or len(central) < first_min or not outer:
             raise
-        rms, K, D, rv, tv, kept, ill = fisheye_calibrate(central, board, size, min_images=first_min,
-                                                         criteria=criteria, progress=progress)
-        ill = ill + [DroppedImage(d.source, "far off-axis: left out of OpenCV's first fit", "ill_conditioned")
-                     for d in outer]
+        rms, K, D, rv, tv, kept, ill = fisheye_calibrate(
+            central, board, size, min_images=first_min, criteria=criteria, progress=progress
+        )
+        ill = ill + [
+            DroppedImage(d.source, "far off-axis: left out of OpenCV's first fit", "ill_conditioned") for d in outer
+        ]
     dropped.extend(ill)
     R = rotation_matrices(rv)
     lens = _kb_lens(K, D)
     opencv_rms = float(rms)
     recovered: list[str] = []
     if recover and ill:
-        lens, K, D, kept, R, tv, recovered, ill_left = _recover_views(lens, kept, R, tv, ill, detections, board,
-                                                                      progress)
+        lens, K, D, kept, R, tv, recovered, ill_left = _recover_views(
+            lens, kept, R, tv, ill, detections, board, progress
+        )
         dropped = [d for d in dropped if d not in ill] + ill_left
     if len(kept) < min_images:
         raise InputError(too_few_message(len(kept), min_images, dropped))
     errors = reprojection_errors(lens, kept, board, R, tv)
     model_rms = _rms(errors)
     return IntrinsicsResult(
-        model="kannala_brandt", lens=lens, image_size=(size[0], size[1]), rms=model_rms if recovered else opencv_rms,
-        camera_matrix=K, distortion=D, kb_rms=model_rms if recovered else opencv_rms,
-        used=tuple(d.source for d in kept), dropped=tuple(dropped),
-        rotations_cam_from_board=R, translations_cam=tv,
-        per_view_rms=np.array([np.sqrt(np.mean(e ** 2)) for e in errors]),
-        coverage=image_coverage(kept, size), max_theta_observed=_max_theta(kept, board, R, tv),
+        model="kannala_brandt",
+        lens=lens,
+        image_size=(size[0], size[1]),
+        rms=model_rms if recovered else opencv_rms,
+        camera_matrix=K,
+        distortion=D,
+        kb_rms=model_rms if recovered else opencv_rms,
+        used=tuple(d.source for d in kept),
+        dropped=tuple(dropped),
+        rotations_cam_from_board=R,
+        translations_cam=tv,
+        per_view_rms=np.array([np.sqrt(np.mean(e**2)) for e in errors]),
+        coverage=image_coverage(kept, size),
+        max_theta_observed=_max_theta(kept, board, R, tv),
         recovered=tuple(recovered),
         details={"opencv_rms": opencv_rms, "model_rms": model_rms, "kept_detections": tuple(kept)},
     )
@@ -423,9 +483,17 @@ def ds_project(params: np.ndarray, points_cam: np.ndarray) -> np.ndarray:
     return np.stack([u, v], axis=-1)
 
 
-def refine_bundle(project: Callable[[np.ndarray, np.ndarray], np.ndarray], intr0: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-                  detections: Sequence[Detection], board: Board, rotations: np.ndarray, translations: np.ndarray,
-                  max_iterations: int = 100) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def refine_bundle(
+    project: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    intr0: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    detections: Sequence[Detection],
+    board: Board,
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    max_iterations: int = 100,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Joint least squares over lens parameters and per-view board poses (bundle adjustment).
 
     project(params, points_cam (N, 3)) -> (N, 2) pixels (NaN where invalid). Returns
@@ -528,10 +596,18 @@ def _kb_from_params(p: np.ndarray) -> KannalaBrandt:
     return KannalaBrandt(*(float(v) for v in p))
 
 
-def _recover_views(lens: KannalaBrandt, kept: list[Detection], R: np.ndarray, t: np.ndarray,
-                   ill: Sequence[DroppedImage], detections: Sequence[Detection], board: Board,
-                   progress: ProgressCallback | None) -> tuple[KannalaBrandt, np.ndarray, np.ndarray, list[Detection],
-                                                               np.ndarray, np.ndarray, list[str], list[DroppedImage]]:
+def _recover_views(
+    lens: KannalaBrandt,
+    kept: list[Detection],
+    R: np.ndarray,
+    t: np.ndarray,
+    ill: Sequence[DroppedImage],
+    detections: Sequence[Detection],
+    board: Board,
+    progress: ProgressCallback | None,
+) -> tuple[
+    KannalaBrandt, np.ndarray, np.ndarray, list[Detection], np.ndarray, np.ndarray, list[str], list[DroppedImage]
+]:
     """Take back views OpenCV dropped (ill-conditioned, failed) when our full KB model explains them.
 
     cv2.fisheye works with x/z, so boards near or beyond 90 degrees off-axis break its per-view
@@ -573,14 +649,15 @@ def _recover_views(lens: KannalaBrandt, kept: list[Detection], R: np.ndarray, t:
         intr, Rs, ts = refine_bundle(kb_project, intr0, lower, upper, dets, board, Rs, ts)
         lens = _kb_from_params(intr)
         errors = reprojection_errors(lens, dets, board, Rs, ts)
-        per_view = np.array([np.sqrt(np.mean(e ** 2)) for e in errors])
+        per_view = np.array([np.sqrt(np.mean(e**2)) for e in errors])
         limit = max(1.0, OUTLIER_FACTOR * _rms(errors))
         bad = per_view > limit
         if not bad.any():
             break
         for i in np.flatnonzero(bad):
-            still.append(DroppedImage(dets[i].source, f"does not fit the lens model (RMS {per_view[i]:.2f} px)",
-                                      "outlier"))
+            still.append(
+                DroppedImage(dets[i].source, f"does not fit the lens model (RMS {per_view[i]:.2f} px)", "outlier")
+            )
         keep = ~bad
         dets = [d for d, k in zip(dets, keep) if k]
         Rs, ts, intr0 = Rs[keep], ts[keep], intr
@@ -597,7 +674,9 @@ def _ds_lens(params: np.ndarray) -> DoubleSphere:
     return DoubleSphere(fx, fy, cx, cy, xi, alpha)
 
 
-def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressCallback | None = None) -> IntrinsicsResult:
+def fit_double_sphere(
+    kb: IntrinsicsResult, board: Board, *, progress: ProgressCallback | None = None
+) -> IntrinsicsResult:
     """Refine a Double Sphere lens and the board poses over the corners of a Kannala-Brandt fit.
 
     Step 1: fit (fx, fy, cx, cy, xi, alpha) to the KB projection of rays up to the largest observed
@@ -626,52 +705,97 @@ def fit_double_sphere(kb: IntrinsicsResult, board: Board, *, progress: ProgressC
         return np.where(np.isfinite(r), r, _BIG)
 
     # near the axis a Double Sphere with xi = 0 has the focal length of the KB fit: start from it
-    fits = [least_squares(resid_fit, np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0]),
-                          bounds=(lower, upper), x_scale="jac", max_nfev=400)
-            for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5))]
+    fits = [
+        least_squares(
+            resid_fit,
+            np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], xi0, a0]),
+            bounds=(lower, upper),
+            x_scale="jac",
+            max_nfev=400,
+        )
+        for xi0, a0 in ((0.0, 0.55), (-0.2, 0.6), (0.2, 0.5))
+    ]
     best = min(fits, key=lambda res: res.cost)  # the first of equal costs, as before
     intr0 = best.x
     report(progress, "double_sphere", 1, 2, unit="step")
 
     # step 2: joint refinement over corners and poses
-    intr, R, t = refine_bundle(ds_project, intr0, lower, upper, kept, board, kb.rotations_cam_from_board,
-                               kb.translations_cam)
+    intr, R, t = refine_bundle(
+        ds_project, intr0, lower, upper, kept, board, kb.rotations_cam_from_board, kb.translations_cam
+    )
     report(progress, "double_sphere", 2, 2, unit="step")
     lens = _ds_lens(intr)
     errors = reprojection_errors(lens, kept, board, R, t)
     return replace(
-        kb, model="double_sphere", lens=lens, rms=_rms(errors), rotations_cam_from_board=R, translations_cam=t,
-        per_view_rms=np.array([np.sqrt(np.mean(e ** 2)) for e in errors]),
-        details={**kb.details, "model_rms": _rms(errors), "ds_init_rms": float(np.sqrt(np.mean(best.fun ** 2)))},
+        kb,
+        model="double_sphere",
+        lens=lens,
+        rms=_rms(errors),
+        rotations_cam_from_board=R,
+        translations_cam=t,
+        per_view_rms=np.array([np.sqrt(np.mean(e**2)) for e in errors]),
+        details={**kb.details, "model_rms": _rms(errors), "ds_init_rms": float(np.sqrt(np.mean(best.fun**2)))},
     )
 
 
-def calibrate_intrinsics(detections: Sequence[Detection], board: Board, image_size: tuple[int, int] | None = None,
-                         *, model: str = "kannala_brandt", min_images: int = DEFAULT_MIN_IMAGES,
-                         min_coverage: float = DEFAULT_MIN_COVERAGE, dropped: Sequence[DroppedImage] = (),
-                         recover: bool = True, progress: ProgressCallback | None = None) -> IntrinsicsResult:
+def calibrate_intrinsics(
+    detections: Sequence[Detection],
+    board: Board,
+    image_size: tuple[int, int] | None = None,
+    *,
+    model: str = "kannala_brandt",
+    min_images: int = DEFAULT_MIN_IMAGES,
+    min_coverage: float = DEFAULT_MIN_COVERAGE,
+    dropped: Sequence[DroppedImage] = (),
+    recover: bool = True,
+    progress: ProgressCallback | None = None,
+) -> IntrinsicsResult:
     """Kannala-Brandt fit, then (model="double_sphere") a Double Sphere refinement.
 
     This is what ``ergopose calibrate intrinsics`` runs after detecting the board.
     """
     if model not in MODELS:
         raise InputError(f"unknown lens model {model!r}; expected one of {', '.join(MODELS)}")
-    kb = calibrate_kannala_brandt(detections, board, image_size, min_images=min_images, min_coverage=min_coverage,
-                                  dropped=dropped, recover=recover, progress=progress)
+    kb = calibrate_kannala_brandt(
+        detections,
+        board,
+        image_size,
+        min_images=min_images,
+        min_coverage=min_coverage,
+        dropped=dropped,
+        recover=recover,
+        progress=progress,
+    )
     if model == "kannala_brandt":
         return kb
     return fit_double_sphere(kb, board, progress=progress)
 
 
-def calibrate_images(paths: Sequence[str | Path], board: Board, *, model: str = "kannala_brandt",
-                     min_images: int = DEFAULT_MIN_IMAGES, min_coverage: float = DEFAULT_MIN_COVERAGE,
-                     progress: ProgressCallback | None = None) -> IntrinsicsResult:
+def calibrate_images(
+    paths: Sequence[str | Path],
+    board: Board,
+    *,
+    model: str = "kannala_brandt",
+    min_images: int = DEFAULT_MIN_IMAGES,
+    min_coverage: float = DEFAULT_MIN_COVERAGE,
+    progress: ProgressCallback | None = None,
+) -> IntrinsicsResult:
     """Detect the board in every image and calibrate (what ``ergopose calibrate intrinsics`` runs)."""
     detections, dropped = detect_in_images(paths, board, progress=progress)
     if not detections:
         names = ", ".join(Path(p).name for p in list(paths)[:3]) + (" ..." if len(paths) > 3 else "")
-        raise InputError(f"the board ({board.spec()}) was not found in any of {len(paths)} image(s) ({names}); "
-                         f"check the board spec (checkerboard: INNER corners; charuco: squares) and that the "
-                         f"whole board is visible and sharp")
-    return calibrate_intrinsics(detections, board, image_size_of(detections), model=model, min_images=min_images,
-                                min_coverage=min_coverage, dropped=dropped, progress=progress)
+        raise InputError(
+            f"the board ({board.spec()}) was not found in any of {len(paths)} image(s) ({names}); "
+            f"check the board spec (checkerboard: INNER corners; charuco: squares) and that the "
+            f"whole board is visible and sharp"
+        )
+    return calibrate_intrinsics(
+        detections,
+        board,
+        image_size_of(detections),
+        model=model,
+        min_images=min_images,
+        min_coverage=min_coverage,
+        dropped=dropped,
+        progress=progress,
+    )

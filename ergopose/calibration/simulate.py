@@ -33,8 +33,12 @@ def floor_board_transform(yaw: float = 0.0) -> np.ndarray:
     return Rz @ swap
 
 
-def board_pose_in_camera(rotation_world_from_cam: np.ndarray, position_world: np.ndarray,
-                         rotation_world_from_board: np.ndarray, origin_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def board_pose_in_camera(
+    rotation_world_from_cam: np.ndarray,
+    position_world: np.ndarray,
+    rotation_world_from_board: np.ndarray,
+    origin_world: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """(R_cam_from_board, t_cam) for a board placed in the world and a camera pose."""
     R_wc = np.asarray(rotation_world_from_cam, np.float64)
     R = R_wc.T @ np.asarray(rotation_world_from_board, np.float64)
@@ -42,8 +46,14 @@ def board_pose_in_camera(rotation_world_from_cam: np.ndarray, position_world: np
     return R, t
 
 
-def board_region(lens: LensModel, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
-                 translation_cam: np.ndarray, texture: BoardTexture) -> tuple[int, int, int, int]:
+def board_region(
+    lens: LensModel,
+    image_size: tuple[int, int],
+    board: Board,
+    rotation_cam_from_board: np.ndarray,
+    translation_cam: np.ndarray,
+    texture: BoardTexture,
+) -> tuple[int, int, int, int]:
     """(u0, v0, u1, v1) pixel box (end exclusive) that holds the whole board texture in the image.
 
     Found by projecting densely sampled points of the texture's outline; the full image when the
@@ -55,9 +65,14 @@ def board_region(lens: LensModel, image_size: tuple[int, int], board: Board, rot
     x0, y0, x1, y1 = x0 - m, y0 - m, x1 + m, y1 + m
     n = 200
     ts = np.linspace(0.0, 1.0, n)
-    outline = np.concatenate([
-        np.stack([x0 + (x1 - x0) * ts, np.full(n, y0)], -1), np.stack([x0 + (x1 - x0) * ts, np.full(n, y1)], -1),
-        np.stack([np.full(n, x0), y0 + (y1 - y0) * ts], -1), np.stack([np.full(n, x1), y0 + (y1 - y0) * ts], -1)])
+    outline = np.concatenate(
+        [
+            np.stack([x0 + (x1 - x0) * ts, np.full(n, y0)], -1),
+            np.stack([x0 + (x1 - x0) * ts, np.full(n, y1)], -1),
+            np.stack([np.full(n, x0), y0 + (y1 - y0) * ts], -1),
+            np.stack([np.full(n, x1), y0 + (y1 - y0) * ts], -1),
+        ]
+    )
     pts = np.concatenate([outline, np.zeros((len(outline), 1))], -1) @ np.asarray(rotation_cam_from_board).T
     pts += np.asarray(translation_cam)
     px = lens.project(pts)
@@ -72,9 +87,16 @@ def board_region(lens: LensModel, image_size: tuple[int, int], board: Board, rot
     return int(u0), int(v0), int(u1), int(v1)
 
 
-def board_maps(lens: LensModel, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
-               translation_cam: np.ndarray, texture: BoardTexture, supersample: int = 3,
-               region: tuple[int, int, int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def board_maps(
+    lens: LensModel,
+    image_size: tuple[int, int],
+    board: Board,
+    rotation_cam_from_board: np.ndarray,
+    translation_cam: np.ndarray,
+    texture: BoardTexture,
+    supersample: int = 3,
+    region: tuple[int, int, int, int] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """cv2.remap maps (float32, (h*s, w*s)) from the supersampled image (or the pixel box
     ``region`` = (u0, v0, u1, v1) of it) into the board texture.
 
@@ -108,9 +130,19 @@ def board_maps(lens: LensModel, image_size: tuple[int, int], board: Board, rotat
     return map_x, map_y
 
 
-def render_board(lens: LensModel, image_size: tuple[int, int], board: Board, rotation_cam_from_board: np.ndarray,
-                 translation_cam: np.ndarray, *, supersample: int = 3, texture: BoardTexture | None = None,
-                 background: int = 140, noise_std: float = 0.0, rng: np.random.Generator | None = None) -> np.ndarray:
+def render_board(
+    lens: LensModel,
+    image_size: tuple[int, int],
+    board: Board,
+    rotation_cam_from_board: np.ndarray,
+    translation_cam: np.ndarray,
+    *,
+    supersample: int = 3,
+    texture: BoardTexture | None = None,
+    background: int = 140,
+    noise_std: float = 0.0,
+    rng: np.random.Generator | None = None,
+) -> np.ndarray:
     """A (H, W) uint8 image of the board seen through ``lens`` (board pose in the camera frame).
 
     noise_std: Gaussian pixel noise (grey levels) added after anti-aliasing (needs ``rng``).
@@ -120,10 +152,24 @@ def render_board(lens: LensModel, image_size: tuple[int, int], board: Board, rot
     image = np.full((height, width), int(background), np.uint8)
     u0, v0, u1, v1 = board_region(lens, image_size, board, rotation_cam_from_board, translation_cam, texture)
     if u1 > u0 and v1 > v0:
-        map_x, map_y = board_maps(lens, image_size, board, rotation_cam_from_board, translation_cam, texture,
-                                  supersample, region=(u0, v0, u1, v1))
-        big = cv2.remap(texture.image, map_x, map_y, interpolation=cv2.INTER_LINEAR,
-                        borderMode=cv2.BORDER_CONSTANT, borderValue=int(background))
+        map_x, map_y = board_maps(
+            lens,
+            image_size,
+            board,
+            rotation_cam_from_board,
+            translation_cam,
+            texture,
+            supersample,
+            region=(u0, v0, u1, v1),
+        )
+        big = cv2.remap(
+            texture.image,
+            map_x,
+            map_y,
+            interpolation=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=int(background),
+        )
         if supersample > 1:
             big = cv2.resize(big, (u1 - u0, v1 - v0), interpolation=cv2.INTER_AREA)
         image[v0:v1, u0:u1] = big
@@ -134,15 +180,22 @@ def render_board(lens: LensModel, image_size: tuple[int, int], board: Board, rot
     return image
 
 
-def render_floor_board(camera: Camera, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0,
-                       **kwargs: Any) -> np.ndarray:
+def render_floor_board(
+    camera: Camera, board: Board, origin_xy: tuple[float, float] = (0.0, 0.0), yaw: float = 0.0, **kwargs: Any
+) -> np.ndarray:
     """A ceiling camera's view of a board lying on the floor (placed as extrinsics.floor_board_points)."""
-    R, t = board_pose_in_camera(camera.rotation_world_from_cam, camera.position_world, floor_board_transform(yaw),
-                                np.array([origin_xy[0], origin_xy[1], 0.0]))
+    R, t = board_pose_in_camera(
+        camera.rotation_world_from_cam,
+        camera.position_world,
+        floor_board_transform(yaw),
+        np.array([origin_xy[0], origin_xy[1], 0.0]),
+    )
     return render_board(camera.lens, (camera.width, camera.height), board, R, t, **kwargs)
 
 
-def true_corner_pixels(lens: LensModel, board: Board, rotation_cam_from_board: np.ndarray, translation_cam: np.ndarray) -> np.ndarray:
+def true_corner_pixels(
+    lens: LensModel, board: Board, rotation_cam_from_board: np.ndarray, translation_cam: np.ndarray
+) -> np.ndarray:
     """(N, 2) pixels of every board corner through ``lens`` (the ground truth for a rendering)."""
     pts = board.object_points() @ np.asarray(rotation_cam_from_board).T + np.asarray(translation_cam)
     return lens.project(pts)

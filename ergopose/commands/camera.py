@@ -80,58 +80,107 @@ fisheye cropped inside its circle) is refused."""
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
-        "camera", help="show calibration files, import Pose2Sim/anipose and OpenCV calibrations",
-        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
+        "camera",
+        help="show calibration files, import Pose2Sim/anipose and OpenCV calibrations",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = parser.add_subparsers(dest="camera_action", metavar="ACTION", title="actions")
 
     show = actions.add_parser(
-        "show", help="one line per camera: lens model, size, field of view, position, viewing direction",
-        description="Check a calibration file and print one line per camera, in file order.")
+        "show",
+        help="one line per camera: lens model, size, field of view, position, viewing direction",
+        description="Check a calibration file and print one line per camera, in file order.",
+    )
     show.add_argument("file", metavar="FILE", help="calibration file (.toml)")
     show.set_defaults(func=run_show)
 
     toml = actions.add_parser(
-        "import", help="convert a Pose2Sim or anipose calibration TOML into a calibration file",
-        description=IMPORT_TOML_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        "import",
+        help="convert a Pose2Sim or anipose calibration TOML into a calibration file",
+        description=IMPORT_TOML_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     toml.add_argument("file", metavar="FILE", help="Pose2Sim/anipose calibration (.toml)")
     toml.add_argument("--out", metavar="FILE", required=True, help="ergopose calibration file to write (.toml)")
-    toml.add_argument("--units", choices=tuple(LENGTH_UNITS), default="m",
-                      help="length unit of the file's translations (default m, as Pose2Sim; anipose uses the "
-                           "board's unit, often mm)")
+    toml.add_argument(
+        "--units",
+        choices=tuple(LENGTH_UNITS),
+        default="m",
+        help="length unit of the file's translations (default m, as Pose2Sim; anipose uses the board's unit, often mm)",
+    )
     toml.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     toml.set_defaults(func=run_import_toml)
 
     imp = actions.add_parser(
-        "import-opencv", help="add an OpenCV fisheye K/D calibration to a calibration file",
-        description=IMPORT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    imp.add_argument("--K-D", dest="kd_file", metavar="FILE", required=True,
-                     help="OpenCV FileStorage file (.yml/.xml/.json) with the fisheye K and D")
+        "import-opencv",
+        help="add an OpenCV fisheye K/D calibration to a calibration file",
+        description=IMPORT_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    imp.add_argument(
+        "--K-D",
+        dest="kd_file",
+        metavar="FILE",
+        required=True,
+        help="OpenCV FileStorage file (.yml/.xml/.json) with the fisheye K and D",
+    )
     imp.add_argument("--name", required=True, help="camera name, e.g. cam_1 (unique in the file)")
-    imp.add_argument("--size", metavar="WxH", type=_size,
-                     help="image size in pixels, e.g. 2592x1944 (default: image_width/image_height from the K/D file)")
+    imp.add_argument(
+        "--size",
+        metavar="WxH",
+        type=_size,
+        help="image size in pixels, e.g. 2592x1944 (default: image_width/image_height from the K/D file)",
+    )
     imp.add_argument("--out", metavar="FILE", required=True, help="calibration file to write or extend (.toml)")
-    imp.add_argument("--position", metavar="X,Y,Z", type=_position,
-                     help="camera position in metres for a ceiling camera looking straight down "
-                          "(write --position=-1.5,0,3 when X is negative)")
-    imp.add_argument("--yaw", metavar="DEG", type=float, default=0.0,
-                     help="with --position: image x axis direction in the floor plane, degrees (default 0: world +x)")
+    imp.add_argument(
+        "--position",
+        metavar="X,Y,Z",
+        type=_position,
+        help="camera position in metres for a ceiling camera looking straight down "
+        "(write --position=-1.5,0,3 when X is negative)",
+    )
+    imp.add_argument(
+        "--yaw",
+        metavar="DEG",
+        type=float,
+        default=0.0,
+        help="with --position: image x axis direction in the floor plane, degrees (default 0: world +x)",
+    )
     imp.add_argument("--replace", action="store_true", help="replace a camera of the same name in --out")
     imp.set_defaults(func=run_import_opencv)
 
     guess = actions.add_parser(
-        "guess", help="an approximate calibration for uncalibrated ceiling fisheye footage",
-        description=GUESS_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    guess.add_argument("footage", metavar="VIDEO_OR_IMAGE", type=Path,
-                       help="a video of the camera, or one image (.png, .jpg, ...)")
+        "guess",
+        help="an approximate calibration for uncalibrated ceiling fisheye footage",
+        description=GUESS_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    guess.add_argument(
+        "footage", metavar="VIDEO_OR_IMAGE", type=Path, help="a video of the camera, or one image (.png, .jpg, ...)"
+    )
     low, high = (math.degrees(x) for x in NOMINAL_FOV_RANGE)
-    guess.add_argument("--fov", metavar="DEG", type=float, required=True,
-                       help=f"the lens's nominal field of view across its image circle, degrees ({low:g}-{high:g}; "
-                            "from the lens's data sheet, e.g. 180)")
-    guess.add_argument("--lens", choices=tuple(NOMINAL_FISHEYE_LENSES), default="equidistant",
-                       help="the lens's projection (default equidistant, r = f theta)")
-    guess.add_argument("--height", metavar="M", type=float, default=DEFAULT_GUESS_HEIGHT_M,
-                       help=f"the camera's height above the floor in metres (default {DEFAULT_GUESS_HEIGHT_M:g})")
+    guess.add_argument(
+        "--fov",
+        metavar="DEG",
+        type=float,
+        required=True,
+        help=f"the lens's nominal field of view across its image circle, degrees ({low:g}-{high:g}; "
+        "from the lens's data sheet, e.g. 180)",
+    )
+    guess.add_argument(
+        "--lens",
+        choices=tuple(NOMINAL_FISHEYE_LENSES),
+        default="equidistant",
+        help="the lens's projection (default equidistant, r = f theta)",
+    )
+    guess.add_argument(
+        "--height",
+        metavar="M",
+        type=float,
+        default=DEFAULT_GUESS_HEIGHT_M,
+        help=f"the camera's height above the floor in metres (default {DEFAULT_GUESS_HEIGHT_M:g})",
+    )
     guess.add_argument("--name", default=None, help="camera name (default: the file name without its extension)")
     guess.add_argument("--out", metavar="FILE", type=Path, required=True, help="calibration file to write (.toml)")
     guess.add_argument("--force", action="store_true", help="overwrite --out if it exists")
@@ -179,11 +228,13 @@ def describe(camera: Camera) -> str:
         fov_from = "lens model; no image_circle given"
     else:
         fov_from = "image"
-    line = (f"{camera.name}: {camera.lens.kind}, {camera.width}x{camera.height} px, "
-            f"field of view {math.degrees(hfov):.1f} x {math.degrees(vfov):.1f} deg "
-            f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis; {fov_from}), "
-            f"at ({x:.3f}, {y:.3f}, {z:.3f}) m, looking ({axis[0]:+.3f}, {axis[1]:+.3f}, {axis[2]:+.3f}), "
-            f"{from_down:.1f} deg from straight down")
+    line = (
+        f"{camera.name}: {camera.lens.kind}, {camera.width}x{camera.height} px, "
+        f"field of view {math.degrees(hfov):.1f} x {math.degrees(vfov):.1f} deg "
+        f"(up to {math.degrees(camera.max_theta_in_image()):.1f} deg off-axis; {fov_from}), "
+        f"at ({x:.3f}, {y:.3f}, {z:.3f}) m, looking ({axis[0]:+.3f}, {axis[1]:+.3f}, {axis[2]:+.3f}), "
+        f"{from_down:.1f} deg from straight down"
+    )
     if camera.calibration.rms_error_px is not None:
         line += f", calibration rms {camera.calibration.rms_error_px:.3f} px"
     return line
@@ -205,8 +256,10 @@ def run_import_toml(args: argparse.Namespace) -> int:
         print(describe(camera))
     for warning in world_frame_warnings(cameras):
         print(f"warning: {warning}")
-    print(f"wrote {out} ({len(cameras)} camera{'s' if len(cameras) != 1 else ''}; world frame as in "
-          f"{Path(args.file).name})")
+    print(
+        f"wrote {out} ({len(cameras)} camera{'s' if len(cameras) != 1 else ''}; world frame as in "
+        f"{Path(args.file).name})"
+    )
     return 0
 
 
@@ -217,30 +270,41 @@ def run_import_opencv(args: argparse.Namespace) -> int:
     elif "image_width" in extras and "image_height" in extras:
         width, height = extras["image_width"], extras["image_height"]
     else:
-        raise ConfigError("the file has no image_width/image_height: give --size WxH", path=args.kd_file,
-                          field="--size")
-    info = CalibrationInfo(rms_error_px=extras.get("rms_error_px"),
-                           method=f"cv2.fisheye K and D imported from {Path(args.kd_file).name}")
+        raise ConfigError(
+            "the file has no image_width/image_height: give --size WxH", path=args.kd_file, field="--size"
+        )
+    info = CalibrationInfo(
+        rms_error_px=extras.get("rms_error_px"), method=f"cv2.fisheye K and D imported from {Path(args.kd_file).name}"
+    )
     camera = camera_from_opencv_fisheye(args.name, K, D, width, height, calibration=info)
     if args.position is not None:
-        camera = Camera(name=camera.name, lens=camera.lens, width=width, height=height,
-                        rotation_world_from_cam=ceiling_rotation(math.radians(args.yaw)),
-                        position_world=args.position, calibration=info)
+        camera = Camera(
+            name=camera.name,
+            lens=camera.lens,
+            width=width,
+            height=height,
+            rotation_world_from_cam=ceiling_rotation(math.radians(args.yaw)),
+            position_world=args.position,
+            calibration=info,
+        )
     out = Path(args.out)
     cameras = list(load_calibration(out)) if out.exists() else []
     names = [c.name for c in cameras]
     if camera.name in names:
         if not args.replace:
-            raise ConfigError(f"{out} already has a camera {camera.name!r}: choose another --name or add --replace",
-                              field="--name")
+            raise ConfigError(
+                f"{out} already has a camera {camera.name!r}: choose another --name or add --replace", field="--name"
+            )
         cameras[names.index(camera.name)] = camera
     else:
         cameras.append(camera)
     save_calibration(out, cameras)
     print(describe(camera))
     if args.position is None:
-        print(f"note: {camera.name} has the identity pose (camera frame = world frame); "
-              "set its real pose before using the file in a session")
+        print(
+            f"note: {camera.name} has the identity pose (camera frame = world frame); "
+            "set its real pose before using the file in a session"
+        )
     print(f"wrote {out} ({len(cameras)} camera{'s' if len(cameras) != 1 else ''})")
     return 0
 
@@ -263,12 +327,16 @@ def run_guess(args: argparse.Namespace) -> int:
     low, high = NOMINAL_FOV_RANGE
     fov = math.radians(args.fov) if math.isfinite(args.fov) else math.nan
     if not low <= fov <= high:
-        raise ConfigError(f"a fisheye's field of view must be between {math.degrees(low):g} and "
-                          f"{math.degrees(high):g} degrees, got {args.fov:g}", field="--fov")
+        raise ConfigError(
+            f"a fisheye's field of view must be between {math.degrees(low):g} and "
+            f"{math.degrees(high):g} degrees, got {args.fov:g}",
+            field="--fov",
+        )
     reach = nominal_max_fov(args.lens)
     if fov > reach + 1e-12:
-        raise ConfigError(f"a {args.lens} lens spans at most {math.degrees(reach):g} degrees, got {args.fov:g}",
-                          field="--fov")
+        raise ConfigError(
+            f"a {args.lens} lens spans at most {math.degrees(reach):g} degrees, got {args.fov:g}", field="--fov"
+        )
     if not (math.isfinite(args.height) and args.height > 0):
         raise ConfigError(f"expected a height above the floor in metres, got {args.height:g}", field="--height")
     out = Path(args.out)
@@ -278,16 +346,32 @@ def run_guess(args: argparse.Namespace) -> int:
         raise ConfigError("already exists: choose another --out or add --force", path=out)
     search, width, height = _circle_of_footage(args.footage)
     if search.circle is None:
-        raise InputError(f"no fisheye image circle found ({search.reason}); 'camera guess' needs footage of a "
-                         "fisheye lens whose dark border shows", path=args.footage)
+        raise InputError(
+            f"no fisheye image circle found ({search.reason}); 'camera guess' needs footage of a "
+            "fisheye lens whose dark border shows",
+            path=args.footage,
+        )
     name = args.name or args.footage.stem
     camera = nominal_fisheye_camera(name, width, height, search.circle, fov, args.height, args.lens)
-    camera = Camera(camera.name, camera.lens, width, height, camera.rotation_world_from_cam, camera.position_world,
-                    calibration=CalibrationInfo(method=f"{camera.calibration.method} (ergopose camera guess on "
-                                                       f"{args.footage.name}, circle fit {search.fit_rms_px:.2f} px RMS)"),
-                    image_circle=camera.image_circle)
-    save_calibration(out, [camera], description=f"guessed from {args.footage.name}: nominal {args.lens} lens, "
-                                                f"{args.fov:g} deg, {args.height:g} m, straight down")
+    camera = Camera(
+        camera.name,
+        camera.lens,
+        width,
+        height,
+        camera.rotation_world_from_cam,
+        camera.position_world,
+        calibration=CalibrationInfo(
+            method=f"{camera.calibration.method} (ergopose camera guess on "
+            f"{args.footage.name}, circle fit {search.fit_rms_px:.2f} px RMS)"
+        ),
+        image_circle=camera.image_circle,
+    )
+    save_calibration(
+        out,
+        [camera],
+        description=f"guessed from {args.footage.name}: nominal {args.lens} lens, "
+        f"{args.fov:g} deg, {args.height:g} m, straight down",
+    )
     print(describe(camera))
     u, v, r = search.circle
     print(f"image circle at ({u:.1f}, {v:.1f}), r = {r:.1f} px (fit {search.fit_rms_px:.2f} px RMS)")

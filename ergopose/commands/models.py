@@ -33,29 +33,42 @@ pip), the lite and heavy landmark models from the @mediapipe/pose 0.5.1675469404
 tarball on the npm registry (downloaded over HTTPS; ${ENV_NPM_REGISTRY} names a mirror). Each
 download is checked against its pinned digest and only the model files are kept, each checked
 against its pinned SHA-256. 'ergopose assess' and 'ergopose pose' choose the landmark model with
---model {'|'.join(LANDMARK_MODELS)} (default {DEFAULT_LANDMARK_MODEL}) and fetch it on first use.
+--model {"|".join(LANDMARK_MODELS)} (default {DEFAULT_LANDMARK_MODEL}) and fetch it on first use.
 Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's '{USER_ONNX_FOLDER}'
 folder (docs/models.md)."""
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
-        "models", help="fetch, list and verify the 2D pose models",
-        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter,
+        "models",
+        help="fetch, list and verify the 2D pose models",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = parser.add_subparsers(dest="models_action", metavar="ACTION", title="actions")
 
     def common(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--model-dir", metavar="DIR", help=f"model cache folder (default: ${ENV_MODEL_DIR} or ~/.cache/ergopose/models)")
+        p.add_argument(
+            "--model-dir",
+            metavar="DIR",
+            help=f"model cache folder (default: ${ENV_MODEL_DIR} or ~/.cache/ergopose/models)",
+        )
 
     fetch = actions.add_parser("fetch", help="download the models (pip, npm registry) and check them")
     common(fetch)
-    fetch.add_argument("names", nargs="*", metavar="NAME", help=f"models to fetch (default: all: {', '.join(MODEL_CARDS)})")
+    fetch.add_argument(
+        "names", nargs="*", metavar="NAME", help=f"models to fetch (default: all: {', '.join(MODEL_CARDS)})"
+    )
     fetch.add_argument("--force", action="store_true", help="download again even if the cached files are fine")
-    fetch.add_argument("--wheel", metavar="FILE", help="take the files from a local copy of the wheel instead of downloading")
-    fetch.add_argument("--tarball", metavar="FILE",
-                       help="take the lite/heavy files from a local copy of the npm package tarball "
-                            "(npm pack @mediapipe/pose@0.5.1675469404) instead of downloading")
+    fetch.add_argument(
+        "--wheel", metavar="FILE", help="take the files from a local copy of the wheel instead of downloading"
+    )
+    fetch.add_argument(
+        "--tarball",
+        metavar="FILE",
+        help="take the lite/heavy files from a local copy of the npm package tarball "
+        "(npm pack @mediapipe/pose@0.5.1675469404) instead of downloading",
+    )
     fetch.set_defaults(func=run_fetch)
 
     lst = actions.add_parser("list", help="show the model cards and what is in the cache")
@@ -78,8 +91,9 @@ def _usage(parser: argparse.ArgumentParser) -> int:
 
 def run_fetch(args: argparse.Namespace) -> int:
     names = args.names or None
-    paths = fetch_models(names, ProgressBars(), model_dir=args.model_dir, force=args.force, wheel=args.wheel,
-                         tarball=args.tarball)
+    paths = fetch_models(
+        names, ProgressBars(), model_dir=args.model_dir, force=args.force, wheel=args.wheel, tarball=args.tarball
+    )
     for path in paths:
         print(f"ok  {path}")
     return 0
@@ -121,12 +135,16 @@ def run_list(args: argparse.Namespace) -> int:
         kind = "package tarball (npm)" if isinstance(card.source, NpmSource) else "wheel (PyPI)"
         out.write(f"  source   {card.source.requirement} {kind}, {card.file.path_in_source}\n")
         out.write(f"  licence  {card.licence}\n")
-        out.write(f"  input    {w} x {h} {card.channel_order}, range {card.normalisation.range[0]:g}..{card.normalisation.range[1]:g}\n")
+        out.write(
+            f"  input    {w} x {h} {card.channel_order}, range {card.normalisation.range[0]:g}..{card.normalisation.range[1]:g}\n"
+        )
         schema = sum(i >= 0 for i in card.keypoint_schema)
         out.write(f"  output   {len(card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n")
         if card.gates is not None:
-            out.write(f"  gates    person when the pose flag >= {card.gates.min_presence:g}; keypoints steer the "
-                      f"next view when visibility >= {card.gates.min_keypoint_confidence:g}\n")
+            out.write(
+                f"  gates    person when the pose flag >= {card.gates.min_presence:g}; keypoints steer the "
+                f"next view when visibility >= {card.gates.min_keypoint_confidence:g}\n"
+            )
         out.write("\n")
     for path, user_card in _user_cards(model_dir):
         if isinstance(user_card, ErgoposeError):
@@ -135,9 +153,13 @@ def run_list(args: argparse.Namespace) -> int:
         w, h = user_card.input_size
         schema = sum(i >= 0 for i in user_card.schema_index)
         out.write(f"{user_card.name}  [{_user_state(user_card)}]  (your ONNX model)\n")
-        out.write(f"  file     {user_card.file}\n  card     {path}\n  licence  {user_card.licence}\n  source   {user_card.source}\n")
+        out.write(
+            f"  file     {user_card.file}\n  card     {path}\n  licence  {user_card.licence}\n  source   {user_card.source}\n"
+        )
         out.write(f"  input    {w} x {h} {user_card.channel_order}\n")
-        out.write(f"  output   {user_card.output_type}, {len(user_card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n")
+        out.write(
+            f"  output   {user_card.output_type}, {len(user_card.keypoint_names)} keypoints ({schema} in the ergopose schema)\n\n"
+        )
     return 0
 
 
@@ -149,7 +171,9 @@ def run_verify(args: argparse.Namespace) -> int:
         if status.state == "ok":
             print(f"ok  {name}  {status.path}")
         elif status.state == "missing":
-            problems.append(ModelError(f"model {name!r} is not in the cache; run 'ergopose models fetch'", path=status.path))
+            problems.append(
+                ModelError(f"model {name!r} is not in the cache; run 'ergopose models fetch'", path=status.path)
+            )
         else:
             problems.append(ModelError(corrupt_message(status), path=status.path))
     if not args.names:
@@ -163,11 +187,14 @@ def run_verify(args: argparse.Namespace) -> int:
             elif state == "unpinned":
                 print(f"ok  {card.name}  {card.file}  (no sha256 in its card: not checked)")
             else:
-                problems.append(ModelError(
-                    "ONNX model file is missing" if state == "missing"
-                    else "ONNX model file differs from the sha256 in its card",
-                    path=card.file,
-                ))
+                problems.append(
+                    ModelError(
+                        "ONNX model file is missing"
+                        if state == "missing"
+                        else "ONNX model file differs from the sha256 in its card",
+                        path=card.file,
+                    )
+                )
     if problems:
         if len(problems) == 1:
             raise problems[0]

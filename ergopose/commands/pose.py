@@ -49,33 +49,69 @@ empty x_px and y_px. Frames where nobody was found have no rows. See docs/pose-c
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
-        "pose", help="find the people in one video and write their 2D keypoints to a CSV file (no session needed)",
-        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        "pose",
+        help="find the people in one video and write their 2D keypoints to a CSV file (no session needed)",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("video", metavar="VIDEO", type=Path, help="the video file of one camera")
     p.add_argument("--out", required=True, type=Path, metavar="FILE", help="the CSV file to write")
-    p.add_argument("--camera", type=Path, metavar="FILE.toml", default=None,
-                   help="calibration file of the camera (ergopose, or Pose2Sim/anipose TOML); "
-                        "without it an approximate camera is made from the video")
-    p.add_argument("--camera-name", metavar="NAME", default=None,
-                   help="with --camera: the camera of the file that filmed VIDEO (default: the file's only camera, "
-                        "or the one named like the video file)")
-    p.add_argument("--lens", choices=tuple(FOV_RANGE_DEG), default=None,
-                   help="without --camera: the kind of lens (default fisheye)")
-    p.add_argument("--fov-deg", type=float, metavar="D", default=None,
-                   help="without --camera: the lens's field of view in degrees, across the image circle for a fisheye "
-                        f"({FOV_RANGE_DEG['fisheye'][0]:g}-{FOV_RANGE_DEG['fisheye'][1]:g}, default "
-                        f"{DEFAULT_FOV_DEG['fisheye']:g}) or across the image's width for a pinhole "
-                        f"({FOV_RANGE_DEG['pinhole'][0]:g}-{FOV_RANGE_DEG['pinhole'][1]:g}, default "
-                        f"{DEFAULT_FOV_DEG['pinhole']:g})")
-    p.add_argument("--model", choices=MODELS, default=DEFAULT_LANDMARK_MODEL,
-                   help=f"the pose model (default {DEFAULT_LANDMARK_MODEL}; 'ergopose models list', docs/models.md)")
-    p.add_argument("--model-dir", default=None, metavar="DIR",
-                   help="pose model cache (default: $ERGOPOSE_MODEL_DIR or the user cache)")
-    p.add_argument("--max-people", type=int, default=PoseSettings().max_people, metavar="N",
-                   help=f"most people followed at once (default {PoseSettings().max_people}); "
-                        "a warning says when a frame reaches it")
+    p.add_argument(
+        "--camera",
+        type=Path,
+        metavar="FILE.toml",
+        default=None,
+        help="calibration file of the camera (ergopose, or Pose2Sim/anipose TOML); "
+        "without it an approximate camera is made from the video",
+    )
+    p.add_argument(
+        "--camera-name",
+        metavar="NAME",
+        default=None,
+        help="with --camera: the camera of the file that filmed VIDEO (default: the file's only camera, "
+        "or the one named like the video file)",
+    )
+    p.add_argument(
+        "--lens",
+        choices=tuple(FOV_RANGE_DEG),
+        default=None,
+        help="without --camera: the kind of lens (default fisheye)",
+    )
+    p.add_argument(
+        "--fov-deg",
+        type=float,
+        metavar="D",
+        default=None,
+        help="without --camera: the lens's field of view in degrees, across the image circle for a fisheye "
+        f"({FOV_RANGE_DEG['fisheye'][0]:g}-{FOV_RANGE_DEG['fisheye'][1]:g}, default "
+        f"{DEFAULT_FOV_DEG['fisheye']:g}) or across the image's width for a pinhole "
+        f"({FOV_RANGE_DEG['pinhole'][0]:g}-{FOV_RANGE_DEG['pinhole'][1]:g}, default "
+        f"{DEFAULT_FOV_DEG['pinhole']:g})",
+    )
+    p.add_argument(
+        "--model",
+        choices=MODELS,
+        default=DEFAULT_LANDMARK_MODEL,
+        help=f"the pose model (default {DEFAULT_LANDMARK_MODEL}; 'ergopose models list', docs/models.md)",
+    )
+    p.add_argument(
+        "--model-dir",
+        default=None,
+        metavar="DIR",
+        help="pose model cache (default: $ERGOPOSE_MODEL_DIR or the user cache)",
+    )
+    p.add_argument(
+        "--max-people",
+        type=int,
+        default=PoseSettings().max_people,
+        metavar="N",
+        help=f"most people followed at once (default {PoseSettings().max_people}); "
+        "a warning says when a frame reaches it",
+    )
     p.add_argument("--start", type=float, default=0.0, metavar="S", help="first second of the video to use (default 0)")
-    p.add_argument("--end", type=float, default=None, metavar="S", help="last second of the video to use (default: the end)")
+    p.add_argument(
+        "--end", type=float, default=None, metavar="S", help="last second of the video to use (default: the end)"
+    )
     p.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     p.set_defaults(func=run)
     return p
@@ -97,9 +133,11 @@ def run(args: argparse.Namespace) -> int:
     result = pose_video(args.video, camera, info.fps, start, stop, landmarker, detector, settings, progress)
     write_pose_csv(args.out, result.table)
     read = result.frames_read
-    print(f"{args.video}: people found in {result.frames_with_people} of {read} frames "
-          f"({100.0 * result.frames_with_people / max(read, 1):.1f} %), at most {int(result.people.max())} at once; "
-          f"{len(result.table)} keypoint rows")
+    print(
+        f"{args.video}: people found in {result.frames_with_people} of {read} frames "
+        f"({100.0 * result.frames_with_people / max(read, 1):.1f} %), at most {int(result.people.max())} at once; "
+        f"{len(result.table)} keypoint rows"
+    )
     if result.capped_frames:
         print(f"  max_people = {args.max_people} reached in {result.capped_frames} frames")
     print(f"wrote {args.out}")
@@ -111,8 +149,9 @@ def _check_arguments(args: argparse.Namespace) -> None:
         for name in ("lens", "fov_deg"):
             if getattr(args, name) is not None:
                 flag = "--" + name.replace("_", "-")
-                raise ConfigError("describes a camera without calibration; with --camera the file gives the lens",
-                                  field=flag)
+                raise ConfigError(
+                    "describes a camera without calibration; with --camera the file gives the lens", field=flag
+                )
     else:
         if args.camera_name is not None:
             raise ConfigError("needs --camera FILE (the calibration file that holds the camera)", field="--camera-name")
@@ -120,8 +159,10 @@ def _check_arguments(args: argparse.Namespace) -> None:
         low, high = FOV_RANGE_DEG[lens]
         fov = DEFAULT_FOV_DEG[lens] if args.fov_deg is None else args.fov_deg
         if not (math.isfinite(fov) and low <= fov <= high):
-            raise ConfigError(f"a {lens} lens's field of view must be between {low:g} and {high:g} degrees, "
-                              f"got {fov:g}", field="--fov-deg")
+            raise ConfigError(
+                f"a {lens} lens's field of view must be between {low:g} and {high:g} degrees, got {fov:g}",
+                field="--fov-deg",
+            )
     if args.max_people < 1:
         raise ConfigError(f"expected at least 1 person, got {args.max_people}", field="--max-people")
     if not (math.isfinite(args.start) and args.start >= 0):
@@ -150,8 +191,10 @@ def _camera_from_video(args: argparse.Namespace, width: int, height: int, start:
         return nominal_pinhole_camera(name, width, height, fov)
     search = circle_from_video(args.video, start, stop)
     if search.circle is None:
-        raise InputError(f"no image circle found in {args.video} ({search.reason}): give --camera FILE "
-                         "(a calibration), or --lens pinhole for a camera without a fisheye lens")
+        raise InputError(
+            f"no image circle found in {args.video} ({search.reason}): give --camera FILE "
+            "(a calibration), or --lens pinhole for a camera without a fisheye lens"
+        )
     return nominal_fisheye_camera(name, width, height, search.circle, fov)
 
 
@@ -159,8 +202,9 @@ def _key(name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", name.lower())
 
 
-def _camera_from_file(path: Path, name: str | None, video: Path, width: int, height: int,
-                      progress: ProgressCallback | None) -> Camera:
+def _camera_from_file(
+    path: Path, name: str | None, video: Path, width: int, height: int, progress: ProgressCallback | None
+) -> Camera:
     cameras, _ = read_any_calibration(path)
     names = [c.name for c in cameras]
     if name is not None:
@@ -172,24 +216,34 @@ def _camera_from_file(path: Path, name: str | None, video: Path, width: int, hei
     else:
         like = [c for c in cameras if _key(c.name) == _key(video.stem)]
         if len(like) != 1:
-            raise ConfigError(f"{path} holds {len(cameras)} cameras ({', '.join(names)}): say which one filmed "
-                              f"{video.name}", field="--camera-name")
+            raise ConfigError(
+                f"{path} holds {len(cameras)} cameras ({', '.join(names)}): say which one filmed {video.name}",
+                field="--camera-name",
+            )
         camera = like[0]
     fitted = camera_for_video(camera, width, height)
     if fitted is not None:
         if fitted is not camera:
-            warn(progress, f"camera {camera.name} is calibrated for {camera.width}x{camera.height} px, the video is "
-                           f"{width}x{height} px; taken as the calibrated image cropped at the right/bottom "
-                           "(encoder padding)")
+            warn(
+                progress,
+                f"camera {camera.name} is calibrated for {camera.width}x{camera.height} px, the video is "
+                f"{width}x{height} px; taken as the calibrated image cropped at the right/bottom "
+                "(encoder padding)",
+            )
         return fitted
-    raise InputError(f"the video is {width}x{height} px but camera {camera.name} of {path} is calibrated for "
-                     f"{camera.width}x{camera.height} px: wrong camera or wrong video?", path=video)
+    raise InputError(
+        f"the video is {width}x{height} px but camera {camera.name} of {path} is calibrated for "
+        f"{camera.width}x{camera.height} px: wrong camera or wrong video?",
+        path=video,
+    )
 
 
 def _describe(camera: Camera) -> str:
     hfov, vfov = camera.field_of_view()
-    text = f"{camera.name}: {camera.lens.kind} lens, {camera.width}x{camera.height} px, " \
-           f"field of view {math.degrees(hfov):.0f} x {math.degrees(vfov):.0f} deg"
+    text = (
+        f"{camera.name}: {camera.lens.kind} lens, {camera.width}x{camera.height} px, "
+        f"field of view {math.degrees(hfov):.0f} x {math.degrees(vfov):.0f} deg"
+    )
     if camera.image_circle is not None:
         u, v, r = camera.image_circle
         text += f", image circle at ({u:.1f}, {v:.1f}) r = {r:.1f} px"

@@ -46,9 +46,11 @@ def report_folder(session: str | Path, out: str | Path | None = None) -> Path:
     else:
         folder = Path(DEFAULT_REPORTS_DIR) / session.resolve().name
     if not (folder / RESULTS_DIR / SESSION_FILE).is_file():
-        raise InputError(f"no stored results for this session (expected {folder / RESULTS_DIR / SESSION_FILE}); "
-                         f"run 'ergopose assess --session {session}' first, or give the report folder with --out",
-                         path=session)
+        raise InputError(
+            f"no stored results for this session (expected {folder / RESULTS_DIR / SESSION_FILE}); "
+            f"run 'ergopose assess --session {session}' first, or give the report folder with --out",
+            path=session,
+        )
     return folder
 
 
@@ -58,9 +60,13 @@ def check_session(session: str | Path, folder: Path, force: bool, progress: Prog
     session = Path(session)
     if folder.resolve() == session.resolve() or not (session / SETTINGS_FILE).is_file():
         return
-    check_results_session(folder, load_session(session, check_videos=False), force, progress=progress,
-                          advice="give the report folder of this session with --out, or add --force to render "
-                                 "them anyway")
+    check_results_session(
+        folder,
+        load_session(session, check_videos=False),
+        force,
+        progress=progress,
+        advice="give the report folder of this session with --out, or add --force to render them anyway",
+    )
 
 
 def warn_unused_inputs(session: str | Path, results: SessionResults, progress: ProgressCallback | None) -> None:
@@ -79,22 +85,35 @@ def warn_unused_inputs(session: str | Path, results: SessionResults, progress: P
 
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
-        "report", help="re-render the HTML report of a session from its stored results",
+        "report",
+        help="re-render the HTML report of a session from its stored results",
         description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--session", required=True, metavar="DIR",
-                        help="the session folder (or its report folder)")
-    parser.add_argument("--out", metavar="DIR", default=None,
-                        help=f"the report folder holding {RESULTS_DIR}/ (default: {DEFAULT_REPORTS_DIR}/<session name>)")
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--session", required=True, metavar="DIR", help="the session folder (or its report folder)")
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        default=None,
+        help=f"the report folder holding {RESULTS_DIR}/ (default: {DEFAULT_REPORTS_DIR}/<session name>)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    parser.add_argument("--force", action="store_true",
-                        help="render results that belong to another recording than --session (refused otherwise)")
-    parser.add_argument("--start", default=None, metavar="TIME",
-                        help="a part of the day from this time: clock time HH:MM[:SS] of the session's day, or "
-                             "seconds from its start (scored again from the stored tracks, no video)")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="render results that belong to another recording than --session (refused otherwise)",
+    )
+    parser.add_argument(
+        "--start",
+        default=None,
+        metavar="TIME",
+        help="a part of the day from this time: clock time HH:MM[:SS] of the session's day, or "
+        "seconds from its start (scored again from the stored tracks, no video)",
+    )
     parser.add_argument("--end", default=None, metavar="TIME", help="... up to this time (same forms as --start)")
-    parser.add_argument("--csv-bom", action="store_true",
-                        help="with --start/--end: CSV files with a UTF-8 byte order mark (Excel)")
+    parser.add_argument(
+        "--csv-bom", action="store_true", help="with --start/--end: CSV files with a UTF-8 byte order mark (Excel)"
+    )
     parser.set_defaults(func=run)
     return parser
 
@@ -103,14 +122,20 @@ def run_window(args: argparse.Namespace, folder: Path, progress: ProgressCallbac
     """--start/--end: the part of the day scored again from the stored tracks into its own folder."""
     session_dir = Path(args.session)
     if not (session_dir / SETTINGS_FILE).is_file():
-        raise InputError(f"--start/--end score the stored tracks again and need the session folder (with "
-                         f"{SETTINGS_FILE}) as --session, and its report folder as --out", path=session_dir)
+        raise InputError(
+            f"--start/--end score the stored tracks again and need the session folder (with "
+            f"{SETTINGS_FILE}) as --session, and its report folder as --out",
+            path=session_dir,
+        )
     session = load_session(session_dir, check_videos=False)
     window = part_of_day.resolve(args.start, args.end, session.recorded_at, session.duration_s)
     assert window is not None  # --start or --end was given
     if not ResultStore(folder).tracks_path.is_file():
-        raise InputError(f"no stored tracks in this report folder (expected {ResultStore(folder).tracks_path}); "
-                         "run 'ergopose assess' on the session first", path=folder)
+        raise InputError(
+            f"no stored tracks in this report folder (expected {ResultStore(folder).tracks_path}); "
+            "run 'ergopose assess' on the session first",
+            path=folder,
+        )
     check_session(session_dir, folder, args.force, progress or warnings_only)
     outputs = rescore.rescore_window(session, folder, window, progress, bom=args.csv_bom)
     print(f"part of the day {part_of_day.describe(window, session.recorded_at)}")

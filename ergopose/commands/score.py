@@ -32,15 +32,28 @@ empty. --settings takes a TOML file of scoring settings (docs/scoring.md)."""
 
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
-        "score", help="RULA or REBA step scores for a CSV of joint angles", description=DESCRIPTION,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        "score",
+        help="RULA or REBA step scores for a CSV of joint angles",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--method", required=True, choices=("rula", "reba"), help="the scoring method")
-    parser.add_argument("--angles", required=True, type=Path, metavar="FILE.csv",
-                        help="joint angles in degrees, one row per frame (docs/posture-table.md)")
-    parser.add_argument("--out", required=True, type=Path, metavar="FILE.csv",
-                        help="where to write the scores (written atomically)")
-    parser.add_argument("--settings", type=Path, metavar="FILE.toml",
-                        help="scoring settings (top-level keys or a [scoring] table; docs/scoring.md)")
+    parser.add_argument(
+        "--angles",
+        required=True,
+        type=Path,
+        metavar="FILE.csv",
+        help="joint angles in degrees, one row per frame (docs/posture-table.md)",
+    )
+    parser.add_argument(
+        "--out", required=True, type=Path, metavar="FILE.csv", help="where to write the scores (written atomically)"
+    )
+    parser.add_argument(
+        "--settings",
+        type=Path,
+        metavar="FILE.toml",
+        help="scoring settings (top-level keys or a [scoring] table; docs/scoring.md)",
+    )
     parser.set_defaults(func=run)
     return parser
 
@@ -49,8 +62,9 @@ def run(args: argparse.Namespace) -> int:
     settings = load_settings(args.settings)
     method = load_method(args.method)
     posture = read_posture_csv(args.angles, args.method)
-    scores = score_posture(posture, (args.method,), settings, progress=ProgressBars(),
-                           method_data={args.method: method})
+    scores = score_posture(
+        posture, (args.method,), settings, progress=ProgressBars(), method_data={args.method: method}
+    )
     ident = [c for c in ("worker", "frame", "time_s") if c in posture.columns]
     frames = posture[ident].join(scores) if ident else scores
     write_scores_csv(args.out, frames)
@@ -61,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
     missing = int(levels.isna().sum())
     if missing:
         parts.append(f"not scored: {missing}")
-    print(f"{args.method.upper()}: {len(scores)} rows scored ({', '.join(parts) or 'none'}); wrote {args.out}",
-          file=sys.stdout)
+    print(
+        f"{args.method.upper()}: {len(scores)} rows scored ({', '.join(parts) or 'none'}); wrote {args.out}",
+        file=sys.stdout,
+    )
     return 0

@@ -12,8 +12,12 @@ from pathlib import Path
 
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, InputError
-from ergopose.geometry.calibration_file import (camera_for_video, read_any_calibration, save_calibration,
-                                                world_frame_warnings)
+from ergopose.geometry.calibration_file import (
+    camera_for_video,
+    read_any_calibration,
+    save_calibration,
+    world_frame_warnings,
+)
 from ergopose.session import CALIBRATION_FILE, FPS_TOLERANCE, SETTINGS_FILE, load_session
 from ergopose.settings.generate import TEMPLATE_HOWTO, settings_text
 from ergopose.settings.model import FORMAT_VERSION
@@ -33,24 +37,50 @@ A video up to 15 pixels narrower or lower than its calibration (an encoder's pad
 multiple of 16, e.g. 1080 recorded as 1088) is taken as the calibrated image cropped at the
 right/bottom: the session's calibration gets the video's size, the pixel coordinates are kept."""
 
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
-    parser = subparsers.add_parser("session", help="make a session folder from videos and a calibration",
-                                   description="Session folders (docs/session-format.md).")
+    parser = subparsers.add_parser(
+        "session",
+        help="make a session folder from videos and a calibration",
+        description="Session folders (docs/session-format.md).",
+    )
     actions = parser.add_subparsers(dest="session_action", metavar="ACTION", title="actions")
-    new = actions.add_parser("new", help="make a session folder from videos and a calibration file",
-                             description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    new = actions.add_parser(
+        "new",
+        help="make a session folder from videos and a calibration file",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     new.add_argument("dir", metavar="DIR", type=Path, help="the session folder to make (must not exist or be empty)")
-    new.add_argument("--calibration", required=True, type=Path, metavar="FILE",
-                     help="ergopose calibration, or a Pose2Sim/anipose calibration TOML")
-    new.add_argument("videos", metavar="VIDEO", type=Path, nargs="+",
-                     help="one video per camera, in the calibration's camera order")
-    new.add_argument("--cameras", metavar="NAME,NAME", default=None,
-                     help="use only these cameras of the calibration, in this order (e.g. cam_01,cam_03)")
-    new.add_argument("--units", choices=("m", "cm", "mm"), default="m",
-                     help="length unit of a Pose2Sim/anipose calibration's translations (default m)")
-    new.add_argument("--recorded-at", metavar="ISO", default=None,
-                     help="when the first frame was taken, e.g. 2024-03-04T08:00:00+01:00 (default: the first "
-                          "video's modification time, said so in settings.toml)")
+    new.add_argument(
+        "--calibration",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="ergopose calibration, or a Pose2Sim/anipose calibration TOML",
+    )
+    new.add_argument(
+        "videos", metavar="VIDEO", type=Path, nargs="+", help="one video per camera, in the calibration's camera order"
+    )
+    new.add_argument(
+        "--cameras",
+        metavar="NAME,NAME",
+        default=None,
+        help="use only these cameras of the calibration, in this order (e.g. cam_01,cam_03)",
+    )
+    new.add_argument(
+        "--units",
+        choices=("m", "cm", "mm"),
+        default="m",
+        help="length unit of a Pose2Sim/anipose calibration's translations (default m)",
+    )
+    new.add_argument(
+        "--recorded-at",
+        metavar="ISO",
+        default=None,
+        help="when the first frame was taken, e.g. 2024-03-04T08:00:00+01:00 (default: the first "
+        "video's modification time, said so in settings.toml)",
+    )
     new.add_argument("--link", action="store_true", help="link the videos into the folder instead of copying them")
     new.set_defaults(func=run_new)
 
@@ -72,14 +102,18 @@ def run_new(args: argparse.Namespace) -> int:
         names = [c.name for c in cameras]
         unknown = [n for n in wanted if n not in names]
         if unknown or len(set(wanted)) != len(wanted) or not wanted:
-            raise ConfigError(f"expected distinct camera names of the calibration ({', '.join(names)}), got "
-                              f"{args.cameras!r}", field="--cameras")
+            raise ConfigError(
+                f"expected distinct camera names of the calibration ({', '.join(names)}), got {args.cameras!r}",
+                field="--cameras",
+            )
         cameras = tuple(cameras[names.index(n)] for n in wanted)
     if len(args.videos) != len(cameras):
         listing = ", ".join(c.name for c in cameras)
-        raise InputError(f"{len(cameras)} camera(s) ({listing}) but {len(args.videos)} video(s): give one video per "
-                         "camera, in the calibration's order (or choose cameras with --cameras)",
-                         path=args.calibration)
+        raise InputError(
+            f"{len(cameras)} camera(s) ({listing}) but {len(args.videos)} video(s): give one video per "
+            "camera, in the calibration's order (or choose cameras with --cameras)",
+            path=args.calibration,
+        )
     resolved = [v.resolve() for v in args.videos]
     twice = next((v for k, v in enumerate(args.videos) if resolved[k] in resolved[:k]), None)
     if twice is not None:
@@ -91,30 +125,40 @@ def run_new(args: argparse.Namespace) -> int:
         raise InputError("the video does not state its frame rate", path=bad)
     if max(rates) - min(rates) > FPS_TOLERANCE * min(rates):
         listing = ", ".join(f"{v.name}: {r:g}" for v, r in zip(args.videos, rates))
-        raise InputError(f"the videos have different frame rates ({listing} frames per second); the cameras must "
-                         "record in sync, frame for frame")
+        raise InputError(
+            f"the videos have different frame rates ({listing} frames per second); the cameras must "
+            "record in sync, frame for frame"
+        )
     counts = [i.frames for i in infos]
     if len(set(counts)) > 1:
         listing = ", ".join(f"{v.name}: {n}" for v, n in zip(args.videos, counts))
-        raise InputError(f"the videos have different numbers of frames ({listing}); the cameras must record in "
-                         "sync, frame for frame (trim them to the same start and length)")
+        raise InputError(
+            f"the videos have different numbers of frames ({listing}); the cameras must record in "
+            "sync, frame for frame (trim them to the same start and length)"
+        )
     notes = []
     session_cameras = []
     for cam, video, info in zip(cameras, args.videos, infos):
         fitted = camera_for_video(cam, info.width, info.height)
         if fitted is None:
-            raise InputError(f"camera {cam.name!r} is calibrated for {cam.width} x {cam.height} pixels but the "
-                             f"video is {info.width} x {info.height} (a scaled or different video?)", path=video)
+            raise InputError(
+                f"camera {cam.name!r} is calibrated for {cam.width} x {cam.height} pixels but the "
+                f"video is {info.width} x {info.height} (a scaled or different video?)",
+                path=video,
+            )
         if fitted is not cam:
-            notes.append(f"{cam.name}: video {info.width} x {info.height}, calibrated {cam.width} x {cam.height}: "
-                         "taken as the calibrated image cropped at the right/bottom (encoder padding)")
+            notes.append(
+                f"{cam.name}: video {info.width} x {info.height}, calibrated {cam.width} x {cam.height}: "
+                "taken as the calibrated image cropped at the right/bottom (encoder padding)"
+            )
         session_cameras.append(fitted)
     if args.recorded_at:
         try:
             recorded_at = dt.datetime.fromisoformat(args.recorded_at)
         except ValueError:
-            raise ConfigError(f"expected an ISO 8601 date and time, got {args.recorded_at!r}",
-                              field="--recorded-at") from None
+            raise ConfigError(
+                f"expected an ISO 8601 date and time, got {args.recorded_at!r}", field="--recorded-at"
+            ) from None
         when = "given with --recorded-at"
     else:
         recorded_at = dt.datetime.fromtimestamp(os.stat(args.videos[0]).st_mtime).astimezone().replace(microsecond=0)
@@ -128,17 +172,21 @@ def run_new(args: argparse.Namespace) -> int:
         else:
             shutil.copyfile(video, target)
         files.append((cam.name, target.name))
-    save_calibration(root / CALIBRATION_FILE, session_cameras,
-                     description=f"from {args.calibration.name} ({kind})")
+    save_calibration(root / CALIBRATION_FILE, session_cameras, description=f"from {args.calibration.name} ({kind})")
     header = _settings_header(args, kind, when, rates[0], counts[0], notes)
-    values = {"format_version": FORMAT_VERSION, "recorded_at": recorded_at,
-              "cameras": [{"name": name, "video": video} for name, video in files]}
+    values = {
+        "format_version": FORMAT_VERSION,
+        "recorded_at": recorded_at,
+        "cameras": [{"name": name, "video": video} for name, video in files],
+    }
     text = settings_text(values, header=header + TEMPLATE_HOWTO)
     write_text(root / SETTINGS_FILE, text)
     session = load_session(root)  # everything written is read back and checked
-    print(f"wrote {root}: {len(session.cameras)} camera(s) "
-          f"({', '.join(c.camera.name for c in session.cameras)}), {session.frame_count} frames at "
-          f"{session.fps:g} fps ({session.frame_count / session.fps:.1f} s)")
+    print(
+        f"wrote {root}: {len(session.cameras)} camera(s) "
+        f"({', '.join(c.camera.name for c in session.cameras)}), {session.frame_count} frames at "
+        f"{session.fps:g} fps ({session.frame_count / session.fps:.1f} s)"
+    )
     for n in notes:
         print(f"note: {n}")
     for w in world_frame_warnings(session_cameras):

@@ -19,13 +19,23 @@ where it has none) and a one-line explanation. Edit it into a session folder's s
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
-    parser = subparsers.add_parser("settings", help="the settings.toml template",
-                                   description="Settings files (docs/settings.md).")
+    parser = subparsers.add_parser(
+        "settings", help="the settings.toml template", description="Settings files (docs/settings.md)."
+    )
     actions = parser.add_subparsers(dest="settings_action", metavar="ACTION", title="actions")
-    template = actions.add_parser("template", help="write a settings.toml with every key, commented",
-                                  description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    template.add_argument("--out", type=Path, metavar="FILE", default=None,
-                          help="write to FILE (it must not exist) instead of the standard output")
+    template = actions.add_parser(
+        "template",
+        help="write a settings.toml with every key, commented",
+        description=HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    template.add_argument(
+        "--out",
+        type=Path,
+        metavar="FILE",
+        default=None,
+        help="write to FILE (it must not exist) instead of the standard output",
+    )
     template.set_defaults(func=run_template)
 
     def show_help(args: argparse.Namespace) -> int:
@@ -42,8 +52,7 @@ def run_template(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
         return 0
     if args.out.exists():
-        raise InputError("already exists: give a new file name (the template never overwrites a file)",
-                         path=args.out)
+        raise InputError("already exists: give a new file name (the template never overwrites a file)", path=args.out)
     write_text(args.out, text)
     print(f"wrote {args.out}: every key of settings.toml, commented with its default (docs/settings.md)")
     return 0

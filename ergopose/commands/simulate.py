@@ -48,20 +48,34 @@ def _start(text: str) -> dt.datetime:
 
 def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
-        "simulate", help="write a simulated session with exact ground truth", description=DESCRIPTION,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        "simulate",
+        help="write a simulated session with exact ground truth",
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     parser.add_argument("--out", required=True, type=Path, metavar="DIR", help="the session folder to write")
     parser.add_argument("--workers", type=int, default=2, help="number of workers, 1 to 4 (default 2)")
     parser.add_argument("--minutes", type=float, default=5.0, help="length of the session (default 5)")
     parser.add_argument("--seed", type=int, default=0, help="random seed: the same seed, the same session (default 0)")
-    parser.add_argument("--size", type=_size, default=DEFAULT_SIZE, metavar="WxH",
-                        help=f"camera image size (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})")
+    parser.add_argument(
+        "--size",
+        type=_size,
+        default=DEFAULT_SIZE,
+        metavar="WxH",
+        help=f"camera image size (default {DEFAULT_SIZE[0]}x{DEFAULT_SIZE[1]})",
+    )
     parser.add_argument("--fps", type=float, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS:g})")
-    parser.add_argument("--start", type=_start, default=DEFAULT_START, metavar="ISO",
-                        help=f"recording start time (default {DEFAULT_START.isoformat()})")
+    parser.add_argument(
+        "--start",
+        type=_start,
+        default=DEFAULT_START,
+        metavar="ISO",
+        help=f"recording start time (default {DEFAULT_START.isoformat()})",
+    )
     parser.add_argument("--clean", action="store_true", help="no sensor noise, blur or brightness drift")
-    parser.add_argument("--processes", type=int, default=None,
-                        help="render processes (default: one per camera for long sessions)")
+    parser.add_argument(
+        "--processes", type=int, default=None, help="render processes (default: one per camera for long sessions)"
+    )
     parser.add_argument("--force", action="store_true", help="replace DIR if it exists and is not empty")
     parser.set_defaults(func=run)
     return parser
@@ -74,12 +88,22 @@ def run(args: argparse.Namespace) -> int:
     render = RenderOptions(noise_sigma=0.0, blur_sigma=0.0, brightness_drift=0.0) if args.clean else RenderOptions()
     if args.processes is not None and args.processes < 1:
         raise ConfigError(f"expected at least 1 process, got {args.processes}", field="processes")
-    config = SimulationConfig(workers=args.workers, minutes=args.minutes, seed=args.seed, size=args.size,
-                              fps=args.fps, start=args.start, render=render, processes=args.processes)
+    config = SimulationConfig(
+        workers=args.workers,
+        minutes=args.minutes,
+        seed=args.seed,
+        size=args.size,
+        fps=args.fps,
+        start=args.start,
+        render=render,
+        processes=args.processes,
+    )
     t0 = time.perf_counter()
     simulate_session(out, config, progress=ProgressBars())
     frames = int(round(config.minutes * 60.0 * config.fps))
-    print(f"wrote {out}: {config.workers} simulated worker(s), 2 cameras x {frames} frames "
-          f"({frames / config.fps:.1f} s at {config.fps:g} fps, {config.size[0]}x{config.size[1]}), "
-          f"ground truth in {out / 'ground_truth'} ({time.perf_counter() - t0:.1f} s)")
+    print(
+        f"wrote {out}: {config.workers} simulated worker(s), 2 cameras x {frames} frames "
+        f"({frames / config.fps:.1f} s at {config.fps:g} fps, {config.size[0]}x{config.size[1]}), "
+        f"ground truth in {out / 'ground_truth'} ({time.perf_counter() - t0:.1f} s)"
+    )
     return 0

@@ -29,18 +29,31 @@ from ergopose.session import Session
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
-        "workers", help="list the tracked people of an assessed session and give them names (re-scored, no video)",
+        "workers",
+        help="list the tracked people of an assessed session and give them names (re-scored, no video)",
         description=__doc__.split("\n\n", 1)[1] if __doc__ else None,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--session", required=True, metavar="DIR", help="the session folder (settings.toml, videos)")
-    p.add_argument("--results", metavar="DIR", default=None,
-                   help="the output folder of 'ergopose assess' (default: reports/<session folder name>)")
-    p.add_argument("--name", action="append", default=[], metavar="TRACKED_ID=ALIAS",
-                   help="name a tracked id (repeatable): a [workers.<id>] key of settings.toml, its name, or any name")
-    p.add_argument("--rescore", action="store_true",
-                   help="score the stored tracks again with the current settings (no video work)")
-    p.add_argument("--csv-bom", action="store_true",
-                   help="with --name/--rescore: CSV files with a UTF-8 byte order mark (Excel)")
+    p.add_argument(
+        "--results",
+        metavar="DIR",
+        default=None,
+        help="the output folder of 'ergopose assess' (default: reports/<session folder name>)",
+    )
+    p.add_argument(
+        "--name",
+        action="append",
+        default=[],
+        metavar="TRACKED_ID=ALIAS",
+        help="name a tracked id (repeatable): a [workers.<id>] key of settings.toml, its name, or any name",
+    )
+    p.add_argument(
+        "--rescore", action="store_true", help="score the stored tracks again with the current settings (no video work)"
+    )
+    p.add_argument(
+        "--csv-bom", action="store_true", help="with --name/--rescore: CSV files with a UTF-8 byte order mark (Excel)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
     return p
@@ -54,8 +67,9 @@ def run(args: argparse.Namespace) -> int:
             outputs = rescore.rename(args.session, given, args.results, progress, bom=args.csv_bom)
         else:
             session = load_session(args.session, check_videos=False)
-            outputs = rescore.rescore(session, rescore.results_folder(args.session, args.results), progress,
-                                      bom=args.csv_bom)
+            outputs = rescore.rescore(
+                session, rescore.results_folder(args.session, args.results), progress, bom=args.csv_bom
+            )
         for w in outputs.workers:
             shown = f" ({w.name})" if w.name != w.worker_id else ""
             print(f"  {w.worker_id}{shown}")
@@ -77,9 +91,17 @@ def table_lines(session: Session, people: Sequence[rescore.TrackedPerson]) -> li
     for p in people:
         shown = p.reported_id if p.name == p.reported_id else f"{p.reported_id} ({p.name})"
         where = (f"{p.x_m:+.1f}, {p.y_m:+.1f}" if math.isfinite(p.x_m) else "-") + (f" {p.place}" if p.place else "")
-        rows.append((p.tracked_id, shown, f"{p.stature_m:.2f} m" if math.isfinite(p.stature_m) else "-",
-                     _duration(p.tracked_s), rescore.clock(session, p.first_s), rescore.clock(session, p.last_s),
-                     where))
+        rows.append(
+            (
+                p.tracked_id,
+                shown,
+                f"{p.stature_m:.2f} m" if math.isfinite(p.stature_m) else "-",
+                _duration(p.tracked_s),
+                rescore.clock(session, p.first_s),
+                rescore.clock(session, p.last_s),
+                where,
+            )
+        )
     widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
     return ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
 

@@ -51,8 +51,11 @@ def check_time(time_s: np.ndarray, field: str = "time_s") -> np.ndarray:
         d = np.diff(t)
         if np.any(d <= 0):
             i = int(np.flatnonzero(d <= 0)[0])
-            raise InputError(f"row {i + 2}: time {t[i + 1]:g} s does not come after {t[i]:g} s "
-                             "(frames of one worker must be in time order, without repeats)", field=field)
+            raise InputError(
+                f"row {i + 2}: time {t[i + 1]:g} s does not come after {t[i]:g} s "
+                "(frames of one worker must be in time order, without repeats)",
+                field=field,
+            )
     return t
 
 
@@ -95,8 +98,15 @@ def run_durations(time_s: np.ndarray, first: np.ndarray, last: np.ndarray, perio
     return t[last] - t[first] + period_s
 
 
-def held(time_s: np.ndarray, band: np.ndarray, hold_s: float, *, max_gap_s: float,
-         neutral: float | None = None, period_s: float | None = None) -> np.ndarray:
+def held(
+    time_s: np.ndarray,
+    band: np.ndarray,
+    hold_s: float,
+    *,
+    max_gap_s: float,
+    neutral: float | None = None,
+    period_s: float | None = None,
+) -> np.ndarray:
     """True for every frame of a hold (unchanged band) lasting longer than ``hold_s``.
 
     neutral: a band value whose holds do not count (the lowest-scoring band), or None.
@@ -114,8 +124,9 @@ def held(time_s: np.ndarray, band: np.ndarray, hold_s: float, *, max_gap_s: floa
     return long_run[run_id]
 
 
-def repetition_events(time_s: np.ndarray, angle: np.ndarray, amplitude: float, window_s: float,
-                      period_s: float | None = None) -> np.ndarray:
+def repetition_events(
+    time_s: np.ndarray, angle: np.ndarray, amplitude: float, window_s: float, period_s: float | None = None
+) -> np.ndarray:
     """True at the frame of each action (a peak of the angle with prominence >= amplitude)."""
     t = np.asarray(time_s, dtype=np.float64)
     x = np.asarray(angle, dtype=np.float64)
@@ -263,6 +274,13 @@ def rapid_change(time_s: np.ndarray, angle: np.ndarray, change: float, window_s:
 
 
 __all__ = [
-    "check_time", "frame_period", "runs", "run_durations", "held", "repetition_events",
-    "count_in_window", "rapid_change", "Timeline",
+    "check_time",
+    "frame_period",
+    "runs",
+    "run_durations",
+    "held",
+    "repetition_events",
+    "count_in_window",
+    "rapid_change",
+    "Timeline",
 ]

@@ -65,9 +65,14 @@ from ergopose.progress import ProgressCallback, report
 
 #: Columns whose distribution over the shift is reported, when present.
 DISTRIBUTION_COLUMNS = (
-    "rula_action_level", "left_rula_action_level", "right_rula_action_level", "rula_grand",
-    "reba_risk_level", "reba_score",
-    *BODY_PART_COLUMNS["rula"], *BODY_PART_COLUMNS["reba"],
+    "rula_action_level",
+    "left_rula_action_level",
+    "right_rula_action_level",
+    "rula_grand",
+    "reba_risk_level",
+    "reba_score",
+    *BODY_PART_COLUMNS["rula"],
+    *BODY_PART_COLUMNS["reba"],
 )
 #: Level columns whose worst episodes are reported, with the score column giving the peak.
 EPISODE_COLUMNS = {"rula_action_level": "rula_grand", "reba_risk_level": "reba_score"}
@@ -339,13 +344,15 @@ class _Runs:
                 counts[0] += oframes
                 pk[0] = max(pk[0], opeak)
             else:
-                self._close(np.array([ov]), np.array([ostart]), np.array([olast]), np.array([oframes]),
-                            np.array([opeak]))
+                self._close(
+                    np.array([ov]), np.array([ostart]), np.array([olast]), np.array([oframes]), np.array([opeak])
+                )
         self._close(vals[:-1], starts[:-1], ends[:-1], counts[:-1], pk[:-1])
         self.open = (int(vals[-1]), float(starts[-1]), float(ends[-1]), int(counts[-1]), float(pk[-1]))
 
-    def _close(self, vals: np.ndarray, starts: np.ndarray, ends: np.ndarray, counts: np.ndarray,
-               peaks: np.ndarray) -> None:
+    def _close(
+        self, vals: np.ndarray, starts: np.ndarray, ends: np.ndarray, counts: np.ndarray, peaks: np.ndarray
+    ) -> None:
         if vals.size == 0:
             return
         dur = ends - starts + self.period
@@ -370,10 +377,17 @@ class _Runs:
                 for i in order:
                     idx = np.flatnonzero(keep)[i]
                     pk = peaks[idx]
-                    self.best.append((-int(vals[idx]), -float(dur[idx]), float(starts[idx]),
-                                      float(ends[idx] + self.period), None if np.isinf(pk) else int(pk)))
+                    self.best.append(
+                        (
+                            -int(vals[idx]),
+                            -float(dur[idx]),
+                            float(starts[idx]),
+                            float(ends[idx] + self.period),
+                            None if np.isinf(pk) else int(pk),
+                        )
+                    )
                 self.best.sort()
-                del self.best[self.top:]
+                del self.best[self.top :]
 
     def finish(self) -> None:
         if self.open is not None:
@@ -468,8 +482,9 @@ def _exposure_zones(frames: pd.DataFrame, s: ScoringSettings) -> dict[str, np.nd
         derived = None
         if elevation is not None:
             with np.errstate(invalid="ignore"):
-                derived = np.where(np.isnan(elevation), np.nan,
-                                   (elevation > np.deg2rad(s.shoulder_raised_deg)).astype(np.float64))
+                derived = np.where(
+                    np.isnan(elevation), np.nan, (elevation > np.deg2rad(s.shoulder_raised_deg)).astype(np.float64)
+                )
         if raised is None:
             raised = derived
         elif derived is not None:
@@ -481,8 +496,11 @@ def _exposure_zones(frames: pd.DataFrame, s: ScoringSettings) -> dict[str, np.nd
         out["EN 1005-4|trunk side bend or twist"] = None
     else:
         parts = [np.abs(a) for a in (side_bend, twist) if a is not None]
-        worst = parts[0] if len(parts) == 1 else np.where(np.isnan(parts[0]) | np.isnan(parts[1]), np.nan,
-                                                          np.fmax(parts[0], parts[1]))
+        worst = (
+            parts[0]
+            if len(parts) == 1
+            else np.where(np.isnan(parts[0]) | np.isnan(parts[1]), np.nan, np.fmax(parts[0], parts[1]))
+        )
         out["EN 1005-4|trunk side bend or twist"] = _zones(worst, (10,), (True,))
     assert all(v is None or v.shape == (n,) for v in out.values())
     return out
@@ -500,9 +518,16 @@ class ShiftAccumulator:
     episodes: how many worst episodes to keep per level column.
     """
 
-    def __init__(self, worker: str = "", *, frame_period_s: float | None = None,
-                 settings: ScoringSettings | None = None, static_hold_s: float = 4.0, episodes: int = 10,
-                 shift_start_s: float = 0.0):
+    def __init__(
+        self,
+        worker: str = "",
+        *,
+        frame_period_s: float | None = None,
+        settings: ScoringSettings | None = None,
+        static_hold_s: float = 4.0,
+        episodes: int = 10,
+        shift_start_s: float = 0.0,
+    ):
         self.worker = worker
         self.s = settings or ScoringSettings()
         self.period = frame_period_s
@@ -543,8 +568,10 @@ class ShiftAccumulator:
             raise InputError("the frames need a time_s column to be aggregated", field="time_s")
         t = check_time(frames["time_s"].to_numpy(dtype=np.float64, na_value=np.nan))
         if self.last_t is not None and t[0] <= self.last_t:
-            raise InputError(f"this chunk starts at {t[0]:g} s, not after the previous chunk's end "
-                             f"({self.last_t:g} s)", field="time_s")
+            raise InputError(
+                f"this chunk starts at {t[0]:g} s, not after the previous chunk's end ({self.last_t:g} s)",
+                field="time_s",
+            )
         if self.period is None:
             self.period = nominal_frame_period(t)
         cols = tuple(c for c in DISTRIBUTION_COLUMNS if c in frames.columns)
@@ -611,8 +638,11 @@ class ShiftAccumulator:
         """Count the chunk's frames per confidence level and cause, and its inputs' deviations."""
         if "confidence" in frames.columns:
             level = frames["confidence"].astype("string").fillna("unscored").to_numpy(dtype=object)
-            cause = (frames["cause"].astype("string").fillna("").to_numpy(dtype=object) if "cause" in frames.columns
-                     else np.full(len(frames), "", dtype=object))
+            cause = (
+                frames["cause"].astype("string").fillna("").to_numpy(dtype=object)
+                if "cause" in frames.columns
+                else np.full(len(frames), "", dtype=object)
+            )
             cause = np.where(level == "confident", "", np.where(cause == "", NOT_RECORDED, cause))
             keys, counts = np.unique(np.stack([level.astype(str), cause.astype(str)]), axis=1, return_counts=True)
             for (lv, ca), k in zip(keys.T.tolist(), counts.tolist()):
@@ -662,8 +692,11 @@ class ShiftAccumulator:
         order = {name: i for i, name in enumerate(SETTINGS_INPUTS)}
         out = []
         for (name, value), k in sorted(self.settings_frames.items(), key=lambda kv: (order[kv[0][0]], kv[0][1])):
-            out.append(SettingsInputTime(name, value, k, k * period,
-                                         100.0 * k / self.scored_frames if self.scored_frames else math.nan))
+            out.append(
+                SettingsInputTime(
+                    name, value, k, k * period, 100.0 * k / self.scored_frames if self.scored_frames else math.nan
+                )
+            )
         return tuple(out)
 
     def _confidence_result(self, period: float, pct: Callable[[float], float]) -> tuple[ConfidenceShare, ...]:
@@ -672,8 +705,11 @@ class ShiftAccumulator:
         out = []
         for lv in CONFIDENCE_LEVELS:
             n = sum(k for (level, _), k in self.confidence_frames.items() if level == lv)
-            causes = tuple(CauseTime(ca, k, k * period, pct(k * period)) for ca in (*CAUSES, NOT_RECORDED)
-                           if (k := self.confidence_frames.get((lv, ca), 0)) > 0 and lv != "confident")
+            causes = tuple(
+                CauseTime(ca, k, k * period, pct(k * period))
+                for ca in (*CAUSES, NOT_RECORDED)
+                if (k := self.confidence_frames.get((lv, ca), 0)) > 0 and lv != "confident"
+            )
             out.append(ConfidenceShare(lv, n, n * period, pct(n * period), causes))
         return tuple(out)
 
@@ -688,8 +724,17 @@ class ShiftAccumulator:
             else:
                 median = math.nan
             known = self.input_known
-            out.append(InputCertainty(part, angles, int(self.input_measured[g]), median, int(self.input_inferred[g]),
-                                      known, float(100.0 * self.input_inferred[g] / known) if known else math.nan))
+            out.append(
+                InputCertainty(
+                    part,
+                    angles,
+                    int(self.input_measured[g]),
+                    median,
+                    int(self.input_inferred[g]),
+                    known,
+                    float(100.0 * self.input_inferred[g] / known) if known else math.nan,
+                )
+            )
         return tuple(out)
 
     # ------------------------------------------------------------------------------ result
@@ -711,24 +756,34 @@ class ShiftAccumulator:
             values = []
             for v in sorted(k for k in r.frames if k >= 0):
                 d, neg_start = r.longest[v]
-                values.append(ValueTime(v, r.frames[v], r.frames[v] * period, pct(r.frames[v] * period), r.holds[v],
-                                        d, -neg_start))
+                values.append(
+                    ValueTime(
+                        v, r.frames[v], r.frames[v] * period, pct(r.frames[v] * period), r.holds[v], d, -neg_start
+                    )
+                )
             miss = r.frames.get(-1, 0)
-            distributions[c] = Distribution(c, self.frames, observed, miss, miss * period, pct(miss * period),
-                                            tuple(values))
+            distributions[c] = Distribution(
+                c, self.frames, observed, miss, miss * period, pct(miss * period), tuple(values)
+            )
 
         hourly = []
         for c, table in self.hourly.items():
             for h in sorted(self.hour_frames):
                 by = {v: k * period for (hh, v), k in table.items() if hh == h and v >= 0}
-                hourly.append(HourStats(c, h, self.hour_frames[h] * period, table.get((h, -1), 0) * period,
-                                        MappingProxyType(dict(sorted(by.items())))))
+                hourly.append(
+                    HourStats(
+                        c,
+                        h,
+                        self.hour_frames[h] * period,
+                        table.get((h, -1), 0) * period,
+                        MappingProxyType(dict(sorted(by.items()))),
+                    )
+                )
 
         episodes = {}
         for c, r in runs.items():
             if c in EPISODE_COLUMNS:
-                episodes[c] = tuple(Episode(c, -lv, start, end, -neg_d, peak)
-                                    for lv, neg_d, start, end, peak in r.best)
+                episodes[c] = tuple(Episode(c, -lv, start, end, -neg_d, peak) for lv, neg_d, start, end, peak in r.best)
 
         minutes = observed / 60.0
         reps = []
@@ -736,25 +791,44 @@ class ShiftAccumulator:
             if angle not in self.rep_total:
                 continue
             per_min = self.rep_minutes.get(angle, {})
-            reps.append(Repetitions(angle, self.rep_total[angle], self.rep_total[angle] / minutes if minutes else 0.0,
-                                    max(per_min.values(), default=0), sum(1 for k in per_min.values() if k >= 4)))
+            reps.append(
+                Repetitions(
+                    angle,
+                    self.rep_total[angle],
+                    self.rep_total[angle] / minutes if minutes else 0.0,
+                    max(per_min.values(), default=0),
+                    sum(1 for k in per_min.values() if k >= 4),
+                )
+            )
 
         exposure = []
         for spec in _exposure_specs():
             key = f"{spec.standard}|{spec.body_part}"
             found = exposure_runs.get(key)
             if found is None:
-                exposure.append(ExposureFinding(spec.standard, spec.body_part, "not measured", False,
-                                                MappingProxyType({}), MappingProxyType({}), MappingProxyType({}),
-                                                MappingProxyType({}), 0, 0.0))
+                exposure.append(
+                    ExposureFinding(
+                        spec.standard,
+                        spec.body_part,
+                        "not measured",
+                        False,
+                        MappingProxyType({}),
+                        MappingProxyType({}),
+                        MappingProxyType({}),
+                        MappingProxyType({}),
+                        0,
+                        0.0,
+                    )
+                )
                 continue
             r = found
             names = spec.zone_names
             zone_time = {names[v]: r.frames.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
             static_time = {names[v]: r.static_time.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
             static_holds = {names[v]: r.static_holds.get(v, 0) for v in range(len(names)) if names[v] != "-"}
-            longest = {names[v]: (r.longest[v][0] if v in r.longest else 0.0) for v in range(len(names))
-                       if names[v] != "-"}
+            longest = {
+                names[v]: (r.longest[v][0] if v in r.longest else 0.0) for v in range(len(names)) if names[v] != "-"
+            }
             entries, per_minute = 0, 0.0
             if spec.kind == "iso":
                 if static_holds.get(names[2], 0) > 0:
@@ -781,35 +855,63 @@ class ShiftAccumulator:
                     verdict = EN_VERDICTS[1]
                 else:
                     verdict = EN_VERDICTS[0]
-            exposure.append(ExposureFinding(spec.standard, spec.body_part, verdict, True,
-                                            MappingProxyType(zone_time), MappingProxyType(static_time),
-                                            MappingProxyType(static_holds), MappingProxyType(longest),
-                                            entries, per_minute))
+            exposure.append(
+                ExposureFinding(
+                    spec.standard,
+                    spec.body_part,
+                    verdict,
+                    True,
+                    MappingProxyType(zone_time),
+                    MappingProxyType(static_time),
+                    MappingProxyType(static_holds),
+                    MappingProxyType(longest),
+                    entries,
+                    per_minute,
+                )
+            )
 
-        return ShiftSummary(worker=self.worker, frames=self.frames, frame_period_s=period, observed_s=observed,
-                            start_s=self.start_s, end_s=self.end_s,
-                            distributions=MappingProxyType(distributions), hourly=tuple(hourly),
-                            episodes=MappingProxyType(episodes), repetitions=tuple(reps), exposure=tuple(exposure),
-                            confidence=self._confidence_result(period, pct), inputs=self._inputs_result(),
-                            from_settings=self._settings_result(period), scored_frames=self.scored_frames)
+        return ShiftSummary(
+            worker=self.worker,
+            frames=self.frames,
+            frame_period_s=period,
+            observed_s=observed,
+            start_s=self.start_s,
+            end_s=self.end_s,
+            distributions=MappingProxyType(distributions),
+            hourly=tuple(hourly),
+            episodes=MappingProxyType(episodes),
+            repetitions=tuple(reps),
+            exposure=tuple(exposure),
+            confidence=self._confidence_result(period, pct),
+            inputs=self._inputs_result(),
+            from_settings=self._settings_result(period),
+            scored_frames=self.scored_frames,
+        )
 
 
-def aggregate_shift(frames: pd.DataFrame, worker: str = "", *, chunk_frames: int | None = None,
-                    progress: ProgressCallback | None = None, inferred: np.ndarray | None = None,
-                    **options: Any) -> ShiftSummary:
+def aggregate_shift(
+    frames: pd.DataFrame,
+    worker: str = "",
+    *,
+    chunk_frames: int | None = None,
+    progress: ProgressCallback | None = None,
+    inferred: np.ndarray | None = None,
+    **options: Any,
+) -> ShiftSummary:
     """Aggregate one worker's scored frames (in time order); inferred: (n, 33) joints placed by the
     body model (see :meth:`ShiftAccumulator.add`); options as :class:`ShiftAccumulator`."""
     acc = ShiftAccumulator(worker, **options)
     n = len(frames)
     step = n if not chunk_frames else max(1, int(chunk_frames))
     for i in range(0, n, step or 1):
-        acc.add(frames.iloc[i:i + step], None if inferred is None else np.asarray(inferred)[i:i + step])
+        acc.add(frames.iloc[i : i + step], None if inferred is None else np.asarray(inferred)[i : i + step])
         report(progress, "aggregate", min(i + step, n), n, unit="frame")
     return acc.result()
 
 
-def aggregate_session(frames: pd.DataFrame, *, by: str = "worker", progress: ProgressCallback | None = None,
-                      **options: Any) -> dict[str, ShiftSummary]:
+def aggregate_session(
+    frames: pd.DataFrame, *, by: str = "worker", progress: ProgressCallback | None = None, **options: Any
+) -> dict[str, ShiftSummary]:
     """One ShiftSummary per worker (rows grouped by the ``by`` column, each in time order)."""
     if by not in frames.columns:
         return {"": aggregate_shift(frames, "", **options)}
@@ -822,8 +924,24 @@ def aggregate_session(frames: pd.DataFrame, *, by: str = "worker", progress: Pro
 
 
 __all__ = [
-    "ValueTime", "Distribution", "HourStats", "Episode", "Repetitions", "ExposureFinding", "ShiftSummary",
-    "CauseTime", "ConfidenceShare", "InputCertainty", "SettingsInputTime", "NOT_RECORDED",
-    "ShiftAccumulator", "aggregate_shift", "aggregate_session", "DISTRIBUTION_COLUMNS", "EPISODE_COLUMNS",
-    "REPETITION_PREFIX", "ISO_VERDICTS", "EN_VERDICTS",
+    "ValueTime",
+    "Distribution",
+    "HourStats",
+    "Episode",
+    "Repetitions",
+    "ExposureFinding",
+    "ShiftSummary",
+    "CauseTime",
+    "ConfidenceShare",
+    "InputCertainty",
+    "SettingsInputTime",
+    "NOT_RECORDED",
+    "ShiftAccumulator",
+    "aggregate_shift",
+    "aggregate_session",
+    "DISTRIBUTION_COLUMNS",
+    "EPISODE_COLUMNS",
+    "REPETITION_PREFIX",
+    "ISO_VERDICTS",
+    "EN_VERDICTS",
 ]

@@ -84,9 +84,15 @@ class AngleSettings:
     seated_min_hip_height_m: float = 0.30
 
     def __post_init__(self) -> None:
-        positive = ("foot_contact_height_m",
-                    "foot_lift_height_m", "walking_window_s", "walking_min_speed_mps", "balance_max_offset_m",
-                    "seated_max_thigh_incline", "seated_min_hip_height_m")
+        positive = (
+            "foot_contact_height_m",
+            "foot_lift_height_m",
+            "walking_window_s",
+            "walking_min_speed_mps",
+            "balance_max_offset_m",
+            "seated_max_thigh_incline",
+            "seated_min_hip_height_m",
+        )
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
             if f.name == "trunk_length_m" and v is None:
@@ -105,31 +111,51 @@ class AngleSettings:
 #: below with its own thresholds (ScoringSettings), so each threshold lives in one place. (A flag
 #: column in the table would override those settings.)
 POSTURE_TABLE_COLUMNS: tuple[str, ...] = (
-    "trunk_flexion", "trunk_side_bend", "trunk_twist",
-    "neck_flexion", "neck_side_bend", "neck_twist",
-    "left_upper_arm_flexion", "right_upper_arm_flexion",
-    "left_upper_arm_abduction", "right_upper_arm_abduction",
-    "left_elbow_flexion", "right_elbow_flexion",
-    "left_wrist_flexion", "right_wrist_flexion",
-    "left_knee_flexion", "right_knee_flexion",
-    "legs_supported", "one_leg_stance", "seated", "walking",
+    "trunk_flexion",
+    "trunk_side_bend",
+    "trunk_twist",
+    "neck_flexion",
+    "neck_side_bend",
+    "neck_twist",
+    "left_upper_arm_flexion",
+    "right_upper_arm_flexion",
+    "left_upper_arm_abduction",
+    "right_upper_arm_abduction",
+    "left_elbow_flexion",
+    "right_elbow_flexion",
+    "left_wrist_flexion",
+    "right_wrist_flexion",
+    "left_knee_flexion",
+    "right_knee_flexion",
+    "legs_supported",
+    "one_leg_stance",
+    "seated",
+    "walking",
     "time_s",
 )
 
 #: Measured columns the posture table accepts and scoring derives flags from.
 MEASURED_COLUMNS: tuple[str, ...] = (
-    "left_shoulder_elevation", "right_shoulder_elevation",
-    "left_upper_arm_elevation", "right_upper_arm_elevation",
-    "left_wrist_deviation", "right_wrist_deviation",
-    "left_wrist_lateral_m", "right_wrist_lateral_m",
+    "left_shoulder_elevation",
+    "right_shoulder_elevation",
+    "left_upper_arm_elevation",
+    "right_upper_arm_elevation",
+    "left_wrist_deviation",
+    "right_wrist_deviation",
+    "left_wrist_lateral_m",
+    "right_wrist_lateral_m",
 )
 
 #: Further measurements, outside the posture-table contract (``to_frame(diagnostics=True)``).
 DIAGNOSTIC_COLUMNS: tuple[str, ...] = (
-    "left_upper_arm_rotation", "right_upper_arm_rotation",
-    "left_hip_flexion", "right_hip_flexion",
-    "left_hip_abduction", "right_hip_abduction",
-    "left_foot_height_m", "right_foot_height_m",
+    "left_upper_arm_rotation",
+    "right_upper_arm_rotation",
+    "left_hip_flexion",
+    "right_hip_flexion",
+    "left_hip_abduction",
+    "right_hip_abduction",
+    "left_foot_height_m",
+    "right_foot_height_m",
     "feet_on_floor",
     "walking_speed_mps",
 )
@@ -277,8 +303,9 @@ CHUNK_FRAMES = 8192
 # ----------------------------------------------------------------------------------------------
 
 
-def joint_angles(points_world: np.ndarray, time_s: np.ndarray | None = None,
-                 settings: AngleSettings | None = None) -> JointAngles:
+def joint_angles(
+    points_world: np.ndarray, time_s: np.ndarray | None = None, settings: AngleSettings | None = None
+) -> JointAngles:
     """Joint angles and stance flags for every frame of one person's 3D joint track.
 
     points_world: (F, 33, 3) BlazePose points, world frame (metres, floor z = 0, z up); NaN = missing.
@@ -307,11 +334,11 @@ def joint_angles(points_world: np.ndarray, time_s: np.ndarray | None = None,
 
     out: dict[str, np.ndarray] = {}
     for start in range(0, n, CHUNK_FRAMES):
-        part = _frame_local(pts[start:start + CHUNK_FRAMES], s)
+        part = _frame_local(pts[start : start + CHUNK_FRAMES], s)
         if not out:
             out = {k: np.empty(n) for k in part}
         for k, v in part.items():
-            out[k][start:start + v.shape[0]] = v
+            out[k][start : start + v.shape[0]] = v
     if n == 0:
         out = {k: np.empty(0) for k in _frame_local(pts, s)}
 
@@ -423,8 +450,9 @@ def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
             cb, sb = np.cos(abduction), np.sin(abduction)
             vy = cb * v[:, 1] + sg * sb * vz
             rotation = np.arctan2(-sg * vy, vx)
-            out[f"{side}_upper_arm_rotation"] = np.where(elbow_flexion >= s.rotation_min_elbow_flexion,
-                                                         rotation, np.nan)
+            out[f"{side}_upper_arm_rotation"] = np.where(
+                elbow_flexion >= s.rotation_min_elbow_flexion, rotation, np.nan
+            )
 
             # Wrist lateral position in the trunk frame, + toward the arm's own side.
             lateral = sg * _dot(wrist - mid_sh, trunk_y)
@@ -470,8 +498,9 @@ def _walking_speed(mid_ankle_xy: np.ndarray, t: np.ndarray, window_s: float) -> 
     return speed
 
 
-def _stance(pts: np.ndarray, t: np.ndarray, have_time: bool, angles: dict[str, np.ndarray],
-            s: AngleSettings) -> dict[str, np.ndarray]:
+def _stance(
+    pts: np.ndarray, t: np.ndarray, have_time: bool, angles: dict[str, np.ndarray], s: AngleSettings
+) -> dict[str, np.ndarray]:
     """walking, seated, one_leg_stance, legs_supported and the walking speed, over the whole sequence."""
     n = pts.shape[0]
     l_ank, r_ank = _p(pts, "left_ankle"), _p(pts, "right_ankle")
@@ -486,8 +515,10 @@ def _stance(pts: np.ndarray, t: np.ndarray, have_time: bool, angles: dict[str, n
         # Feet on the floor: low enough above the floor and not clearly above the other foot.
         h_left, h_right = angles["left_foot_height_m"], angles["right_foot_height_m"]
         lowest = np.fmin(h_left, h_right)
-        down = {side: (h <= s.foot_contact_height_m) & (h - lowest <= s.foot_lift_height_m)
-                for side, h in (("left", h_left), ("right", h_right))}
+        down = {
+            side: (h <= s.foot_contact_height_m) & (h - lowest <= s.foot_lift_height_m)
+            for side, h in (("left", h_left), ("right", h_right))
+        }
         feet_known = np.isfinite(h_left) & np.isfinite(h_right)
         both_down = down["left"] & down["right"]
         one_down = down["left"] ^ down["right"]
@@ -500,8 +531,11 @@ def _stance(pts: np.ndarray, t: np.ndarray, have_time: bool, angles: dict[str, n
             horizontal = np.hypot(thigh[:, 0], thigh[:, 1])
             incl = np.arctan2(thigh[:, 2], horizontal)
             inclines.append(np.where(_norm(thigh) > _EPS, incl, np.nan))
-        incline = np.where(np.isnan(inclines[0]), inclines[1],
-                           np.where(np.isnan(inclines[1]), inclines[0], 0.5 * (inclines[0] + inclines[1])))
+        incline = np.where(
+            np.isnan(inclines[0]),
+            inclines[1],
+            np.where(np.isnan(inclines[1]), inclines[0], 0.5 * (inclines[0] + inclines[1])),
+        )
         seated_geom = (incline < s.seated_max_thigh_incline) & (mid_hip[:, 2] >= s.seated_min_hip_height_m)
         seated_known = np.isfinite(incline) & np.isfinite(mid_hip[:, 2])
         seated = _flag(seated_geom, seated_known)
@@ -519,5 +553,11 @@ def _stance(pts: np.ndarray, t: np.ndarray, have_time: bool, angles: dict[str, n
         seated_ok = _flag(both_down, feet_known)
         legs_supported = np.where(seated == 1.0, seated_ok, np.where(seated == 0.0, standing_ok, np.nan))
         feet_on_floor = np.where(feet_known, down["left"].astype(float) + down["right"].astype(float), np.nan)
-    return {"walking": walking, "walking_speed_mps": speed, "seated": seated, "feet_on_floor": feet_on_floor,
-            "one_leg_stance": one_leg, "legs_supported": legs_supported}
+    return {
+        "walking": walking,
+        "walking_speed_mps": speed,
+        "seated": seated,
+        "feet_on_floor": feet_on_floor,
+        "one_leg_stance": one_leg,
+        "legs_supported": legs_supported,
+    }

@@ -155,8 +155,9 @@ class BodyMeasurements:
                 raise ConfigError(f"must be a positive finite length in metres, got {v!r}", field=f.name)
         lo, hi = STATURE_RANGE_M
         if not lo <= self.stature <= hi:
-            raise ConfigError(f"stature {self.stature:.3f} m is outside the modelled range {lo}-{hi} m",
-                              field="stature")
+            raise ConfigError(
+                f"stature {self.stature:.3f} m is outside the modelled range {lo}-{hi} m", field="stature"
+            )
         if self.heel_offset >= self.foot_length:
             raise ConfigError("the heel must lie within the foot (heel_offset < foot_length)", field="heel_offset")
 
@@ -332,8 +333,12 @@ def _skeleton_local(m: BodyMeasurements, get: Callable[[str], np.ndarray]) -> np
         shoulder_local[:, 1] = s * half_shoulder
         shoulder_local[:, 2] = half_shoulder * np.tan(get(f"{side}_shoulder_elevation"))
         shoulder = neck_base + _apply(r_trunk, shoulder_local)
-        r_ua = (r_trunk @ rot_y(-get(f"{side}_upper_arm_flexion")) @ rot_x(s * get(f"{side}_upper_arm_abduction"))
-                @ rot_z(-s * get(f"{side}_upper_arm_rotation")))
+        r_ua = (
+            r_trunk
+            @ rot_y(-get(f"{side}_upper_arm_flexion"))
+            @ rot_x(s * get(f"{side}_upper_arm_abduction"))
+            @ rot_z(-s * get(f"{side}_upper_arm_rotation"))
+        )
         elbow = shoulder + _apply(r_ua, (0.0, 0.0, -m.upper_arm_length))
         r_fa = r_ua @ rot_y(-get(f"{side}_elbow_flexion")) @ rot_z(-s * get(f"{side}_forearm_rotation"))
         wrist = elbow + _apply(r_fa, (0.0, 0.0, -m.forearm_length))

@@ -26,8 +26,15 @@ import pyarrow.parquet as pq
 
 from ergopose.atomic import atomic_path
 from ergopose.ergonomics.aggregate import REPETITION_PREFIX, ShiftSummary, aggregate_shift
-from ergopose.ergonomics.posture import (ANGLE_COLUMNS, DISTANCE_COLUMNS, FLAG_COLUMNS, IDENTITY, POSTURE_COLUMNS,
-                                         expand_sides, to_csv_units)
+from ergopose.ergonomics.posture import (
+    ANGLE_COLUMNS,
+    DISTANCE_COLUMNS,
+    FLAG_COLUMNS,
+    IDENTITY,
+    POSTURE_COLUMNS,
+    expand_sides,
+    to_csv_units,
+)
 from ergopose.ergonomics.scoring import reba_columns, rula_columns
 from ergopose.ergonomics.task_inputs import COLUMN as TASK_INPUTS_COLUMN
 from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS
@@ -46,7 +53,7 @@ FRAMES_SUFFIX, STEPS_SUFFIX, SUMMARY_SUFFIX = "_frames.csv", "_steps.csv", "_sum
 def steps_path(frames_csv: str | os.PathLike) -> Path:
     """The steps CSV beside a worker's frames CSV (<worker>_steps.csv)."""
     name = Path(frames_csv).name
-    stem = name[:-len(FRAMES_SUFFIX)] if name.endswith(FRAMES_SUFFIX) else Path(name).stem
+    stem = name[: -len(FRAMES_SUFFIX)] if name.endswith(FRAMES_SUFFIX) else Path(name).stem
     return Path(frames_csv).with_name(stem + STEPS_SUFFIX)
 
 
@@ -95,8 +102,11 @@ def scores_table(frames: pd.DataFrame, *, include_posture: bool = False) -> pd.D
     ident = [c for c in (*IDENTITY, "time_s") if c in frames.columns]
     posture = [c for c in POSTURE_COLUMNS if include_posture and c in frames.columns and c not in ident]
     scores = _score_columns(frames.columns)
-    spread = [c for c in (*SD_COLUMNS, *UNCERTAINTY_SCORE_COLUMNS, TASK_INPUTS_COLUMN)
-              if include_posture and c in frames.columns]
+    spread = [
+        c
+        for c in (*SD_COLUMNS, *UNCERTAINTY_SCORE_COLUMNS, TASK_INPUTS_COLUMN)
+        if include_posture and c in frames.columns
+    ]
     table = frames[ident + posture + scores + spread]
     out = _rounded(to_csv_units(table))
     for c in spread:
@@ -167,8 +177,9 @@ class _PieceWriter(abc.ABC):
         self.rows += len(table)
         return table
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> Literal[False]:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> Literal[False]:
         assert self._ctx is not None and self._file is not None  # set by __enter__
         self._file.close()
         if exc_type is None and self.columns is None:  # no frames: the header of an empty table
@@ -181,8 +192,8 @@ class _PieceWriter(abc.ABC):
 class StepsCsvWriter(_PieceWriter):
     """:func:`write_worker_steps_csv` piece by piece, for a whole shift in bounded memory::
 
-        with StepsCsvWriter(path) as w:
-            w.write(frames_of_block)    # consecutive pieces of one worker's frames
+    with StepsCsvWriter(path) as w:
+        w.write(frames_of_block)    # consecutive pieces of one worker's frames
     """
 
     def table(self, frames: pd.DataFrame) -> pd.DataFrame:
@@ -260,8 +271,9 @@ def _text_column(frames: pd.DataFrame, col: str) -> np.ndarray:
     return frames[col].astype("string").fillna("").to_numpy(dtype=object)
 
 
-def frames_table(frames: pd.DataFrame, *, recorded_at: dt.datetime | None = None,
-                 name: str | None = None) -> pd.DataFrame:
+def frames_table(
+    frames: pd.DataFrame, *, recorded_at: dt.datetime | None = None, name: str | None = None
+) -> pd.DataFrame:
     """A worker's scored frames (score_rows columns, radians) as the tidy frames table
     (frame_columns(), degrees; docs/csv-columns.md, "Frames per worker").
 
@@ -324,8 +336,15 @@ class FramesCsvWriter(_PieceWriter):
     ends, or not at all; the pieces give the bytes of one write of all the frames.
     """
 
-    def __init__(self, path: str | os.PathLike, *, recorded_at: dt.datetime | None = None, name: str | None = None,
-                 bom: bool = False, parquet: str | os.PathLike | None = None) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        *,
+        recorded_at: dt.datetime | None = None,
+        name: str | None = None,
+        bom: bool = False,
+        parquet: str | os.PathLike | None = None,
+    ) -> None:
         super().__init__(path, bom=bom)
         self.recorded_at = recorded_at
         self.name = name
@@ -360,8 +379,9 @@ class FramesCsvWriter(_PieceWriter):
             self._pq_writer = pq.ParquetWriter(self._pq_tmp, arrow.schema, compression="zstd")
         self._pq_writer.write_table(arrow.cast(self._pq_writer.schema))
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> Literal[False]:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> Literal[False]:
         try:
             if self._pq_ctx is not None:
                 if exc_type is None and self._pq_writer is None:
@@ -374,9 +394,15 @@ class FramesCsvWriter(_PieceWriter):
         return False
 
 
-def write_worker_frames_csv(path: str | os.PathLike, frames: pd.DataFrame, *, recorded_at: dt.datetime | None = None,
-                            name: str | None = None, bom: bool = False,
-                            parquet: str | os.PathLike | None = None) -> Path:
+def write_worker_frames_csv(
+    path: str | os.PathLike,
+    frames: pd.DataFrame,
+    *,
+    recorded_at: dt.datetime | None = None,
+    name: str | None = None,
+    bom: bool = False,
+    parquet: str | os.PathLike | None = None,
+) -> Path:
     """One worker's frames table (:func:`frames_table`), and the same as Parquet when ``parquet``
     names a file."""
     with FramesCsvWriter(path, recorded_at=recorded_at, name=name, bom=bom, parquet=parquet) as w:
@@ -387,8 +413,23 @@ def write_worker_frames_csv(path: str | os.PathLike, frames: pd.DataFrame, *, re
 # ------------------------------------------------------------------------- worker summary
 
 WORKER_SUMMARY_COLUMNS = (
-    "worker", "section", "item", "hour", "value", "time_s", "percent", "holds", "longest_hold_s",
-    "longest_hold_start_s", "start_s", "end_s", "peak_score", "count", "per_minute", "verdict", "sd_deg",
+    "worker",
+    "section",
+    "item",
+    "hour",
+    "value",
+    "time_s",
+    "percent",
+    "holds",
+    "longest_hold_s",
+    "longest_hold_start_s",
+    "start_s",
+    "end_s",
+    "peak_score",
+    "count",
+    "per_minute",
+    "verdict",
+    "sd_deg",
 )
 #: The session summary's names of the confidence levels (columns <name>_s, <name>_pct, <name>_<cause>_s ...).
 CONFIDENCE_NAMES = {"confident": "confident", "low": "low_confidence", "unscored": "unscored"}
@@ -403,20 +444,39 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
 
     for col, dist in summary.distributions.items():
         for v in dist.values:
-            row(section="distribution", item=col, value=str(v.value), time_s=v.time_s, percent=v.percent,
-                holds=v.holds, longest_hold_s=v.longest_hold_s, longest_hold_start_s=v.longest_hold_start_s)
-        row(section="distribution", item=col, value="missing", time_s=dist.missing_time_s,
-            percent=dist.missing_percent)
+            row(
+                section="distribution",
+                item=col,
+                value=str(v.value),
+                time_s=v.time_s,
+                percent=v.percent,
+                holds=v.holds,
+                longest_hold_s=v.longest_hold_s,
+                longest_hold_start_s=v.longest_hold_start_s,
+            )
+        row(section="distribution", item=col, value="missing", time_s=dist.missing_time_s, percent=dist.missing_percent)
     for h in summary.hourly:
         for value, secs in h.time_by_value.items():
-            row(section="hourly", item=h.column, hour=h.hour, value=str(value), time_s=secs,
-                percent=h.percent(value))
-        row(section="hourly", item=h.column, hour=h.hour, value="missing", time_s=h.missing_s,
-            percent=100.0 * h.missing_s / h.observed_s if h.observed_s else 0.0)
+            row(section="hourly", item=h.column, hour=h.hour, value=str(value), time_s=secs, percent=h.percent(value))
+        row(
+            section="hourly",
+            item=h.column,
+            hour=h.hour,
+            value="missing",
+            time_s=h.missing_s,
+            percent=100.0 * h.missing_s / h.observed_s if h.observed_s else 0.0,
+        )
     for col, episodes in summary.episodes.items():
         for e in episodes:
-            row(section="episode", item=col, value=str(e.level), time_s=e.duration_s, start_s=e.start_s,
-                end_s=e.end_s, peak_score=e.peak_score)
+            row(
+                section="episode",
+                item=col,
+                value=str(e.level),
+                time_s=e.duration_s,
+                start_s=e.start_s,
+                end_s=e.end_s,
+                peak_score=e.peak_score,
+            )
     for r in summary.repetitions:
         row(section="repetitions", item=r.angle, value="shift", count=r.actions, per_minute=r.per_minute)
         row(section="repetitions", item=r.angle, value="max in one minute", count=r.max_in_one_minute)
@@ -427,25 +487,48 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
             row(section="exposure", item=item, verdict=f.verdict)
             continue
         for zone, secs in f.zone_time_s.items():
-            row(section="exposure", item=item, value=zone, time_s=secs,
+            row(
+                section="exposure",
+                item=item,
+                value=zone,
+                time_s=secs,
                 percent=100.0 * secs / summary.observed_s if summary.observed_s else 0.0,
-                holds=f.static_holds.get(zone), longest_hold_s=f.longest_static_hold_s.get(zone),
+                holds=f.static_holds.get(zone),
+                longest_hold_s=f.longest_static_hold_s.get(zone),
                 count=f.entries if f.standard.startswith("EN") else None,
-                per_minute=f.per_minute if f.standard.startswith("EN") else None, verdict=f.verdict)
+                per_minute=f.per_minute if f.standard.startswith("EN") else None,
+                verdict=f.verdict,
+            )
     for c in summary.confidence:
         row(section="confidence", item=c.level, value="all", time_s=c.time_s, percent=c.percent)
         for ca in c.causes:
             row(section="confidence", item=c.level, value=ca.cause, time_s=ca.time_s, percent=ca.percent)
     for i in summary.inputs:
         if math.isfinite(i.median_sd_rad):
-            row(section="inputs", item=i.body_part, value="angle sd", count=i.measured_frames,
-                sd_deg=math.degrees(i.median_sd_rad))
+            row(
+                section="inputs",
+                item=i.body_part,
+                value="angle sd",
+                count=i.measured_frames,
+                sd_deg=math.degrees(i.median_sd_rad),
+            )
         if i.known_frames:
-            row(section="inputs", item=i.body_part, value="inferred", count=i.inferred_frames,
-                percent=i.inferred_percent)
+            row(
+                section="inputs",
+                item=i.body_part,
+                value="inferred",
+                count=i.inferred_frames,
+                percent=i.inferred_percent,
+            )
     for u in summary.from_settings:
-        row(section="inputs", item=u.input, value=f"from settings: {math.degrees(u.value_rad):g} deg",
-            count=u.frames, time_s=u.time_s, percent=u.percent)
+        row(
+            section="inputs",
+            item=u.input,
+            value=f"from settings: {math.degrees(u.value_rad):g} deg",
+            count=u.frames,
+            time_s=u.time_s,
+            percent=u.percent,
+        )
     table = pd.DataFrame(rows, columns=list(WORKER_SUMMARY_COLUMNS))
     table["sd_deg"] = table["sd_deg"].astype(np.float64).round(_DECIMALS["angle"])
     for name in ("hour", "holds", "peak_score", "count"):
@@ -491,9 +574,12 @@ EXPOSURE_COLUMNS: dict[tuple[str, str], tuple[tuple[int, str, bool, bool], ...]]
 }
 #: the names of the zones of each finding, by index (ergopose.ergonomics.aggregate._exposure_specs)
 _ZONE_NAMES = {
-    "trunk": ("0-20", "20-60", ">60"), "head": ("<25", "25-85", ">85"),
-    "neck": ("acceptable", "-", "flexion>25 or extension"), "upper arm": ("0-20", "20-60", ">60"),
-    "shoulder": ("not raised", "-", "raised"), "trunk side bend or twist": ("<10", ">=10"),
+    "trunk": ("0-20", "20-60", ">60"),
+    "head": ("<25", "25-85", ">85"),
+    "neck": ("acceptable", "-", "flexion>25 or extension"),
+    "upper arm": ("0-20", "20-60", ">60"),
+    "shoulder": ("not raised", "-", "raised"),
+    "trunk side bend or twist": ("<10", ">=10"),
 }
 
 
@@ -520,7 +606,9 @@ def _exposure_columns(s: ShiftSummary) -> dict[str, object]:
             r[f"{key}_{term}_s"] = m.zone_time_s.get(zone, 0.0) if m is not None else math.nan
             if held:
                 r[f"{key}_{term}_held_s"] = m.static_time_s.get(zone, 0.0) if m is not None else math.nan
-                r[f"{key}_{term}_longest_hold_s"] = m.longest_static_hold_s.get(zone, 0.0) if m is not None else math.nan
+                r[f"{key}_{term}_longest_hold_s"] = (
+                    m.longest_static_hold_s.get(zone, 0.0) if m is not None else math.nan
+                )
             if rate:
                 r[f"{key}_{term}_per_min"] = m.per_minute if m is not None else math.nan
     return r
@@ -570,9 +658,12 @@ def _clock(recorded_at: dt.datetime | None, seconds: float) -> str:
     return str(iso_strings(clock_times(recorded_at, [seconds]), 1)[0])
 
 
-def session_summary_table(summaries: Sequence[ShiftSummary] | Mapping[str, ShiftSummary], *,
-                          names: Mapping[str, str] | None = None,
-                          recorded_at: dt.datetime | None = None) -> pd.DataFrame:
+def session_summary_table(
+    summaries: Sequence[ShiftSummary] | Mapping[str, ShiftSummary],
+    *,
+    names: Mapping[str, str] | None = None,
+    recorded_at: dt.datetime | None = None,
+) -> pd.DataFrame:
     """One row per worker (docs/csv-columns.md, "Summary per worker"): tracked, scored and unscored
     time with causes, time per level with the shares of the tracked and of the scored time, the
     worst episodes, repetitions and exposure per body part in the standards' terms.
@@ -584,10 +675,17 @@ def session_summary_table(summaries: Sequence[ShiftSummary] | Mapping[str, Shift
     rows = []
     for s in items:
         tracked = s.observed_s
-        r: dict[str, object] = {"worker": s.worker, "name": names.get(s.worker, s.worker),
-                                "start": _clock(recorded_at, s.start_s), "end": _clock(recorded_at, s.end_s),
-                                "start_s": s.start_s, "end_s": s.end_s, "frames": s.frames,
-                                "frame_period_s": s.frame_period_s, "tracked_s": tracked}
+        r: dict[str, object] = {
+            "worker": s.worker,
+            "name": names.get(s.worker, s.worker),
+            "start": _clock(recorded_at, s.start_s),
+            "end": _clock(recorded_at, s.end_s),
+            "start_s": s.start_s,
+            "end_s": s.end_s,
+            "frames": s.frames,
+            "frame_period_s": s.frame_period_s,
+            "tracked_s": tracked,
+        }
         r.update(_confidence_columns(s))
         for method, col, levels in _SESSION_LEVELS:
             dist = s.distributions.get(col)
@@ -647,16 +745,38 @@ def session_summary_columns() -> list[str]:
     return list(session_summary_table([empty]).columns)
 
 
-def write_session_summary_csv(path: str | os.PathLike, summaries: Sequence[ShiftSummary] | Mapping[str, ShiftSummary],
-                              *, names: Mapping[str, str] | None = None, recorded_at: dt.datetime | None = None,
-                              bom: bool = False) -> Path:
+def write_session_summary_csv(
+    path: str | os.PathLike,
+    summaries: Sequence[ShiftSummary] | Mapping[str, ShiftSummary],
+    *,
+    names: Mapping[str, str] | None = None,
+    recorded_at: dt.datetime | None = None,
+    bom: bool = False,
+) -> Path:
     """The session summary, one row per worker (docs/csv-columns.md)."""
     return _write(path, session_summary_table(summaries, names=names, recorded_at=recorded_at), bom=bom)
 
 
 __all__ = [
-    "scores_table", "write_scores_csv", "write_worker_steps_csv", "StepsCsvWriter", "frame_columns", "frames_table",
-    "frames_arrow", "FramesCsvWriter", "write_worker_frames_csv", "worker_summary_table", "write_worker_summary_csv",
-    "session_summary_table", "session_summary_columns", "write_session_summary_csv", "WORKER_SUMMARY_COLUMNS",
-    "clock_times", "iso_strings", "FRAMES_SUFFIX", "STEPS_SUFFIX", "SUMMARY_SUFFIX", "steps_path",
+    "scores_table",
+    "write_scores_csv",
+    "write_worker_steps_csv",
+    "StepsCsvWriter",
+    "frame_columns",
+    "frames_table",
+    "frames_arrow",
+    "FramesCsvWriter",
+    "write_worker_frames_csv",
+    "worker_summary_table",
+    "write_worker_summary_csv",
+    "session_summary_table",
+    "session_summary_columns",
+    "write_session_summary_csv",
+    "WORKER_SUMMARY_COLUMNS",
+    "clock_times",
+    "iso_strings",
+    "FRAMES_SUFFIX",
+    "STEPS_SUFFIX",
+    "SUMMARY_SUFFIX",
+    "steps_path",
 ]

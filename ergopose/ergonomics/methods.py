@@ -33,16 +33,32 @@ LOAD_MODES = ("intermittent", "static", "repeated")
 COUPLINGS = ("good", "fair", "poor", "unacceptable")
 
 #: yes/no inputs an adjustment may name (ergopose.ergonomics.scoring defines each one).
-SIDE_FLAGS = frozenset({
-    "shoulder_raised", "upper_arm_abducted", "arm_supported", "arm_across_midline_or_out",
-    "arm_across_midline", "arm_out_to_side", "wrist_deviated", "wrist_twist_end_range",
-    "wrist_deviated_or_twisted",
-})
-BODY_FLAGS = frozenset({
-    "neck_twisted", "neck_side_bent", "neck_twisted_or_side_bent", "trunk_twisted",
-    "trunk_side_bent", "trunk_twisted_or_side_bent", "legs_supported_balanced",
-    "unilateral_stance", "seated",
-})
+SIDE_FLAGS = frozenset(
+    {
+        "shoulder_raised",
+        "upper_arm_abducted",
+        "arm_supported",
+        "arm_across_midline_or_out",
+        "arm_across_midline",
+        "arm_out_to_side",
+        "wrist_deviated",
+        "wrist_twist_end_range",
+        "wrist_deviated_or_twisted",
+    }
+)
+BODY_FLAGS = frozenset(
+    {
+        "neck_twisted",
+        "neck_side_bent",
+        "neck_twisted_or_side_bent",
+        "trunk_twisted",
+        "trunk_side_bent",
+        "trunk_twisted_or_side_bent",
+        "legs_supported_balanced",
+        "unilateral_stance",
+        "seated",
+    }
+)
 KNOWN_FLAGS = SIDE_FLAGS | BODY_FLAGS
 
 
@@ -99,8 +115,9 @@ class Bands:
                 edges[k] += tolerance_deg if above > below else -tolerance_deg
         if np.any(np.diff(edges) < 0):
             raise ConfigError(
-                f"the tolerance {tolerance_deg} degrees makes the {self.name} bands overlap "
-                f"(edges {edges.tolist()})", field=self.tolerance_setting or self.name)
+                f"the tolerance {tolerance_deg} degrees makes the {self.name} bands overlap (edges {edges.tolist()})",
+                field=self.tolerance_setting or self.name,
+            )
         return np.deg2rad(edges), goes_up
 
 
@@ -183,7 +200,7 @@ class Method:
         scores = np.asarray(scores, dtype=np.float64)
         lut = np.full(self.score_range[1] + 1, np.nan)
         for lv in self.action_levels:
-            lut[lv.low:lv.high + 1] = lv.level
+            lut[lv.low : lv.high + 1] = lv.level
         idx = np.where(np.isnan(scores), 0, np.clip(np.nan_to_num(scores), 0, self.score_range[1])).astype(np.intp)
         return np.where(np.isnan(scores), np.nan, lut[idx])
 
@@ -208,8 +225,12 @@ _SCHEMA: dict[str, dict[str, Any]] = {
         # table axis -> the score that indexes it ("=" the size must equal its maximum,
         # "<=" the score may exceed the size: the last row/column is used)
         "axes": {
-            "table_a": {"upper_arm": ("upper_arm", "="), "lower_arm": ("lower_arm", "="),
-                        "wrist": ("wrist", "="), "wrist_twist": ("wrist_twist", "=")},
+            "table_a": {
+                "upper_arm": ("upper_arm", "="),
+                "lower_arm": ("lower_arm", "="),
+                "wrist": ("wrist", "="),
+                "wrist_twist": ("wrist_twist", "="),
+            },
             "table_b": {"neck": ("neck", "="), "trunk": ("trunk", "="), "legs": ("legs", "=")},
             "table_c": {"score_c": ("score_c", "<="), "score_d": ("score_d", "<=")},
         },
@@ -299,8 +320,9 @@ class _Reader:
         unknown = sorted(set(data) - allowed)
         if unknown:
             where = f"{field}." if field else ""
-            raise ConfigError(f"unknown key(s): {', '.join(where + u for u in unknown)}", path=self.path,
-                              field=field or None)
+            raise ConfigError(
+                f"unknown key(s): {', '.join(where + u for u in unknown)}", path=self.path, field=field or None
+            )
 
     def range_pair(self, data: Mapping, key: str, field: str) -> tuple[int, int]:
         lo, hi = self.int_list(data, key, field, length=2)
@@ -312,15 +334,16 @@ class _Reader:
 def _check_valley(r: _Reader, scores: list[int], field: str) -> None:
     """Scores fall to one minimum band and rise after it (worse the further from neutral)."""
     m = int(np.argmin(scores))
-    left, right = scores[:m + 1], scores[m:]
+    left, right = scores[: m + 1], scores[m:]
     if any(b > a for a, b in zip(left, left[1:])) or any(b < a for a, b in zip(right, right[1:])):
         raise r.fail(field, f"scores {scores} must fall to the neutral band and rise away from it")
     if any(a == b for a, b in zip(scores, scores[1:])):
         raise r.fail(field, f"neighbouring bands have the same score in {scores}: merge them")
 
 
-def _adjustment(r: _Reader, data: Mapping, field: str, scores: list[int], extra_max: int = 0,
-                require_adjust: bool = True) -> Adjustment:
+def _adjustment(
+    r: _Reader, data: Mapping, field: str, scores: list[int], extra_max: int = 0, require_adjust: bool = True
+) -> Adjustment:
     points: dict[str, int] = {}
     if "adjust" in data:
         adjust = r.table(data, "adjust", f"{field}.adjust")
@@ -334,17 +357,35 @@ def _adjustment(r: _Reader, data: Mapping, field: str, scores: list[int], extra_
     lo, hi = r.range_pair(data, "adjusted_range", f"{field}.adjusted_range")
     top = max(scores) + sum(v for v in points.values() if v > 0) + extra_max
     if hi != top:
-        raise r.fail(f"{field}.adjusted_range", f"the highest adjusted score is {top} (highest band score "
-                     f"plus the positive adjustments), not {hi}")
+        raise r.fail(
+            f"{field}.adjusted_range",
+            f"the highest adjusted score is {top} (highest band score plus the positive adjustments), not {hi}",
+        )
     if lo < 1 or lo > min(scores):
-        raise r.fail(f"{field}.adjusted_range", f"the lowest adjusted score must be between 1 and {min(scores)}, got {lo}")
+        raise r.fail(
+            f"{field}.adjusted_range", f"the lowest adjusted score must be between 1 and {min(scores)}, got {lo}"
+        )
     return Adjustment(MappingProxyType(points), (lo, hi))
 
 
 def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Bands:
     field = name
-    r.no_unknown(data, {"angle", "criterion", "edges", "scores", "at_edge", "tolerance_setting", "adjust",
-                        "adjusted_range", "variant_separate", "not_when"}, field)
+    r.no_unknown(
+        data,
+        {
+            "angle",
+            "criterion",
+            "edges",
+            "scores",
+            "at_edge",
+            "tolerance_setting",
+            "adjust",
+            "adjusted_range",
+            "variant_separate",
+            "not_when",
+        },
+        field,
+    )
     angle = r.string(data, "angle", f"{field}.angle")
     criterion = r.string(data, "criterion", f"{field}.criterion")
     edges = r.number_list(data, "edges", f"{field}.edges")
@@ -365,8 +406,9 @@ def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Ba
         if edges[k + 1] < edges[k]:
             raise r.fail(f"{field}.edges", f"edges must ascend, got {edges}")
         if edges[k + 1] == edges[k] and not (at_edge[k] == at_edge[k + 1] == "tolerance"):
-            raise r.fail(f"{field}.edges", f"two edges at {edges[k]} only make sense around a single-point "
-                         "(tolerance) posture")
+            raise r.fail(
+                f"{field}.edges", f"two edges at {edges[k]} only make sense around a single-point (tolerance) posture"
+            )
     _check_valley(r, scores, f"{field}.scores")
     tol = r.optional_string(data, "tolerance_setting", f"{field}.tolerance_setting")
     if "tolerance" in at_edge and tol is None:
@@ -388,9 +430,18 @@ def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Ba
         v = r.table(data, "variant_separate", f"{field}.variant_separate")
         r.no_unknown(v, {"adjust", "adjusted_range"}, f"{field}.variant_separate")
         variants["separate"] = _adjustment(r, v, f"{field}.variant_separate", scores)
-    return Bands(name=name, angle=angle, criterion=criterion, edges_deg=tuple(edges), scores=tuple(scores),
-                 at_edge=tuple(at_edge), tolerance_setting=tol, adjustment=adjustment,
-                 variants=MappingProxyType(variants), not_when=not_when)
+    return Bands(
+        name=name,
+        angle=angle,
+        criterion=criterion,
+        edges_deg=tuple(edges),
+        scores=tuple(scores),
+        at_edge=tuple(at_edge),
+        tolerance_setting=tol,
+        adjustment=adjustment,
+        variants=MappingProxyType(variants),
+        not_when=not_when,
+    )
 
 
 def _flag_score(r: _Reader, data: Mapping, name: str) -> FlagScore:
@@ -401,8 +452,9 @@ def _flag_score(r: _Reader, data: Mapping, name: str) -> FlagScore:
     scores = r.int_list(data, "scores", f"{name}.scores", length=2)
     if min(scores) < 1:
         raise r.fail(f"{name}.scores", f"scores start at 1, got {scores}")
-    return FlagScore(name=name, criterion=r.string(data, "criterion", f"{name}.criterion"), flag=flag,
-                     scores=(scores[0], scores[1]))
+    return FlagScore(
+        name=name, criterion=r.string(data, "criterion", f"{name}.criterion"), flag=flag, scores=(scores[0], scores[1])
+    )
 
 
 def _score_table(r: _Reader, data: Mapping, name: str) -> ScoreTable:
@@ -424,11 +476,12 @@ def _score_table(r: _Reader, data: Mapping, name: str) -> ScoreTable:
     if lo < 1:
         raise r.fail(f"{name}.range", f"table scores start at 1 or more, got {lo}")
     values = r.any_list(data, "values", f"{name}.values")
-    n_rows = int(np.prod(sizes[:len(rows)]))
-    n_cols = int(np.prod(sizes[len(rows):]))
+    n_rows = int(np.prod(sizes[: len(rows)]))
+    n_cols = int(np.prod(sizes[len(rows) :]))
     if len(values) != n_rows:
-        raise r.fail(f"{name}.values", f"expected {n_rows} rows ({' x '.join(map(str, sizes[:len(rows)]))}), "
-                     f"got {len(values)}")
+        raise r.fail(
+            f"{name}.values", f"expected {n_rows} rows ({' x '.join(map(str, sizes[: len(rows)]))}), got {len(values)}"
+        )
     for i, row in enumerate(values):
         if not isinstance(row, list) or len(row) != n_cols:
             got = len(row) if isinstance(row, list) else type(row).__name__
@@ -486,9 +539,15 @@ def _load_rule(r: _Reader, data: Mapping, name: str) -> LoadRule:
     if not 0 <= shock_add <= 3:
         raise r.fail(f"{name}.shock_add", f"expected 0-3, got {shock_add}")
     arr.setflags(write=False)
-    return LoadRule(criterion=r.string(data, "criterion", f"{name}.criterion"), edges_kg=tuple(edges),
-                    at_edge=tuple(at_edge), modes=MappingProxyType(modes), table=arr,
-                    shock_score=shock_score, shock_add=shock_add)
+    return LoadRule(
+        criterion=r.string(data, "criterion", f"{name}.criterion"),
+        edges_kg=tuple(edges),
+        at_edge=tuple(at_edge),
+        modes=MappingProxyType(modes),
+        table=arr,
+        shock_score=shock_score,
+        shock_add=shock_add,
+    )
 
 
 def _action_levels(r: _Reader, data: Mapping, score_range: tuple[int, int]) -> tuple[ActionLevel, ...]:
@@ -503,12 +562,22 @@ def _action_levels(r: _Reader, data: Mapping, score_range: tuple[int, int]) -> t
         level = r.integer(item, "level", f"{f}.level")
         low, high = r.range_pair(item, "scores", f"{f}.scores")
         if low != expect_low:
-            raise r.fail(f"{f}.scores", f"expected the range to start at {expect_low} (levels must cover the "
-                         f"scores {score_range[0]}-{score_range[1]} without gaps), got {low}")
+            raise r.fail(
+                f"{f}.scores",
+                f"expected the range to start at {expect_low} (levels must cover the "
+                f"scores {score_range[0]}-{score_range[1]} without gaps), got {low}",
+            )
         if levels and level <= levels[-1].level:
             raise r.fail(f"{f}.level", "levels must increase")
-        levels.append(ActionLevel(level=level, low=low, high=high, label=r.string(item, "label", f"{f}.label"),
-                                  wording=r.string(item, "wording", f"{f}.wording")))
+        levels.append(
+            ActionLevel(
+                level=level,
+                low=low,
+                high=high,
+                label=r.string(item, "label", f"{f}.label"),
+                wording=r.string(item, "wording", f"{f}.wording"),
+            )
+        )
         expect_low = high + 1
     if not levels or levels[-1].high != score_range[1]:
         raise r.fail("action_levels", f"the levels must cover the scores up to {score_range[1]}")
@@ -523,8 +592,16 @@ def _parse(path: Path, data: Mapping, expected: str | None) -> Method:
     if expected is not None and name != expected:
         raise r.fail("method", f"expected {expected!r}, got {name!r}")
     schema = _SCHEMA[name]
-    allowed = (_TOP_KEYS | set(schema["bands"]) | set(schema["flag_scores"]) | set(schema["tables"])
-               | {schema["load"]} | set(schema["points"]) | set(schema["sums"]) | ({"coupling"} if schema["coupling"] else set()))
+    allowed = (
+        _TOP_KEYS
+        | set(schema["bands"])
+        | set(schema["flag_scores"])
+        | set(schema["tables"])
+        | {schema["load"]}
+        | set(schema["points"])
+        | set(schema["sums"])
+        | ({"coupling"} if schema["coupling"] else set())
+    )
     r.no_unknown(data, allowed, "")
     title = r.string(data, "title", "title")
     source = r.string(data, "source", "source")
@@ -574,8 +651,11 @@ def _parse(path: Path, data: Mapping, expected: str | None) -> Method:
         expect = (min(flag_scores["legs"].scores), top["legs+knee"])
         if bands["knee"].adjustment.adjusted_range != expect:
             raise r.fail("knee.adjusted_range", f"the legs score plus the knee points spans {list(expect)}")
-    contributions = {**{t: tables[t].value_range[1] for t in tables}, schema["load"]: load.max_score,
-                     "coupling": max(coupling.values()) if coupling else 0}
+    contributions = {
+        **{t: tables[t].value_range[1] for t in tables},
+        schema["load"]: load.max_score,
+        "coupling": max(coupling.values()) if coupling else 0,
+    }
     contributions.update(points)
     for section, parts in schema["sums"].items():
         top[section] = sum(contributions[p] for p in parts)
@@ -586,18 +666,31 @@ def _parse(path: Path, data: Mapping, expected: str | None) -> Method:
         for axis, (score, rule) in axes.items():
             size = table.sizes[table.axes.index(axis)]
             if (rule == "=" and size != top[score]) or (rule == "<=" and size > top[score]):
-                raise r.fail(f"{tname}.sizes.{axis}", f"the {score.replace('+', ' + ')} score reaches {top[score]}, "
-                             f"the table has {size}")
+                raise r.fail(
+                    f"{tname}.sizes.{axis}",
+                    f"the {score.replace('+', ' + ')} score reaches {top[score]}, the table has {size}",
+                )
     final_top = tables["table_c"].value_range[1] + sum(points.get(k, 0) for k in ("static", "repeated", "rapid"))
     if score_range != (1, final_top):
         raise r.fail("score_range", f"expected [1, {final_top}] (Table C plus the points added after it)")
     levels = _action_levels(r, data, score_range)
     if "knee" in bands and bands["knee"].not_when is None:
         raise r.fail("knee.not_when", "missing")
-    return Method(name=name, title=title, source=source, path=path, sides=sides, score_range=score_range,
-                  bands=MappingProxyType(bands), flag_scores=MappingProxyType(flag_scores),
-                  tables=MappingProxyType(tables), load=load, points=MappingProxyType(points),
-                  coupling=MappingProxyType(coupling), action_levels=levels)
+    return Method(
+        name=name,
+        title=title,
+        source=source,
+        path=path,
+        sides=sides,
+        score_range=score_range,
+        bands=MappingProxyType(bands),
+        flag_scores=MappingProxyType(flag_scores),
+        tables=MappingProxyType(tables),
+        load=load,
+        points=MappingProxyType(points),
+        coupling=MappingProxyType(coupling),
+        action_levels=levels,
+    )
 
 
 def load_method_file(path: str | os.PathLike, expected: str | None = None) -> Method:
@@ -634,6 +727,16 @@ def load_method(name: str) -> Method:
 
 
 __all__ = [
-    "Adjustment", "Bands", "FlagScore", "ScoreTable", "LoadRule", "ActionLevel", "Method",
-    "load_method", "load_method_file", "KNOWN_FLAGS", "SIDE_FLAGS", "BODY_FLAGS",
+    "Adjustment",
+    "Bands",
+    "FlagScore",
+    "ScoreTable",
+    "LoadRule",
+    "ActionLevel",
+    "Method",
+    "load_method",
+    "load_method_file",
+    "KNOWN_FLAGS",
+    "SIDE_FLAGS",
+    "BODY_FLAGS",
 ]

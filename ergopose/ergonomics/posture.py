@@ -32,9 +32,15 @@ SIDES = ("left_", "right_")
 
 #: per-side angles (radians; degrees in CSV)
 SIDE_ANGLES = (
-    "upper_arm_flexion", "upper_arm_abduction", "elbow_flexion", "wrist_flexion", "knee_flexion",
+    "upper_arm_flexion",
+    "upper_arm_abduction",
+    "elbow_flexion",
+    "wrist_flexion",
+    "knee_flexion",
     # optional: measured inputs for the yes/no adjustments and exposure reporting
-    "shoulder_elevation", "wrist_deviation", "upper_arm_elevation",
+    "shoulder_elevation",
+    "wrist_deviation",
+    "upper_arm_elevation",
 )
 #: whole-body angles
 BODY_ANGLES = ("trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "neck_side_bend", "neck_twist")
@@ -43,30 +49,40 @@ BODY_ANGLES = ("trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion"
 SIDE_DISTANCES = ("wrist_lateral_m",)
 #: per-side yes/no inputs
 SIDE_FLAGS = (
-    "shoulder_raised", "arm_supported", "arm_across_midline_or_out", "wrist_deviated",
+    "shoulder_raised",
+    "arm_supported",
+    "arm_across_midline_or_out",
+    "wrist_deviated",
     "wrist_twist_end_range",
     # optional overrides of flags otherwise derived from angles / distances
-    "upper_arm_abducted", "arm_across_midline", "arm_out_to_side",
+    "upper_arm_abducted",
+    "arm_across_midline",
+    "arm_out_to_side",
 )
 #: whole-body yes/no inputs
 BODY_FLAGS = (
-    "legs_supported", "one_leg_stance", "seated", "walking", "shock", "static_posture",
-    "repeated_action", "rapid_change",
+    "legs_supported",
+    "one_leg_stance",
+    "seated",
+    "walking",
+    "shock",
+    "static_posture",
+    "repeated_action",
+    "rapid_change",
     # optional overrides of flags otherwise derived from angles
-    "trunk_twisted", "trunk_side_bent", "neck_twisted", "neck_side_bent",
+    "trunk_twisted",
+    "trunk_side_bent",
+    "neck_twisted",
+    "neck_side_bent",
 )
-CATEGORIES = {
-    "load_mode": ("intermittent", "static", "repeated"),
-    "coupling": ("good", "fair", "poor", "unacceptable"),
-}
+CATEGORIES = {"load_mode": ("intermittent", "static", "repeated"), "coupling": ("good", "fair", "poor", "unacceptable")}
 NUMBERS = ("load_kg", "time_s")
 IDENTITY = ("worker", "frame")
 
 #: the angles each method cannot do without (per side where listed in SIDE_ANGLES)
 REQUIRED = {
     "rula": ("upper_arm_flexion", "elbow_flexion", "wrist_flexion", "neck_flexion", "trunk_flexion"),
-    "reba": ("neck_flexion", "trunk_flexion", "knee_flexion", "upper_arm_flexion", "elbow_flexion",
-             "wrist_flexion"),
+    "reba": ("neck_flexion", "trunk_flexion", "knee_flexion", "upper_arm_flexion", "elbow_flexion", "wrist_flexion"),
 }
 #: activity inputs that, when all given, make time_s unnecessary
 ACTIVITY_FLAGS = {
@@ -83,7 +99,7 @@ ANGLE_COLUMNS = tuple(BODY_ANGLES) + tuple(_sided(SIDE_ANGLES))
 DISTANCE_COLUMNS = tuple(_sided(SIDE_DISTANCES))
 FLAG_COLUMNS = tuple(BODY_FLAGS) + tuple(_sided(SIDE_FLAGS))
 #: every column a posture table may hold (after side expansion)
-POSTURE_COLUMNS = (ANGLE_COLUMNS + DISTANCE_COLUMNS + FLAG_COLUMNS + tuple(CATEGORIES) + NUMBERS + IDENTITY)
+POSTURE_COLUMNS = ANGLE_COLUMNS + DISTANCE_COLUMNS + FLAG_COLUMNS + tuple(CATEGORIES) + NUMBERS + IDENTITY
 _SIDE_BASES = set(SIDE_ANGLES) | set(SIDE_DISTANCES) | set(SIDE_FLAGS)
 
 
@@ -94,8 +110,10 @@ def expand_sides(frame: pd.DataFrame, source: str | None = None) -> pd.DataFrame
         return frame
     clash = [c for c in both if any(f"{s}{c}" in frame.columns for s in SIDES)]
     if clash:
-        raise InputError(f"give either the unprefixed (both sides) or the left_/right_ column, not both: "
-                         f"{', '.join(clash)}", path=source)
+        raise InputError(
+            f"give either the unprefixed (both sides) or the left_/right_ column, not both: {', '.join(clash)}",
+            path=source,
+        )
     out = frame.drop(columns=both)
     for c in both:
         for s in SIDES:
@@ -199,8 +217,9 @@ def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: 
             bad_codes = [k for k, u in enumerate(normal) if u is not None and u not in CATEGORIES[col]]
             if bad_codes:
                 i = _first_bad(np.isin(codes, bad_codes))
-                problems.append(f"{col}: row {i + 1}: {_show(frame[col].iloc[i])} is not one of "
-                                f"{', '.join(CATEGORIES[col])}")
+                problems.append(
+                    f"{col}: row {i + 1}: {_show(frame[col].iloc[i])} is not one of {', '.join(CATEGORIES[col])}"
+                )
     if problems:
         raise InputError("invalid value(s): " + "; ".join(problems), path=source)
 
@@ -233,7 +252,9 @@ def _clean(frame: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(out, index=frame.index, copy=False)
 
 
-def prepare(frame: pd.DataFrame, method: str | Sequence[str], source: str | None = None, *, degrees: bool = False) -> pd.DataFrame:
+def prepare(
+    frame: pd.DataFrame, method: str | Sequence[str], source: str | None = None, *, degrees: bool = False
+) -> pd.DataFrame:
     """Expand sides, check columns and values; return a clean posture table (radians)."""
     if not isinstance(frame, pd.DataFrame):
         raise InputError(f"expected a pandas DataFrame, got {type(frame).__name__}", path=source)
@@ -252,8 +273,9 @@ def read_posture_csv(path: str | os.PathLike, method: str | Sequence[str]) -> pd
     """Read a posture CSV (angles in DEGREES) and return a checked posture table (RADIANS)."""
     p = Path(path)
     try:
-        frame = pd.read_csv(p, dtype={"worker": "string", "load_mode": "string", "coupling": "string"},
-                            skipinitialspace=True)
+        frame = pd.read_csv(
+            p, dtype={"worker": "string", "load_mode": "string", "coupling": "string"}, skipinitialspace=True
+        )
     except FileNotFoundError:
         raise InputError("the posture file does not exist", path=p) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as exc:
@@ -275,7 +297,22 @@ def to_csv_units(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 __all__ = [
-    "SIDES", "SIDE_ANGLES", "BODY_ANGLES", "SIDE_DISTANCES", "SIDE_FLAGS", "BODY_FLAGS", "CATEGORIES",
-    "ANGLE_COLUMNS", "DISTANCE_COLUMNS", "FLAG_COLUMNS", "POSTURE_COLUMNS", "REQUIRED",
-    "expand_sides", "check_columns", "validate_values", "prepare", "read_posture_csv", "to_csv_units",
+    "SIDES",
+    "SIDE_ANGLES",
+    "BODY_ANGLES",
+    "SIDE_DISTANCES",
+    "SIDE_FLAGS",
+    "BODY_FLAGS",
+    "CATEGORIES",
+    "ANGLE_COLUMNS",
+    "DISTANCE_COLUMNS",
+    "FLAG_COLUMNS",
+    "POSTURE_COLUMNS",
+    "REQUIRED",
+    "expand_sides",
+    "check_columns",
+    "validate_values",
+    "prepare",
+    "read_posture_csv",
+    "to_csv_units",
 ]

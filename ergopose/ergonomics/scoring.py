@@ -41,46 +41,134 @@ WORSE_SIDE_LABELS = ("left", "right", "both")
 
 def rula_columns() -> list[str]:
     """Every column score_rula writes, in order."""
-    side = ["rula_upper_arm_band", "rula_upper_arm_adjust", "rula_upper_arm", "rula_lower_arm_band",
-            "rula_lower_arm_adjust", "rula_lower_arm", "rula_wrist_band", "rula_wrist_adjust", "rula_wrist",
-            "rula_wrist_twist", "rula_table_a", "rula_static", "rula_repeated", "rula_muscle", "rula_score_c",
-            "rula_grand", "rula_action_level"]
-    body = ["rula_force", "rula_neck_band", "rula_neck_adjust", "rula_neck", "rula_trunk_band", "rula_trunk_adjust",
-            "rula_trunk", "rula_legs", "rula_table_b", "rula_static_b", "rula_repeated_b", "rula_muscle_b",
-            "rula_score_d"]
+    side = [
+        "rula_upper_arm_band",
+        "rula_upper_arm_adjust",
+        "rula_upper_arm",
+        "rula_lower_arm_band",
+        "rula_lower_arm_adjust",
+        "rula_lower_arm",
+        "rula_wrist_band",
+        "rula_wrist_adjust",
+        "rula_wrist",
+        "rula_wrist_twist",
+        "rula_table_a",
+        "rula_static",
+        "rula_repeated",
+        "rula_muscle",
+        "rula_score_c",
+        "rula_grand",
+        "rula_action_level",
+    ]
+    body = [
+        "rula_force",
+        "rula_neck_band",
+        "rula_neck_adjust",
+        "rula_neck",
+        "rula_trunk_band",
+        "rula_trunk_adjust",
+        "rula_trunk",
+        "rula_legs",
+        "rula_table_b",
+        "rula_static_b",
+        "rula_repeated_b",
+        "rula_muscle_b",
+        "rula_score_d",
+    ]
     worse = ["rula_grand", "rula_action_level", "rula_worse_side", "rula_unknown_flags"]
     return [f"{s}{c}" for s in SIDES for c in side] + body + worse
 
 
 def reba_columns() -> list[str]:
     """Every column score_reba writes, in order."""
-    group_a = ["reba_neck_band", "reba_neck_adjust", "reba_neck", "reba_trunk_band", "reba_trunk_adjust",
-               "reba_trunk", "reba_legs_band", "reba_knee", "reba_legs", "reba_table_a", "reba_load", "reba_score_a"]
-    side = ["reba_upper_arm_band", "reba_upper_arm_adjust", "reba_upper_arm", "reba_lower_arm", "reba_wrist_band",
-            "reba_wrist_adjust", "reba_wrist", "reba_table_b"]
-    rest = ["reba_table_b", "reba_worse_side", "reba_coupling", "reba_score_b", "reba_table_c", "reba_static",
-            "reba_repeated", "reba_rapid", "reba_activity", "reba_score", "reba_risk_level", "reba_unknown_flags"]
+    group_a = [
+        "reba_neck_band",
+        "reba_neck_adjust",
+        "reba_neck",
+        "reba_trunk_band",
+        "reba_trunk_adjust",
+        "reba_trunk",
+        "reba_legs_band",
+        "reba_knee",
+        "reba_legs",
+        "reba_table_a",
+        "reba_load",
+        "reba_score_a",
+    ]
+    side = [
+        "reba_upper_arm_band",
+        "reba_upper_arm_adjust",
+        "reba_upper_arm",
+        "reba_lower_arm",
+        "reba_wrist_band",
+        "reba_wrist_adjust",
+        "reba_wrist",
+        "reba_table_b",
+    ]
+    rest = [
+        "reba_table_b",
+        "reba_worse_side",
+        "reba_coupling",
+        "reba_score_b",
+        "reba_table_c",
+        "reba_static",
+        "reba_repeated",
+        "reba_rapid",
+        "reba_activity",
+        "reba_score",
+        "reba_risk_level",
+        "reba_unknown_flags",
+    ]
     return group_a + [f"{s}{c}" for s in SIDES for c in side] + rest
 
 
 #: Body-part posture bands (position score from the angle alone) that shift reports summarise.
 BODY_PART_COLUMNS = {
-    "rula": ["left_rula_upper_arm_band", "right_rula_upper_arm_band", "left_rula_lower_arm_band",
-             "right_rula_lower_arm_band", "left_rula_wrist_band", "right_rula_wrist_band", "rula_neck_band",
-             "rula_trunk_band", "rula_legs"],
-    "reba": ["reba_neck_band", "reba_trunk_band", "reba_legs", "left_reba_upper_arm_band",
-             "right_reba_upper_arm_band", "left_reba_lower_arm", "right_reba_lower_arm", "left_reba_wrist_band",
-             "right_reba_wrist_band"],
+    "rula": [
+        "left_rula_upper_arm_band",
+        "right_rula_upper_arm_band",
+        "left_rula_lower_arm_band",
+        "right_rula_lower_arm_band",
+        "left_rula_wrist_band",
+        "right_rula_wrist_band",
+        "rula_neck_band",
+        "rula_trunk_band",
+        "rula_legs",
+    ],
+    "reba": [
+        "reba_neck_band",
+        "reba_trunk_band",
+        "reba_legs",
+        "left_reba_upper_arm_band",
+        "right_reba_upper_arm_band",
+        "left_reba_lower_arm",
+        "right_reba_lower_arm",
+        "left_reba_wrist_band",
+        "right_reba_wrist_band",
+    ],
 }
 #: The final score and its level per method (worse side for RULA).
 LEVEL_COLUMNS = {"rula": ("rula_grand", "rula_action_level"), "reba": ("reba_score", "reba_risk_level")}
 
 #: Angles whose actions count as repetitions (per side where prefixed).
-REPETITION_ANGLES = ("neck_flexion", "trunk_flexion", "left_upper_arm_flexion", "right_upper_arm_flexion",
-                     "left_elbow_flexion", "right_elbow_flexion", "left_wrist_flexion", "right_wrist_flexion")
+REPETITION_ANGLES = (
+    "neck_flexion",
+    "trunk_flexion",
+    "left_upper_arm_flexion",
+    "right_upper_arm_flexion",
+    "left_elbow_flexion",
+    "right_elbow_flexion",
+    "left_wrist_flexion",
+    "right_wrist_flexion",
+)
 #: Angles whose rapid large-range changes count for REBA (whole-body posture changes).
-RAPID_ANGLES = ("trunk_flexion", "left_upper_arm_flexion", "right_upper_arm_flexion", "left_knee_flexion",
-                "right_knee_flexion")
+RAPID_ANGLES = (
+    "trunk_flexion",
+    "left_upper_arm_flexion",
+    "right_upper_arm_flexion",
+    "left_knee_flexion",
+    "right_knee_flexion",
+)
 
 
 # ------------------------------------------------------------------------- small helpers
@@ -149,7 +237,7 @@ def _k_or(*xs: np.ndarray) -> np.ndarray:
     known_max = xs[0]
     strict_max = xs[0]
     for x in xs[1:]:
-        known_max = np.fmax(known_max, x)      # NaN only where all are NaN
+        known_max = np.fmax(known_max, x)  # NaN only where all are NaN
         strict_max = np.maximum(strict_max, x)  # NaN where any is NaN
     return np.where(known_max == 1, 1.0, strict_max)
 
@@ -172,8 +260,16 @@ def _k_not(x: np.ndarray) -> np.ndarray:
 
 
 _ACTIVITY_FLAGS = frozenset({"static_posture", "repeated_action", "rapid_change"})
-_COMPOSITE = frozenset({"arm_across_midline_or_out", "wrist_deviated_or_twisted", "neck_twisted_or_side_bent",
-                        "trunk_twisted_or_side_bent", "legs_supported_balanced", "unilateral_stance"})
+_COMPOSITE = frozenset(
+    {
+        "arm_across_midline_or_out",
+        "wrist_deviated_or_twisted",
+        "neck_twisted_or_side_bent",
+        "trunk_twisted_or_side_bent",
+        "legs_supported_balanced",
+        "unilateral_stance",
+    }
+)
 
 
 class _Inputs:
@@ -380,8 +476,9 @@ class _Shared:
             if x is not None:
                 amp = np.deg2rad(self.s.repetition_amplitude_deg)
                 for g, tl in zip(self.groups(), self.timelines()):
-                    out[g] = act.repetition_events(tl.time_s, x[g], amp, self.s.repetition_window_s,
-                                                   period_s=tl.period_s)
+                    out[g] = act.repetition_events(
+                        tl.time_s, x[g], amp, self.s.repetition_window_s, period_s=tl.period_s
+                    )
             self._rates[key] = out
         return self._rates[key]
 
@@ -399,8 +496,9 @@ class _Shared:
     def held(self, band: np.ndarray, hold_s: float, neutral: float | None) -> np.ndarray:
         out = np.zeros(len(self.table), dtype=bool)
         for g, tl in zip(self.groups(), self.timelines()):
-            out[g] = act.held(tl.time_s, band[g], hold_s, max_gap_s=self.s.max_gap_s, neutral=neutral,
-                              period_s=tl.period_s)
+            out[g] = act.held(
+                tl.time_s, band[g], hold_s, max_gap_s=self.s.max_gap_s, neutral=neutral, period_s=tl.period_s
+            )
         return out
 
     def rapid(self, angles: Sequence[np.ndarray]) -> np.ndarray:
@@ -426,8 +524,15 @@ def _neutral(bands: Bands, settings: ScoringSettings) -> float | None:
 # ----------------------------------------------------------------------------- shared steps
 
 
-def _step(inp: _Inputs, method: Method, part: str, side: str, variant: str, open_boundary: str,
-          angle: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _step(
+    inp: _Inputs,
+    method: Method,
+    part: str,
+    side: str,
+    variant: str,
+    open_boundary: str,
+    angle: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(band, adjust, adjusted step score) of one body part."""
     bands = method.bands[part]
     band = band_scores(inp.angle(bands.angle, side) if angle is None else angle, bands, inp.s, open_boundary)
@@ -471,7 +576,9 @@ def _load_score(inp: _Inputs, method: Method) -> np.ndarray:
     return score
 
 
-def _finish(columns: dict[str, np.ndarray], order: list[str], index: pd.Index, text: Mapping[str, object]) -> pd.DataFrame:
+def _finish(
+    columns: dict[str, np.ndarray], order: list[str], index: pd.Index, text: Mapping[str, object]
+) -> pd.DataFrame:
     data = {}
     for name in order:
         if name in text:
@@ -481,14 +588,15 @@ def _finish(columns: dict[str, np.ndarray], order: list[str], index: pd.Index, t
     return pd.DataFrame(data, index=index, copy=False)
 
 
-def _worse(left: np.ndarray, right: np.ndarray, left_tie: np.ndarray | None = None,
-           right_tie: np.ndarray | None = None) -> tuple[np.ndarray, pd.Categorical]:
+def _worse(
+    left: np.ndarray, right: np.ndarray, left_tie: np.ndarray | None = None, right_tie: np.ndarray | None = None
+) -> tuple[np.ndarray, pd.Categorical]:
     """The higher of two sides (NaN if either is NaN) and which side it was."""
     both = ~(np.isnan(left) | np.isnan(right))
     worse = np.where(both, np.fmax(left, right), NAN)
     lk, rk = left.copy(), right.copy()
     if left_tie is not None and right_tie is not None:
-        tie = (left == right)
+        tie = left == right
         lk = np.where(tie, left_tie, left)
         rk = np.where(tie, right_tie, right)
     codes = np.where(lk > rk, 0, np.where(rk > lk, 1, 2)).astype(np.int8)
@@ -500,8 +608,14 @@ def _worse(left: np.ndarray, right: np.ndarray, left_tie: np.ndarray | None = No
 # ------------------------------------------------------------------------------------- RULA
 
 
-def score_rula(posture: pd.DataFrame, settings: ScoringSettings | None = None, *, method: Method | None = None,
-               progress: ProgressCallback | None = None, _shared: _Shared | None = None) -> pd.DataFrame:
+def score_rula(
+    posture: pd.DataFrame,
+    settings: ScoringSettings | None = None,
+    *,
+    method: Method | None = None,
+    progress: ProgressCallback | None = None,
+    _shared: _Shared | None = None,
+) -> pd.DataFrame:
     """RULA step scores for every frame of a posture table (radians); columns: :func:`rula_columns`."""
     s = settings or ScoringSettings()
     m = method or load_method("rula")
@@ -522,8 +636,13 @@ def score_rula(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
         fs = m.flag_scores["wrist_twist"]
         twist = inp.flag(fs.flag, side)
         c[f"{side}rula_wrist_twist"] = np.where(np.isnan(twist), NAN, np.where(twist == 1, fs.scores[1], fs.scores[0]))
-        c[f"{side}rula_table_a"] = lookup(m.tables["table_a"], c[f"{side}rula_upper_arm"], c[f"{side}rula_lower_arm"],
-                                          c[f"{side}rula_wrist"], c[f"{side}rula_wrist_twist"])
+        c[f"{side}rula_table_a"] = lookup(
+            m.tables["table_a"],
+            c[f"{side}rula_upper_arm"],
+            c[f"{side}rula_lower_arm"],
+            c[f"{side}rula_wrist"],
+            c[f"{side}rula_wrist_twist"],
+        )
     for part in ("neck", "trunk"):
         band, adjust, step = _step(inp, m, part, "", "single", ob)
         c[f"rula_{part}_band"], c[f"rula_{part}"] = band, step
@@ -538,15 +657,17 @@ def score_rula(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
     if shared.has_time and _needs_time_series(inp, ("static_posture", "repeated_action")):
         hold = s.rula_static_hold_s
         for side in SIDES:
-            st = (shared.held(c[f"{side}rula_upper_arm_band"], hold, _neutral(m.bands["upper_arm"], s))
-                  | shared.held(c[f"{side}rula_wrist_band"], hold, _neutral(m.bands["wrist"], s)))
+            st = shared.held(c[f"{side}rula_upper_arm_band"], hold, _neutral(m.bands["upper_arm"], s)) | shared.held(
+                c[f"{side}rula_wrist_band"], hold, _neutral(m.bands["wrist"], s)
+            )
             rep = np.zeros(inp.n, dtype=bool)
             for a in ("upper_arm_flexion", "elbow_flexion", "wrist_flexion"):
                 rep |= shared.rate(f"{side}{a}") >= s.rula_repetitions_per_min * s.repetition_window_s / 60.0
             inp.activity[("static_posture", side)] = st.astype(np.float64)
             inp.activity[("repeated_action", side)] = rep.astype(np.float64)
-        st = (shared.held(c["rula_neck_band"], hold, _neutral(m.bands["neck"], s))
-              | shared.held(c["rula_trunk_band"], hold, _neutral(m.bands["trunk"], s)))
+        st = shared.held(c["rula_neck_band"], hold, _neutral(m.bands["neck"], s)) | shared.held(
+            c["rula_trunk_band"], hold, _neutral(m.bands["trunk"], s)
+        )
         rep = np.zeros(inp.n, dtype=bool)
         for a in ("neck_flexion", "trunk_flexion"):
             rep |= shared.rate(a) >= s.rula_repetitions_per_min * s.repetition_window_s / 60.0
@@ -571,8 +692,9 @@ def score_rula(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
         c[f"{side}rula_action_level"] = m.level_of(c[f"{side}rula_grand"])
     report(progress, "rula", 3, 4, unit="step")
 
-    grand, side_label = _worse(c["left_rula_grand"], c["right_rula_grand"], c["left_rula_score_c"],
-                               c["right_rula_score_c"])
+    grand, side_label = _worse(
+        c["left_rula_grand"], c["right_rula_grand"], c["left_rula_score_c"], c["right_rula_score_c"]
+    )
     c["rula_grand"] = grand
     c["rula_action_level"] = m.level_of(grand)
     c["rula_unknown_flags"] = inp.unknown.astype(np.float64)
@@ -584,8 +706,14 @@ def score_rula(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
 # ------------------------------------------------------------------------------------- REBA
 
 
-def score_reba(posture: pd.DataFrame, settings: ScoringSettings | None = None, *, method: Method | None = None,
-               progress: ProgressCallback | None = None, _shared: _Shared | None = None) -> pd.DataFrame:
+def score_reba(
+    posture: pd.DataFrame,
+    settings: ScoringSettings | None = None,
+    *,
+    method: Method | None = None,
+    progress: ProgressCallback | None = None,
+    _shared: _Shared | None = None,
+) -> pd.DataFrame:
     """REBA step scores for every frame of a posture table (radians); columns: :func:`reba_columns`."""
     s = settings or ScoringSettings()
     m = method or load_method("reba")
@@ -627,8 +755,9 @@ def score_reba(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
             c[f"{side}reba_{part}_adjust"] = np.where(np.isnan(band), NAN, adjust)
         _, _, lower = _step(inp, m, "lower_arm", side, "single", ob)
         c[f"{side}reba_lower_arm"] = lower
-        c[f"{side}reba_table_b"] = lookup(m.tables["table_b"], c[f"{side}reba_upper_arm"], c[f"{side}reba_lower_arm"],
-                                          c[f"{side}reba_wrist"])
+        c[f"{side}reba_table_b"] = lookup(
+            m.tables["table_b"], c[f"{side}reba_upper_arm"], c[f"{side}reba_lower_arm"], c[f"{side}reba_wrist"]
+        )
     table_b, side_label = _worse(c["left_reba_table_b"], c["right_reba_table_b"])
     c["reba_table_b"] = table_b
     cpl = inp.shared.category("coupling", m.coupling).copy()
@@ -644,9 +773,14 @@ def score_reba(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
     if shared.has_time and _needs_time_series(inp, ("static_posture", "repeated_action", "rapid_change")):
         hold = s.reba_static_hold_s
         st = np.zeros(inp.n, dtype=bool)
-        for col, part in (("reba_neck_band", "neck"), ("reba_trunk_band", "trunk"),
-                          ("left_reba_upper_arm_band", "upper_arm"), ("right_reba_upper_arm_band", "upper_arm"),
-                          ("left_reba_wrist_band", "wrist"), ("right_reba_wrist_band", "wrist")):
+        for col, part in (
+            ("reba_neck_band", "neck"),
+            ("reba_trunk_band", "trunk"),
+            ("left_reba_upper_arm_band", "upper_arm"),
+            ("right_reba_upper_arm_band", "upper_arm"),
+            ("left_reba_wrist_band", "wrist"),
+            ("right_reba_wrist_band", "wrist"),
+        ):
             st |= shared.held(c[col], hold, _neutral(m.bands[part], s))
         rep = np.zeros(inp.n, dtype=bool)
         for a in REPETITION_ANGLES:
@@ -677,9 +811,15 @@ def score_reba(posture: pd.DataFrame, settings: ScoringSettings | None = None, *
 _SCORERS = {"rula": score_rula, "reba": score_reba}
 
 
-def score_posture(posture: pd.DataFrame, methods: Sequence[str] = ("rula", "reba"),
-                  settings: ScoringSettings | None = None, *, progress: ProgressCallback | None = None,
-                  method_data: Mapping[str, Method] | None = None, with_events: bool = False) -> pd.DataFrame:
+def score_posture(
+    posture: pd.DataFrame,
+    methods: Sequence[str] = ("rula", "reba"),
+    settings: ScoringSettings | None = None,
+    *,
+    progress: ProgressCallback | None = None,
+    method_data: Mapping[str, Method] | None = None,
+    with_events: bool = False,
+) -> pd.DataFrame:
     """Score a posture table with several methods (time-series work shared); columns concatenated.
 
     with_events: also return ``rep_<angle>`` columns (Int16 0/1: an action of that angle ends its
@@ -708,6 +848,15 @@ def score_posture(posture: pd.DataFrame, methods: Sequence[str] = ("rula", "reba
 
 
 __all__ = [
-    "score_rula", "score_reba", "score_posture", "rula_columns", "reba_columns", "band_scores", "lookup",
-    "BODY_PART_COLUMNS", "LEVEL_COLUMNS", "REPETITION_ANGLES", "RAPID_ANGLES",
+    "score_rula",
+    "score_reba",
+    "score_posture",
+    "rula_columns",
+    "reba_columns",
+    "band_scores",
+    "lookup",
+    "BODY_PART_COLUMNS",
+    "LEVEL_COLUMNS",
+    "REPETITION_ANGLES",
+    "RAPID_ANGLES",
 ]

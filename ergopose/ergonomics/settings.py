@@ -128,8 +128,9 @@ def setting_names() -> tuple[str, ...]:
     return tuple(f.name for f in fields(ScoringSettings))
 
 
-def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None,
-                 prefix: tuple[str, ...] = ()) -> ScoringSettings:
+def from_mapping(
+    values: Mapping[str, Any], source: str | os.PathLike | None = None, prefix: tuple[str, ...] = ()
+) -> ScoringSettings:
     """Settings from a mapping of names to values; a problem raises one ConfigError naming the
     file (``source``), the key (under ``prefix``), the value and what is allowed."""
     return ScoringSettings(**validate(ScoringTable, dict(values), source, prefix).model_dump())

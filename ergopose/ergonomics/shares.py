@@ -81,10 +81,19 @@ def shift_high_risk(summary: Any, method: str) -> HighRisk:  # a ShiftSummary (a
     without the method's level column nothing counts as scored."""
     d = summary.distributions.get(LEVEL_COLUMNS[method])
     if d is None:
-        return HighRisk(method=method, tracked_s=float(summary.observed_s), high_s=0.0,
-                        unscored_s=float(summary.observed_s))
+        return HighRisk(
+            method=method, tracked_s=float(summary.observed_s), high_s=0.0, unscored_s=float(summary.observed_s)
+        )
     return high_risk(method, summary.observed_s, {v.value: v.time_s for v in d.values}, d.missing_time_s)
 
 
-__all__ = ["LEVEL_COLUMNS", "HIGH_LEVELS", "HIGH_WORDS", "percent", "format_percent", "HighRisk", "high_risk",
-           "shift_high_risk"]
+__all__ = [
+    "LEVEL_COLUMNS",
+    "HIGH_LEVELS",
+    "HIGH_WORDS",
+    "percent",
+    "format_percent",
+    "HighRisk",
+    "high_risk",
+    "shift_high_risk",
+]

@@ -90,5 +90,14 @@ def used_mask(column: pd.Series, name: str) -> np.ndarray:
     return (";" + names + ";").str.contains(f";{name};", regex=False).to_numpy(dtype=bool, na_value=False)
 
 
-__all__ = ["SETTINGS_INPUTS", "TASK_ANGLES", "HAND_JOINTS", "COLUMN", "hidden_inputs", "settings_use",
-           "apply_settings", "inputs_column", "used_mask"]
+__all__ = [
+    "SETTINGS_INPUTS",
+    "TASK_ANGLES",
+    "HAND_JOINTS",
+    "COLUMN",
+    "hidden_inputs",
+    "settings_use",
+    "apply_settings",
+    "inputs_column",
+    "used_mask",
+]

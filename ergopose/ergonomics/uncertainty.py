@@ -45,40 +45,90 @@ _TABLE: np.ndarray | None = None
 
 #: Angles that get a standard deviation column (the posture's angles, radians).
 SD_ANGLES = (
-    "trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "neck_side_bend", "neck_twist",
-    "left_upper_arm_flexion", "right_upper_arm_flexion", "left_upper_arm_abduction", "right_upper_arm_abduction",
-    "left_elbow_flexion", "right_elbow_flexion", "left_wrist_flexion", "right_wrist_flexion",
-    "left_wrist_deviation", "right_wrist_deviation", "left_knee_flexion", "right_knee_flexion",
+    "trunk_flexion",
+    "trunk_side_bend",
+    "trunk_twist",
+    "neck_flexion",
+    "neck_side_bend",
+    "neck_twist",
+    "left_upper_arm_flexion",
+    "right_upper_arm_flexion",
+    "left_upper_arm_abduction",
+    "right_upper_arm_abduction",
+    "left_elbow_flexion",
+    "right_elbow_flexion",
+    "left_wrist_flexion",
+    "right_wrist_flexion",
+    "left_wrist_deviation",
+    "right_wrist_deviation",
+    "left_knee_flexion",
+    "right_knee_flexion",
 )
 SD_COLUMNS = tuple(f"{a}_sd" for a in SD_ANGLES)
-SCORE_COLUMNS = ("rula_grand_p", "rula_grand_low", "rula_grand_high", "reba_score_p", "reba_score_low",
-                 "reba_score_high", "confidence", "cause")
+SCORE_COLUMNS = (
+    "rula_grand_p",
+    "rula_grand_low",
+    "rula_grand_high",
+    "reba_score_p",
+    "reba_score_low",
+    "reba_score_high",
+    "confidence",
+    "cause",
+)
 CONFIDENCE_LEVELS = ("confident", "low", "unscored")
 #: Causes of a frame that is not confident, in the order reports list them.
 CAUSES = ("not seen", "one camera", "occluded limbs", "uncertain angles")
 
 #: Joints the scores need (both methods): a frame whose needed joints were placed by the body
 #: model rather than seen by two cameras is "occluded limbs" when not confident.
-SCORED_JOINTS = np.array([JOINT_INDEX[n] for n in (
-    "nose", "left_ear", "right_ear", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow",
-    "left_wrist", "right_wrist", "left_index", "right_index", "left_pinky", "right_pinky", "left_hip",
-    "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")])
+SCORED_JOINTS = np.array(
+    [
+        JOINT_INDEX[n]
+        for n in (
+            "nose",
+            "left_ear",
+            "right_ear",
+            "left_shoulder",
+            "right_shoulder",
+            "left_elbow",
+            "right_elbow",
+            "left_wrist",
+            "right_wrist",
+            "left_index",
+            "right_index",
+            "left_pinky",
+            "right_pinky",
+            "left_hip",
+            "right_hip",
+            "left_knee",
+            "right_knee",
+            "left_ankle",
+            "right_ankle",
+        )
+    ]
+)
 
 
 #: The RULA/REBA inputs whose certainty the shift summary reports, per body part: (body part in
 #: words, its SD_ANGLES angles, the joints those angles are measured from).
 INPUT_GROUPS = (
     ("neck", ("neck_flexion", "neck_side_bend", "neck_twist"), ("nose", "left_ear", "right_ear")),
-    ("trunk", ("trunk_flexion", "trunk_side_bend", "trunk_twist"),
-     ("left_shoulder", "right_shoulder", "left_hip", "right_hip")),
+    (
+        "trunk",
+        ("trunk_flexion", "trunk_side_bend", "trunk_twist"),
+        ("left_shoulder", "right_shoulder", "left_hip", "right_hip"),
+    ),
     ("left upper arm", ("left_upper_arm_flexion", "left_upper_arm_abduction"), ("left_shoulder", "left_elbow")),
     ("right upper arm", ("right_upper_arm_flexion", "right_upper_arm_abduction"), ("right_shoulder", "right_elbow")),
     ("left lower arm", ("left_elbow_flexion",), ("left_elbow", "left_wrist")),
     ("right lower arm", ("right_elbow_flexion",), ("right_elbow", "right_wrist")),
     ("left wrist", ("left_wrist_flexion", "left_wrist_deviation"), ("left_wrist", "left_index", "left_pinky")),
     ("right wrist", ("right_wrist_flexion", "right_wrist_deviation"), ("right_wrist", "right_index", "right_pinky")),
-    ("legs", ("left_knee_flexion", "right_knee_flexion"),
-     ("left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")),
+    (
+        "legs",
+        ("left_knee_flexion", "right_knee_flexion"),
+        ("left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle"),
+    ),
 )
 #: The joints of each INPUT_GROUPS entry as indices into the 33 joints.
 INPUT_GROUP_JOINTS = tuple(np.array([JOINT_INDEX[j] for j in joints]) for _, _, joints in INPUT_GROUPS)
@@ -135,8 +185,13 @@ def score_spread(reported: pd.Series, draws: list[pd.Series]) -> tuple[np.ndarra
     return p, np.where(bad, np.nan, low), np.where(bad, np.nan, high)
 
 
-def frame_confidence(rula_p: np.ndarray, reba_p: np.ndarray, views: np.ndarray | None,
-                     inferred: np.ndarray | None, seen_cameras: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+def frame_confidence(
+    rula_p: np.ndarray,
+    reba_p: np.ndarray,
+    views: np.ndarray | None,
+    inferred: np.ndarray | None,
+    seen_cameras: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
     """(confidence, cause) per frame (object arrays of strings; see the module docstring).
 
     views: (n, 33) cameras that saw each joint with the reconstruction's min_confidence;
@@ -149,9 +204,11 @@ def frame_confidence(rula_p: np.ndarray, reba_p: np.ndarray, views: np.ndarray |
     conf = np.where(confident, "confident", np.where(scored, "low", "unscored")).astype(object)
     cause = np.full(n, "", dtype=object)
     if seen_cameras is not None:
-        occluded = (inferred[:, SCORED_JOINTS].any(axis=1) if inferred is not None else np.zeros(n, bool))
-        cause = np.where(seen_cameras == 0, "not seen",
-                         np.where(seen_cameras == 1, "one camera",
-                                  np.where(occluded, "occluded limbs", "uncertain angles"))).astype(object)
+        occluded = inferred[:, SCORED_JOINTS].any(axis=1) if inferred is not None else np.zeros(n, bool)
+        cause = np.where(
+            seen_cameras == 0,
+            "not seen",
+            np.where(seen_cameras == 1, "one camera", np.where(occluded, "occluded limbs", "uncertain angles")),
+        ).astype(object)
         cause[confident] = ""
     return conf, cause

@@ -50,8 +50,9 @@ def confusion_matrix(a, b, categories: Sequence[float]) -> np.ndarray:
 
 def _numbers(x) -> np.ndarray:
     """Ratings as a float array, NaN where missing (pandas NA included)."""
-    return pd.to_numeric(pd.Series(np.asarray(x, dtype=object) if not hasattr(x, "dtype") else x),
-                         errors="coerce").to_numpy(dtype=np.float64, na_value=np.nan)
+    return pd.to_numeric(
+        pd.Series(np.asarray(x, dtype=object) if not hasattr(x, "dtype") else x), errors="coerce"
+    ).to_numpy(dtype=np.float64, na_value=np.nan)
 
 
 def kappa_from_matrix(counts: np.ndarray, weights: str = "none") -> float:

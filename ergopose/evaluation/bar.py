@@ -47,8 +47,9 @@ def true_cameras(gt) -> tuple:
     return tuple(cams[n] for n in gt.camera_names)
 
 
-def bar_pixels(cameras: Sequence, bars: Sequence[dict], noise_px: float, draws: int,
-               seed: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def bar_pixels(
+    cameras: Sequence, bars: Sequence[dict], noise_px: float, draws: int, seed: int
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Noisy observations of the bars: (draws * B, V, 2, 2) pixels [measurement, camera, end, uv],
     the exact pixels (B, V, 2, 2) and one label per measurement ("<bar>#<draw>")."""
     ends = np.array([[b["end_a"], b["end_b"]] for b in bars], dtype=np.float64)  # (B, 2, 3)
@@ -60,8 +61,15 @@ def bar_pixels(cameras: Sequence, bars: Sequence[dict], noise_px: float, draws: 
     return pixels, exact, labels
 
 
-def bar_section(session, gt, limits_deg: tuple[float, float], *, noise_px: float = DEFAULT_NOISE_PX,
-                draws: int = DEFAULT_DRAWS, seed: int = 0) -> dict[str, Any]:
+def bar_section(
+    session,
+    gt,
+    limits_deg: tuple[float, float],
+    *,
+    noise_px: float = DEFAULT_NOISE_PX,
+    draws: int = DEFAULT_DRAWS,
+    seed: int = 0,
+) -> dict[str, Any]:
     """The reference-bar table (module docstring) as a JSON-ready dictionary; ``table`` holds the
     text of :func:`ergopose.calibration.check.format_table` for each bar length."""
     if not (np.isfinite(noise_px) and noise_px >= 0):
@@ -70,14 +78,20 @@ def bar_section(session, gt, limits_deg: tuple[float, float], *, noise_px: float
         raise InputError(f"expected at least 1 draw per bar, got {draws}", field="--bar-draws")
     bars = gt.reference_bars()
     out: dict[str, Any] = {
-        "definition": ("bar ends projected through the TRUE simulated cameras, seeded Gaussian pixel noise added, "
-                       "triangulated through the session's CALIBRATION cameras and measured with "
-                       "ergopose.calibration.check.measure_bar; measures calibration + geometry, not the pose "
-                       "network. In a simulated session the calibration equals the truth, so the errors come "
-                       "from the pixel noise"),
-        "noise_px": float(noise_px), "draws_per_bar": int(draws), "seed": int(seed),
+        "definition": (
+            "bar ends projected through the TRUE simulated cameras, seeded Gaussian pixel noise added, "
+            "triangulated through the session's CALIBRATION cameras and measured with "
+            "ergopose.calibration.check.measure_bar; measures calibration + geometry, not the pose "
+            "network. In a simulated session the calibration equals the truth, so the errors come "
+            "from the pixel noise"
+        ),
+        "noise_px": float(noise_px),
+        "draws_per_bar": int(draws),
+        "seed": int(seed),
         "ring_bounds_deg": [float(x) for x in limits_deg],
-        "bars": [], "regions": [], "table": "",
+        "bars": [],
+        "regions": [],
+        "table": "",
     }
     if not bars:
         out["table"] = "the scene has no reference bars"
@@ -93,28 +107,49 @@ def bar_section(session, gt, limits_deg: tuple[float, float], *, noise_px: float
     tables = []
     for target in np.unique(lengths):
         sel = lengths[bar_of] == target
-        rep = measure_bar(calib, pixels[sel], float(target), ring_bounds_deg=limits_deg,
-                          labels=[lab for lab, s in zip(labels, sel) if s])
+        rep = measure_bar(
+            calib,
+            pixels[sel],
+            float(target),
+            ring_bounds_deg=limits_deg,
+            labels=[lab for lab, s in zip(labels, sel) if s],
+        )
         noiseless = measure_bar(calib, exact[lengths == target], float(target), ring_bounds_deg=limits_deg)
-        tables.append(f"Reference bar {target:g} m ({int(sel.sum())} measurements, {noise_px:g} px noise):\n"
-                      + format_table(rep))
+        tables.append(
+            f"Reference bar {target:g} m ({int(sel.sum())} measurements, {noise_px:g} px noise):\n" + format_table(rep)
+        )
         for r in rep.regions:
-            out["regions"].append({
-                "region": r.region, "angle_range_deg": list(r.angle_range_deg), "n": r.n, "target_m": r.target,
-                "mean_m": _r(r.mean, 5), "std_m": _r(r.std, 5), "min_m": _r(r.minimum, 5), "max_m": _r(r.maximum, 5),
-                "error_pct": _r(r.error_percent, 3), "spread_m": _r(r.spread, 5)})
+            out["regions"].append(
+                {
+                    "region": r.region,
+                    "angle_range_deg": list(r.angle_range_deg),
+                    "n": r.n,
+                    "target_m": r.target,
+                    "mean_m": _r(r.mean, 5),
+                    "std_m": _r(r.std, 5),
+                    "min_m": _r(r.minimum, 5),
+                    "max_m": _r(r.maximum, 5),
+                    "error_pct": _r(r.error_percent, 3),
+                    "spread_m": _r(r.spread, 5),
+                }
+            )
         idx = np.flatnonzero(lengths == target)
         m = rep.measurements
         for j, k in enumerate(idx):
             mine = bar_of[sel] == k
             L = m.lengths[mine]
-            out["bars"].append({
-                "name": bars[k]["name"], "length_m": float(target),
-                "region": m.regions[int(np.flatnonzero(mine)[0])],
-                "max_angle_deg": _r(np.degrees(np.nanmax(m.max_angle[mine])), 3),
-                "noiseless_length_m": _r(noiseless.measurements.lengths[j], 6),
-                "mean_m": _r(np.nanmean(L), 5), "std_m": _r(np.nanstd(L, ddof=1) if len(L) > 1 else 0.0, 5),
-                "error_pct": _r(100.0 * (np.nanmean(L) - target) / target, 3)})
+            out["bars"].append(
+                {
+                    "name": bars[k]["name"],
+                    "length_m": float(target),
+                    "region": m.regions[int(np.flatnonzero(mine)[0])],
+                    "max_angle_deg": _r(np.degrees(np.nanmax(m.max_angle[mine])), 3),
+                    "noiseless_length_m": _r(noiseless.measurements.lengths[j], 6),
+                    "mean_m": _r(np.nanmean(L), 5),
+                    "std_m": _r(np.nanstd(L, ddof=1) if len(L) > 1 else 0.0, 5),
+                    "error_pct": _r(100.0 * (np.nanmean(L) - target) / target, 3),
+                }
+            )
     out["table"] = "\n\n".join(tables)
     return out
 

@@ -78,23 +78,46 @@ class Evaluation:
 
     def to_dict(self) -> dict[str, Any]:
         out = {
-            "format": "ergopose.evaluation", "version": 1, "source": self.source,
-            "session": self.session, "results": self.results, "frames": self.frames, "fps": self.fps,
+            "format": "ergopose.evaluation",
+            "version": 1,
+            "source": self.source,
+            "session": self.session,
+            "results": self.results,
+            "frames": self.frames,
+            "fps": self.fps,
         }
         if self.oracle is not None:
             out["oracle"] = self.oracle
-        out.update({"lens_regions": self.lens_regions, "matching": self.matching, "detection": self.detection,
-                    "errors_3d": self.errors_3d, "limbs": self.limbs, "angles": self.angles,
-                    "scores": self.scores, "bar": self.bar, "notes": list(self.notes)})
+        out.update(
+            {
+                "lens_regions": self.lens_regions,
+                "matching": self.matching,
+                "detection": self.detection,
+                "errors_3d": self.errors_3d,
+                "limbs": self.limbs,
+                "angles": self.angles,
+                "scores": self.scores,
+                "bar": self.bar,
+                "notes": list(self.notes),
+            }
+        )
         return json_ready(out)
 
 
 # ---------------------------------------------------------------------------------------- evaluate
 
 
-def evaluate_results(session_dir: str | Path, layout: ResultsLayout, *, source: str = NETWORK_SOURCE,
-                     oracle: dict | None = None, bar_noise_px: float = 0.5, bar_draws: int = 100,
-                     seed: int = 0, progress: ProgressCallback | None = None) -> Evaluation:
+def evaluate_results(
+    session_dir: str | Path,
+    layout: ResultsLayout,
+    *,
+    source: str = NETWORK_SOURCE,
+    oracle: dict | None = None,
+    bar_noise_px: float = 0.5,
+    bar_draws: int = 100,
+    seed: int = 0,
+    progress: ProgressCallback | None = None,
+) -> Evaluation:
     """Compare the results in ``layout`` with the session's ground truth (module docstring)."""
     steps = ("inputs", "matching", "detection", "3D errors", "limbs", "angles", "scores", "reference bar")
     done = 0
@@ -122,18 +145,32 @@ def evaluate_results(session_dir: str | Path, layout: ResultsLayout, *, source: 
     step("RULA and REBA agreement")
     scores = scores_section(inp, csvs)
     step("reference bar")
-    bar = bar_section(inp.session, inp.gt, inp.recon.lens_region_limits_deg, noise_px=bar_noise_px,
-                      draws=bar_draws, seed=seed)
+    bar = bar_section(
+        inp.session, inp.gt, inp.recon.lens_region_limits_deg, noise_px=bar_noise_px, draws=bar_draws, seed=seed
+    )
     report(progress, "evaluation", len(steps), len(steps), unit="step")
     if scores.get("task_factor_note"):
         notes.append(scores["task_factor_note"])
     if not mapping:
         notes.append("No tracked worker could be matched to a simulated worker: the per-worker sections are empty.")
     notes.append(angles["caveat"])
-    return Evaluation(source=source, session=str(inp.session.path), results=str(layout.root),
-                      frames=int(inp.gt.n_frames), fps=float(inp.gt.fps), lens_regions=regions, matching=matching,
-                      detection=detection, errors_3d=errors, limbs=limbs, angles=angles, scores=scores, bar=bar,
-                      oracle=oracle, notes=tuple(notes))
+    return Evaluation(
+        source=source,
+        session=str(inp.session.path),
+        results=str(layout.root),
+        frames=int(inp.gt.n_frames),
+        fps=float(inp.gt.fps),
+        lens_regions=regions,
+        matching=matching,
+        detection=detection,
+        errors_3d=errors,
+        limbs=limbs,
+        angles=angles,
+        scores=scores,
+        bar=bar,
+        oracle=oracle,
+        notes=tuple(notes),
+    )
 
 
 def write_json(evaluation: Evaluation, path: str | Path) -> Path:
@@ -141,5 +178,13 @@ def write_json(evaluation: Evaluation, path: str | Path) -> Path:
     return write_text(path, json.dumps(evaluation.to_dict(), indent=1, allow_nan=False) + "\n")
 
 
-__all__ = ["ResultsLayout", "Evaluation", "evaluate_results", "write_json", "ground_truth_posture",
-           "ground_truth_scores", "load_inputs", "SCORE_SCALES"]
+__all__ = [
+    "ResultsLayout",
+    "Evaluation",
+    "evaluate_results",
+    "write_json",
+    "ground_truth_posture",
+    "ground_truth_scores",
+    "load_inputs",
+    "SCORE_SCALES",
+]

@@ -11,13 +11,7 @@ import numpy as np
 
 from ergopose.evaluation.loading import EvaluationInputs, round_or_nan
 from ergopose.keypoints import BLAZEPOSE33, LIMB_INDEX, LIMBS, NUM_JOINTS
-from ergopose.recon.diagnostics import (
-    REGIONS,
-    lens_region,
-    limb_diagnostics,
-    region_errors,
-    truth_for_workers,
-)
+from ergopose.recon.diagnostics import REGIONS, lens_region, limb_diagnostics, region_errors, truth_for_workers
 from ergopose.recon.tracking import identity_name, limb_lengths
 
 #: Limbs whose true length varies less than this (coefficient of variation) count as rigid.
@@ -41,8 +35,13 @@ def _stats_mm(e: np.ndarray) -> dict:
     if not len(v):
         nan = float("nan")
         return {"points": 0, "mean_mm": nan, "median_mm": nan, "p95_mm": nan, "rmse_mm": nan}
-    return {"points": int(len(v)), "mean_mm": round_or_nan(v.mean(), 2), "median_mm": round_or_nan(np.median(v), 2),
-            "p95_mm": round_or_nan(np.percentile(v, 95), 2), "rmse_mm": round_or_nan(np.sqrt(np.mean(v * v)), 2)}
+    return {
+        "points": int(len(v)),
+        "mean_mm": round_or_nan(v.mean(), 2),
+        "median_mm": round_or_nan(np.median(v), 2),
+        "p95_mm": round_or_nan(np.percentile(v, 95), 2),
+        "rmse_mm": round_or_nan(np.sqrt(np.mean(v * v)), 2),
+    }
 
 
 def errors_section(inp: EvaluationInputs, person: np.ndarray, mapping: dict[int, int]) -> dict:
@@ -50,12 +49,14 @@ def errors_section(inp: EvaluationInputs, person: np.ndarray, mapping: dict[int,
     truth = truth_rows(inp, person)
     regions = lens_region(tf.lens_angle_deg, inp.recon.lens_region_limits_deg)
     out: dict[str, Any] = {
-        "definition": ("Euclidean distance between a tracked joint and the same joint of the simulated worker the "
-                       "row is matched to in that frame (MPJPE = the mean over joints with a position); 'final' are "
-                       "the tracks table's positions (smoothed, gaps filled), 'raw' the triangulation; a joint's "
-                       "region is that of its lens_angle_deg. by_track_identity compares every row with the "
-                       "tracked id's mapped worker instead (ergopose.recon.diagnostics.region_errors), so rows "
-                       "after an identity mix-up count against the wrong person, as a report would"),
+        "definition": (
+            "Euclidean distance between a tracked joint and the same joint of the simulated worker the "
+            "row is matched to in that frame (MPJPE = the mean over joints with a position); 'final' are "
+            "the tracks table's positions (smoothed, gaps filled), 'raw' the triangulation; a joint's "
+            "region is that of its lens_angle_deg. by_track_identity compares every row with the "
+            "tracked id's mapped worker instead (ergopose.recon.diagnostics.region_errors), so rows "
+            "after an identity mix-up count against the wrong person, as a report would"
+        )
     }
     majority = truth_for_workers(tf, inp.gt.joints_world, mapping) if mapping else {}
     for source in ("final", "raw"):
@@ -68,12 +69,14 @@ def errors_section(inp: EvaluationInputs, person: np.ndarray, mapping: dict[int,
         section["mpjpe_mm"] = section["by_region"]["all"]["mean_mm"]
         for j, name in enumerate(BLAZEPOSE33):
             row = _stats_mm(e[:, j])
-            row["by_region_mean_mm"] = {r: _stats_mm(e[regions[:, j] == k, j])["mean_mm"]
-                                        for k, r in enumerate(REGIONS)}
+            row["by_region_mean_mm"] = {
+                r: _stats_mm(e[regions[:, j] == k, j])["mean_mm"] for k, r in enumerate(REGIONS)
+            }
             section["by_joint"][name] = row
         by_id = region_errors(tf, majority, inp.recon, source=source)
-        section["by_track_identity"] = {k: {"points": v.points, "mean_mm": round_or_nan(v.mean_m * 1000, 2)}
-                                        for k, v in by_id.items()}
+        section["by_track_identity"] = {
+            k: {"points": v.points, "mean_mm": round_or_nan(v.mean_m * 1000, 2)} for k, v in by_id.items()
+        }
         out[source] = section
     out["mpjpe_mm"] = out["final"]["mpjpe_mm"]
     return out
@@ -132,8 +135,10 @@ def limbs_section(inp: EvaluationInputs, person: np.ndarray) -> dict:
             "true_mean_m": round_or_nan(np.nanmean(Lt[ok, li]), 4) if ok.any() else float("nan"),
             "measured_mean_m": round_or_nan(np.nanmean(Lm[ok, li]), 4) if ok.any() else float("nan"),
             "frequency_pct": {rg: _pct(*freq[name][rg]) for rg in ("all",) + REGIONS},
-            "cv_pct": {rg: round_or_nan(100.0 * np.mean(cvs[name][rg]), 3) if cvs[name][rg] else float("nan")
-                       for rg in ("all",) + REGIONS},
+            "cv_pct": {
+                rg: round_or_nan(100.0 * np.mean(cvs[name][rg]), 3) if cvs[name][rg] else float("nan")
+                for rg in ("all",) + REGIONS
+            },
             "true_cv_pct": round_or_nan(100.0 * np.mean(true_cvs[name]), 3) if true_cvs[name] else float("nan"),
             "error": _length_error(e),
             "error_by_region": {rg: _length_error(e[reg[:, li] == k]) for k, rg in enumerate(REGIONS)},
@@ -145,22 +150,26 @@ def limbs_section(inp: EvaluationInputs, person: np.ndarray) -> dict:
         e = err[reg == k]
         f = [freq[name][rg] for name in freq]
         cv = [c for name in cvs for c in cvs[name][rg]]
-        region_summary[rg] = {"frequency_pct": _pct(sum(a for a, _ in f), sum(b for _, b in f)),
-                              "cv_mean_pct": round_or_nan(100.0 * np.mean(cv), 3) if cv else float("nan"),
-                              "error": _length_error(e)}
+        region_summary[rg] = {
+            "frequency_pct": _pct(sum(a for a, _ in f), sum(b for _, b in f)),
+            "cv_mean_pct": round_or_nan(100.0 * np.mean(cv), 3) if cv else float("nan"),
+            "error": _length_error(e),
+        }
     f_all = [freq[name]["all"] for name in freq]
     rigid = [name for name in true_cvs if true_cvs[name] and max(true_cvs[name]) < RIGID_CV]
     rigid_cv = [c for name in rigid for c in cvs[name]["all"]]
     return {
-        "definition": ("per tracked worker (matched in at least one frame) and limb of keypoints.LIMBS: measured "
-                       "length (final positions) minus the true length of the limb of the simulated worker the row "
-                       "is matched to in that frame; CV = std / mean of the worker's measured lengths "
-                       "(ergopose.recon.diagnostics.limb_diagnostics), averaged over workers and limbs "
-                       "(cv_mean_raw_pct: the same from the raw triangulation); true_cv_pct is the same for each "
-                       "simulated worker's true lengths over the whole shift, averaged over them (the body model's "
-                       "own variation: the trunk sides change with shoulder elevation); rigid limbs are those whose "
-                       f"true CV is below {100 * RIGID_CV:g} %; "
-                       "frequency = share of the worker's rows where both joints have a position"),
+        "definition": (
+            "per tracked worker (matched in at least one frame) and limb of keypoints.LIMBS: measured "
+            "length (final positions) minus the true length of the limb of the simulated worker the row "
+            "is matched to in that frame; CV = std / mean of the worker's measured lengths "
+            "(ergopose.recon.diagnostics.limb_diagnostics), averaged over workers and limbs "
+            "(cv_mean_raw_pct: the same from the raw triangulation); true_cv_pct is the same for each "
+            "simulated worker's true lengths over the whole shift, averaged over them (the body model's "
+            "own variation: the trunk sides change with shoulder elevation); rigid limbs are those whose "
+            f"true CV is below {100 * RIGID_CV:g} %; "
+            "frequency = share of the worker's rows where both joints have a position"
+        ),
         "cv_mean_pct": round_or_nan(100.0 * np.mean(all_cv), 3) if all_cv else float("nan"),
         "cv_max_pct": round_or_nan(100.0 * np.max(all_cv), 3) if all_cv else float("nan"),
         "cv_mean_raw_pct": round_or_nan(100.0 * np.mean(raw_cvs), 3) if raw_cvs else float("nan"),
@@ -184,5 +193,10 @@ def _length_error(e: np.ndarray) -> dict:
     if not len(v):
         nan = float("nan")
         return {"n": 0, "bias_mm": nan, "mae_mm": nan, "rmse_mm": nan, "p95_abs_mm": nan}
-    return {"n": int(len(v)), "bias_mm": round_or_nan(v.mean(), 2), "mae_mm": round_or_nan(np.abs(v).mean(), 2),
-            "rmse_mm": round_or_nan(np.sqrt(np.mean(v * v)), 2), "p95_abs_mm": round_or_nan(np.percentile(np.abs(v), 95), 2)}
+    return {
+        "n": int(len(v)),
+        "bias_mm": round_or_nan(v.mean(), 2),
+        "mae_mm": round_or_nan(np.abs(v).mean(), 2),
+        "rmse_mm": round_or_nan(np.sqrt(np.mean(v * v)), 2),
+        "p95_abs_mm": round_or_nan(np.percentile(np.abs(v), 95), 2),
+    }

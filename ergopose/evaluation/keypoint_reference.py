@@ -56,23 +56,30 @@ def camera_folders(root: Path, cameras: Sequence[Camera]) -> list[tuple[Camera, 
         raise InputError("not a folder of per-camera keypoint folders", path=root)
     folders = sorted((p for p in root.iterdir() if p.is_dir() and any(p.glob("*.json"))), key=lambda p: p.name)
     if not folders:
-        raise InputError("no sub-folder with JSON keypoint files (expected one folder per camera, e.g. "
-                         "cam01_json/cam01.0000.json)", path=root)
+        raise InputError(
+            "no sub-folder with JSON keypoint files (expected one folder per camera, e.g. cam01_json/cam01.0000.json)",
+            path=root,
+        )
     by_number: dict[int, Camera] = {}
     for cam in cameras:
         n = _number(cam.name)
         if n is not None:
             if n in by_number:
-                raise InputError(f"cameras {by_number[n].name} and {cam.name} carry the same number: cannot tell "
-                                 "their keypoint folders apart", path=root)
+                raise InputError(
+                    f"cameras {by_number[n].name} and {cam.name} carry the same number: cannot tell "
+                    "their keypoint folders apart",
+                    path=root,
+                )
             by_number[n] = cam
     pairs = []
     for folder in folders:
         n = _number(folder.name)
         if n is None or n not in by_number:
-            raise InputError(f"keypoint folder {folder.name} matches no camera of the calibration "
-                             f"({', '.join(c.name for c in cameras)}): its number must be a camera's number",
-                             path=folder)
+            raise InputError(
+                f"keypoint folder {folder.name} matches no camera of the calibration "
+                f"({', '.join(c.name for c in cameras)}): its number must be a camera's number",
+                path=folder,
+            )
         pairs.append((by_number[n], folder))
     if len(pairs) < 2:
         raise InputError("keypoints of at least two cameras are needed to triangulate a reference", path=root)
@@ -101,8 +108,11 @@ def read_openpose_folder(folder: Path, markers: int = len(BODY_25B)) -> tuple[np
             continue
         values = np.asarray(people[0]["pose_keypoints_2d"], dtype=np.float64)
         if values.size != markers * 3:
-            raise InputError(f"pose_keypoints_2d has {values.size} numbers, expected {markers * 3} "
-                             f"(BODY_25B: {markers} keypoints x (x, y, likelihood))", path=p)
+            raise InputError(
+                f"pose_keypoints_2d has {values.size} numbers, expected {markers * 3} "
+                f"(BODY_25B: {markers} keypoints x (x, y, likelihood))",
+                path=p,
+            )
         out[k] = values.reshape(markers, 3)
     return frames, out
 
@@ -124,20 +134,27 @@ def triangulate_weighted(cameras: Sequence[Camera], pixels: np.ndarray, weights:
         R_cam = np.asarray(cam.rotation_world_from_cam).T  # world -> camera
         projections.append(np.hstack([R_cam, (-R_cam @ np.asarray(cam.position_world))[:, None]]))
     # (F, C, M, 2) observations of C views with one projection each.
-    tri = triangulate_dlt(np.stack(projections), np.moveaxis(normalised, 0, 1), np.moveaxis(weights, 0, 1),
-                          solver="svd", normalize_rows=False)
+    tri = triangulate_dlt(
+        np.stack(projections),
+        np.moveaxis(normalised, 0, 1),
+        np.moveaxis(weights, 0, 1),
+        solver="svd",
+        normalize_rows=False,
+    )
     return tri.points
 
 
-def openpose_reference(root: str | Path, cameras: Sequence[Camera], fps: float,
-                       min_likelihood: float = MIN_LIKELIHOOD) -> TrcData:
+def openpose_reference(
+    root: str | Path, cameras: Sequence[Camera], fps: float, min_likelihood: float = MIN_LIKELIHOOD
+) -> TrcData:
     """The reference of the module docstring, from the per-camera OpenPose folders under ``root``
     and the calibrated ``cameras``, sampled at ``fps`` (frame n at n / fps seconds)."""
     if not math.isfinite(fps) or fps <= 0:
         raise InputError(f"the frame rate must be positive, got {fps}", field="fps")
     if not 0.0 <= min_likelihood < 1.0:
-        raise InputError(f"the likelihood threshold must be in [0, 1), got {min_likelihood}",
-                         field="--reference-min-likelihood")
+        raise InputError(
+            f"the likelihood threshold must be in [0, 1), got {min_likelihood}", field="--reference-min-likelihood"
+        )
     pairs = camera_folders(Path(root), cameras)
     read = [read_openpose_folder(folder) for _, folder in pairs]
     frames = np.unique(np.concatenate([f for f, _ in read]))
@@ -149,8 +166,15 @@ def openpose_reference(root: str | Path, cameras: Sequence[Camera], fps: float,
         w[c, at] = np.where(k[..., 2] >= min_likelihood, k[..., 2], 0.0)
     points = triangulate_weighted([cam for cam, _ in pairs], px, w)
     # In a TRC's axes (Y up: world y, z, x), as every reference reaches the comparison.
-    return TrcData(path=Path(root), markers=tuple(BODY_25B), points_trc=points[..., [1, 2, 0]],
-                   frame_numbers=frames + 1, times_s=frames / float(fps), rate_hz=float(fps), units="m")
+    return TrcData(
+        path=Path(root),
+        markers=tuple(BODY_25B),
+        points_trc=points[..., [1, 2, 0]],
+        frame_numbers=frames + 1,
+        times_s=frames / float(fps),
+        rate_hz=float(fps),
+        units="m",
+    )
 
 
 __all__ = ["MIN_LIKELIHOOD", "camera_folders", "openpose_reference", "read_openpose_folder", "triangulate_weighted"]

@@ -94,23 +94,37 @@ def load_inputs(session_dir: str | Path, layout: ResultsLayout) -> EvaluationInp
     """The session (headers only), its ground truth, the tracks table and the settings used."""
     session = load_session(session_dir, check_videos=False)
     if session.ground_truth_dir is None:
-        raise InputError("not a simulated session: there is no ground_truth/ folder, and evaluate compares "
-                         "results with the simulator's ground truth (make one with 'ergopose simulate')",
-                         path=session.path)
+        raise InputError(
+            "not a simulated session: there is no ground_truth/ folder, and evaluate compares "
+            "results with the simulator's ground truth (make one with 'ergopose simulate')",
+            path=session.path,
+        )
     gt = load_ground_truth(session.ground_truth_dir)
     if tuple(gt.camera_names) != tuple(session.camera_names):
-        raise InputError(f"the ground truth's cameras ({', '.join(gt.camera_names)}) differ from the session's "
-                         f"({', '.join(session.camera_names)})", path=gt.path)
+        raise InputError(
+            f"the ground truth's cameras ({', '.join(gt.camera_names)}) differ from the session's "
+            f"({', '.join(session.camera_names)})",
+            path=gt.path,
+        )
     if gt.n_frames != session.frame_count:
-        raise InputError(f"the ground truth has {gt.n_frames} frames but the videos have {session.frame_count}",
-                         path=gt.path)
+        raise InputError(
+            f"the ground truth has {gt.n_frames} frames but the videos have {session.frame_count}", path=gt.path
+        )
     table = read_tracks(layout.tracks)
     settings = table.metadata.get("settings") or {}
     recon = from_mapping(settings, source=layout.tracks) if settings else ReconSettings()
     tracks = table_to_frames(table)
     reported, notes = reported_ids(session, tracks, table.metadata)
-    return EvaluationInputs(session=session, gt=gt, tracks=tracks, recon=recon, scoring=scoring_settings(session),
-                            metadata=table.metadata, reported=reported, identification_notes=notes)
+    return EvaluationInputs(
+        session=session,
+        gt=gt,
+        tracks=tracks,
+        recon=recon,
+        scoring=scoring_settings(session),
+        metadata=table.metadata,
+        reported=reported,
+        identification_notes=notes,
+    )
 
 
 def reported_ids(session, tracks, metadata: Mapping) -> tuple[dict[str, str], tuple[str, ...]]:
@@ -137,17 +151,19 @@ def lens_region_info(recon) -> tuple[dict, list[str]]:
     info = {
         "used_limits_deg": used,
         "used_from": "lens_region_limits_deg of the reconstruction settings stored in the tracks table "
-                     "(ergopose.recon.diagnostics.lens_region)",
+        "(ergopose.recon.diagnostics.lens_region)",
         "rule": "central below the first limit, outer up to the second, edge beyond; a 3D point's angle is the "
-                "larger of its angles off the two cameras' axes",
+        "larger of its angles off the two cameras' axes",
         "simulator_limits_deg": sim,
         "calibration_check_default_limits_deg": cal,
         "agree": used == sim == cal,
     }
     notes = []
     if used != sim or used != cal:
-        notes.append(f"Lens regions: the project has more than one definition -- reconstruction settings "
-                     f"{used[0]:g}/{used[1]:g} deg (used here for every region figure), simulator "
-                     f"LENS_REGIONS_DEG {sim[0]:g}/{sim[1]:g} deg, calibration check default "
-                     f"{cal[0]:g}/{cal[1]:g} deg.")
+        notes.append(
+            f"Lens regions: the project has more than one definition -- reconstruction settings "
+            f"{used[0]:g}/{used[1]:g} deg (used here for every region figure), simulator "
+            f"LENS_REGIONS_DEG {sim[0]:g}/{sim[1]:g} deg, calibration check default "
+            f"{cal[0]:g}/{cal[1]:g} deg."
+        )
     return info, notes

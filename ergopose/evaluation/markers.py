@@ -30,9 +30,31 @@ from ergopose.keypoints import BLAZEPOSE33
 
 #: OpenPose BODY_25B keypoint order (Pose2Sim's skeletons; the JSON files' pose_keypoints_2d).
 BODY_25B: tuple[str, ...] = (
-    "Nose", "LEye", "REye", "LEar", "REar", "LShoulder", "RShoulder", "LElbow", "RElbow", "LWrist", "RWrist",
-    "LHip", "RHip", "LKnee", "RKnee", "LAnkle", "RAnkle", "Neck", "Head", "LBigToe", "LSmallToe", "LHeel",
-    "RBigToe", "RSmallToe", "RHeel",
+    "Nose",
+    "LEye",
+    "REye",
+    "LEar",
+    "REar",
+    "LShoulder",
+    "RShoulder",
+    "LElbow",
+    "RElbow",
+    "LWrist",
+    "RWrist",
+    "LHip",
+    "RHip",
+    "LKnee",
+    "RKnee",
+    "LAnkle",
+    "RAnkle",
+    "Neck",
+    "Head",
+    "LBigToe",
+    "LSmallToe",
+    "LHeel",
+    "RBigToe",
+    "RSmallToe",
+    "RHeel",
 )
 
 _SIDES = {"L": "left", "R": "right"}
@@ -40,12 +62,30 @@ _SIDES = {"L": "left", "R": "right"}
 #: Side-free marker stems -> our joint stem (the side prefix L/R/Left/Right/left_/right_ is added).
 _SIDED_STEMS: dict[str, str] = {
     # OpenPose BODY_25 / BODY_25B, HALPE, Pose2Sim, OpenSim-style names.
-    "eye": "eye", "ear": "ear", "shoulder": "shoulder", "elbow": "elbow", "wrist": "wrist", "hip": "hip",
-    "knee": "knee", "ankle": "ankle", "heel": "heel", "bigtoe": "foot_index",
-    "eyeinner": "eye_inner", "eyeouter": "eye_outer", "pinky": "pinky", "index": "index", "thumb": "thumb",
-    "footindex": "foot_index", "mouth": "mouth",
+    "eye": "eye",
+    "ear": "ear",
+    "shoulder": "shoulder",
+    "elbow": "elbow",
+    "wrist": "wrist",
+    "hip": "hip",
+    "knee": "knee",
+    "ankle": "ankle",
+    "heel": "heel",
+    "bigtoe": "foot_index",
+    "eyeinner": "eye_inner",
+    "eyeouter": "eye_outer",
+    "pinky": "pinky",
+    "index": "index",
+    "thumb": "thumb",
+    "footindex": "foot_index",
+    "mouth": "mouth",
     # Plug-in Gait style surface markers.
-    "sho": "shoulder", "elb": "elbow", "kne": "knee", "ank": "ankle", "hee": "heel", "toe": "foot_index",
+    "sho": "shoulder",
+    "elb": "elbow",
+    "kne": "knee",
+    "ank": "ankle",
+    "hee": "heel",
+    "toe": "foot_index",
     "wra": "wrist",
 }
 #: Names without a side.
@@ -67,8 +107,8 @@ def joint_of_marker(name: str) -> str | None:
     if low in _PLAIN:
         return _PLAIN[low]
     for prefix, side in (("left", "left"), ("right", "right")):
-        if low.startswith(prefix) and low[len(prefix):] in _SIDED_STEMS:
-            return _check(f"{side}_{_SIDED_STEMS[low[len(prefix):]]}")
+        if low.startswith(prefix) and low[len(prefix) :] in _SIDED_STEMS:
+            return _check(f"{side}_{_SIDED_STEMS[low[len(prefix) :]]}")
     if clean[:1].upper() in _SIDES and low[1:] in _SIDED_STEMS:
         return _check(f"{_SIDES[clean[0].upper()]}_{_SIDED_STEMS[low[1:]]}")
     # COCO-style "left_shoulder" after cleaning is "leftshoulder" (handled above); BlazePose's own

@@ -9,12 +9,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ergopose.evaluation.loading import EvaluationInputs, round_or_nan
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.recon.diagnostics import (
-    REGIONS,
-    identity_switches,
-    lens_region,
-    match_workers,
-)
+from ergopose.recon.diagnostics import REGIONS, identity_switches, lens_region, match_workers
 from ergopose.recon.records import TORSO_JOINTS, body_centres
 from ergopose.recon.tracking import identity_name
 
@@ -34,8 +29,9 @@ SUSTAINED_SWITCH_S = 1.0
 # --------------------------------------------------------------------------------- matching helpers
 
 
-def _per_frame_matches(tracks, truth_points: np.ndarray, points: np.ndarray,
-                       max_distance_m: float = MATCH_DISTANCE_M) -> np.ndarray:
+def _per_frame_matches(
+    tracks, truth_points: np.ndarray, points: np.ndarray, max_distance_m: float = MATCH_DISTANCE_M
+) -> np.ndarray:
     """(n,) ground-truth person matched to each tracked row in its frame (-1: none).
 
     Per frame, rows and people are paired by the optimal assignment of body-centre distances
@@ -86,21 +82,26 @@ def matching_section(inp: EvaluationInputs, person: np.ndarray) -> tuple[dict, d
     mapping = match_workers(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else {}
     switches = identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M) if len(tf) else 0
     hold = max(1, int(round(SUSTAINED_SWITCH_S * gt.fps)))
-    sustained = (identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M, min_frames=hold)
-                 if len(tf) else 0)
-    per_gt = {gid: sorted((identity_name(w) for w, p in mapping.items() if p == k), key=_worker_number)
-              for k, gid in enumerate(gt.worker_ids)}
+    sustained = (
+        identity_switches(tf, gt.joints_world, max_distance_m=MATCH_DISTANCE_M, min_frames=hold) if len(tf) else 0
+    )
+    per_gt = {
+        gid: sorted((identity_name(w) for w, p in mapping.items() if p == k), key=_worker_number)
+        for k, gid in enumerate(gt.worker_ids)
+    }
     majority = np.array([mapping.get(int(w), -1) for w in tf.worker], dtype=np.int64) if len(tf) else np.zeros(0, int)
     matched = person >= 0
     section = {
-        "definition": ("per frame, tracked rows and simulated workers are paired one-to-one by body-centre distance "
-                       f"(at most {MATCH_DISTANCE_M} m); mapping = each tracked id's most frequent partner "
-                       "(ergopose.recon.diagnostics.match_workers); identity_switches = how often a simulated "
-                       "worker's partner id changes (diagnostics.identity_switches; a duplicate track of the same "
-                       "person alternating with the original counts at every alternation, and so does a flicker "
-                       "of one frame while two simulated workers pass through each other); "
-                       "identity_switches_sustained counts only changes to an id that then holds for "
-                       f"{SUSTAINED_SWITCH_S:g} s of matched frames"),
+        "definition": (
+            "per frame, tracked rows and simulated workers are paired one-to-one by body-centre distance "
+            f"(at most {MATCH_DISTANCE_M} m); mapping = each tracked id's most frequent partner "
+            "(ergopose.recon.diagnostics.match_workers); identity_switches = how often a simulated "
+            "worker's partner id changes (diagnostics.identity_switches; a duplicate track of the same "
+            "person alternating with the original counts at every alternation, and so does a flicker "
+            "of one frame while two simulated workers pass through each other); "
+            "identity_switches_sustained counts only changes to an id that then holds for "
+            f"{SUSTAINED_SWITCH_S:g} s of matched frames"
+        ),
         "tracked_workers": [identity_name(w) for w in tf.workers],
         "ground_truth_workers": list(gt.worker_ids),
         "mapping": {identity_name(w): gt.worker_ids[p] for w, p in sorted(mapping.items())},
@@ -123,17 +124,22 @@ def _naming(inp: EvaluationInputs, person: np.ndarray) -> dict:
     """How often a tracked person named after a settings worker (by stature) really is that worker:
     rows of the named ids matched, frame by frame, to the simulated worker of the same id."""
     tf, gt = inp.tracks, inp.gt
-    named = {w: inp.reported[identity_name(w)] for w in tf.workers
-             if inp.reported[identity_name(w)] != identity_name(w)}
+    named = {
+        w: inp.reported[identity_name(w)] for w in tf.workers if inp.reported[identity_name(w)] != identity_name(w)
+    }
     rows = correct = 0
     for w, wid in named.items():
         sel = (tf.worker == w) & (person >= 0)
         rows += int(sel.sum())
         if wid in gt.worker_ids:
             correct += int((person[sel] == gt.worker_ids.index(wid)).sum())
-    return {"ids": {identity_name(w): wid for w, wid in named.items()}, "rows": rows, "rows_correct": correct,
-            "correct_pct": round_or_nan(100.0 * correct / rows, 2) if rows else float("nan"),
-            "notes": list(inp.identification_notes)}
+    return {
+        "ids": {identity_name(w): wid for w, wid in named.items()},
+        "rows": rows,
+        "rows_correct": correct,
+        "correct_pct": round_or_nan(100.0 * correct / rows, 2) if rows else float("nan"),
+        "notes": list(inp.identification_notes),
+    }
 
 
 def _worker_number(name: str) -> int:
@@ -170,13 +176,19 @@ def detection_section(inp: EvaluationInputs) -> dict:
     def rate(mask: np.ndarray) -> dict:
         n = int(mask.sum())
         k = int((mask & reconstructed).sum())
-        return {"worker_frames": n, "reconstructed": k, "rate_pct": round_or_nan(100.0 * k / n, 2) if n else float("nan")}
+        return {
+            "worker_frames": n,
+            "reconstructed": k,
+            "rate_pct": round_or_nan(100.0 * k / n, 2) if n else float("nan"),
+        }
 
     out = {
-        "definition": (f"a worker is visible in a camera when at least {MIN_VISIBLE_TORSO} of its 4 torso joints "
-                       "are visible there (ground-truth visibility code 0); a worker-frame is reconstructed when a "
-                       "tracked row of that frame has a triangulated (raw) body centre within "
-                       f"{MATCH_DISTANCE_M} m of the worker's true body centre (one-to-one per frame)"),
+        "definition": (
+            f"a worker is visible in a camera when at least {MIN_VISIBLE_TORSO} of its 4 torso joints "
+            "are visible there (ground-truth visibility code 0); a worker-frame is reconstructed when a "
+            "tracked row of that frame has a triangulated (raw) body centre within "
+            f"{MATCH_DISTANCE_M} m of the worker's true body centre (one-to-one per frame)"
+        ),
         "visible_in_both_cameras": rate(both),
         "detection_rate_pct": rate(both)["rate_pct"],
         "visible_in_one_camera": rate(one),
@@ -184,7 +196,8 @@ def detection_section(inp: EvaluationInputs) -> dict:
         "by_region": {name: rate(both & (regions == k)) for k, name in enumerate(REGIONS)},
         "by_camera_region": {
             camera: {name: rate(both & (per_camera[:, c] == k)) for k, name in enumerate(REGIONS)}
-            for c, camera in enumerate(inp.session.camera_names)},
+            for c, camera in enumerate(inp.session.camera_names)
+        },
         "tracked_rows": int(len(tf)),
         "tracked_rows_triangulated": int(has_raw.sum()),
         "tracked_rows_triangulated_unmatched": int((has_raw & ~hit).sum()),

@@ -90,8 +90,12 @@ def crops_of_recording(root: Path = DEFAULT_ROOT, frames: int = 100, step: int =
                 centre = hip + np.array([dx, dy]) * (radius + side / 2 + 1)
                 if side / 2 <= centre[0] <= w - side / 2 and side / 2 <= centre[1] <= h - side / 2:
                     empty.append(Roi(centre, side, 0.0).crop(images[f], 256))
-    return {"person": np.stack(person), "reference": np.stack(reference), "torso": np.array(torso),
-            "empty": np.stack(empty) if empty else np.zeros((0, 256, 256, 3), np.uint8)}
+    return {
+        "person": np.stack(person),
+        "reference": np.stack(reference),
+        "torso": np.array(torso),
+        "empty": np.stack(empty) if empty else np.zeros((0, 256, 256, 3), np.uint8),
+    }
 
 
 def crops_of_simulation(folder: Path, seconds: float = 3.0, seed: int = 4, step: int = 1) -> dict:
@@ -111,8 +115,9 @@ def crops_of_simulation(folder: Path, seconds: float = 3.0, seed: int = 4, step:
             if index % step:
                 continue
             for w in range(len(gt.worker_ids)):
-                p = PersonGeometry.of(camera, gt.joints_world[index, w], gt.pixels[index, c, w],
-                                      gt.visibility[index, c, w])
+                p = PersonGeometry.of(
+                    camera, gt.joints_world[index, w], gt.pixels[index, c, w], gt.visibility[index, c, w]
+                )
                 if not p.counted(settings):
                     continue
                 view = p.view(camera, (256, 256), settings)
@@ -121,8 +126,12 @@ def crops_of_simulation(folder: Path, seconds: float = 3.0, seed: int = 4, step:
                 person.append(view.build_map().apply(frame))
                 reference.append(px)
                 torso.append(p.torso_angle * float(view.lens.fx))
-    return {"person": np.stack(person), "reference": np.stack(reference), "torso": np.array(torso),
-            "empty": np.zeros((0, 256, 256, 3), np.uint8)}
+    return {
+        "person": np.stack(person),
+        "reference": np.stack(reference),
+        "torso": np.array(torso),
+        "empty": np.zeros((0, 256, 256, 3), np.uint8),
+    }
 
 
 def run_model(model: str, crops: dict, model_dir=None) -> dict:
@@ -138,8 +147,14 @@ def run_model(model: str, crops: dict, model_dir=None) -> dict:
         visibility.append(kp.confidence[LIMBS])
         flags.append(kp.presence)
     empty_flags = [landmarker(image).presence for image in crops["empty"]]
-    return {"model": model, "time_s": np.array(times), "errors": np.array(errors),
-            "visibility": np.array(visibility), "presence": np.array(flags), "empty_presence": np.array(empty_flags)}
+    return {
+        "model": model,
+        "time_s": np.array(times),
+        "errors": np.array(errors),
+        "visibility": np.array(visibility),
+        "presence": np.array(flags),
+        "empty_presence": np.array(empty_flags),
+    }
 
 
 def matched_gate(values: np.ndarray, reference_values: np.ndarray, reference_gate: float) -> float:
@@ -161,8 +176,9 @@ def gate_table(results_by_source: dict[str, dict[str, dict]], base: str = "full"
         return np.concatenate([np.ravel(r[model][key]) for r in results_by_source.values()])
 
     def right_visibility(model: str) -> np.ndarray:
-        return np.concatenate([r[model]["visibility"][r[model]["errors"] < RIGHT_TORSO]
-                               for r in results_by_source.values()])
+        return np.concatenate(
+            [r[model]["visibility"][r[model]["errors"] < RIGHT_TORSO] for r in results_by_source.values()]
+        )
 
     base_gates = landmark_card(base).gates
     assert base_gates is not None
@@ -173,19 +189,21 @@ def gate_table(results_by_source: dict[str, dict[str, dict]], base: str = "full"
         assert gates is not None
         right = right_visibility(model)
         presence, empty = pooled(model, "presence"), pooled(model, "empty_presence")
-        rows.append({
-            "model": model,
-            "right_keypoints": int(right.size),
-            "right_below_0.3": float(np.mean(right < 0.3)),
-            "matched_min_keypoint_confidence": matched_gate(right, ref_right, base_gates.min_keypoint_confidence),
-            "card_min_keypoint_confidence": gates.min_keypoint_confidence,
-            "right_kept_by_card_gate": float(np.mean(right >= gates.min_keypoint_confidence)),
-            "persons_kept_at_0.5": float(np.mean(presence >= 0.5)),
-            "card_min_presence": gates.min_presence,
-            "persons_kept_by_card_gate": float(np.mean(presence >= gates.min_presence)),
-            "empty_presence_max": float(empty.max()) if empty.size else float("nan"),
-            "empty_kept_by_card_gate": int(np.sum(empty >= gates.min_presence)),
-        })
+        rows.append(
+            {
+                "model": model,
+                "right_keypoints": int(right.size),
+                "right_below_0.3": float(np.mean(right < 0.3)),
+                "matched_min_keypoint_confidence": matched_gate(right, ref_right, base_gates.min_keypoint_confidence),
+                "card_min_keypoint_confidence": gates.min_keypoint_confidence,
+                "right_kept_by_card_gate": float(np.mean(right >= gates.min_keypoint_confidence)),
+                "persons_kept_at_0.5": float(np.mean(presence >= 0.5)),
+                "card_min_presence": gates.min_presence,
+                "persons_kept_by_card_gate": float(np.mean(presence >= gates.min_presence)),
+                "empty_presence_max": float(empty.max()) if empty.size else float("nan"),
+                "empty_kept_by_card_gate": int(np.sum(empty >= gates.min_presence)),
+            }
+        )
     return rows
 
 
@@ -209,27 +227,30 @@ def summarise(results: dict[str, dict], base: str = "full", source: str = "") ->
         right = r["errors"] < RIGHT_TORSO
         wrong = scored & ~right
         errors = r["errors"][scored]
-        rows.append({
-            "source": source,
-            "model": model,
-            "crops": int(r["errors"].shape[0]),
-            "keypoints": int(errors.size),
-            "time_ms_median": 1e3 * float(np.median(r["time_s"])),
-            "time_ms_p90": 1e3 * float(np.percentile(r["time_s"], 90)),
-            "error_median": float(np.median(errors)),
-            "error_p90": float(np.percentile(errors, 90)),
-            "right_share": float(right.sum() / scored.sum()),
-            "presence_median": float(np.median(r["presence"])),
-            "presence_p05": float(np.percentile(r["presence"], 5)),
-            "empty_presence_max": float(r["empty_presence"].max()) if r["empty_presence"].size else float("nan"),
-            "empty_crops": int(r["empty_presence"].size),
-            "visibility_right_median": float(np.median(r["visibility"][right])),
-            "visibility_right_p10": float(np.percentile(r["visibility"][right], 10)),
-            "visibility_wrong_median": float(np.median(r["visibility"][wrong])) if wrong.any() else float("nan"),
-            "matched_min_presence": matched_gate(r["presence"], ref["presence"], gates.min_presence),
-            "matched_min_keypoint_confidence": matched_gate(r["visibility"][right], ref["visibility"][ref_right],
-                                                            gates.min_keypoint_confidence),
-        })
+        rows.append(
+            {
+                "source": source,
+                "model": model,
+                "crops": int(r["errors"].shape[0]),
+                "keypoints": int(errors.size),
+                "time_ms_median": 1e3 * float(np.median(r["time_s"])),
+                "time_ms_p90": 1e3 * float(np.percentile(r["time_s"], 90)),
+                "error_median": float(np.median(errors)),
+                "error_p90": float(np.percentile(errors, 90)),
+                "right_share": float(right.sum() / scored.sum()),
+                "presence_median": float(np.median(r["presence"])),
+                "presence_p05": float(np.percentile(r["presence"], 5)),
+                "empty_presence_max": float(r["empty_presence"].max()) if r["empty_presence"].size else float("nan"),
+                "empty_crops": int(r["empty_presence"].size),
+                "visibility_right_median": float(np.median(r["visibility"][right])),
+                "visibility_right_p10": float(np.percentile(r["visibility"][right], 10)),
+                "visibility_wrong_median": float(np.median(r["visibility"][wrong])) if wrong.any() else float("nan"),
+                "matched_min_presence": matched_gate(r["presence"], ref["presence"], gates.min_presence),
+                "matched_min_keypoint_confidence": matched_gate(
+                    r["visibility"][right], ref["visibility"][ref_right], gates.min_keypoint_confidence
+                ),
+            }
+        )
     return rows
 
 
@@ -238,10 +259,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--root", type=Path, default=DEFAULT_ROOT)
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--step", type=int, default=1, help="use every STEP-th frame")
-    parser.add_argument("--rendered-seconds", type=float, default=3.0,
-                        help="length of the simulated session (0: no rendered crops)")
-    parser.add_argument("--rendered-dir", type=Path, default=None,
-                        help="the simulated session's folder (made there when missing; default: a temporary folder)")
+    parser.add_argument(
+        "--rendered-seconds", type=float, default=3.0, help="length of the simulated session (0: no rendered crops)"
+    )
+    parser.add_argument(
+        "--rendered-dir",
+        type=Path,
+        default=None,
+        help="the simulated session's folder (made there when missing; default: a temporary folder)",
+    )
     parser.add_argument("--models", nargs="*", default=list(LANDMARK_MODELS))
     parser.add_argument("--model-dir", default=None)
     parser.add_argument("--json", type=Path, default=None, help="write the rows here too")
@@ -249,7 +275,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     sources = {"real": crops_of_recording(args.root, args.frames, args.step)}
     if args.rendered_seconds > 0:
-
         with tempfile.TemporaryDirectory(prefix="ergopose-cards-") as tmp:
             folder = args.rendered_dir or Path(tmp) / "session"
             sources["rendered"] = crops_of_simulation(folder, args.rendered_seconds, step=args.step)
@@ -266,10 +291,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.json is not None:
         args.json.write_text(json.dumps({"rows": rows, "gates": gates}, indent=1))
     if args.raw is not None:
-        arrays: dict[str, Any] = {f"{source}.{model}.{key}": value
-                                  for source, results in results_by_source.items()
-                                  for model, r in results.items()
-                                  for key, value in r.items() if isinstance(value, np.ndarray)}
+        arrays: dict[str, Any] = {
+            f"{source}.{model}.{key}": value
+            for source, results in results_by_source.items()
+            for model, r in results.items()
+            for key, value in r.items()
+            if isinstance(value, np.ndarray)
+        }
         np.savez_compressed(args.raw, **arrays)
     return 0
 

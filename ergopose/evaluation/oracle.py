@@ -65,20 +65,25 @@ class OracleOptions:
     seed: int = 0
 
     def banner(self) -> str:
-        return (f"ORACLE 2D (simulated ground truth projected with {self.noise_px:g} px noise) "
-                "— not the pose network")
+        return f"ORACLE 2D (simulated ground truth projected with {self.noise_px:g} px noise) — not the pose network"
 
     def as_dict(self) -> dict:
-        return {"noise_px": self.noise_px, "person_dropout": self.person_dropout,
-                "joint_dropout": self.joint_dropout, "occluded_noise_px": self.occluded_noise_px,
-                "seed": self.seed, "banner": self.banner()}
+        return {
+            "noise_px": self.noise_px,
+            "person_dropout": self.person_dropout,
+            "joint_dropout": self.joint_dropout,
+            "occluded_noise_px": self.occluded_noise_px,
+            "seed": self.seed,
+            "banner": self.banner(),
+        }
 
 
 def oracle_layout(out_dir: str | Path):
     """Where an ORACLE run under the results folder ``out_dir`` writes (OUT/oracle/...)."""
     root = Path(out_dir) / ORACLE_DIR
-    return ResultsLayout(root=root, tracks=root / "pipeline" / f"{PREFIX}tracks.parquet", csv_dir=root / "csv",
-                         csv_prefix=PREFIX)
+    return ResultsLayout(
+        root=root, tracks=root / "pipeline" / f"{PREFIX}tracks.parquet", csv_dir=root / "csv", csv_prefix=PREFIX
+    )
 
 
 class OracleFrames:
@@ -90,9 +95,14 @@ class OracleFrames:
         self.cameras = session.calibrated_cameras
         self.frames = gt.n_frames
         self.progress = progress
-        self.source = OracleSource(gt, noise_px=options.noise_px, occluded_noise_px=options.occluded_noise_px,
-                                   person_dropout=options.person_dropout, joint_dropout=options.joint_dropout,
-                                   seed=options.seed)
+        self.source = OracleSource(
+            gt,
+            noise_px=options.noise_px,
+            occluded_noise_px=options.occluded_noise_px,
+            person_dropout=options.person_dropout,
+            joint_dropout=options.joint_dropout,
+            seed=options.seed,
+        )
 
     def frames_2d(self, start: int, stop: int) -> tuple[list, np.ndarray]:
         frames, _ = frames_from_oracle(self.source.observe(np.arange(start, stop)), self.cameras)
@@ -101,8 +111,18 @@ class OracleFrames:
         return list(frames), counts.reshape(stop - start, len(self.cameras))
 
 
-def publish_oracle(named, scored, stage: Path, out_dir: Path, scoring, models, progress: ProgressCallback | None,
-                   *, bom: bool = False, store_dir: Path | None = None) -> tuple[str, ...]:
+def publish_oracle(
+    named,
+    scored,
+    stage: Path,
+    out_dir: Path,
+    scoring,
+    models,
+    progress: ProgressCallback | None,
+    *,
+    bom: bool = False,
+    store_dir: Path | None = None,
+) -> tuple[str, ...]:
     """The ORACLE's stage *publish* (:data:`ergopose.pipeline.assess.Publisher`): each scored
     worker's steps CSV file, written by the scoring into ``stage``, moved to
     ``out_dir/csv/ORACLE_<worker>_steps.csv``; no other CSV file and no report pages (they would
@@ -114,8 +134,13 @@ def publish_oracle(named, scored, stage: Path, out_dir: Path, scoring, models, p
     return tuple(s.worker_id for s in scored)
 
 
-def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOptions = OracleOptions(),
-               recon=None, progress: ProgressCallback | None = None):
+def run_oracle(
+    session_dir: str | Path,
+    out_dir: str | Path,
+    options: OracleOptions = OracleOptions(),
+    recon=None,
+    progress: ProgressCallback | None = None,
+):
     """Reconstruct and score the session from ORACLE 2D keypoints into OUT/oracle/ (module docstring),
     through the assessment's driver with :class:`OracleFrames` as its 2D source.
 
@@ -123,16 +148,25 @@ def run_oracle(session_dir: str | Path, out_dir: str | Path, options: OracleOpti
     """
     session = load_session(session_dir, check_videos=False)
     if session.ground_truth_dir is None:
-        raise InputError("not a simulated session: the ORACLE needs the ground_truth/ folder of a session made "
-                         "by 'ergopose simulate'", path=session.path)
+        raise InputError(
+            "not a simulated session: the ORACLE needs the ground_truth/ folder of a session made "
+            "by 'ergopose simulate'",
+            path=session.path,
+        )
     gt = load_ground_truth(session.ground_truth_dir)
     if tuple(gt.camera_names) != tuple(session.camera_names):
-        raise InputError(f"the ground truth's cameras ({', '.join(gt.camera_names)}) differ from the session's "
-                         f"({', '.join(session.camera_names)})", path=gt.path)
+        raise InputError(
+            f"the ground truth's cameras ({', '.join(gt.camera_names)}) differ from the session's "
+            f"({', '.join(session.camera_names)})",
+            path=gt.path,
+        )
     recon = recon or session.reconstruction  # the session's [reconstruction] table over the defaults
     layout = oracle_layout(out_dir)
-    label = {"source": "oracle", "oracle": options.as_dict(),
-             "session_fingerprint": fingerprint_of(session)}  # whose results (ergopose.pipeline.guard)
+    label = {
+        "source": "oracle",
+        "oracle": options.as_dict(),
+        "session_fingerprint": fingerprint_of(session),
+    }  # whose results (ergopose.pipeline.guard)
     t0 = time.perf_counter()
     with atomic_dir(layout.root) as tmp:
         run = assess.prepare_source(session, tmp, recon, CHUNK_FRAMES, label)
@@ -161,6 +195,7 @@ def _readme(options: OracleOptions, session, workers: int, seconds: float) -> st
         "triangulation, tracking,\nsmoothing, joint angles and scoring are ergopose's own. The figures measure "
         "those stages, never\nergopose on video.\n\n"
         f"session: {session.path}\ntracked workers: {workers}\nrun time: {seconds:.1f} s\n\n"
-        f"pipeline/{PREFIX}tracks.parquet   the tracks table (metadata source = \"oracle\")\n"
+        f'pipeline/{PREFIX}tracks.parquet   the tracks table (metadata source = "oracle")\n'
         f"csv/{PREFIX}<worker>_steps.csv    posture and every RULA/REBA step per frame\n"
-        "evaluation.json                   the comparison with the ground truth (ergopose evaluate --oracle)\n")
+        "evaluation.json                   the comparison with the ground truth (ergopose evaluate --oracle)\n"
+    )

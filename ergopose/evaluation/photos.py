@@ -91,14 +91,23 @@ class PackagedPhoto:
 
 
 PHOTOS: tuple[PackagedPhoto, ...] = (
-    PackagedPhoto("astronaut", "scikit-image", "skimage", "data/astronaut.png",
-                  "public domain (NASA photograph of Eileen Collins; skimage.data.astronaut's docstring: "
-                  "'No known copyright restrictions, released into the public domain')",
-                  "head to chest, arms to the elbows"),
-    PackagedPhoto("camera", "scikit-image", "skimage", "data/camera.png",
-                  "CC0 (skimage.data.camera's docstring: 'No copyright restrictions. CC0 by the photographer "
-                  "(Lav Varshney)')",
-                  "a man bent over a camera on a tripod, head to thighs, seen from the side"),
+    PackagedPhoto(
+        "astronaut",
+        "scikit-image",
+        "skimage",
+        "data/astronaut.png",
+        "public domain (NASA photograph of Eileen Collins; skimage.data.astronaut's docstring: "
+        "'No known copyright restrictions, released into the public domain')",
+        "head to chest, arms to the elbows",
+    ),
+    PackagedPhoto(
+        "camera",
+        "scikit-image",
+        "skimage",
+        "data/camera.png",
+        "CC0 (skimage.data.camera's docstring: 'No copyright restrictions. CC0 by the photographer (Lav Varshney)')",
+        "a man bent over a camera on a tripod, head to thighs, seen from the side",
+    ),
 )
 
 
@@ -157,8 +166,13 @@ def photo_reference(image: np.ndarray, detector, landmarker) -> PhotoReference |
         return None
     pixels, confidence = found
     h, w = image.shape[:2]
-    inside = np.isfinite(pixels).all(axis=1) & (pixels[:, 0] >= 0) & (pixels[:, 0] <= w - 1) \
-        & (pixels[:, 1] >= 0) & (pixels[:, 1] <= h - 1)
+    inside = (
+        np.isfinite(pixels).all(axis=1)
+        & (pixels[:, 0] >= 0)
+        & (pixels[:, 0] <= w - 1)
+        & (pixels[:, 1] >= 0)
+        & (pixels[:, 1] <= h - 1)
+    )
     scored = inside & (confidence >= MIN_CONFIDENCE)
     if not scored[SHOULDERS].all():
         return None
@@ -205,8 +219,16 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def warp_photo(photo: np.ndarray, centre_px: np.ndarray, focal_px: float, off_axis: float, direction: float,
-               px_per_rad: float, size: tuple[int, int], camera_height: float = 3.0) -> PhotoFisheye:
+def warp_photo(
+    photo: np.ndarray,
+    centre_px: np.ndarray,
+    focal_px: float,
+    off_axis: float,
+    direction: float,
+    px_per_rad: float,
+    size: tuple[int, int],
+    camera_height: float = 3.0,
+) -> PhotoFisheye:
     """Render ``photo`` into a ceiling fisheye (module docstring): the photo pixel ``centre_px``
     lands ``off_axis`` radians from the lens axis in image direction ``direction`` (radians from
     image +x towards +y), the photo's up there along the world's up."""
@@ -214,10 +236,18 @@ def warp_photo(photo: np.ndarray, centre_px: np.ndarray, focal_px: float, off_ax
     cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
     lens = Equidistant(px_per_rad, px_per_rad, cx, cy)
     rotation = ceiling_rotation(0.0)
-    camera = Camera("photo_fisheye", lens, width, height, rotation, np.array([0.0, 0.0, camera_height]),
-                    image_circle=(cx, cy, px_per_rad * math.pi / 2.0))
-    body = np.array([math.sin(off_axis) * math.cos(direction), math.sin(off_axis) * math.sin(direction),
-                     math.cos(off_axis)])
+    camera = Camera(
+        "photo_fisheye",
+        lens,
+        width,
+        height,
+        rotation,
+        np.array([0.0, 0.0, camera_height]),
+        image_circle=(cx, cy, px_per_rad * math.pi / 2.0),
+    )
+    body = np.array(
+        [math.sin(off_axis) * math.cos(direction), math.sin(off_axis) * math.sin(direction), math.cos(off_axis)]
+    )
     up_cam = rotation.T @ np.array([0.0, 0.0, 1.0])
     up_here = _unit(up_cam - body * (up_cam @ body))
     # The photo's frame in the fisheye's: its axis through the body centre, its image down
@@ -256,13 +286,17 @@ def cases(photos: Sequence[str], angles=ANGLES_DEG, directions=DIRECTIONS_DEG, d
     return [Case(p, a, d, rho, w, h) for p in photos for rho, w, h in densities for a in angles for d in directions]
 
 
-def score(reference: PhotoReference, warped: PhotoFisheye, detections, same_density: np.ndarray | None = None
-          ) -> dict:
+def score(reference: PhotoReference, warped: PhotoFisheye, detections, same_density: np.ndarray | None = None) -> dict:
     """found, error (median, torso lengths; NaN when not found), errors per scored keypoint,
     people (the stage's count); with ``same_density`` ((33, 2) photo pixels: the network on the
     photo at the fisheye's pixel density), error_same_density: the same median against it."""
-    out = {"found": False, "error": float("nan"), "errors": [], "people": int(detections.count),
-           "error_same_density": float("nan")}
+    out = {
+        "found": False,
+        "error": float("nan"),
+        "errors": [],
+        "people": int(detections.count),
+        "error_same_density": float("nan"),
+    }
     if detections.count == 0:
         return out
     scored = np.nonzero(reference.scored)[0]
@@ -309,8 +343,14 @@ def upright_reference(photo: np.ndarray, detector, landmarker) -> np.ndarray | N
     to the body axis: (33, 2) pixels, or None. Against the main reference it shows how much the
     network's keypoints move with the crop's orientation alone."""
     h, w = photo.shape[:2]
-    level = Camera("photo", Rectilinear(float(max(w, h)), float(max(w, h)), (w - 1) / 2.0, (h - 1) / 2.0), w, h,
-                   LEVEL_ROTATION, np.array([0.0, 0.0, 1.5]))
+    level = Camera(
+        "photo",
+        Rectilinear(float(max(w, h)), float(max(w, h)), (w - 1) / 2.0, (h - 1) / 2.0),
+        w,
+        h,
+        LEVEL_ROTATION,
+        np.array([0.0, 0.0, 1.5]),
+    )
     found = reference_pose(photo, detector, landmarker, level)
     return None if found is None else found[0]
 
@@ -323,14 +363,30 @@ def median_error(reference: PhotoReference, pixels: np.ndarray | None) -> float:
     return float(np.median(np.where(np.isfinite(e), e, np.inf)))
 
 
-def run_case(case: Case, photo: np.ndarray, reference: PhotoReference, landmarker, detector, frames: int = 5,
-             distance: float = 3.0, shoulder_width: float = 0.40, settings: PoseSettings | None = None,
-             same_density: np.ndarray | None = None) -> dict:
+def run_case(
+    case: Case,
+    photo: np.ndarray,
+    reference: PhotoReference,
+    landmarker,
+    detector,
+    frames: int = 5,
+    distance: float = 3.0,
+    shoulder_width: float = 0.40,
+    settings: PoseSettings | None = None,
+    same_density: np.ndarray | None = None,
+) -> dict:
     """The stage on ``frames`` identical warped frames; the last one scored (see :func:`score`;
     same_density: :func:`reference_at_density` at this case's density)."""
     focal = focal_px(reference, distance, shoulder_width)
-    warped = warp_photo(photo, reference.centre, focal, math.radians(case.off_axis_deg),
-                        math.radians(case.direction_deg), case.px_per_rad, (case.width, case.height))
+    warped = warp_photo(
+        photo,
+        reference.centre,
+        focal,
+        math.radians(case.off_axis_deg),
+        math.radians(case.direction_deg),
+        case.px_per_rad,
+        (case.width, case.height),
+    )
     if settings is None:
         settings = PoseSettings().with_gates(landmarker.card.gates)
     stage = FisheyePoseEstimator(warped.camera, 0, landmarker, detector, settings)
@@ -340,24 +396,36 @@ def run_case(case: Case, photo: np.ndarray, reference: PhotoReference, landmarke
         found = stage.process(warped.image, f)
     seconds = time.perf_counter() - t0
     out = score(reference, warped, found, same_density)
-    out.update(photo=case.photo, off_axis_deg=case.off_axis_deg, direction_deg=case.direction_deg,
-               px_per_rad=case.px_per_rad, width=case.width, height=case.height, seconds=seconds,
-               torso_kind=reference.torso_kind, keypoints=int(reference.scored.sum()),
-               body_px=float(np.ptp(warped.fisheye_pixels(reference.pixels[reference.scored]), axis=0).max()),
-               in_frame=int(warped.camera.in_image(warped.fisheye_pixels(reference.pixels[reference.scored])).sum()))
+    out.update(
+        photo=case.photo,
+        off_axis_deg=case.off_axis_deg,
+        direction_deg=case.direction_deg,
+        px_per_rad=case.px_per_rad,
+        width=case.width,
+        height=case.height,
+        seconds=seconds,
+        torso_kind=reference.torso_kind,
+        keypoints=int(reference.scored.sum()),
+        body_px=float(np.ptp(warped.fisheye_pixels(reference.pixels[reference.scored]), axis=0).max()),
+        in_frame=int(warped.camera.in_image(warped.fisheye_pixels(reference.pixels[reference.scored])).sum()),
+    )
     return out
 
 
 def render(rows: list[dict]) -> str:
     """The case table (markdown) and a summary line per photo and density."""
-    lines = ["| photo | px/rad (image) | off axis | direction | found | median error (torso lengths) | "
-             "against the photo at the fisheye's density | body size (px) | scored keypoints in the frame |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| photo | px/rad (image) | off axis | direction | found | median error (torso lengths) | "
+        "against the photo at the fisheye's density | body size (px) | scored keypoints in the frame |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        lines.append(f"| {r['photo']} | {r['px_per_rad']:g} ({r['width']}x{r['height']}) | {r['off_axis_deg']:g} deg | "
-                     f"{r['direction_deg']:g} deg | {'yes' if r['found'] else 'NO'} | "
-                     f"{r['error']:.3f} | {r.get('error_same_density', float('nan')):.3f} | {r['body_px']:.0f} | "
-                     f"{r.get('in_frame', r['keypoints'])} of {r['keypoints']} |")
+        lines.append(
+            f"| {r['photo']} | {r['px_per_rad']:g} ({r['width']}x{r['height']}) | {r['off_axis_deg']:g} deg | "
+            f"{r['direction_deg']:g} deg | {'yes' if r['found'] else 'NO'} | "
+            f"{r['error']:.3f} | {r.get('error_same_density', float('nan')):.3f} | {r['body_px']:.0f} | "
+            f"{r.get('in_frame', r['keypoints'])} of {r['keypoints']} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -370,9 +438,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--distance", type=float, default=3.0, help="metres from the camera to the body")
     p.add_argument("--model", default=DEFAULT_LANDMARK_MODEL)
     p.add_argument("--model-dir", default=None)
-    p.add_argument("--setting", action="append", default=[], metavar="NAME=VALUE",
-                   help="a PoseSettings field changed (a number, radians for angles, or true/false), "
-                        "e.g. body_margin=1.6 or merge_prefers_upright=false")
+    p.add_argument(
+        "--setting",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a PoseSettings field changed (a number, radians for angles, or true/false), "
+        "e.g. body_margin=1.6 or merge_prefers_upright=false",
+    )
     p.add_argument("--out", type=Path, required=True, help="markdown table; the rows go to OUT.json")
     a = p.parse_args(argv)
     changes: dict[str, Any] = {}
@@ -407,20 +480,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{name}: the network finds nobody with both shoulders in the photo", file=sys.stderr)
             return 2
         same = {rho: reference_at_density(image, det, lm, rho / focal_px(ref, a.distance)) for rho, _, _ in DENSITIES}
-        notes.append(f"{name}: {image.shape[1]}x{image.shape[0]} px, {ref.scored.sum()} keypoints scored, torso length "
-                     f"({ref.torso_kind}) {ref.torso_px:.0f} px, focal {focal_px(ref, a.distance):.0f} px; the network "
-                     f"on the photo with upright crops: {median_error(ref, upright_reference(image, det, lm)):.3f}; "
-                     "on the photo shrunk to each density: "
-                     + ", ".join(f"{rho:g} px/rad {median_error(ref, same[rho]):.3f}" for rho in same))
+        notes.append(
+            f"{name}: {image.shape[1]}x{image.shape[0]} px, {ref.scored.sum()} keypoints scored, torso length "
+            f"({ref.torso_kind}) {ref.torso_px:.0f} px, focal {focal_px(ref, a.distance):.0f} px; the network "
+            f"on the photo with upright crops: {median_error(ref, upright_reference(image, det, lm)):.3f}; "
+            "on the photo shrunk to each density: "
+            + ", ".join(f"{rho:g} px/rad {median_error(ref, same[rho]):.3f}" for rho in same)
+        )
         print(notes[-1], file=sys.stderr)
-        for case in cases([name], [float(x) for x in a.angles.split(",")],
-                          [float(x) for x in a.directions.split(",")]):
-            r = run_case(case, image, ref, lm, det, a.frames, a.distance, settings=settings,
-                         same_density=same[case.px_per_rad])
+        for case in cases([name], [float(x) for x in a.angles.split(",")], [float(x) for x in a.directions.split(",")]):
+            r = run_case(
+                case, image, ref, lm, det, a.frames, a.distance, settings=settings, same_density=same[case.px_per_rad]
+            )
             rows.append(r)
-            print(f"[{time.time() - t0:.0f} s] {name} {case.px_per_rad:g} px/rad {case.off_axis_deg:g} deg "
-                  f"dir {case.direction_deg:g}: found {r['found']} error {r['error']:.3f} "
-                  f"({r['people']} people, {r['seconds']:.1f} s)", file=sys.stderr, flush=True)
+            print(
+                f"[{time.time() - t0:.0f} s] {name} {case.px_per_rad:g} px/rad {case.off_axis_deg:g} deg "
+                f"dir {case.direction_deg:g}: found {r['found']} error {r['error']:.3f} "
+                f"({r['people']} people, {r['seconds']:.1f} s)",
+                file=sys.stderr,
+                flush=True,
+            )
     text = render(rows) + "\n" + "\n".join(f"- {n}" for n in notes) + "\n"
     atomic.write_text(a.out, text)
     atomic.write_text(a.out.with_suffix(".json"), json.dumps(rows, indent=1))

@@ -106,15 +106,41 @@ CONDITION_TEXT: dict[str, str] = {
 
 #: Keypoints whose errors are measured (the ones RULA/REBA angles are built from).
 EVAL_JOINT_NAMES: tuple[str, ...] = (
-    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
-    "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+    "left_hip",
+    "right_hip",
+    "left_knee",
+    "right_knee",
+    "left_ankle",
+    "right_ankle",
+)
 EVAL_JOINTS = np.array([JOINT_INDEX[n] for n in EVAL_JOINT_NAMES])
 
 #: Keypoints that fit a view or crop to the body (the set the 2D stage fits its views to).
 FIT_JOINT_NAMES: tuple[str, ...] = (
-    "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
-    "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
-    "left_heel", "right_heel", "left_foot_index", "right_foot_index")
+    "nose",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+    "left_hip",
+    "right_hip",
+    "left_knee",
+    "right_knee",
+    "left_ankle",
+    "right_ankle",
+    "left_heel",
+    "right_heel",
+    "left_foot_index",
+    "right_foot_index",
+)
 FIT_JOINTS = np.array([JOINT_INDEX[n] for n in FIT_JOINT_NAMES])
 
 _HIPS = np.array([JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]])
@@ -153,9 +179,13 @@ class EvaluationSettings:
     def like_stage(cls, stage=None, **overrides) -> "EvaluationSettings":
         """Settings whose view fit equals the given (default) 2D stage settings."""
         s = stage if stage is not None else PoseSettings()
-        values: dict[str, Any] = dict(margin=float(s.body_margin), min_half_fov=float(s.min_half_fov),
-                                      max_half_fov=float(s.max_half_fov), min_presence=float(s.min_presence),
-                                      stage=s)
+        values: dict[str, Any] = dict(
+            margin=float(s.body_margin),
+            min_half_fov=float(s.min_half_fov),
+            max_half_fov=float(s.max_half_fov),
+            min_presence=float(s.min_presence),
+            stage=s,
+        )
         values.update(overrides)
         return cls(**values)
 
@@ -340,8 +370,16 @@ class PersonGeometry:
         # by a small fraction of the hip width's angle.
         hip_ray = _hip_centre_ray(rays)
         theta = float(np.arctan2(np.hypot(hip_ray[0], hip_ray[1]), hip_ray[2]))
-        return cls(rays, np.asarray(pixels, np.float64), np.asarray(visibility), hip_world, hip_ray,
-                   torso / distance, theta, inclination)
+        return cls(
+            rays,
+            np.asarray(pixels, np.float64),
+            np.asarray(visibility),
+            hip_world,
+            hip_ray,
+            torso / distance,
+            theta,
+            inclination,
+        )
 
     @property
     def torso_visible(self) -> bool:
@@ -369,8 +407,9 @@ class PersonGeometry:
         c, s = np.cos(roll), np.sin(roll)
         # A view pixel direction turned clockwise by ``roll`` from up comes out straight up.
         rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        return VirtualView(source=view.source, lens=view.lens, width=view.width, height=view.height,
-                           rotation_cam_from_view=r @ rz)
+        return VirtualView(
+            source=view.source, lens=view.lens, width=view.width, height=view.height, rotation_cam_from_view=r @ rz
+        )
 
     def _fit_pixels(self) -> np.ndarray:
         px = self.pixels[FIT_JOINTS]
@@ -393,8 +432,13 @@ class PersonGeometry:
         return Roi(centre=hip, side=max(2.0 * settings.margin * radius, 4.0), rotation=rotation)
 
 
-def score_prediction(person: PersonGeometry, pixels_fisheye: np.ndarray, rays_cam: np.ndarray,
-                     presence: float, settings: EvaluationSettings) -> tuple[bool, float, np.ndarray, np.ndarray]:
+def score_prediction(
+    person: PersonGeometry,
+    pixels_fisheye: np.ndarray,
+    rays_cam: np.ndarray,
+    presence: float,
+    settings: EvaluationSettings,
+) -> tuple[bool, float, np.ndarray, np.ndarray]:
     """Score one prediction of one person: (found, hip error in torso lengths, joint errors in
     fisheye pixels (12,), joint errors in torso lengths (12,)).
 
@@ -421,31 +465,75 @@ class _Rows:
         self.limits_deg = limits_deg
         self.rows: list[tuple] = []
 
-    def add(self, condition: int, frame: int, camera: int, worker: int, person: PersonGeometry,
-            presence: float, scored: tuple[bool, float, np.ndarray, np.ndarray]) -> None:
+    def add(
+        self,
+        condition: int,
+        frame: int,
+        camera: int,
+        worker: int,
+        person: PersonGeometry,
+        presence: float,
+        scored: tuple[bool, float, np.ndarray, np.ndarray],
+    ) -> None:
         region = int(region_index(np.degrees(person.theta), self.limits_deg))
         found, hip_error, err_px, err_torso = scored
-        self.rows.append((condition, frame, camera, worker, region, person.theta, person.trunk_inclination,
-                          presence, found, hip_error, err_px, err_torso))
+        self.rows.append(
+            (
+                condition,
+                frame,
+                camera,
+                worker,
+                region,
+                person.theta,
+                person.trunk_inclination,
+                presence,
+                found,
+                hip_error,
+                err_px,
+                err_torso,
+            )
+        )
 
     def trials(self) -> PersonTrials:
         n = len(self.rows)
         k = EVAL_JOINTS.size
         if n == 0:
             z = np.zeros(0)
-            return PersonTrials(z.astype(np.int64), z.astype(np.int64), z.astype(np.int64), z.astype(np.int64),
-                                z.astype(np.int64), z, z, z, z.astype(bool), z, np.zeros((0, k)), np.zeros((0, k)))
+            return PersonTrials(
+                z.astype(np.int64),
+                z.astype(np.int64),
+                z.astype(np.int64),
+                z.astype(np.int64),
+                z.astype(np.int64),
+                z,
+                z,
+                z,
+                z.astype(bool),
+                z,
+                np.zeros((0, k)),
+                np.zeros((0, k)),
+            )
         cols = list(zip(*self.rows))
         ints = [np.array(c, dtype=np.int64) for c in cols[:5]]
-        return PersonTrials(condition=ints[0], frame=ints[1], camera=ints[2], worker=ints[3], region=ints[4],
-                            theta=np.array(cols[5], np.float64),
-                            trunk_inclination=np.array(cols[6], np.float64), presence=np.array(cols[7], np.float64),
-                            found=np.array(cols[8], bool), hip_error_torso=np.array(cols[9], np.float64),
-                            joint_error_px=np.stack(cols[10]), joint_error_torso=np.stack(cols[11]))
+        return PersonTrials(
+            condition=ints[0],
+            frame=ints[1],
+            camera=ints[2],
+            worker=ints[3],
+            region=ints[4],
+            theta=np.array(cols[5], np.float64),
+            trunk_inclination=np.array(cols[6], np.float64),
+            presence=np.array(cols[7], np.float64),
+            found=np.array(cols[8], bool),
+            hip_error_torso=np.array(cols[9], np.float64),
+            joint_error_px=np.stack(cols[10]),
+            joint_error_torso=np.stack(cols[11]),
+        )
 
 
-def _match_stage(people: list[tuple[int, PersonGeometry]], others: list[PersonGeometry], found,
-                 settings: EvaluationSettings) -> tuple[dict[int, int], int]:
+def _match_stage(
+    people: list[tuple[int, PersonGeometry]], others: list[PersonGeometry], found, settings: EvaluationSettings
+) -> tuple[dict[int, int], int]:
     """Match the stage's detections (FrameDetections) to the counted people one to one.
 
     Pairs closer than ``found_within_torso`` (hip centres, torso lengths of the person) are
@@ -483,13 +571,23 @@ def _match_stage(people: list[tuple[int, PersonGeometry]], others: list[PersonGe
     return matches, len(rest) - len(explained)
 
 
-def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, int, int],
-                     conditions: tuple[str, ...], settings: EvaluationSettings, landmarker, detector,
-                     progress: ProgressCallback | None, done_offset: int, total: int) -> tuple[PersonTrials, int, int]:
+def _evaluate_camera(
+    session_dir: Path,
+    camera_index: int,
+    frames: tuple[int, int, int],
+    conditions: tuple[str, ...],
+    settings: EvaluationSettings,
+    landmarker,
+    detector,
+    progress: ProgressCallback | None,
+    done_offset: int,
+    total: int,
+) -> tuple[PersonTrials, int, int]:
     session = load_session(session_dir)
     if session.ground_truth_dir is None:
-        raise InputError("not a simulated session: no ground_truth/ folder (evaluation needs the truth)",
-                         path=session_dir)
+        raise InputError(
+            "not a simulated session: no ground_truth/ folder (evaluation needs the truth)", path=session_dir
+        )
     gt = load_ground_truth(session.ground_truth_dir)
     cam = session.cameras[camera_index]
     camera = cam.camera
@@ -514,8 +612,12 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
         people: list[tuple[int, PersonGeometry]] = []
         hidden: list[PersonGeometry] = []
         for w in range(n_workers):
-            p = PersonGeometry.of(camera, gt.joints_world[index, w], gt.pixels[index, camera_index, w],
-                                  gt.visibility[index, camera_index, w])
+            p = PersonGeometry.of(
+                camera,
+                gt.joints_world[index, w],
+                gt.pixels[index, camera_index, w],
+                gt.visibility[index, camera_index, w],
+            )
             if p.counted(settings):
                 people.append((w, p))
             elif np.any(p.visibility != _OUTSIDE_IMAGE):
@@ -527,16 +629,30 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
                 view = make(camera, size, settings)
                 kp = landmarker(view.build_map().apply(frame))
                 rays = view.view_pixels_to_rays_cam(kp.pixels)
-                rows.add(want[name], index, camera_index, w, p, kp.presence,
-                         score_prediction(p, camera.lens.project(rays), rays, kp.presence, settings))
+                rows.add(
+                    want[name],
+                    index,
+                    camera_index,
+                    w,
+                    p,
+                    kp.presence,
+                    score_prediction(p, camera.lens.project(rays), rays, kp.presence, settings),
+                )
             for name, make_roi in (("crop", p.crop_roi), ("rotated_crop", p.rotated_roi)):
                 if name not in want:
                     continue
                 roi = make_roi(settings)
                 kp = landmarker(roi.crop(frame, size[0])).transformed(roi.crop_to_image(size[0]))
                 rays = _unit(camera.lens.unproject(kp.pixels))
-                rows.add(want[name], index, camera_index, w, p, kp.presence,
-                         score_prediction(p, kp.pixels, rays, kp.presence, settings))
+                rows.add(
+                    want[name],
+                    index,
+                    camera_index,
+                    w,
+                    p,
+                    kp.presence,
+                    score_prediction(p, kp.pixels, rays, kp.presence, settings),
+                )
         if found is not None:
             matches, fp = _match_stage(people, hidden, found, settings)
             false_positives += fp
@@ -546,11 +662,25 @@ def _evaluate_camera(session_dir: Path, camera_index: int, frames: tuple[int, in
                     nan = np.full(EVAL_JOINTS.size, np.nan)
                     rows.add(want["stage"], index, camera_index, w, p, float("nan"), (False, float("nan"), nan, nan))
                 else:
-                    rows.add(want["stage"], index, camera_index, w, p, float(found.presence[j]),
-                             score_prediction(p, found.pixels_fisheye[j], found.rays_cam[j],
-                                              float(found.presence[j]), settings))
-        report(progress, "pose evaluation", done_offset + (index - start) // step + 1, total, unit="frame",
-               message=camera.name)
+                    rows.add(
+                        want["stage"],
+                        index,
+                        camera_index,
+                        w,
+                        p,
+                        float(found.presence[j]),
+                        score_prediction(
+                            p, found.pixels_fisheye[j], found.rays_cam[j], float(found.presence[j]), settings
+                        ),
+                    )
+        report(
+            progress,
+            "pose evaluation",
+            done_offset + (index - start) // step + 1,
+            total,
+            unit="frame",
+            message=camera.name,
+        )
     return rows.trials(), false_positives, stage_frames
 
 
@@ -561,16 +691,16 @@ def _camera_worker(args) -> tuple[PersonTrials, int, int]:
     cv2.setNumThreads(1)
     landmarker = BlazePoseLandmarker(model_dir=model_dir, num_threads=num_threads)
     detector = BlazePoseDetector(model_dir=model_dir, num_threads=num_threads) if "stage" in conditions else None
-    return _evaluate_camera(session_dir, camera_index, frames, conditions, settings, landmarker, detector,
-                            None, 0, 0)
+    return _evaluate_camera(session_dir, camera_index, frames, conditions, settings, landmarker, detector, None, 0, 0)
 
 
 # --------------------------------------------------------------------------------------------
 # Summaries
 
 
-def _summarise(trials: PersonTrials, conditions: Sequence[str], cameras: Sequence[str],
-               regions: Sequence[str]) -> tuple[RegionSummary, ...]:
+def _summarise(
+    trials: PersonTrials, conditions: Sequence[str], cameras: Sequence[str], regions: Sequence[str]
+) -> tuple[RegionSummary, ...]:
     out = []
     for condition in conditions:
         c_mask = trials.condition == CONDITIONS.index(condition)
@@ -590,13 +720,24 @@ def _summary(condition: str, camera: str, region: str, t: PersonTrials) -> Regio
     def q(values: np.ndarray, p: float) -> float:
         return float(np.percentile(values, p)) if values.size else float("nan")
 
-    return RegionSummary(condition, camera, region, persons, found,
-                         found / persons if persons else float("nan"), int(px.size),
-                         q(px, 50), q(px, 90), q(torso, 50), q(torso, 90))
+    return RegionSummary(
+        condition,
+        camera,
+        region,
+        persons,
+        found,
+        found / persons if persons else float("nan"),
+        int(px.size),
+        q(px, 50),
+        q(px, 90),
+        q(torso, 50),
+        q(torso, 90),
+    )
 
 
-def _other_camera(trials: PersonTrials, conditions: Sequence[str], n_cameras: int,
-                  central: int) -> tuple[OtherCameraSummary, ...]:
+def _other_camera(
+    trials: PersonTrials, conditions: Sequence[str], n_cameras: int, central: int
+) -> tuple[OtherCameraSummary, ...]:
     if n_cameras != 2:
         return ()
     out = []
@@ -620,11 +761,21 @@ def _other_camera(trials: PersonTrials, conditions: Sequence[str], n_cameras: in
 # Entry point
 
 
-def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str] = CONDITIONS,
-                     start: int = 0, stop: int | None = None, step: int = 1,
-                     settings: EvaluationSettings | None = None, landmarker=None, detector=None,
-                     processes: int = 1, num_threads: int = 1, model_dir: str | os.PathLike | None = None,
-                     progress: ProgressCallback | None = None) -> PoseEvaluation:
+def evaluate_session(
+    session_dir: str | os.PathLike,
+    *,
+    conditions: Sequence[str] = CONDITIONS,
+    start: int = 0,
+    stop: int | None = None,
+    step: int = 1,
+    settings: EvaluationSettings | None = None,
+    landmarker=None,
+    detector=None,
+    processes: int = 1,
+    num_threads: int = 1,
+    model_dir: str | os.PathLike | None = None,
+    progress: ProgressCallback | None = None,
+) -> PoseEvaluation:
     """Measure the conditions (module docstring) on a simulated session.
 
     session_dir: a folder written by ``ergopose simulate`` (it must have ground_truth/).
@@ -643,14 +794,14 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
     session_dir = Path(session_dir)
     session = load_session(session_dir)
     if session.ground_truth_dir is None:
-        raise InputError("not a simulated session: no ground_truth/ folder (evaluation needs the truth)",
-                         path=session_dir)
+        raise InputError(
+            "not a simulated session: no ground_truth/ folder (evaluation needs the truth)", path=session_dir
+        )
     gt = load_ground_truth(session.ground_truth_dir)
     n_frames = min(session.frame_count, gt.n_frames)
     stop = n_frames if stop is None else min(int(stop), n_frames)
     if not 0 <= start < stop or step < 1:
-        raise ConfigError(f"no frames to score in {start}..{stop} step {step} (session has {n_frames})",
-                          field="frames")
+        raise ConfigError(f"no frames to score in {start}..{stop} step {step} (session has {n_frames})", field="frames")
     frames = (int(start), int(stop), int(step))
     n_cam = len(session.cameras)
     per_camera = len(range(*frames))
@@ -658,8 +809,9 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
         raise ConfigError(f"processes must be 1 or 2, got {processes}", field="processes")
     if processes == 2 and n_cam > 1:
         if landmarker is not None or detector is not None:
-            raise ConfigError("networks cannot be passed to worker processes; leave landmarker/detector unset",
-                              field="processes")
+            raise ConfigError(
+                "networks cannot be passed to worker processes; leave landmarker/detector unset", field="processes"
+            )
         jobs = [(session_dir, ci, frames, conditions, settings, model_dir, num_threads) for ci in range(n_cam)]
         results = []
         # Spawned workers: forking a process whose LiteRT or OpenCV thread pools are running
@@ -673,20 +825,41 @@ def evaluate_session(session_dir: str | os.PathLike, *, conditions: Sequence[str
             landmarker = BlazePoseLandmarker(model_dir=model_dir, num_threads=num_threads)
         if detector is None and "stage" in conditions:
             detector = BlazePoseDetector(model_dir=model_dir, num_threads=num_threads)
-        results = [_evaluate_camera(session_dir, ci, frames, conditions, settings, landmarker, detector,
-                                    progress, ci * per_camera, n_cam * per_camera) for ci in range(n_cam)]
+        results = [
+            _evaluate_camera(
+                session_dir,
+                ci,
+                frames,
+                conditions,
+                settings,
+                landmarker,
+                detector,
+                progress,
+                ci * per_camera,
+                n_cam * per_camera,
+            )
+            for ci in range(n_cam)
+        ]
     trials = PersonTrials.concatenate([r[0] for r in results])
     cameras = session.camera_names
     regions = REGION_NAMES
     summaries = _summarise(trials, conditions, cameras, regions)
     return PoseEvaluation(
-        session=session_dir, frames=frames, image_size=(session.cameras[0].camera.width, session.cameras[0].camera.height),
-        cameras=cameras, workers=tuple(gt.worker_ids), regions=regions, conditions=conditions,
-        settings=settings, trials=trials, summaries=summaries,
+        session=session_dir,
+        frames=frames,
+        image_size=(session.cameras[0].camera.width, session.cameras[0].camera.height),
+        cameras=cameras,
+        workers=tuple(gt.worker_ids),
+        regions=regions,
+        conditions=conditions,
+        settings=settings,
+        trials=trials,
+        summaries=summaries,
         stage_frames=max(r[2] for r in results),
         stage_false_positives=tuple(int(r[1]) for r in results),
         other_camera=_other_camera(trials, conditions, n_cam, regions.index("central")),
-        seconds=time.perf_counter() - t0)
+        seconds=time.perf_counter() - t0,
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -710,10 +883,12 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
     lines = []
     start, stop, step = result.frames
     w, h = result.image_size
-    lines.append(f"Session `{result.session.name}`: {w}x{h}, cameras {', '.join(result.cameras)}, "
-                 f"workers {', '.join(result.workers)}, frames {start}..{stop - 1} every {step} "
-                 f"({result.scored_frames} scored frames per camera). Lens regions: "
-                 f"{describe(result.settings.region_limits_deg)}.")
+    lines.append(
+        f"Session `{result.session.name}`: {w}x{h}, cameras {', '.join(result.cameras)}, "
+        f"workers {', '.join(result.workers)}, frames {start}..{stop - 1} every {step} "
+        f"({result.scored_frames} scored frames per camera). Lens regions: "
+        f"{describe(result.settings.region_limits_deg)}."
+    )
     lines.append("")
 
     def table(camera: str) -> None:
@@ -722,9 +897,11 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
         for condition in result.conditions:
             for region in result.regions + ("all",):
                 s = result.summary(condition, camera, region)
-                lines.append(f"| {condition} | {region} | {_pct(s.found, s.persons)} | {s.joints} | "
-                             f"{_num(s.error_px_median, 1)} | {_num(s.error_px_p90, 1)} | "
-                             f"{_num(s.error_torso_median, 3)} | {_num(s.error_torso_p90, 3)} |")
+                lines.append(
+                    f"| {condition} | {region} | {_pct(s.found, s.persons)} | {s.joints} | "
+                    f"{_num(s.error_px_median, 1)} | {_num(s.error_px_p90, 1)} | "
+                    f"{_num(s.error_torso_median, 3)} | {_num(s.error_torso_p90, 3)} |"
+                )
         lines.append("")
 
     lines.append("Both cameras pooled:")
@@ -735,8 +912,10 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
             lines.append(f"Camera {cam}:")
             lines.append("")
             table(cam)
-    lines.append("Detection rate by trunk inclination (true hip-to-shoulder direction from the vertical), "
-                 "both cameras, all regions:")
+    lines.append(
+        "Detection rate by trunk inclination (true hip-to-shoulder direction from the vertical), "
+        "both cameras, all regions:"
+    )
     lines.append("")
     lines.append("| trunk inclination | " + " | ".join(result.conditions) + " |")
     lines.append("|---" * (len(result.conditions) + 1) + "|")
@@ -752,17 +931,23 @@ def render_markdown(result: PoseEvaluation, *, per_camera: bool = True) -> str:
     lines.append("")
     if "stage" in result.conditions:
         fp = ", ".join(f"{c} {n}" for c, n in zip(result.cameras, result.stage_false_positives))
-        lines.append(f"Stage detections matched to no worker (false positives) in the scored frames: {fp} "
-                     f"({result.stage_frames} frames processed per camera).")
+        lines.append(
+            f"Stage detections matched to no worker (false positives) in the scored frames: {fp} "
+            f"({result.stage_frames} frames processed per camera)."
+        )
         lines.append("")
     if result.other_camera:
         lines.append("People in the central region of one camera (seen from above), and the other camera:")
         lines.append("")
-        lines.append("| condition | person-frames | found by that camera | found by the other camera | found by either |")
+        lines.append(
+            "| condition | person-frames | found by that camera | found by the other camera | found by either |"
+        )
         lines.append("|---|---|---|---|---|")
         for o in result.other_camera:
-            lines.append(f"| {o.condition} | {o.persons} | {_pct(o.found_here, o.persons)} | "
-                         f"{_pct(o.found_other, o.persons)} | {_pct(o.found_either, o.persons)} |")
+            lines.append(
+                f"| {o.condition} | {o.persons} | {_pct(o.found_here, o.persons)} | "
+                f"{_pct(o.found_other, o.persons)} | {_pct(o.found_either, o.persons)} |"
+            )
         lines.append("")
     return "\n".join(lines)
 
@@ -776,25 +961,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m ergopose.evaluation.pose",
         description="Detection rate and keypoint error of the BlazePose landmark model on upright views, "
-                    "raw fisheye crops, rotated crops and the full 2D stage, per lens region, "
-                    "on a session written by 'ergopose simulate' (docs/pose-in-fisheye.md).")
+        "raw fisheye crops, rotated crops and the full 2D stage, per lens region, "
+        "on a session written by 'ergopose simulate' (docs/pose-in-fisheye.md).",
+    )
     parser.add_argument("session", type=Path, help="simulated session folder")
-    parser.add_argument("--conditions", default=",".join(CONDITIONS), help="comma-separated, from "
-                        + ", ".join(CONDITIONS))
+    parser.add_argument(
+        "--conditions", default=",".join(CONDITIONS), help="comma-separated, from " + ", ".join(CONDITIONS)
+    )
     parser.add_argument("--start", type=int, default=0)
     parser.add_argument("--stop", type=int, default=None)
     parser.add_argument("--step", type=int, default=1, help="score every STEP-th frame (the stage sees all)")
-    parser.add_argument("--processes", type=int, default=2, choices=(1, 2),
-                        help="2: one process per camera (default)")
+    parser.add_argument("--processes", type=int, default=2, choices=(1, 2), help="2: one process per camera (default)")
     parser.add_argument("--threads", type=int, default=1, help="LiteRT threads per process (default 1)")
     parser.add_argument("--model-dir", type=Path, default=None)
     parser.add_argument("--out", type=Path, default=None, help="write the markdown here instead of stdout")
     args = parser.parse_args(argv)
 
     try:
-        result = evaluate_session(args.session, conditions=[c.strip() for c in args.conditions.split(",") if c.strip()],
-                                  start=args.start, stop=args.stop, step=args.step, processes=args.processes,
-                                  num_threads=args.threads, model_dir=args.model_dir, progress=ProgressBars())
+        result = evaluate_session(
+            args.session,
+            conditions=[c.strip() for c in args.conditions.split(",") if c.strip()],
+            start=args.start,
+            stop=args.stop,
+            step=args.step,
+            processes=args.processes,
+            num_threads=args.threads,
+            model_dir=args.model_dir,
+            progress=ProgressBars(),
+        )
     except ErgoposeError as exc:
         print(f"ergopose: error: {exc}", file=sys.stderr)
         return 2

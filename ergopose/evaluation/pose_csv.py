@@ -67,10 +67,20 @@ def frames_from_csv(table: pd.DataFrame, camera: Camera, frames: int) -> list[_F
 
 TRC_FILE = "pose-3d/S00_P00_T01_BalancingTrial_0-100.trc"
 #: The TRC's markers scored, by joint.
-_TRC_MARKERS = {"RShoulder": "right_shoulder", "LShoulder": "left_shoulder", "RElbow": "right_elbow",
-                "LElbow": "left_elbow", "RWrist": "right_wrist", "LWrist": "left_wrist", "RHip": "right_hip",
-                "LHip": "left_hip", "RKnee": "right_knee", "LKnee": "left_knee", "RAnkle": "right_ankle",
-                "LAnkle": "left_ankle"}
+_TRC_MARKERS = {
+    "RShoulder": "right_shoulder",
+    "LShoulder": "left_shoulder",
+    "RElbow": "right_elbow",
+    "LElbow": "left_elbow",
+    "RWrist": "right_wrist",
+    "LWrist": "left_wrist",
+    "RHip": "right_hip",
+    "LHip": "left_hip",
+    "RKnee": "right_knee",
+    "LKnee": "left_knee",
+    "RAnkle": "right_ankle",
+    "LAnkle": "left_ankle",
+}
 
 
 def trc_reference(root: Path, frames: int, camera: Camera) -> dict:
@@ -88,13 +98,22 @@ def trc_reference(root: Path, frames: int, camera: Camera) -> dict:
     return {"rays": rays, "conf": conf}
 
 
-def score_csv(csv: str | Path, camera: Camera, number: int, root: Path = DEFAULT_ROOT, frames: int = 100,
-              reference: str = "openpose") -> dict:
+def score_csv(
+    csv: str | Path,
+    camera: Camera,
+    number: int,
+    root: Path = DEFAULT_ROOT,
+    frames: int = 100,
+    reference: str = "openpose",
+) -> dict:
     """found (share of the reference's frames), counted, median and p90 keypoint error (torso
     lengths); reference "openpose" (the camera's own OpenPose keypoints) or "trc" (Pose2Sim's 3D
     result projected)."""
-    ref = openpose_reference(root, number, frames, camera) if reference == "openpose" else \
-        trc_reference(root, frames, camera)
+    ref = (
+        openpose_reference(root, number, frames, camera)
+        if reference == "openpose"
+        else trc_reference(root, frames, camera)
+    )
     found = counted = 0
     errors = []
     for f, people in enumerate(frames_from_csv(pd.read_csv(csv), camera, frames)):
@@ -109,11 +128,16 @@ def score_csv(csv: str | Path, camera: Camera, number: int, root: Path = DEFAULT
             found += 1
             errors.append(score["errors"])
     err = np.concatenate(errors) if errors else np.zeros(0)
-    return {"camera": camera.name, "counted": counted, "found": found,
-            "found_share": found / counted if counted else float("nan"),
-            "median": float(np.median(err)) if err.size else float("nan"),
-            "p90": float(np.percentile(err, 90)) if err.size else float("nan"), "keypoints": int(err.size),
-            "errors": err}
+    return {
+        "camera": camera.name,
+        "counted": counted,
+        "found": found,
+        "found_share": found / counted if counted else float("nan"),
+        "median": float(np.median(err)) if err.size else float("nan"),
+        "p90": float(np.percentile(err, 90)) if err.size else float("nan"),
+        "keypoints": int(err.size),
+        "errors": err,
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -130,13 +154,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         for reference in ("openpose", "trc"):
             s = score_csv(args.csv_dir / f"cam{number:02d}.csv", camera, number, args.root, args.frames, reference)
             pooled[reference].append(s)
-            print(f"| {s['camera']} | {reference} | {100 * s['found_share']:.0f} % ({s['found']}/{s['counted']}) | "
-                  f"{s['keypoints']} | {s['median']:.3f} | {s['p90']:.3f} |")
+            print(
+                f"| {s['camera']} | {reference} | {100 * s['found_share']:.0f} % ({s['found']}/{s['counted']}) | "
+                f"{s['keypoints']} | {s['median']:.3f} | {s['p90']:.3f} |"
+            )
     for reference, rows in pooled.items():
         err = np.concatenate([r["errors"] for r in rows])
         found, counted = sum(r["found"] for r in rows), sum(r["counted"] for r in rows)
-        print(f"| all four | {reference} | {100 * found / max(counted, 1):.1f} % ({found}/{counted}) | {err.size} | "
-              f"{np.median(err):.3f} | {np.percentile(err, 90):.3f} |")
+        print(
+            f"| all four | {reference} | {100 * found / max(counted, 1):.1f} % ({found}/{counted}) | {err.size} | "
+            f"{np.median(err):.3f} | {np.percentile(err, 90):.3f} |"
+        )
     return 0
 
 

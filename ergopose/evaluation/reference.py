@@ -71,18 +71,36 @@ OUTLIER_FLOOR_M = 0.020
 #: Per-body-part score columns compared besides the totals, with their scales (docs/csv-columns.md;
 #: widened when the data hold values outside, e.g. the "separate" variants).
 PART_SCALES: dict[str, tuple[int, int]] = {
-    "left_rula_upper_arm": (1, 6), "right_rula_upper_arm": (1, 6),
-    "left_rula_lower_arm": (1, 3), "right_rula_lower_arm": (1, 3),
-    "left_rula_wrist": (1, 4), "right_rula_wrist": (1, 4),
-    "rula_neck": (1, 6), "rula_trunk": (1, 6), "rula_legs": (1, 2),
-    "reba_neck": (1, 3), "reba_trunk": (1, 5), "reba_legs": (1, 4),
-    "left_reba_upper_arm": (1, 6), "right_reba_upper_arm": (1, 6),
-    "left_reba_lower_arm": (1, 2), "right_reba_lower_arm": (1, 2),
-    "left_reba_wrist": (1, 3), "right_reba_wrist": (1, 3),
+    "left_rula_upper_arm": (1, 6),
+    "right_rula_upper_arm": (1, 6),
+    "left_rula_lower_arm": (1, 3),
+    "right_rula_lower_arm": (1, 3),
+    "left_rula_wrist": (1, 4),
+    "right_rula_wrist": (1, 4),
+    "rula_neck": (1, 6),
+    "rula_trunk": (1, 6),
+    "rula_legs": (1, 2),
+    "reba_neck": (1, 3),
+    "reba_trunk": (1, 5),
+    "reba_legs": (1, 4),
+    "left_reba_upper_arm": (1, 6),
+    "right_reba_upper_arm": (1, 6),
+    "left_reba_lower_arm": (1, 2),
+    "right_reba_lower_arm": (1, 2),
+    "left_reba_wrist": (1, 3),
+    "right_reba_wrist": (1, 3),
 }
 #: Task inputs (not posture) the product takes from the settings; copied from the assessment's CSV.
-FACTOR_COLUMNS = ("load_kg", "load_mode", "coupling", "shock", "arm_supported", "seated", "legs_supported",
-                  "wrist_twist_end_range")
+FACTOR_COLUMNS = (
+    "load_kg",
+    "load_mode",
+    "coupling",
+    "shock",
+    "arm_supported",
+    "seated",
+    "legs_supported",
+    "wrist_twist_end_range",
+)
 
 
 # ------------------------------------------------------------------------------------------ geometry
@@ -104,8 +122,11 @@ def parse_axes(text: str) -> tuple[np.ndarray, str]:
         used.add(axis)
         m[row, names[axis]] = sign
     if not ok:
-        raise ConfigError(f"expected three of x, y, z, each once and optionally signed, e.g. z,x,y (world x, y, z "
-                          f"= reference Z, X, Y), got {text!r}", field="--reference-axes")
+        raise ConfigError(
+            f"expected three of x, y, z, each once and optionally signed, e.g. z,x,y (world x, y, z "
+            f"= reference Z, X, Y), got {text!r}",
+            field="--reference-axes",
+        )
     if np.linalg.det(m) < 0:
         raise ConfigError(f"{text!r} is a mirror (left-handed); flip one axis's sign", field="--reference-axes")
     return m, ",".join(parts)
@@ -142,7 +163,9 @@ def kabsch(ref: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return r, mt - r @ mr
 
 
-def _interpolate(times_ref: np.ndarray, points: np.ndarray, t: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
+def _interpolate(
+    times_ref: np.ndarray, points: np.ndarray, t: np.ndarray, period: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Reference points (F, J, 3) at times ``t``: linear between the two neighbouring samples (NaN if
     either is missing), the nearest sample within half a period outside the span. Returns (points (n,
     J, 3), inside (n,) bool)."""
@@ -171,10 +194,13 @@ def _interpolate(times_ref: np.ndarray, points: np.ndarray, t: np.ndarray, perio
 def _reference_joints(trc: TrcData) -> tuple[np.ndarray, dict[str, str]]:
     mapping = map_markers(trc.markers)
     if not mapping:
-        raise InputError("no marker of this file has a counterpart among our joints (known: OpenPose BODY_25/"
-                         "BODY_25B, COCO, HALPE, BlazePose and Plug-in Gait style names such as LShoulder, "
-                         f"left_knee, LKNE); its markers: {', '.join(trc.markers[:12])}"
-                         f"{' ...' if len(trc.markers) > 12 else ''}", path=trc.path)
+        raise InputError(
+            "no marker of this file has a counterpart among our joints (known: OpenPose BODY_25/"
+            "BODY_25B, COCO, HALPE, BlazePose and Plug-in Gait style names such as LShoulder, "
+            f"left_knee, LKNE); its markers: {', '.join(trc.markers[:12])}"
+            f"{' ...' if len(trc.markers) > 12 else ''}",
+            path=trc.path,
+        )
     joints = np.full((len(trc.times_s), NUM_JOINTS, 3), np.nan)
     for marker, joint in mapping.items():
         joints[:, JOINT_INDEX[joint]] = trc.points_trc[:, trc.markers.index(marker)]
@@ -196,15 +222,18 @@ def _frames_csvs(layout: ResultsLayout, tracks, names: Mapping[int, str] | None)
             continue
         if not by_frames:
             for f in files:
-                wid = f.name[len(layout.csv_prefix):-len(STEPS_SUFFIX)]
+                wid = f.name[len(layout.csv_prefix) : -len(STEPS_SUFFIX)]
                 csv = cache.setdefault(wid, read_frames_csv(layout, wid))
                 by_frames.setdefault(tuple(csv["frame"].to_numpy(np.int64)), []).append(wid)
         key = tuple(np.asarray(tracks.frame[tracks.worker == w], np.int64))
         found = by_frames.get(key, [])
         if len(found) != 1:
-            raise InputError(f"cannot tell which steps CSV belongs to tracked {identity_name(w)} "
-                             f"({'none' if not found else 'several'} with its frames): give --session DIR so "
-                             "the names the assessment gave can be re-made", path=layout.csv_dir)
+            raise InputError(
+                f"cannot tell which steps CSV belongs to tracked {identity_name(w)} "
+                f"({'none' if not found else 'several'} with its frames): give --session DIR so "
+                "the names the assessment gave can be re-made",
+                path=layout.csv_dir,
+            )
         out[w] = cache[found[0]]
     return out
 
@@ -222,7 +251,9 @@ def _mean_distance(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return mean, count
 
 
-def _select_rows(points: np.ndarray, frames: np.ndarray, ref_world: np.ndarray, distance_m: float) -> tuple[np.ndarray, np.ndarray]:
+def _select_rows(
+    points: np.ndarray, frames: np.ndarray, ref_world: np.ndarray, distance_m: float
+) -> tuple[np.ndarray, np.ndarray]:
     """For each frame, the row nearest the reference (mean joint distance) if within ``distance_m``
     with >= MIN_COMMON_JOINTS joints. ref_world: (n, J, 3) the reference at each row's frame.
     Returns (selected row indices, per-row distance)."""
@@ -260,10 +291,19 @@ def _pairs(points: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 # ------------------------------------------------------------------------------------------ evaluate
 
 
-def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData, *, session_dir: str | Path | None = None,
-                       axes: str | None = None, offset_s: float = 0.0, worker: str | None = None,
-                       match_distance_m: float = MATCH_DISTANCE_M, layout: ResultsLayout | None = None,
-                       progress: ProgressCallback | None = None, source: str | None = None) -> dict[str, Any]:
+def evaluate_reference(
+    results_dir: str | Path,
+    reference: str | Path | TrcData,
+    *,
+    session_dir: str | Path | None = None,
+    axes: str | None = None,
+    offset_s: float = 0.0,
+    worker: str | None = None,
+    match_distance_m: float = MATCH_DISTANCE_M,
+    layout: ResultsLayout | None = None,
+    progress: ProgressCallback | None = None,
+    source: str | None = None,
+) -> dict[str, Any]:
     """Compare the assessment in ``results_dir`` with the reference TRC (module docstring).
 
     reference: a TRC file, or a reference already read or built (:class:`TrcData`, e.g. from
@@ -289,13 +329,14 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         reported, _ = reported_ids(session, tracks, table.metadata)
         names = {int(w): reported[identity_name(int(w))] for w in np.unique(tracks.worker)}
     else:
-        notes.append("No --session: the reference is scored with the default scoring settings; give the "
-                     "session when its settings.toml changes [scoring].")
+        notes.append(
+            "No --session: the reference is scored with the default scoring settings; give the "
+            "session when its settings.toml changes [scoring]."
+        )
     if len(tracks) == 0:
         raise InputError("the assessment tracked nobody: nothing to compare", path=layout.tracks)
     if worker is not None:
-        wanted = [w for w in np.unique(tracks.worker)
-                  if worker in (identity_name(int(w)), (names or {}).get(int(w)))]
+        wanted = [w for w in np.unique(tracks.worker) if worker in (identity_name(int(w)), (names or {}).get(int(w)))]
         if not wanted:
             raise InputError(f"no tracked worker {worker!r} in the results", field="--worker", path=layout.tracks)
         keep = np.isin(tracks.worker, wanted)
@@ -311,7 +352,8 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         raise InputError(
             f"the reference ({times_ref[0]:.3f}-{times_ref[-1]:.3f} s after --reference-offset {offset_s:g} s) "
             f"does not overlap the assessment's tracked frames ({tracks.time_s.min():.3f}-{tracks.time_s.max():.3f} s)",
-            path=trc.path)
+            path=trc.path,
+        )
 
     # --- space ------------------------------------------------------------------------------------
     report(progress, "evaluation", 1, steps, unit="step", message="aligning the reference")
@@ -319,17 +361,21 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
     if axes is not None:
         m, canonical = parse_axes(axes)
         method = f"axis order given (--reference-axes {canonical}): world = M @ reference, no fit"
-        rotation, translation, selected = _select_and_fit(pts, tracks, ref_at_rows, inside, m, np.zeros(3),
-                                                         match_distance_m, fit=False)
+        rotation, translation, selected = _select_and_fit(
+            pts, tracks, ref_at_rows, inside, m, np.zeros(3), match_distance_m, fit=False
+        )
     else:
         canonical = None
-        method = ("rigid transform without scale (Kabsch) fitted over the matched joints of the compared frames, "
-                  "gross outliers left out (median + 3 robust sigma, at least 20 mm)")
+        method = (
+            "rigid transform without scale (Kabsch) fitted over the matched joints of the compared frames, "
+            "gross outliers left out (median + 3 robust sigma, at least 20 mm)"
+        )
         common = np.isfinite(ref_at_rows).all(-1) & np.isfinite(pts).all(-1)
         usable = (common.sum(-1) >= MIN_COMMON_JOINTS) & inside
         if not usable.any():
-            raise InputError("no tracked frame shares at least 3 joints with the reference: nothing to align",
-                             path=trc.path)
+            raise InputError(
+                "no tracked frame shares at least 3 joints with the reference: nothing to align", path=trc.path
+            )
         # Each tracked worker in turn starts the fit (another person may be tracked longer); the start
         # that ends with the most compared frames, then the smallest residual, wins.
         best = None
@@ -348,8 +394,11 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
             _, rotation, translation, selected = best
     ref_world = ref_at_rows @ rotation.T + translation
     if not len(selected):
-        raise InputError(f"no tracked row comes within {match_distance_m:g} m of the aligned reference in any "
-                         "overlapping frame (wrong --reference-axes or --reference-offset?)", path=trc.path)
+        raise InputError(
+            f"no tracked row comes within {match_distance_m:g} m of the aligned reference in any "
+            "overlapping frame (wrong --reference-axes or --reference-offset?)",
+            path=trc.path,
+        )
     selected = selected[np.argsort(tracks.frame[selected])]
 
     # --- alignment residual and keypoint definitions ----------------------------------------------
@@ -391,8 +440,10 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
     }
     up = alignment["reference_up_in_world"]
     if up[2] < math.cos(math.radians(20)):
-        notes.append(f"The reference's Y axis (up in a TRC) lands {math.degrees(math.acos(max(-1, min(1, up[2])))):.0f} "
-                     "deg from world up after alignment: check the reference's axes.")
+        notes.append(
+            f"The reference's Y axis (up in a TRC) lands {math.degrees(math.acos(max(-1, min(1, up[2])))):.0f} "
+            "deg from world up after alignment: check the reference's axes."
+        )
     segments = {}
     for limb, joint_a, joint_b in LIMBS:
         ia, ib = JOINT_INDEX[joint_a], JOINT_INDEX[joint_b]
@@ -401,12 +452,18 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         ok = np.isfinite(la) & np.isfinite(lr)
         if ok.any():
             ma, mr = float(np.median(la[ok])), float(np.median(lr[ok]))
-            segments[limb] = {"frames": int(ok.sum()), "assessment_median_mm": round_or_nan(1000 * ma, 1),
-                              "reference_median_mm": round_or_nan(1000 * mr, 1), "ratio": round_or_nan(ma / mr, 3) if mr > 0 else None}
+            segments[limb] = {
+                "frames": int(ok.sum()),
+                "assessment_median_mm": round_or_nan(1000 * ma, 1),
+                "reference_median_mm": round_or_nan(1000 * mr, 1),
+                "ratio": round_or_nan(ma / mr, 3) if mr > 0 else None,
+            }
     definitions = {
-        "note": ("the assessment's keypoints (BlazePose) and the reference's markers are different definitions of "
-                 "the same joints; a joint's mean offset after alignment and the ratio of segment lengths measure "
-                 "the difference (a constant offset is definition, a scatter is error)"),
+        "note": (
+            "the assessment's keypoints (BlazePose) and the reference's markers are different definitions of "
+            "the same joints; a joint's mean offset after alignment and the ratio of segment lengths measure "
+            "the difference (a constant offset is definition, a scatter is error)"
+        ),
         "segments": segments,
     }
 
@@ -423,8 +480,10 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         index = pd.Index(csv["frame"].to_numpy(np.int64))
         pos = index.get_indexer(f)
         if (pos < 0).any():
-            raise InputError(f"the steps CSV of {identity_name(int(w))} lacks frames of its track "
-                             f"(first: {int(f[pos < 0][0])})", path=layout.csv_dir)
+            raise InputError(
+                f"the steps CSV of {identity_name(int(w))} lacks frames of its track (first: {int(f[pos < 0][0])})",
+                path=layout.csv_dir,
+            )
         part = csv.iloc[pos].copy()
         part["_row"] = np.flatnonzero(sel)
         assessed.append(part)
@@ -448,8 +507,11 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         if c not in posture.columns:
             continue
         ref_deg = np.degrees(posture[c].to_numpy(np.float64))
-        ours = (pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64) if c in assessed_df.columns
-                else np.full(len(ref_deg), np.nan))
+        ours = (
+            pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64)
+            if c in assessed_df.columns
+            else np.full(len(ref_deg), np.nan)
+        )
         d = (ours - ref_deg + 180.0) % 360.0 - 180.0
         row = angle_stats(d)
         row["missing_assessment"] = int((~np.isfinite(ours)).sum())
@@ -460,9 +522,11 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         pooled.append(d[np.isfinite(d)])
     allv = np.concatenate(pooled) if pooled else np.zeros(0)
     angles = {
-        "definition": ("steps CSV angle (degrees) minus the same angle computed by ergopose.ergonomics.angles from "
-                       "the aligned reference markers at the same frame; wrapped to [-180, 180); frames where either "
-                       "is not measured are counted as missing (missing_assessment, missing_reference)"),
+        "definition": (
+            "steps CSV angle (degrees) minus the same angle computed by ergopose.ergonomics.angles from "
+            "the aligned reference markers at the same frame; wrapped to [-180, 180); frames where either "
+            "is not measured are counted as missing (missing_assessment, missing_reference)"
+        ),
         "rows_compared": int(len(selected)),
         "rmse_all_deg": round_or_nan(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
         "by_angle": by_angle,
@@ -471,17 +535,22 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
     # --- scores -----------------------------------------------------------------------------------
     report(progress, "evaluation", 4, steps, unit="step", message="agreement")
     scores: dict[str, Any] = {
-        "definition": ("scores of the steps CSV against the scores of the reference's angles by "
-                       "ergopose.ergonomics.scoring.score_posture with the task inputs the assessment applied (its "
-                       "CSV) and the scoring settings named in settings_source; per-part columns are the RULA/REBA "
-                       "step scores of docs/csv-columns.md"),
+        "definition": (
+            "scores of the steps CSV against the scores of the reference's angles by "
+            "ergopose.ergonomics.scoring.score_posture with the task inputs the assessment applied (its "
+            "CSV) and the scoring settings named in settings_source; per-part columns are the RULA/REBA "
+            "step scores of docs/csv-columns.md"
+        ),
         "settings_source": str(session.settings_path) if session is not None else "defaults (no --session)",
     }
     for c in list(SCORE_SCALES) + list(PART_SCALES):
         if c not in ref_scores.columns:
             continue
-        a = (pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64) if c in assessed_df.columns
-             else np.full(len(ref_scores), np.nan))
+        a = (
+            pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64)
+            if c in assessed_df.columns
+            else np.full(len(ref_scores), np.nan)
+        )
         b = pd.to_numeric(ref_scores[c], errors="coerce").to_numpy(np.float64)
         if c in SCORE_SCALES:
             scale = SCORE_SCALES[c]
@@ -516,33 +585,54 @@ def evaluate_reference(results_dir: str | Path, reference: str | Path | TrcData,
         },
         "left_out_definition": {
             "assessment_outside_reference_time": "tracked frames before the reference's first or after its last sample",
-            "no_tracked_row_near_reference": (f"frames inside the reference's span where no tracked row shares "
-                                              f">= {MIN_COMMON_JOINTS} joints with the aligned reference within "
-                                              f"{match_distance_m:g} m (mean joint distance)"),
+            "no_tracked_row_near_reference": (
+                f"frames inside the reference's span where no tracked row shares "
+                f">= {MIN_COMMON_JOINTS} joints with the aligned reference within "
+                f"{match_distance_m:g} m (mean joint distance)"
+            ),
             "reference_frames_nobody_tracked": "reference samples at a video frame where the assessment tracked nobody",
         },
-        "tracked_ids_used": sorted({identity_name(int(w)) for w in rows_worker}, key=lambda s: int(s.rpartition('_')[2])),
+        "tracked_ids_used": sorted(
+            {identity_name(int(w)) for w in rows_worker}, key=lambda s: int(s.rpartition("_")[2])
+        ),
     }
     unmapped = [m for m in trc.markers if m not in mapping]
     ref_info = {
-        "path": str(trc.path), "rate_hz": trc.rate_hz, "units": trc.units, "samples": int(len(trc.times_s)),
-        "markers": list(trc.markers), "mapped": mapping, "unmapped": unmapped,
+        "path": str(trc.path),
+        "rate_hz": trc.rate_hz,
+        "units": trc.units,
+        "samples": int(len(trc.times_s)),
+        "markers": list(trc.markers),
+        "mapped": mapping,
+        "unmapped": unmapped,
         "axes": canonical or "fitted",
     }
     if any(is_surface_marker(m) for m in mapping):
-        notes.append("Surface markers of motion capture sit a few centimetres from the joint centres our keypoints "
-                     "aim at; part of the residual is that offset.")
+        notes.append(
+            "Surface markers of motion capture sit a few centimetres from the joint centres our keypoints "
+            "aim at; part of the residual is that offset."
+        )
     for c in ("rula_grand", "reba_score"):
         if c in scores and scores[c]["pairs"] == 0:
             miss = [a for a, r in by_angle.items() if r.get("why_missing")]
-            notes.append(f"{c}: the reference cannot be scored (it lacks markers for {', '.join(miss)}); "
-                         "the per-part agreement covers what it defines.")
+            notes.append(
+                f"{c}: the reference cannot be scored (it lacks markers for {', '.join(miss)}); "
+                "the per-part agreement covers what it defines."
+            )
     report(progress, "evaluation", steps, steps, unit="step")
     out = {
-        "format": "ergopose.evaluation", "version": 1, "source": source or "reference marker recording (TRC)",
-        "results": str(layout.root), "reference": ref_info, "fps": fps, "frames": frames["compared"],
+        "format": "ergopose.evaluation",
+        "version": 1,
+        "source": source or "reference marker recording (TRC)",
+        "results": str(layout.root),
+        "reference": ref_info,
+        "fps": fps,
+        "frames": frames["compared"],
         "frame_selection": frames,
-        "alignment": alignment, "definitions": definitions, "angles": angles, "scores": scores,
+        "alignment": alignment,
+        "definitions": definitions,
+        "angles": angles,
+        "scores": scores,
         "notes": notes,
     }
     return json_ready(out)
@@ -570,15 +660,17 @@ def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
 def format_reference(ev: Mapping[str, Any]) -> str:
     """A short text summary for the terminal."""
     fr, al, an, sc = ev["frame_selection"], ev["alignment"], ev["angles"], ev["scores"]
-    lines = [f"Reference: {ev['reference']['path']} ({ev['reference']['samples']} samples at "
-             f"{ev['reference']['rate_hz']:g} Hz; {len(ev['reference']['mapped'])} of "
-             f"{len(ev['reference']['markers'])} markers mapped)",
-             f"Frames compared: {fr['compared']}; left out: "
-             + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in fr["left_out"].items()),
-             f"Alignment: {al['method']}; residual RMS {al['residual_rms_mm']} mm, median {al['residual_median_mm']} mm, "
-             f"{al['residual_within_50mm_pct']} % within 50 mm, over {al['pairs']} joint pairs"
-             + (f" ({al['fit_pairs_used']} used in the fit)" if al.get("fit_pairs_used") else ""),
-             "Joint offsets after alignment (assessment - reference; mean x, y, z and RMS, mm):"]
+    lines = [
+        f"Reference: {ev['reference']['path']} ({ev['reference']['samples']} samples at "
+        f"{ev['reference']['rate_hz']:g} Hz; {len(ev['reference']['mapped'])} of "
+        f"{len(ev['reference']['markers'])} markers mapped)",
+        f"Frames compared: {fr['compared']}; left out: "
+        + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in fr["left_out"].items()),
+        f"Alignment: {al['method']}; residual RMS {al['residual_rms_mm']} mm, median {al['residual_median_mm']} mm, "
+        f"{al['residual_within_50mm_pct']} % within 50 mm, over {al['pairs']} joint pairs"
+        + (f" ({al['fit_pairs_used']} used in the fit)" if al.get("fit_pairs_used") else ""),
+        "Joint offsets after alignment (assessment - reference; mean x, y, z and RMS, mm):",
+    ]
     for j, r in al["by_joint"].items():
         x, y, z = (v + 0.0 if v is not None else float("nan") for v in r["mean_offset_world_mm"])
         label = f"{j} ({r['reference_marker']})"
@@ -595,11 +687,15 @@ def format_reference(ev: Mapping[str, Any]) -> str:
         if c in sc and isinstance(sc[c], dict):
             r = sc[c]
             if r["pairs"]:
-                lines.append(f"  {c:<22} {r['exact_agreement_pct']:6.1f} {r['within_one_pct']:6.1f} "
-                             f"{(r['kappa_linear'] if r['kappa_linear'] is not None else float('nan')):7.3f}  {r['pairs']}")
+                lines.append(
+                    f"  {c:<22} {r['exact_agreement_pct']:6.1f} {r['within_one_pct']:6.1f} "
+                    f"{(r['kappa_linear'] if r['kappa_linear'] is not None else float('nan')):7.3f}  {r['pairs']}"
+                )
             else:
-                lines.append(f"  {c:<22} not compared (missing: assessment {r['missing_assessment']}, "
-                             f"reference {r['missing_reference']}, both {r['missing_both']})")
+                lines.append(
+                    f"  {c:<22} not compared (missing: assessment {r['missing_assessment']}, "
+                    f"reference {r['missing_reference']}, both {r['missing_both']})"
+                )
     for n in ev.get("notes", []):
         lines.append(f"Note: {n}")
     return "\n".join(lines)

@@ -128,8 +128,9 @@ def _world_up_roll(camera: Camera, pixel: np.ndarray) -> float:
     return float(np.arctan2(v[0], -v[1]))
 
 
-def reference_pose(frame: np.ndarray, detector, landmarker, upright_camera: Camera | None = None
-                   ) -> tuple[np.ndarray, np.ndarray] | None:
+def reference_pose(
+    frame: np.ndarray, detector, landmarker, upright_camera: Camera | None = None
+) -> tuple[np.ndarray, np.ndarray] | None:
     """BlazePose on a whole pinhole frame, MediaPipe's way: (33, 2) pixels and (33,) confidence,
     or None when the detector finds nobody. upright_camera: the crops are turned to the image of
     the world's vertical at the hips instead of the body axis (an upright reference)."""
@@ -138,7 +139,7 @@ def reference_pose(frame: np.ndarray, detector, landmarker, upright_camera: Came
     side = max(h, w)
     pad = np.zeros((side, side, 3), np.uint8)
     y0, x0 = (side - h) // 2, (side - w) // 2
-    pad[y0:y0 + h, x0:x0 + w] = frame
+    pad[y0 : y0 + h, x0 : x0 + w] = frame
     size = detector.input_size[0]
     people = detector(cv2.resize(pad, (size, size), interpolation=cv2.INTER_AREA))
     if not people:
@@ -147,6 +148,7 @@ def reference_pose(frame: np.ndarray, detector, landmarker, upright_camera: Came
     scale = side / size
     kps = (det.keypoints + 0.5) * scale - 0.5 - np.array([x0, y0])
     v = kps[1] - kps[0]
+
     def turn(centre, v):
         return float(np.arctan2(v[0], -v[1])) if upright_camera is None else _world_up_roll(upright_camera, centre)
 
@@ -176,8 +178,9 @@ class VirtualFisheye:
     px_per_rad: float
 
 
-def virtual_fisheye(real: Camera, hip_ray_real: np.ndarray, off_axis: float, roll: float,
-                    px_per_rad: float) -> VirtualFisheye:
+def virtual_fisheye(
+    real: Camera, hip_ray_real: np.ndarray, off_axis: float, roll: float, px_per_rad: float
+) -> VirtualFisheye:
     d = _unit(np.asarray(hip_ray_real, dtype=np.float64))
     up = np.array([0.0, -1.0, 0.0])  # the real camera's image up
     perp = _unit(up - d * (up @ d))
@@ -278,9 +281,20 @@ def _settings(mode: str):
 
 #: OpenPose BODY_25B's first 17 keypoints are in COCO order (nose, eyes, ears, shoulders, elbows,
 #: wrists, hips, knees, ankles); these are the ones scored.
-_OPENPOSE_TO_BLAZEPOSE = {5: "left_shoulder", 6: "right_shoulder", 7: "left_elbow", 8: "right_elbow",
-                          9: "left_wrist", 10: "right_wrist", 11: "left_hip", 12: "right_hip",
-                          13: "left_knee", 14: "right_knee", 15: "left_ankle", 16: "right_ankle"}
+_OPENPOSE_TO_BLAZEPOSE = {
+    5: "left_shoulder",
+    6: "right_shoulder",
+    7: "left_elbow",
+    8: "right_elbow",
+    9: "left_wrist",
+    10: "right_wrist",
+    11: "left_hip",
+    12: "right_hip",
+    13: "left_knee",
+    14: "right_knee",
+    15: "left_ankle",
+    16: "right_ankle",
+}
 
 #: The references: BlazePose on the pinhole frames with crops turned to the body axis
 #: (MediaPipe's way; also decides who is counted and found), the same with upright crops, and
@@ -354,8 +368,9 @@ def run_config(args) -> list[dict]:
             found = stages[m].process(fisheye, f)
             seconds[m] += time.perf_counter() - t0
             if ok[f]:
-                scores[m].append(score_frame(rays_ref_v[f], ref["conf"][f], found,
-                                             {k: (r[f], c[f]) for k, (r, c) in others.items()}))
+                scores[m].append(
+                    score_frame(rays_ref_v[f], ref["conf"][f], found, {k: (r[f], c[f]) for k, (r, c) in others.items()})
+                )
     rows = []
     for m in modes:
         s = scores[m]
@@ -365,17 +380,32 @@ def run_config(args) -> list[dict]:
         for k in REFERENCES:
             e = np.concatenate([x["by"][k]["errors"] for x in s]) if s else np.zeros(0)
             j = [x["by"][k]["swapped"] for x in s if x["found"] and x["by"][k]["swapped"] is not None]
-            by[k] = {"median": float(np.median(e)) if e.size else float("nan"),
-                     "p90": float(np.percentile(e, 90)) if e.size else float("nan"),
-                     "swapped": int(sum(j)), "judged": len(j)}
-        rows.append({"by": by, **{
-            "camera": real.name, "off_axis_deg": off_axis_deg, "roll_deg": roll_deg, "px_per_rad": px_per_rad,
-            "mode": m, "counted": len(s), "found": int(sum(x["found"] for x in s)),
-            "median": float(np.median(errors)) if errors.size else float("nan"),
-            "p90": float(np.percentile(errors, 90)) if errors.size else float("nan"),
-            "keypoints": int(errors.size), "swapped": int(sum(judged)), "judged": len(judged),
-            "seconds": seconds[m],
-        }})
+            by[k] = {
+                "median": float(np.median(e)) if e.size else float("nan"),
+                "p90": float(np.percentile(e, 90)) if e.size else float("nan"),
+                "swapped": int(sum(j)),
+                "judged": len(j),
+            }
+        rows.append(
+            {
+                "by": by,
+                **{
+                    "camera": real.name,
+                    "off_axis_deg": off_axis_deg,
+                    "roll_deg": roll_deg,
+                    "px_per_rad": px_per_rad,
+                    "mode": m,
+                    "counted": len(s),
+                    "found": int(sum(x["found"] for x in s)),
+                    "median": float(np.median(errors)) if errors.size else float("nan"),
+                    "p90": float(np.percentile(errors, 90)) if errors.size else float("nan"),
+                    "keypoints": int(errors.size),
+                    "swapped": int(sum(judged)),
+                    "judged": len(judged),
+                    "seconds": seconds[m],
+                },
+            }
+        )
     return rows
 
 
@@ -410,10 +440,18 @@ def simulated_camera(args) -> list[dict]:
         sc = scores[m]
         errors = np.concatenate([x["errors"] for x in sc]) if sc else np.zeros(0)
         judged = [x["swapped"] for x in sc if x["found"] and x["swapped"] is not None]
-        rows.append({"camera": cam.camera.name, "mode": m, "counted": len(sc), "found": int(sum(x["found"] for x in sc)),
-                     "median": float(np.median(errors)) if errors.size else float("nan"),
-                     "p90": float(np.percentile(errors, 90)) if errors.size else float("nan"),
-                     "swapped": int(sum(judged)), "judged": len(judged)})
+        rows.append(
+            {
+                "camera": cam.camera.name,
+                "mode": m,
+                "counted": len(sc),
+                "found": int(sum(x["found"] for x in sc)),
+                "median": float(np.median(errors)) if errors.size else float("nan"),
+                "p90": float(np.percentile(errors, 90)) if errors.size else float("nan"),
+                "swapped": int(sum(judged)),
+                "judged": len(judged),
+            }
+        )
     return rows
 
 
@@ -422,8 +460,20 @@ def summarise(rows: list[dict], group: Sequence[str]) -> list[dict]:
     out: dict[tuple, dict] = {}
     for r in rows:
         key = tuple(r[g] for g in group)
-        o = out.setdefault(key, {**{g: r[g] for g in group}, "counted": 0, "found": 0, "swapped": 0,
-                                 "judged": 0, "medians": [], "p90s": [], "runs": 0, "worst_found": 1.0})
+        o = out.setdefault(
+            key,
+            {
+                **{g: r[g] for g in group},
+                "counted": 0,
+                "found": 0,
+                "swapped": 0,
+                "judged": 0,
+                "medians": [],
+                "p90s": [],
+                "runs": 0,
+                "worst_found": 1.0,
+            },
+        )
         o["counted"] += r["counted"]
         o["found"] += r["found"]
         o["swapped"] += r["swapped"]
@@ -436,19 +486,27 @@ def summarise(rows: list[dict], group: Sequence[str]) -> list[dict]:
 
 
 def render(rows: list[dict], modes: Sequence[str]) -> str:
-    lines = ["| mode | found | worst run found | median of run medians (torso) | median p90 | worst p90 | "
-             "L/R swapped (confident frames) |", "|---|---|---|---|---|---|---|"]
+    lines = [
+        "| mode | found | worst run found | median of run medians (torso) | median p90 | worst p90 | "
+        "L/R swapped (confident frames) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for o in summarise(rows, ["mode"]):
         p90 = np.array(o["p90s"], dtype=float)
         lines.append(
             f"| {o['mode']} | {100 * o['found'] / max(o['counted'], 1):.1f} % ({o['found']}/{o['counted']}) | "
             f"{100 * o['worst_found']:.0f} % | {np.nanmedian(o['medians']):.3f} | {np.nanmedian(p90):.3f} | "
             f"{np.nanmax(p90) if np.isfinite(p90).any() else float('nan'):.2f} | "
-            f"{100 * o['swapped'] / max(o['judged'], 1):.1f} % ({o['swapped']}/{o['judged']}) |")
-    lines += ["", "Keypoint error and left/right swaps against each reference (median of the runs' medians, "
-              "median and worst of their p90, in torso lengths; swapped frames of the confident ones):", "",
-              "| mode | " + " | ".join(f"{k}: median / p90 / worst p90 / swapped" for k in REFERENCES) + " |",
-              "|---|" + "---|" * len(REFERENCES)]
+            f"{100 * o['swapped'] / max(o['judged'], 1):.1f} % ({o['swapped']}/{o['judged']}) |"
+        )
+    lines += [
+        "",
+        "Keypoint error and left/right swaps against each reference (median of the runs' medians, "
+        "median and worst of their p90, in torso lengths; swapped frames of the confident ones):",
+        "",
+        "| mode | " + " | ".join(f"{k}: median / p90 / worst p90 / swapped" for k in REFERENCES) + " |",
+        "|---|" + "---|" * len(REFERENCES),
+    ]
     for m in modes:
         cells = []
         for k in REFERENCES:
@@ -456,11 +514,17 @@ def render(rows: list[dict], modes: Sequence[str]) -> str:
             med = np.array([r["median"] for r in rs], dtype=float)
             p90 = np.array([r["p90"] for r in rs], dtype=float)
             sw, jd = sum(r["swapped"] for r in rs), sum(r["judged"] for r in rs)
-            cells.append(f"{np.nanmedian(med):.3f} / {np.nanmedian(p90):.3f} / {np.nanmax(p90):.2f} / "
-                         f"{100 * sw / max(jd, 1):.1f} % ({sw}/{jd})")
+            cells.append(
+                f"{np.nanmedian(med):.3f} / {np.nanmedian(p90):.3f} / {np.nanmax(p90):.2f} / "
+                f"{100 * sw / max(jd, 1):.1f} % ({sw}/{jd})"
+            )
         lines.append(f"| {m} | " + " | ".join(cells) + " |")
-    lines += ["", "Per camera, angle off the lens axis and density (found / worst p90 torso / swapped, "
-              "against the aligned reference):", ""]
+    lines += [
+        "",
+        "Per camera, angle off the lens axis and density (found / worst p90 torso / swapped, "
+        "against the aligned reference):",
+        "",
+    ]
     keys = ["camera", "off_axis_deg", "px_per_rad"]
     head = "| camera | off axis | px/rad | " + " | ".join(modes) + " |"
     lines += [head, "|" + "---|" * (3 + len(modes))]
@@ -469,8 +533,10 @@ def render(rows: list[dict], modes: Sequence[str]) -> str:
         cells = []
         for m in modes:
             g = next(x for x in groups if tuple(x[k] for k in keys) == key and x["mode"] == m)
-            cells.append(f"{100 * g['found'] / max(g['counted'], 1):.0f} % / {np.nanmax(g['p90s']):.2f} / "
-                         f"{100 * g['swapped'] / max(g['judged'], 1):.0f} %")
+            cells.append(
+                f"{100 * g['found'] / max(g['counted'], 1):.0f} % / {np.nanmax(g['p90s']):.2f} / "
+                f"{100 * g['swapped'] / max(g['judged'], 1):.0f} %"
+            )
         lines.append(f"| {key[0]} | {key[1]:g} deg | {key[2]:g} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -486,8 +552,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--modes", default="before,upright,bounded30,aligned+checks")
     p.add_argument("--processes", type=int, default=2)
     p.add_argument("--out", type=Path, required=True, help="markdown table; the rows go to OUT.json")
-    p.add_argument("--sim", type=Path, default=None,
-                   help="instead: a simulated session (ergopose simulate), every camera, scored against its truth")
+    p.add_argument(
+        "--sim",
+        type=Path,
+        default=None,
+        help="instead: a simulated session (ergopose simulate), every camera, scored against its truth",
+    )
     p.add_argument("--sim-stop", type=int, default=None, help="with --sim: frames from 0 to this")
     a = p.parse_args(argv)
     cams = [int(x) for x in a.cameras.split(",")]
@@ -499,18 +569,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     ctx = multiprocessing.get_context("spawn")
     t0 = time.time()
     if a.sim is not None:
-
         n = len(load_session(a.sim).cameras)
         with ProcessPoolExecutor(a.processes, mp_context=ctx) as pool:
-            rows = [r for part in pool.map(simulated_camera, [(a.sim, c, a.sim_stop, modes) for c in range(n)])
-                    for r in part]
-        lines = [f"Simulated session {a.sim.name}, frames 0..{a.sim_stop}, {n} cameras, {time.time() - t0:.0f} s.", "",
-                 "| mode | camera | found | median torso | p90 torso | L/R swapped (confident frames) |",
-                 "|---|---|---|---|---|---|"]
+            rows = [
+                r
+                for part in pool.map(simulated_camera, [(a.sim, c, a.sim_stop, modes) for c in range(n)])
+                for r in part
+            ]
+        lines = [
+            f"Simulated session {a.sim.name}, frames 0..{a.sim_stop}, {n} cameras, {time.time() - t0:.0f} s.",
+            "",
+            "| mode | camera | found | median torso | p90 torso | L/R swapped (confident frames) |",
+            "|---|---|---|---|---|---|",
+        ]
         for r in rows:
-            lines.append(f"| {r['mode']} | {r['camera']} | {100 * r['found'] / max(r['counted'], 1):.1f} % "
-                         f"({r['found']}/{r['counted']}) | {r['median']:.3f} | {r['p90']:.3f} | "
-                         f"{100 * r['swapped'] / max(r['judged'], 1):.1f} % ({r['swapped']}/{r['judged']}) |")
+            lines.append(
+                f"| {r['mode']} | {r['camera']} | {100 * r['found'] / max(r['counted'], 1):.1f} % "
+                f"({r['found']}/{r['counted']}) | {r['median']:.3f} | {r['p90']:.3f} | "
+                f"{100 * r['swapped'] / max(r['judged'], 1):.1f} % ({r['swapped']}/{r['judged']}) |"
+            )
         text = "\n".join(lines) + "\n"
         tmp = a.out.with_name(a.out.name + ".tmp")
         tmp.write_text(text)
@@ -519,19 +596,33 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     with ProcessPoolExecutor(a.processes, mp_context=ctx) as pool:
         refs = dict(zip(cams, pool.map(reference_for_camera, [a.root] * len(cams), cams, [a.frames] * len(cams))))
-        jobs = [(a.root, c, a.frames, float(ang), float(roll), float(d), modes, refs[c], None)
-                for c in cams for ang in a.angles.split(",") for d in a.densities.split(",")
-                for roll in a.rolls.split(",")]
+        jobs = [
+            (a.root, c, a.frames, float(ang), float(roll), float(d), modes, refs[c], None)
+            for c in cams
+            for ang in a.angles.split(",")
+            for d in a.densities.split(",")
+            for roll in a.rolls.split(",")
+        ]
         rows = []
         for i, batch in enumerate(pool.map(run_config, jobs)):
             rows += batch
-            print(f"[{time.time() - t0:.0f} s] {i + 1}/{len(jobs)} {batch[0]['camera']} "
-                  f"{batch[0]['off_axis_deg']:g} deg roll {batch[0]['roll_deg']:g} {batch[0]['px_per_rad']:g} px/rad: "
-                  + ", ".join(f"{x['mode']} {x['found']}/{x['counted']} p90 {x['p90']:.2f} "
-                              f"swap {x['swapped']}/{x['judged']}" for x in batch), file=sys.stderr, flush=True)
+            print(
+                f"[{time.time() - t0:.0f} s] {i + 1}/{len(jobs)} {batch[0]['camera']} "
+                f"{batch[0]['off_axis_deg']:g} deg roll {batch[0]['roll_deg']:g} {batch[0]['px_per_rad']:g} px/rad: "
+                + ", ".join(
+                    f"{x['mode']} {x['found']}/{x['counted']} p90 {x['p90']:.2f} swap {x['swapped']}/{x['judged']}"
+                    for x in batch
+                ),
+                file=sys.stderr,
+                flush=True,
+            )
     refs_found = {c: int(np.isfinite(refs[c]["aligned"]["rays"][:, HIPS]).all(axis=(1, 2)).sum()) for c in cams}
-    base = ["", "The references against each other on the pinhole frames (torso lengths of the aligned "
-            "reference; median / p90 over the limb keypoints both give; frames with left and right crossed):", ""]
+    base = [
+        "",
+        "The references against each other on the pinhole frames (torso lengths of the aligned "
+        "reference; median / p90 over the limb keypoints both give; frames with left and right crossed):",
+        "",
+    ]
     for c in cams:
         for a_name, b_name in (("aligned", "upright"), ("aligned", "openpose"), ("upright", "openpose")):
             a_ref, b_ref = refs[c][a_name], refs[c][b_name]
@@ -543,8 +634,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                 both = LIMBS[(a_ref["conf"][f][LIMBS] >= 0.5) & (b_ref["conf"][f][LIMBS] >= 0.5)]
                 errs.append(_angle(a_ref["rays"][f][both], b_ref["rays"][f][both]) / torso)
                 lj, rj = PAIRS[:, 0], PAIRS[:, 1]
-                okp = (a_ref["conf"][f][lj] >= 0.5) & (a_ref["conf"][f][rj] >= 0.5) & \
-                      (b_ref["conf"][f][lj] >= 0.5) & (b_ref["conf"][f][rj] >= 0.5)
+                okp = (
+                    (a_ref["conf"][f][lj] >= 0.5)
+                    & (a_ref["conf"][f][rj] >= 0.5)
+                    & (b_ref["conf"][f][lj] >= 0.5)
+                    & (b_ref["conf"][f][rj] >= 0.5)
+                )
                 if okp.sum() >= 2:
                     ra, rb = a_ref["rays"][f], b_ref["rays"][f]
                     st = _angle(ra[lj[okp]], rb[lj[okp]]) + _angle(ra[rj[okp]], rb[rj[okp]])
@@ -552,13 +647,19 @@ def main(argv: Sequence[str] | None = None) -> int:
                     judged += 1
                     swaps += int((cr < st - 0.1 * torso).sum() * 2 > okp.sum())
             e = np.concatenate(errs) if errs else np.zeros(0)
-            base.append(f"- cam_{c:02d}, {a_name} vs {b_name}: {np.median(e):.3f} / {np.percentile(e, 90):.3f}; "
-                        f"crossed {swaps}/{judged}")
-    text = (f"Pose2Sim recording re-rendered: cameras {a.cameras}, {a.frames} frames, angles {a.angles} deg, "
-            f"rolls {a.rolls} deg, {a.densities} px/rad; reference found in "
-            + ", ".join(f"cam_{c:02d} {n}/{a.frames}" for c, n in refs_found.items())
-            + f" frames; {time.time() - t0:.0f} s, {a.processes} processes.\n\n" + render(rows, modes)
-            + "\n".join(base) + "\n")
+            base.append(
+                f"- cam_{c:02d}, {a_name} vs {b_name}: {np.median(e):.3f} / {np.percentile(e, 90):.3f}; "
+                f"crossed {swaps}/{judged}"
+            )
+    text = (
+        f"Pose2Sim recording re-rendered: cameras {a.cameras}, {a.frames} frames, angles {a.angles} deg, "
+        f"rolls {a.rolls} deg, {a.densities} px/rad; reference found in "
+        + ", ".join(f"cam_{c:02d} {n}/{a.frames}" for c, n in refs_found.items())
+        + f" frames; {time.time() - t0:.0f} s, {a.processes} processes.\n\n"
+        + render(rows, modes)
+        + "\n".join(base)
+        + "\n"
+    )
     atomic.write_text(a.out, text)
     atomic.write_text(a.out.with_suffix(".json"), json.dumps(rows, indent=1))
     print(text)

@@ -16,10 +16,7 @@ from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
 from ergopose.evaluation.loading import EvaluationInputs, ResultsLayout, round_or_nan
-from ergopose.recon.diagnostics import (
-    REGIONS,
-    lens_region,
-)
+from ergopose.recon.diagnostics import REGIONS, lens_region
 from ergopose.recon.records import TORSO_JOINTS
 from ergopose.recon.tracking import identity_name
 
@@ -57,8 +54,9 @@ def read_frames_csv(layout: ResultsLayout, worker: str) -> pd.DataFrame:
     return frame
 
 
-def worker_frames(inp: EvaluationInputs, layout: ResultsLayout,
-                  person: np.ndarray) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
+def worker_frames(
+    inp: EvaluationInputs, layout: ResultsLayout, person: np.ndarray
+) -> dict[int, tuple[pd.DataFrame, np.ndarray]]:
     """{worker: (steps CSV, (rows,) simulated worker each CSV row is matched to, -1 for none)} for
     every tracked worker matched to a simulated worker in at least one frame."""
     tf = inp.tracks
@@ -87,8 +85,9 @@ def _region_of_rows(inp: EvaluationInputs, w: int, frames: np.ndarray) -> np.nda
     if ok.any():
         a = r.lens_angle_deg[k[ok]][:, TORSO_JOINTS]
         with np.errstate(all="ignore"):
-            ang[ok] = np.where(np.isfinite(a).any(axis=1), np.nanmax(np.where(np.isfinite(a), a, -np.inf), axis=1),
-                               np.nan)
+            ang[ok] = np.where(
+                np.isfinite(a).any(axis=1), np.nanmax(np.where(np.isfinite(a), a, -np.inf), axis=1), np.nan
+            )
     return lens_region(ang, inp.recon.lens_region_limits_deg)
 
 
@@ -143,17 +142,21 @@ def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
         pooled.append(d[np.isfinite(d)])
     allv = np.concatenate(pooled) if pooled else np.zeros(0)
     return {
-        "definition": ("steps CSV angle (degrees, 2 decimals) minus the angle the simulated motion was built from "
-                       "(ground_truth/postures.parquet) of the simulated worker the row is matched to in that "
-                       "frame; differences wrapped to [-180, 180); angles NaN in the CSV (not measured) are counted "
-                       "as missing; rows matched to nobody are left out (rows_unmatched)"),
+        "definition": (
+            "steps CSV angle (degrees, 2 decimals) minus the angle the simulated motion was built from "
+            "(ground_truth/postures.parquet) of the simulated worker the row is matched to in that "
+            "frame; differences wrapped to [-180, 180); angles NaN in the CSV (not measured) are counted "
+            "as missing; rows matched to nobody are left out (rows_unmatched)"
+        ),
         "rows_compared": int(rows),
         "rows_unmatched": int(unmatched),
         "rmse_all_deg": round_or_nan(np.sqrt(np.mean(allv * allv)), 3) if len(allv) else float("nan"),
         "by_angle": per_angle,
-        "caveat": ("shoulder_elevation is measured against the worker's median shoulder height over the tracked "
-                   "frames (ergopose.ergonomics.angles), the simulator's is absolute: a constant offset between "
-                   "them is a definition difference, not a reconstruction error"),
+        "caveat": (
+            "shoulder_elevation is measured against the worker's median shoulder height over the tracked "
+            "frames (ergopose.ergonomics.angles), the simulator's is absolute: a constant offset between "
+            "them is a definition difference, not a reconstruction error"
+        ),
     }
 
 
@@ -165,9 +168,14 @@ def angle_stats(d: np.ndarray) -> dict:
     if not len(v):
         nan = float("nan")
         return {"n": 0, "missing": int(n_all), "rmse_deg": nan, "mae_deg": nan, "bias_deg": nan, "p95_abs_deg": nan}
-    return {"n": int(len(v)), "missing": int(n_all - len(v)), "rmse_deg": round_or_nan(np.sqrt(np.mean(v * v)), 3),
-            "mae_deg": round_or_nan(np.abs(v).mean(), 3), "bias_deg": round_or_nan(v.mean(), 3),
-            "p95_abs_deg": round_or_nan(np.percentile(np.abs(v), 95), 3)}
+    return {
+        "n": int(len(v)),
+        "missing": int(n_all - len(v)),
+        "rmse_deg": round_or_nan(np.sqrt(np.mean(v * v)), 3),
+        "mae_deg": round_or_nan(np.abs(v).mean(), 3),
+        "bias_deg": round_or_nan(v.mean(), 3),
+        "p95_abs_deg": round_or_nan(np.percentile(np.abs(v), 95), 3),
+    }
 
 
 # ------------------------------------------------------------------------------------------ scores
@@ -185,16 +193,16 @@ def ground_truth_posture(gt, worker_index: int) -> pd.DataFrame:
     gid = gt.worker_ids[worker_index]
     built = gt.postures[gt.postures["worker"] == gid].sort_values("frame").reset_index(drop=True)
     if len(built) != len(base) or not np.array_equal(built["frame"].to_numpy(), np.arange(len(base))):
-        raise InputError(f"postures.parquet does not have one row per frame for worker {gid}",
-                         path=gt.path)
+        raise InputError(f"postures.parquet does not have one row per frame for worker {gid}", path=gt.path)
     for c in base.columns:
         if c in built.columns and c != "time_s":
             base[c] = built[c].to_numpy(np.float64)
     return base
 
 
-def ground_truth_scores(session, gt, worker_index: int, factor_worker: str, scoring,
-                        posture: pd.DataFrame | None = None) -> pd.DataFrame:
+def ground_truth_scores(
+    session, gt, worker_index: int, factor_worker: str, scoring, posture: pd.DataFrame | None = None
+) -> pd.DataFrame:
     """RULA and REBA of a simulated worker's true posture, one row per frame (all frames), with the
     task factors ``session.factor_table(factor_worker, times)`` and the session's scoring settings."""
     posture = ground_truth_posture(gt, worker_index) if posture is None else posture
@@ -247,15 +255,17 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
                 pairs[c][2].append(edge[frames])
     reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
     out: dict[str, Any] = {
-        "definition": ("scores of the steps CSV (the pipeline's) against the scores of the ground-truth posture of "
-                       "the matched worker (built angles; stance flags and the other unrecorded inputs from the true "
-                       "joints) of the simulated worker the row is matched to in that frame, scored by "
-                       "ergopose.ergonomics.scoring.score_posture (over that worker's whole simulated shift) with the "
-                       "session's scoring settings and the task factors the pipeline applied (session.factor_table "
-                       "of the id the results use for the tracked "
-                       "worker id); frames where either score is missing are left out and counted; off_edge "
-                       f"repeats the agreement without the frames whose true score changes when every true angle "
-                       f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge)"),
+        "definition": (
+            "scores of the steps CSV (the pipeline's) against the scores of the ground-truth posture of "
+            "the matched worker (built angles; stance flags and the other unrecorded inputs from the true "
+            "joints) of the simulated worker the row is matched to in that frame, scored by "
+            "ergopose.ergonomics.scoring.score_posture (over that worker's whole simulated shift) with the "
+            "session's scoring settings and the task factors the pipeline applied (session.factor_table "
+            "of the id the results use for the tracked "
+            "worker id); frames where either score is missing are left out and counted; off_edge "
+            f"repeats the agreement without the frames whose true score changes when every true angle "
+            f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge)"
+        )
     }
     for c, scale in SCORE_SCALES.items():
         a = np.concatenate(pairs[c][0]) if pairs[c][0] else np.zeros(0)
@@ -277,12 +287,16 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
             "mean_difference": round_or_nan(float(np.mean(a[both] - b[both])), 3) if both.any() else float("nan"),
             "confusion_matrix": {"rows": "tracked", "columns": "ground truth", "counts": cm.tolist()},
             "truth_on_band_edge": int((edge & both).sum()),
-            "off_edge": {"pairs": int(cm_off.sum()), "exact_agreement_pct": round_or_nan(100.0 * exact_agreement(cm_off), 2),
-                         "kappa": round_or_nan(kappa_from_matrix(cm_off, "none"), 4),
-                         "kappa_linear": round_or_nan(kappa_from_matrix(cm_off, "linear"), 4)},
+            "off_edge": {
+                "pairs": int(cm_off.sum()),
+                "exact_agreement_pct": round_or_nan(100.0 * exact_agreement(cm_off), 2),
+                "kappa": round_or_nan(kappa_from_matrix(cm_off, "none"), 4),
+                "kappa_linear": round_or_nan(kappa_from_matrix(cm_off, "linear"), 4),
+            },
             "exact_agreement_by_region_pct": {
                 rg: round_or_nan(100.0 * exact_agreement(confusion_matrix(a[reg == k], b[reg == k], scale)), 2)
-                for k, rg in enumerate(REGIONS)},
+                for k, rg in enumerate(REGIONS)
+            },
         }
         out[c] = entry
     named = {w.worker_id for w in session.workers if w.periods or w.factors.given()}
@@ -291,5 +305,7 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
     out["task_factor_note"] = (
         f"settings.toml gives task factors for worker ids {', '.join(foreign)} that no tracked person was named "
         "after; the pipeline did not apply them to anyone, and neither do these ground-truth scores"
-        if foreign else "")
+        if foreign
+        else ""
+    )
     return out

@@ -25,23 +25,30 @@ def format_evaluation(ev: dict) -> str:
     lines.append(f"  2D source: {ev['source']}")
     lr = ev["lens_regions"]
     lo, hi = lr["used_limits_deg"]
-    lines.append(f"  lens regions: central < {lo:g} deg, outer {lo:g}-{hi:g} deg, edge > {hi:g} deg "
-                 f"(reconstruction settings)")
+    lines.append(
+        f"  lens regions: central < {lo:g} deg, outer {lo:g}-{hi:g} deg, edge > {hi:g} deg (reconstruction settings)"
+    )
     if not lr["agree"]:
         s, c = lr["simulator_limits_deg"], lr["calibration_check_default_limits_deg"]
-        lines.append(f"  NOTE: other definitions in the project: simulator {s[0]:g}/{s[1]:g} deg, calibration check "
-                     f"default {c[0]:g}/{c[1]:g} deg; this evaluation uses {lo:g}/{hi:g} deg throughout")
+        lines.append(
+            f"  NOTE: other definitions in the project: simulator {s[0]:g}/{s[1]:g} deg, calibration check "
+            f"default {c[0]:g}/{c[1]:g} deg; this evaluation uses {lo:g}/{hi:g} deg throughout"
+        )
     m = ev["matching"]
     lines += ["", "Identities"]
-    lines.append(f"  tracked {len(m['tracked_workers'])} worker id(s) for {len(m['ground_truth_workers'])} simulated "
-                 f"worker(s); identity switches: {m['identity_switches']} ({m['identity_switches_sustained']} "
-                 f"holding at least {m['sustained_min_frames']} frames); rows matched to another worker than "
-                 f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}")
+    lines.append(
+        f"  tracked {len(m['tracked_workers'])} worker id(s) for {len(m['ground_truth_workers'])} simulated "
+        f"worker(s); identity switches: {m['identity_switches']} ({m['identity_switches_sustained']} "
+        f"holding at least {m['sustained_min_frames']} frames); rows matched to another worker than "
+        f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}"
+    )
     nb = m["named_by_stature"]
     if nb["ids"]:
-        lines.append("  named after settings workers by stature: "
-                     + ", ".join(f"{t} -> {w}" for t, w in nb["ids"].items())
-                     + f"; right person in {_f(nb['correct_pct'], '.1f', ' %')} of their rows")
+        lines.append(
+            "  named after settings workers by stature: "
+            + ", ".join(f"{t} -> {w}" for t, w in nb["ids"].items())
+            + f"; right person in {_f(nb['correct_pct'], '.1f', ' %')} of their rows"
+        )
     for note in nb["notes"]:
         lines.append(f"  naming: {note}")
     for gid, ids in m["tracked_ids_per_ground_truth_worker"].items():
@@ -51,57 +58,88 @@ def format_evaluation(ev: dict) -> str:
     d = ev["detection"]
     lines += ["", "Detection"]
     v = d["visible_in_both_cameras"]
-    lines.append(f"  detection rate {_f(d['detection_rate_pct'], '.1f', ' %')} ({v['reconstructed']} of {v['worker_frames']} "
-                 "worker-frames visible in both cameras)")
-    lines.append("  by region: " + ", ".join(f"{r} {_f(d['by_region'][r]['rate_pct'], '.1f', ' %')} "
-                                           f"(n={d['by_region'][r]['worker_frames']})" for r in REGIONS))
-    lines.append(f"  triangulated rows matched to nobody: {d['tracked_rows_triangulated_unmatched']} of "
-                 f"{d['tracked_rows_triangulated']}")
+    lines.append(
+        f"  detection rate {_f(d['detection_rate_pct'], '.1f', ' %')} ({v['reconstructed']} of {v['worker_frames']} "
+        "worker-frames visible in both cameras)"
+    )
+    lines.append(
+        "  by region: "
+        + ", ".join(
+            f"{r} {_f(d['by_region'][r]['rate_pct'], '.1f', ' %')} (n={d['by_region'][r]['worker_frames']})"
+            for r in REGIONS
+        )
+    )
+    lines.append(
+        f"  triangulated rows matched to nobody: {d['tracked_rows_triangulated_unmatched']} of "
+        f"{d['tracked_rows_triangulated']}"
+    )
     e = ev["errors_3d"]
     lines += ["", "3D joint error (MPJPE)"]
     for src, label in (("final", "smoothed"), ("raw", "raw triangulation")):
         br = e[src]["by_region"]
-        lines.append(f"  {label:<18} all {_f(br['all']['mean_mm'], '.1f', ' mm')}"
-                     + "".join(f", {r} {_f(br[r]['mean_mm'], '.1f', ' mm')} (n={br[r]['points']})" for r in REGIONS))
+        lines.append(
+            f"  {label:<18} all {_f(br['all']['mean_mm'], '.1f', ' mm')}"
+            + "".join(f", {r} {_f(br[r]['mean_mm'], '.1f', ' mm')} (n={br[r]['points']})" for r in REGIONS)
+        )
     bi = e["final"]["by_track_identity"]["all"]
-    lines.append(f"  every row against its id's mapped worker (identity mistakes included): "
-                 f"{_f(bi['mean_mm'], '.1f', ' mm')} (smoothed)")
-    worst = sorted(((k, j["mean_mm"]) for k, j in e["final"]["by_joint"].items() if j["mean_mm"] is not None),
-                   key=lambda kv: -kv[1])[:5]
+    lines.append(
+        f"  every row against its id's mapped worker (identity mistakes included): "
+        f"{_f(bi['mean_mm'], '.1f', ' mm')} (smoothed)"
+    )
+    worst = sorted(
+        ((k, j["mean_mm"]) for k, j in e["final"]["by_joint"].items() if j["mean_mm"] is not None),
+        key=lambda kv: -kv[1],
+    )[:5]
     if worst:
         lines.append("  largest per joint: " + ", ".join(f"{k} {v:.1f} mm" for k, v in worst))
     lb = ev["limbs"]
     lines += ["", "Limb lengths"]
-    lines.append(f"  CV mean {_f(lb['cv_mean_pct'], '.2f', ' %')}, max {_f(lb['cv_max_pct'], '.2f', ' %')} "
-                 f"(rigid limbs: mean {_f(lb['cv_mean_rigid_pct'], '.2f', ' %')}, "
-                 f"max {_f(lb['cv_max_rigid_pct'], '.2f', ' %')}; raw triangulation: mean "
-                 f"{_f(lb['cv_mean_raw_pct'], '.2f', ' %')}); "
-                 f"reconstructed {_f(lb['frequency_pct'], '.1f', ' %')} of limb-frames; error "
-                 f"bias {_f(lb['error']['bias_mm'], '.1f', ' mm')}, RMSE {_f(lb['error']['rmse_mm'], '.1f', ' mm')}")
-    lines.append(f"  {'limb':<17} {'true m':>7} {'CV %':>6} {'true CV %':>9} {'RMSE mm':>8} {'freq %':>7}  "
-                 + "  ".join(f"{r[:4]} %" for r in REGIONS))
+    lines.append(
+        f"  CV mean {_f(lb['cv_mean_pct'], '.2f', ' %')}, max {_f(lb['cv_max_pct'], '.2f', ' %')} "
+        f"(rigid limbs: mean {_f(lb['cv_mean_rigid_pct'], '.2f', ' %')}, "
+        f"max {_f(lb['cv_max_rigid_pct'], '.2f', ' %')}; raw triangulation: mean "
+        f"{_f(lb['cv_mean_raw_pct'], '.2f', ' %')}); "
+        f"reconstructed {_f(lb['frequency_pct'], '.1f', ' %')} of limb-frames; error "
+        f"bias {_f(lb['error']['bias_mm'], '.1f', ' mm')}, RMSE {_f(lb['error']['rmse_mm'], '.1f', ' mm')}"
+    )
+    lines.append(
+        f"  {'limb':<17} {'true m':>7} {'CV %':>6} {'true CV %':>9} {'RMSE mm':>8} {'freq %':>7}  "
+        + "  ".join(f"{r[:4]} %" for r in REGIONS)
+    )
     for name, row in lb["by_limb"].items():
-        lines.append(f"  {name:<17} {_f(row['true_mean_m'], '.3f'):>7} {_f(row['cv_pct']['all'], '.2f'):>6} "
-                     f"{_f(row['true_cv_pct'], '.2f'):>9} {_f(row['error']['rmse_mm'], '.1f'):>8} "
-                     f"{_f(row['frequency_pct']['all'], '.1f'):>7}  "
-                     + "  ".join(f"{_f(row['frequency_pct'][r], '.0f'):>6}" for r in REGIONS))
+        lines.append(
+            f"  {name:<17} {_f(row['true_mean_m'], '.3f'):>7} {_f(row['cv_pct']['all'], '.2f'):>6} "
+            f"{_f(row['true_cv_pct'], '.2f'):>9} {_f(row['error']['rmse_mm'], '.1f'):>8} "
+            f"{_f(row['frequency_pct']['all'], '.1f'):>7}  "
+            + "  ".join(f"{_f(row['frequency_pct'][r], '.0f'):>6}" for r in REGIONS)
+        )
     a = ev["angles"]
-    lines += ["", f"Joint angles (RMSE, degrees; {a['rows_compared']} worker-frames; all angles {_f(a['rmse_all_deg'], '.2f')})"]
+    lines += [
+        "",
+        f"Joint angles (RMSE, degrees; {a['rows_compared']} worker-frames; all angles {_f(a['rmse_all_deg'], '.2f')})",
+    ]
     for name, row in a["by_angle"].items():
-        lines.append(f"  {name:<26} RMSE {_f(row['rmse_deg'], '6.2f')}  bias {_f(row['bias_deg'], '+6.2f')}  "
-                     f"n={row['n']}" + (f" missing={row['missing']}" if row["missing"] else ""))
+        lines.append(
+            f"  {name:<26} RMSE {_f(row['rmse_deg'], '6.2f')}  bias {_f(row['bias_deg'], '+6.2f')}  "
+            f"n={row['n']}" + (f" missing={row['missing']}" if row["missing"] else "")
+        )
     s = ev["scores"]
     lines += ["", "RULA / REBA agreement with the scores of the true angles"]
     for c in ("rula_grand", "rula_action_level", "reba_score", "reba_risk_level"):
         r = s[c]
-        lines.append(f"  {c:<18} exact {_f(r['exact_agreement_pct'], '5.1f', ' %')}, within one "
-                     f"{_f(r['within_one_pct'], '5.1f', ' %')}, kappa {_f(r['kappa'], '.3f')}, linear-weighted "
-                     f"{_f(r['kappa_linear'], '.3f')} (n={r['pairs']}"
-                     + (f"; {r['truth_on_band_edge']} with the true score on a band edge" if r["truth_on_band_edge"]
-                        else "") + ")")
+        lines.append(
+            f"  {c:<18} exact {_f(r['exact_agreement_pct'], '5.1f', ' %')}, within one "
+            f"{_f(r['within_one_pct'], '5.1f', ' %')}, kappa {_f(r['kappa'], '.3f')}, linear-weighted "
+            f"{_f(r['kappa_linear'], '.3f')} (n={r['pairs']}"
+            + (f"; {r['truth_on_band_edge']} with the true score on a band edge" if r["truth_on_band_edge"] else "")
+            + ")"
+        )
     b = ev["bar"]
-    lines += ["", "Reference bar (calibration + geometry, not the pose network; "
-              f"{_f(b['noise_px'], 'g')} px noise, {b['draws_per_bar']} draws per bar, seed {b['seed']})"]
+    lines += [
+        "",
+        "Reference bar (calibration + geometry, not the pose network; "
+        f"{_f(b['noise_px'], 'g')} px noise, {b['draws_per_bar']} draws per bar, seed {b['seed']})",
+    ]
     lines += ["  " + t for t in b["table"].splitlines()]
     if ev.get("notes"):
         lines += ["", "Notes"]

@@ -66,12 +66,10 @@ def read_trc(path: str | os.PathLike) -> TrcData:
     except ValueError:
         rate = math.nan
     if not (math.isfinite(rate) and rate > 0):
-        raise InputError(f"DataRate must be a positive number, got {header['DataRate']!r}", path=path,
-                         field="DataRate")
+        raise InputError(f"DataRate must be a positive number, got {header['DataRate']!r}", path=path, field="DataRate")
     units = header["Units"].lower()
     if units not in TRC_UNITS:
-        raise InputError(f"unknown Units {header['Units']!r} (known: {', '.join(TRC_UNITS)})", path=path,
-                         field="Units")
+        raise InputError(f"unknown Units {header['Units']!r} (known: {', '.join(TRC_UNITS)})", path=path, field="Units")
     names_row = lines[3].split("\t")
     if len(names_row) < 3 or names_row[0].strip() != "Frame#":
         raise InputError("line 4 must start with Frame# and Time, then the marker names", path=path)
@@ -81,8 +79,11 @@ def read_trc(path: str | os.PathLike) -> TrcData:
     except ValueError:
         declared = -1
     if declared != len(markers):
-        raise InputError(f"the header declares {header['NumMarkers']} markers but line 4 names {len(markers)}",
-                         path=path, field="NumMarkers")
+        raise InputError(
+            f"the header declares {header['NumMarkers']} markers but line 4 names {len(markers)}",
+            path=path,
+            field="NumMarkers",
+        )
     if not markers:
         raise InputError("no markers", path=path)
     width = 2 + 3 * len(markers)
@@ -103,8 +104,15 @@ def read_trc(path: str | os.PathLike) -> TrcData:
     if not np.isfinite(times).all() or (len(times) > 1 and not np.all(np.diff(times) > 0)):
         raise InputError("the Time column must be finite and strictly increasing", path=path, field="Time")
     points = data[:, 2:].reshape(len(data), len(markers), 3) * TRC_UNITS[units]
-    return TrcData(path=path, markers=markers, points_trc=points, frame_numbers=frame_numbers, times_s=times,
-                   rate_hz=rate, units=units)
+    return TrcData(
+        path=path,
+        markers=markers,
+        points_trc=points,
+        frame_numbers=frame_numbers,
+        times_s=times,
+        rate_hz=rate,
+        units=units,
+    )
 
 
 __all__ = ["TrcData", "read_trc", "TRC_UNITS"]

@@ -99,15 +99,19 @@ def cameras_from_dict(data: dict[str, Any], path: str | os.PathLike | None = Non
     """The checks of :func:`load_calibration` on an already parsed TOML table."""
     _no_unknown_keys(data, _TOP_KEYS, "", path)
     if "format_version" not in data:
-        raise ConfigError(f"missing; this program writes format_version = {FORMAT_VERSION}",
-                          path=path, field="format_version")
+        raise ConfigError(
+            f"missing; this program writes format_version = {FORMAT_VERSION}", path=path, field="format_version"
+        )
     version = data["format_version"]
     if isinstance(version, bool) or not isinstance(version, int):
         raise ConfigError(f"expected a whole number, got {version!r}", path=path, field="format_version")
     if version not in SUPPORTED_VERSIONS:
         raise ConfigError(
             f"version {version} is not supported (this program reads {', '.join(map(str, SUPPORTED_VERSIONS))}); "
-            "a newer ergopose may have written it", path=path, field="format_version")
+            "a newer ergopose may have written it",
+            path=path,
+            field="format_version",
+        )
     if "description" in data and not isinstance(data["description"], str):
         raise ConfigError(f"expected text, got {data['description']!r}", path=path, field="description")
     cameras = data.get("cameras")
@@ -122,8 +126,11 @@ def cameras_from_dict(data: dict[str, Any], path: str | os.PathLike | None = Non
     for index, table in enumerate(cameras):
         camera = _camera_from_table(table, f"cameras[{index}]", path)
         if camera.name in seen:
-            raise ConfigError(f"duplicate camera name {camera.name!r} (also cameras[{seen[camera.name]}])",
-                              path=path, field=f"cameras[{index}].name")
+            raise ConfigError(
+                f"duplicate camera name {camera.name!r} (also cameras[{seen[camera.name]}])",
+                path=path,
+                field=f"cameras[{index}].name",
+            )
         seen[camera.name] = index
         out.append(camera)
     return tuple(out)
@@ -141,8 +148,9 @@ def _camera_from_table(table: dict[str, Any], where: str, path: Any) -> Camera:
     for key in ("width", "height"):
         value = table[key]
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"expected a whole number of pixels, got {value!r}{label}",
-                              path=path, field=f"{where}.{key}")
+            raise ConfigError(
+                f"expected a whole number of pixels, got {value!r}{label}", path=path, field=f"{where}.{key}"
+            )
         if value <= 0:
             raise ConfigError(f"must be positive, got {value}{label}", path=path, field=f"{where}.{key}")
     lens_table = table["lens"]
@@ -158,12 +166,22 @@ def _camera_from_table(table: dict[str, Any], where: str, path: Any) -> Camera:
     if "image_circle" in table:
         circle = _numbers(table["image_circle"], (3,), f"{where}.image_circle", label, path)
         if not circle[2] > 0:
-            raise ConfigError(f"the radius (third number) must be positive, got {circle[2]!r}{label}", path=path,
-                              field=f"{where}.image_circle")
+            raise ConfigError(
+                f"the radius (third number) must be positive, got {circle[2]!r}{label}",
+                path=path,
+                field=f"{where}.image_circle",
+            )
     try:
-        return Camera(name=name, lens=lens, width=table["width"], height=table["height"],
-                      rotation_world_from_cam=rotation, position_world=position, calibration=calibration,
-                      image_circle=None if circle is None else tuple(circle))
+        return Camera(
+            name=name,
+            lens=lens,
+            width=table["width"],
+            height=table["height"],
+            rotation_world_from_cam=rotation,
+            position_world=position,
+            calibration=calibration,
+            image_circle=None if circle is None else tuple(circle),
+        )
     except ErgoposeError as exc:
         raise _relocated(exc, where, label, path) from None
 
@@ -177,7 +195,10 @@ def _pose_from_table(pose: Any, where: str, label: str, path: Any) -> tuple[np.n
     if has_matrix == has_vector:
         raise ConfigError(
             "give exactly one of rotation_world_from_cam (3 rows of 3 numbers) or rodrigues_world_from_cam "
-            f"(3 numbers){label}", path=path, field=f"{where}.rotation_world_from_cam")
+            f"(3 numbers){label}",
+            path=path,
+            field=f"{where}.rotation_world_from_cam",
+        )
     if "position_world" not in pose:
         raise ConfigError(f"missing{label}", path=path, field=f"{where}.position_world")
     position = _numbers(pose["position_world"], (3,), f"{where}.position_world", label, path)
@@ -231,8 +252,11 @@ def _no_unknown_keys(table: dict[str, Any], allowed: set[str], where: str, path:
     unknown = [k for k in table if k not in allowed]
     if unknown:
         prefix = f"{where}." if where else ""
-        raise ConfigError(f"unknown key {unknown[0]!r}{label} (allowed here: {', '.join(sorted(allowed))})",
-                          path=path, field=f"{prefix}{unknown[0]}")
+        raise ConfigError(
+            f"unknown key {unknown[0]!r}{label} (allowed here: {', '.join(sorted(allowed))})",
+            path=path,
+            field=f"{prefix}{unknown[0]}",
+        )
 
 
 def _message(exc: ErgoposeError) -> str:
@@ -243,7 +267,7 @@ def _message(exc: ErgoposeError) -> str:
         prefix += f"{exc.path}: "
     if exc.field:
         prefix += f"{exc.field}: "
-    return text[len(prefix):] if text.startswith(prefix) else text
+    return text[len(prefix) :] if text.startswith(prefix) else text
 
 
 def _relocated(exc: ErgoposeError, where: str, label: str, path: Any) -> ConfigError:
@@ -279,8 +303,13 @@ def calibration_to_toml(cameras: Sequence[Camera], description: str | None = Non
     if description is not None:
         lines.append(f"description = {_value(description)}")
     for camera in cameras:
-        lines += ["", "[[cameras]]", f"name = {_value(camera.name)}",
-                  f"width = {camera.width}", f"height = {camera.height}"]
+        lines += [
+            "",
+            "[[cameras]]",
+            f"name = {_value(camera.name)}",
+            f"width = {camera.width}",
+            f"height = {camera.height}",
+        ]
         if camera.image_circle is not None:
             lines.append(f"image_circle = {_array(camera.image_circle)}   # u, v, radius (pixels)")
         lines += ["", "[cameras.lens]"]
@@ -303,7 +332,7 @@ def calibration_to_toml(cameras: Sequence[Camera], description: str | None = Non
 
 def _value(value: Any) -> str:
     """One TOML value, formatted (and string-escaped) by tomli_w."""
-    return tomli_w.dumps({"v": value})[len("v = "):].rstrip("\n")
+    return tomli_w.dumps({"v": value})[len("v = ") :].rstrip("\n")
 
 
 def _array(values: Iterable[float]) -> str:
@@ -324,9 +353,16 @@ def rotation_from_rodrigues(rvec: Any) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
 
 
-def camera_from_opencv_fisheye(name: str, K: Any, D: Any, width: int, height: int,
-                               R: Any = None, t: Any = None,
-                               calibration: CalibrationInfo = CalibrationInfo()) -> Camera:
+def camera_from_opencv_fisheye(
+    name: str,
+    K: Any,
+    D: Any,
+    width: int,
+    height: int,
+    R: Any = None,
+    t: Any = None,
+    calibration: CalibrationInfo = CalibrationInfo(),
+) -> Camera:
     """A Kannala-Brandt camera from cv2.fisheye's K (3x3) and D (k1..k4).
 
     ``R`` (3x3 matrix or Rodrigues 3-vector) and ``t`` are OpenCV's extrinsics, world -> camera
@@ -346,8 +382,15 @@ def camera_from_opencv_fisheye(name: str, K: Any, D: Any, width: int, height: in
         t = np.asarray(t, dtype=np.float64).reshape(3)
         rotation = r_cam_from_world.T
         position = -rotation @ t
-    return Camera(name=name, lens=lens, width=width, height=height,
-                  rotation_world_from_cam=rotation, position_world=position, calibration=calibration)
+    return Camera(
+        name=name,
+        lens=lens,
+        width=width,
+        height=height,
+        rotation_world_from_cam=rotation,
+        position_world=position,
+        calibration=calibration,
+    )
 
 
 #: Node names tried, in order, for the camera matrix and the distortion coefficients.
@@ -371,9 +414,13 @@ def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.nd
     except (cv2.error, SystemError):  # cv2 raises SystemError for syntax errors
         storage = None
     if storage is None or not storage.isOpened():
-        raise ConfigError("not a readable OpenCV FileStorage file (YAML, XML or JSON as written by "
-                          "cv2.FileStorage, with nodes K and D)", path=path)
+        raise ConfigError(
+            "not a readable OpenCV FileStorage file (YAML, XML or JSON as written by "
+            "cv2.FileStorage, with nodes K and D)",
+            path=path,
+        )
     try:
+
         def matrix(names: Sequence[str]) -> tuple[str, np.ndarray] | None:
             for node_name in names:
                 node = storage.getNode(node_name)
@@ -390,8 +437,9 @@ def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.nd
         if found_k is None:
             raise ConfigError(f"no camera matrix (looked for nodes {', '.join(OPENCV_K_NAMES)})", path=path, field="K")
         if found_d is None:
-            raise ConfigError(f"no distortion coefficients (looked for nodes {', '.join(OPENCV_D_NAMES)})",
-                              path=path, field="D")
+            raise ConfigError(
+                f"no distortion coefficients (looked for nodes {', '.join(OPENCV_D_NAMES)})", path=path, field="D"
+            )
         extras: dict[str, Any] = {}
         for key in ("image_width", "image_height"):
             node = storage.getNode(key)
@@ -418,8 +466,11 @@ def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.nd
     if K.shape != (3, 3):
         raise ConfigError(f"expected a 3x3 matrix, got shape {K.shape}", path=path, field=k_name)
     if D.size != 4:
-        raise ConfigError(f"expected the 4 fisheye coefficients k1..k4, got {D.size} values "
-                          "(a non-fisheye OpenCV model?)", path=path, field=d_name)
+        raise ConfigError(
+            f"expected the 4 fisheye coefficients k1..k4, got {D.size} values (a non-fisheye OpenCV model?)",
+            path=path,
+            field=d_name,
+        )
     return K, D.reshape(4), extras
 
 
@@ -463,8 +514,11 @@ def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tupl
         raise ConfigError("this is already an ergopose calibration file: use it as it is", path=path)
     tables = [(k, v) for k, v in data.items() if isinstance(v, dict) and k != "metadata"]
     if not tables:
-        raise ConfigError("no camera tables: expected [cam_01] (Pose2Sim) or [cam_0] (anipose) tables with "
-                          "name, size, matrix, distortions, rotation and translation", path=path)
+        raise ConfigError(
+            "no camera tables: expected [cam_01] (Pose2Sim) or [cam_0] (anipose) tables with "
+            "name, size, matrix, distortions, rotation and translation",
+            path=path,
+        )
     scale = LENGTH_UNITS[units]
     cameras: list[Camera] = []
     seen: dict[str, str] = {}
@@ -472,8 +526,12 @@ def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tupl
         where = key
         unknown = [k for k in table if k not in _TOML_CAMERA_KEYS]
         if unknown:
-            raise ConfigError(f"unknown key {unknown[0]!r} (a Pose2Sim/anipose camera table has "
-                              f"{', '.join(sorted(_TOML_CAMERA_KEYS))})", path=path, field=f"{where}.{unknown[0]}")
+            raise ConfigError(
+                f"unknown key {unknown[0]!r} (a Pose2Sim/anipose camera table has "
+                f"{', '.join(sorted(_TOML_CAMERA_KEYS))})",
+                path=path,
+                field=f"{where}.{unknown[0]}",
+            )
         for field in ("size", "matrix", "distortions", "rotation", "translation"):
             if field not in table:
                 raise ConfigError("missing", path=path, field=f"{where}.{field}")
@@ -485,8 +543,9 @@ def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tupl
         seen[name] = key
         size = _toml_numbers(table["size"], (2,), f"{where}.size", path)
         if not all(v > 0 and float(v).is_integer() for v in size):
-            raise ConfigError(f"expected [width, height] in whole pixels, got {table['size']!r}", path=path,
-                              field=f"{where}.size")
+            raise ConfigError(
+                f"expected [width, height] in whole pixels, got {table['size']!r}", path=path, field=f"{where}.size"
+            )
         K = _toml_numbers(table["matrix"], (3, 3), f"{where}.matrix", path)
         dist = np.asarray(table["distortions"], dtype=object)
         dist = _toml_numbers(table["distortions"], (dist.size,), f"{where}.distortions", path)
@@ -495,22 +554,32 @@ def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tupl
         fisheye = table.get("fisheye", False)
         if not isinstance(fisheye, bool):
             raise ConfigError(f"expected true or false, got {fisheye!r}", path=path, field=f"{where}.fisheye")
-        info = CalibrationInfo(method=f"imported from {path.name} ({'fisheye' if fisheye else 'pinhole'} "
-                                      "model, Pose2Sim/anipose layout)")
+        info = CalibrationInfo(
+            method=f"imported from {path.name} ({'fisheye' if fisheye else 'pinhole'} model, Pose2Sim/anipose layout)"
+        )
         lens: LensModel
         try:
             if fisheye:
                 if dist.size != 4:
-                    raise ConfigError(f"a fisheye camera has 4 coefficients k1..k4, got {dist.size}",
-                                      field="distortions")
+                    raise ConfigError(
+                        f"a fisheye camera has 4 coefficients k1..k4, got {dist.size}", field="distortions"
+                    )
                 lens = KannalaBrandt.from_opencv(K, dist)
             else:
                 lens = BrownConrady.from_opencv(K, dist)
             r_cam_from_world = rotation_from_rodrigues(rvec)
             rotation = r_cam_from_world.T
-            cameras.append(Camera(name=name, lens=lens, width=int(size[0]), height=int(size[1]),
-                                  rotation_world_from_cam=rotation, position_world=-rotation @ tvec,
-                                  calibration=info))
+            cameras.append(
+                Camera(
+                    name=name,
+                    lens=lens,
+                    width=int(size[0]),
+                    height=int(size[1]),
+                    rotation_world_from_cam=rotation,
+                    position_world=-rotation @ tvec,
+                    calibration=info,
+                )
+            )
         except ErgoposeError as exc:
             sub = f"{where}.{exc.field}" if exc.field and not exc.field.startswith("lens.") else where
             raise ConfigError(_message(exc), path=path, field=sub) from None
@@ -578,15 +647,25 @@ def world_frame_warnings(cameras: Sequence[Camera]) -> list[str]:
     low = [c.name for c in cameras if c.position_world[2] <= 0.0]
     up = [c.name for c in cameras if c.axis_world[2] > 0.5]
     if low or up:
-        out.append("the world frame does not look like floor z = 0, z up ("
-                   + "; ".join(x for x in (f"camera(s) at or below z = 0: {', '.join(low)}" if low else "",
-                                          f"camera(s) looking upwards: {', '.join(up)}" if up else "") if x)
-                   + "); anipose's world is its first camera's frame: set the poses against the floor "
-                     "before assessing")
+        out.append(
+            "the world frame does not look like floor z = 0, z up ("
+            + "; ".join(
+                x
+                for x in (
+                    f"camera(s) at or below z = 0: {', '.join(low)}" if low else "",
+                    f"camera(s) looking upwards: {', '.join(up)}" if up else "",
+                )
+                if x
+            )
+            + "); anipose's world is its first camera's frame: set the poses against the floor "
+            "before assessing"
+        )
     far = float(np.median([np.linalg.norm(c.position_world) for c in cameras]))
     if far > 100.0:
-        out.append(f"the cameras are a median {far:.0f} m from the world origin: are the translations in "
-                   "millimetres (give the unit)?")
+        out.append(
+            f"the cameras are a median {far:.0f} m from the world origin: are the translations in "
+            "millimetres (give the unit)?"
+        )
     return out
 
 

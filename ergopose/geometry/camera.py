@@ -49,8 +49,11 @@ class CalibrationInfo:
     def __post_init__(self) -> None:
         if self.rms_error_px is not None:
             value = self.rms_error_px
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-                    or not (math.isfinite(value) and value >= 0):
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float, np.integer, np.floating))
+                or not (math.isfinite(value) and value >= 0)
+            ):
                 raise ConfigError(f"expected a number >= 0, got {value!r}", field="calibration.rms_error_px")
             object.__setattr__(self, "rms_error_px", float(value))
         for field in ("date", "method", "notes"):
@@ -125,14 +128,34 @@ class Camera:
         )
 
     def __hash__(self) -> int:
-        return hash((self.name, self.lens, self.width, self.height,
-                     self.rotation_world_from_cam.tobytes(), self.position_world.tobytes(), self.calibration,
-                     self.image_circle))
+        return hash(
+            (
+                self.name,
+                self.lens,
+                self.width,
+                self.height,
+                self.rotation_world_from_cam.tobytes(),
+                self.position_world.tobytes(),
+                self.calibration,
+                self.image_circle,
+            )
+        )
 
     def __reduce__(self) -> tuple[type[Camera], tuple[Any, ...]]:
         # Rebuild through __init__ (checks, read-only arrays) when unpickled in a worker process.
-        return (Camera, (self.name, self.lens, self.width, self.height,
-                         self.rotation_world_from_cam, self.position_world, self.calibration, self.image_circle))
+        return (
+            Camera,
+            (
+                self.name,
+                self.lens,
+                self.width,
+                self.height,
+                self.rotation_world_from_cam,
+                self.position_world,
+                self.calibration,
+                self.image_circle,
+            ),
+        )
 
     # --- pose ----------------------------------------------------------------------------------
 
@@ -259,10 +282,12 @@ class Camera:
         return float(self.lens.max_theta) if np.isnan(theta).any() else float(np.nanmax(theta))
 
     def __repr__(self) -> str:
-        return (f"Camera(name={self.name!r}, lens={self.lens!r}, width={self.width}, height={self.height}, "
-                f"rotation_world_from_cam={self.rotation_world_from_cam.tolist()!r}, "
-                f"position_world={self.position_world.tolist()!r}, calibration={self.calibration!r}"
-                + (f", image_circle={self.image_circle!r})" if self.image_circle is not None else ")"))
+        return (
+            f"Camera(name={self.name!r}, lens={self.lens!r}, width={self.width}, height={self.height}, "
+            f"rotation_world_from_cam={self.rotation_world_from_cam.tolist()!r}, "
+            f"position_world={self.position_world.tolist()!r}, calibration={self.calibration!r}"
+            + (f", image_circle={self.image_circle!r})" if self.image_circle is not None else ")")
+        )
 
 
 def _span(theta: np.ndarray, left: np.ndarray, edge: float) -> float:
@@ -297,7 +322,9 @@ def check_rotation(value: Any, field: str = "rotation_world_from_cam") -> np.nda
     if deviation > ROTATION_TOLERANCE:
         raise ConfigError(
             f"not a rotation: rows/columns are not orthonormal (max |R^T R - I| = {deviation:.3g}, "
-            f"tolerance {ROTATION_TOLERANCE:g})", field=field)
+            f"tolerance {ROTATION_TOLERANCE:g})",
+            field=field,
+        )
     det = float(np.linalg.det(rot))
     if abs(det - 1.0) > ROTATION_TOLERANCE:
         raise ConfigError(f"not a rotation: determinant {det:.6g} (a mirror if -1), expected +1", field=field)
@@ -347,8 +374,15 @@ def ceiling_rotation(yaw: float = 0.0) -> np.ndarray:
     return np.stack([x, np.cross(z, x), z], axis=1)
 
 
-def ceiling_camera(name: str, lens: LensModel, width: int, height: int, position_world: Any,
-                   yaw: float = 0.0) -> Camera:
+def ceiling_camera(
+    name: str, lens: LensModel, width: int, height: int, position_world: Any, yaw: float = 0.0
+) -> Camera:
     """A camera at ``position_world`` looking straight down (see :func:`ceiling_rotation`)."""
-    return Camera(name=name, lens=lens, width=width, height=height,
-                  rotation_world_from_cam=ceiling_rotation(yaw), position_world=position_world)
+    return Camera(
+        name=name,
+        lens=lens,
+        width=width,
+        height=height,
+        rotation_world_from_cam=ceiling_rotation(yaw),
+        position_world=position_world,
+    )

@@ -93,8 +93,11 @@ def find_image_circle(brightest: np.ndarray, lit_level: int = LIT_LEVEL) -> Circ
     if share == 0.0:
         return CircleSearch(None, "no lit pixels (a black video?)", share)
     if share > MAX_LIT_SHARE:
-        return CircleSearch(None, f"the frame is lit to its corners ({100 * share:.0f} % of it): not a fisheye "
-                                  "image with a visible circle", share)
+        return CircleSearch(
+            None,
+            f"the frame is lit to its corners ({100 * share:.0f} % of it): not a fisheye image with a visible circle",
+            share,
+        )
     count, labels, stats, _ = cv2.connectedComponentsWithStats(lit, connectivity=8)
     largest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
     region = (labels == largest).astype(np.uint8)
@@ -109,15 +112,21 @@ def find_image_circle(brightest: np.ndarray, lit_level: int = LIT_LEVEL) -> Circ
     if not (math.isfinite(r) and r >= MIN_RADIUS_SHARE * min(w, h)):
         return CircleSearch(None, "the lit region is too small for an image circle", share, rms)
     if rms > MAX_FIT_RMS_SHARE * r:
-        return CircleSearch(None, f"the border of the lit region is not round (off a circle by {rms:.1f} px RMS)",
-                            share, rms)
+        return CircleSearch(
+            None, f"the border of the lit region is not round (off a circle by {rms:.1f} px RMS)", share, rms
+        )
     yy, xx = np.mgrid[0:h, 0:w]
     inside = np.hypot(xx - u, yy - v) <= r
     inside_lit = float(lit[inside].mean()) if inside.any() else 0.0
     outside_lit = float(lit[~inside].mean()) if (~inside).any() else 0.0
     if inside_lit < MIN_INSIDE_LIT or outside_lit > MAX_OUTSIDE_LIT:
-        return CircleSearch(None, f"the lit region is not a disc ({100 * inside_lit:.0f} % of the circle lit, "
-                                  f"{100 * outside_lit:.0f} % outside it)", share, rms)
+        return CircleSearch(
+            None,
+            f"the lit region is not a disc ({100 * inside_lit:.0f} % of the circle lit, "
+            f"{100 * outside_lit:.0f} % outside it)",
+            share,
+            rms,
+        )
     return CircleSearch((u, v, r), "", share, rms)
 
 
@@ -148,24 +157,43 @@ def nominal_fisheye_lens(kind: str, circle: tuple[float, float, float], fov: flo
     unit = cls(1.0, 1.0, 0.0, 0.0)
     half = 0.5 * fov
     if not half <= unit.max_theta + 1e-12:
-        raise ValueError(f"a {kind} lens reaches at most {math.degrees(2 * unit.max_theta):g} deg across its "
-                         f"image circle, not {math.degrees(fov):g}")
+        raise ValueError(
+            f"a {kind} lens reaches at most {math.degrees(2 * unit.max_theta):g} deg across its "
+            f"image circle, not {math.degrees(fov):g}"
+        )
     g = float(unit.radius_of_theta(np.array(min(half, unit.max_theta))))
     f = r / g
     return cls(f, f, u, v)
 
 
-def nominal_fisheye_camera(name: str, width: int, height: int, circle: tuple[float, float, float],
-                           fov: float, height_m: float = 3.0, lens: str = "equidistant") -> Camera:
+def nominal_fisheye_camera(
+    name: str,
+    width: int,
+    height: int,
+    circle: tuple[float, float, float],
+    fov: float,
+    height_m: float = 3.0,
+    lens: str = "equidistant",
+) -> Camera:
     """A fisheye of the given lens model (default equidistant, r = f theta) whose image circle
     (u, v, radius) spans ``fov`` radians (the whole field of view across the circle), looking
     straight down from ``height_m`` metres above the world origin, image x along world +x."""
     model = nominal_fisheye_lens(lens, circle, fov)
     u, v, r = circle
-    info = CalibrationInfo(method=f"nominal: {lens} lens, {math.degrees(fov):g} deg across the image circle "
-                                  "found in the footage, looking straight down")
-    return Camera(name, model, width, height, ceiling_rotation(0.0), np.array([0.0, 0.0, height_m]),
-                  calibration=info, image_circle=(float(u), float(v), float(r)))
+    info = CalibrationInfo(
+        method=f"nominal: {lens} lens, {math.degrees(fov):g} deg across the image circle "
+        "found in the footage, looking straight down"
+    )
+    return Camera(
+        name,
+        model,
+        width,
+        height,
+        ceiling_rotation(0.0),
+        np.array([0.0, 0.0, height_m]),
+        calibration=info,
+        image_circle=(float(u), float(v), float(r)),
+    )
 
 
 #: rotation_world_from_cam of a camera looking level along world +y, image up = world up.

@@ -115,12 +115,13 @@ def _as_float(a: ArrayLike, name: str) -> np.ndarray:
 
 
 def _check_tail(arr: np.ndarray, tail: tuple[int, ...], name: str, what: str) -> None:
-    if arr.ndim < len(tail) or arr.shape[arr.ndim - len(tail):] != tail:
+    if arr.ndim < len(tail) or arr.shape[arr.ndim - len(tail) :] != tail:
         raise InputError(f"expected shape {what}, got {arr.shape}", field=name)
 
 
-def projection_matrix(K: ArrayLike, rotation_cam_from_view: ArrayLike | None = None,
-                      pose_world_from_cam: ArrayLike | None = None) -> np.ndarray:
+def projection_matrix(
+    K: ArrayLike, rotation_cam_from_view: ArrayLike | None = None, pose_world_from_cam: ArrayLike | None = None
+) -> np.ndarray:
     """The paper's ``P = K [I|0] [[R^T, 0], [0, 1]] W^-1`` for one or many views.
 
     K: (..., 3, 3) pinhole matrix of the (virtual) view, pixels.
@@ -170,8 +171,7 @@ def _broadcast_leading(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def _check_rotation(R: np.ndarray, name: str) -> None:
     eye = np.swapaxes(R, -1, -2) @ R
-    if (not np.all(np.isfinite(R)) or not np.allclose(eye, np.eye(3), atol=1e-6)
-            or not np.all(np.linalg.det(R) > 0)):
+    if not np.all(np.isfinite(R)) or not np.allclose(eye, np.eye(3), atol=1e-6) or not np.all(np.linalg.det(R) > 0):
         raise InputError("not a rotation matrix (orthonormal, determinant +1)", field=name)
 
 
@@ -216,8 +216,7 @@ def _weights(weights: ArrayLike | None, name: str = "weights") -> np.ndarray | N
 
 def _check_min_views(min_views: int) -> int:
     if int(min_views) != min_views or min_views < 2:
-        raise InputError(f"must be an integer >= 2 (a point needs two views), got {min_views!r}",
-                         field="min_views")
+        raise InputError(f"must be an integer >= 2 (a point needs two views), got {min_views!r}", field="min_views")
     return int(min_views)
 
 
@@ -246,8 +245,14 @@ def _solve_sym3(M: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return x, ok
 
 
-def _residuals(diff_a: np.ndarray, diff_b: np.ndarray | float, in_front: np.ndarray, used: np.ndarray,
-               ok: np.ndarray, views_used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _residuals(
+    diff_a: np.ndarray,
+    diff_b: np.ndarray | float,
+    in_front: np.ndarray,
+    used: np.ndarray,
+    ok: np.ndarray,
+    views_used: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """Per-view residual hypot(diff_a, diff_b) (..., V, J) and its RMS over views (..., J).
 
     NaN where an observation is not used or its point not solved; +inf where ``in_front`` is
@@ -266,10 +271,15 @@ def _residuals(diff_a: np.ndarray, diff_b: np.ndarray | float, in_front: np.ndar
 # DLT
 
 
-def triangulate_dlt(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLike | None = None,
-                    min_views: int = 2, *,
-                    solver: Literal["normal", "svd"] = "normal",
-                    normalize_rows: bool = True) -> Triangulation:
+def triangulate_dlt(
+    projections: ArrayLike,
+    pixels: ArrayLike,
+    weights: ArrayLike | None = None,
+    min_views: int = 2,
+    *,
+    solver: Literal["normal", "svd"] = "normal",
+    normalize_rows: bool = True,
+) -> Triangulation:
     """Weighted linear triangulation (DLT) of many joints in many frames at once.
 
     projections: (..., V, 3, 4) one projection matrix per view (see :func:`projection_matrix`).
@@ -295,8 +305,7 @@ def triangulate_dlt(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLik
     if uv.ndim < 3:
         raise InputError(f"expected shape (..., V, J, 2), got {uv.shape}", field="pixels")
     if P.ndim < 3 or P.shape[-3] != uv.shape[-3]:
-        raise InputError(f"{P.shape[:-2]} projection matrices for {uv.shape[-3]} views of pixels",
-                         field="projections")
+        raise InputError(f"{P.shape[:-2]} projection matrices for {uv.shape[-3]} views of pixels", field="projections")
     min_views = _check_min_views(min_views)
     if solver not in ("normal", "svd"):
         raise InputError(f"unknown solver {solver!r} (use 'normal' or 'svd')", field="solver")
@@ -305,8 +314,9 @@ def triangulate_dlt(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLik
         return _dlt(P, uv, w, min_views, solver, normalize_rows)
 
 
-def _dlt(P: np.ndarray, uv: np.ndarray, w: np.ndarray | None, min_views: int, solver: str,
-         normalize_rows: bool) -> Triangulation:
+def _dlt(
+    P: np.ndarray, uv: np.ndarray, w: np.ndarray | None, min_views: int, solver: str, normalize_rows: bool
+) -> Triangulation:
     # Joints last throughout: (..., V, J) per observation, (..., V, 2, 4, J) rows, (..., 4, 4, J).
     u, v = uv[..., 0], uv[..., 1]
     used = np.isfinite(u + v)  # False when either is NaN or inf
@@ -338,22 +348,24 @@ def _dlt(P: np.ndarray, uv: np.ndarray, w: np.ndarray | None, min_views: int, so
     # Reprojection: (..., V, 3, J) homogeneous pixels of every point in every view.
     h = P[..., :3] @ X[..., None, :, :] + P[..., 3:]
     depth = h[..., 2, :]
-    residuals, rms = _residuals(h[..., 0, :] / depth - uv0[..., 0, :],
-                                h[..., 1, :] / depth - uv0[..., 1, :],
-                                depth > 0, used, ok, views_used)
+    residuals, rms = _residuals(
+        h[..., 0, :] / depth - uv0[..., 0, :], h[..., 1, :] / depth - uv0[..., 1, :], depth > 0, used, ok, views_used
+    )
     shape = ok.shape
     if views_used.shape != shape:
         views_used = np.broadcast_to(views_used, shape).copy()
-    return Triangulation(points=X.swapaxes(-1, -2), reprojection_error_px=rms,
-                         views_used=views_used, residuals_px=residuals)
+    return Triangulation(
+        points=X.swapaxes(-1, -2), reprojection_error_px=rms, views_used=views_used, residuals_px=residuals
+    )
 
 
 # --------------------------------------------------------------------------------------------
 # Midpoint (rays)
 
 
-def triangulate_midpoint(origins: ArrayLike, rays: ArrayLike, weights: ArrayLike | None = None,
-                         min_views: int = 2) -> RayTriangulation:
+def triangulate_midpoint(
+    origins: ArrayLike, rays: ArrayLike, weights: ArrayLike | None = None, min_views: int = 2
+) -> RayTriangulation:
     """Weighted least-squares point closest to rays: the midpoint method for two or more rays.
 
     origins: (..., V, 3) ray origins (camera centres), metres.
@@ -372,8 +384,7 @@ def triangulate_midpoint(origins: ArrayLike, rays: ArrayLike, weights: ArrayLike
     _check_tail(O, (3,), "origins", "(..., V, 3)")
     _check_tail(D, (3,), "rays", "(..., V, J, 3)")
     if D.ndim < 3 or O.ndim < 2 or O.shape[-2] != D.shape[-3]:
-        raise InputError(f"origins {O.shape} and rays {D.shape} do not have the same views (V)",
-                         field="rays")
+        raise InputError(f"origins {O.shape} and rays {D.shape} do not have the same views (V)", field="rays")
     min_views = _check_min_views(min_views)
     w = _weights(weights)
 
@@ -398,7 +409,8 @@ def _midpoint(O: np.ndarray, D: np.ndarray, w: np.ndarray | None, min_views: int
     dot_od = np.einsum("...ij,...ij->...j", o, d)  # (..., V, J)
     M = np.zeros(np.broadcast_shapes(wd.shape[:-3], o.shape[:-3]) + (4, 4, wd.shape[-1]))
     M[..., :3, :3, :] = np.eye(3)[:, :, None] * w2.sum(axis=-2)[..., None, None, :] - np.einsum(
-        "...vij,...vkj->...ikj", wd, d)
+        "...vij,...vkj->...ikj", wd, d
+    )
     M[..., :3, 3, :] = (wd * dot_od[..., None, :]).sum(axis=-3) - (w2[..., None, :] * o).sum(axis=-3)
     views_used = used.sum(axis=-2)
     X, ok = _solve_sym3(M, views_used >= min_views)
@@ -411,17 +423,22 @@ def _midpoint(O: np.ndarray, D: np.ndarray, w: np.ndarray | None, min_views: int
     shape = ok.shape
     if views_used.shape != shape:
         views_used = np.broadcast_to(views_used, shape).copy()
-    return RayTriangulation(points=X.swapaxes(-1, -2), rms_distance_m=rms, views_used=views_used,
-                            residuals_m=residuals)
+    return RayTriangulation(points=X.swapaxes(-1, -2), rms_distance_m=rms, views_used=views_used, residuals_m=residuals)
 
 
 # --------------------------------------------------------------------------------------------
 # Outlier rejection
 
 
-def reject_outliers(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLike | None = None,
-                    min_views: int = 2, *, threshold_px: float = 15.0,
-                    **dlt_options: Any) -> tuple[Triangulation, np.ndarray]:
+def reject_outliers(
+    projections: ArrayLike,
+    pixels: ArrayLike,
+    weights: ArrayLike | None = None,
+    min_views: int = 2,
+    *,
+    threshold_px: float = 15.0,
+    **dlt_options: Any,
+) -> tuple[Triangulation, np.ndarray]:
     """DLT, then drop the worst view of each badly reprojected joint and triangulate again.
 
     In every round, each joint whose ``reprojection_error_px`` exceeds ``threshold_px`` and which
@@ -436,15 +453,13 @@ def reject_outliers(projections: ArrayLike, pixels: ArrayLike, weights: ArrayLik
     for each observation that was used at first and then dropped as an outlier.
     """
     if not np.isfinite(threshold_px) or threshold_px <= 0:
-        raise InputError(f"must be a positive number of pixels, got {threshold_px!r}",
-                         field="threshold_px")
+        raise InputError(f"must be a positive number of pixels, got {threshold_px!r}", field="threshold_px")
     min_views = _check_min_views(min_views)
     P = _as_float(projections, "projections")
     uv = _as_float(pixels, "pixels")
     tri = triangulate_dlt(P, uv, weights, min_views, **dlt_options)
     shape = tri.residuals_px.shape
-    w = np.ones(shape) if weights is None else np.broadcast_to(_as_float(weights, "weights"),
-                                                                shape)
+    w = np.ones(shape) if weights is None else np.broadcast_to(_as_float(weights, "weights"), shape)
     rejected = np.zeros(shape, dtype=bool)
     V = shape[-2]
     for _ in range(max(V - min_views, 0)):

@@ -74,18 +74,33 @@ class ViewMap:
         """(width, height) of the destination image."""
         return int(self.map_x.shape[1]), int(self.map_x.shape[0])
 
-    def apply(self, image: np.ndarray, *, exact: bool = False, border_value: int | tuple = 0,
-              out: np.ndarray | None = None) -> np.ndarray:
+    def apply(
+        self, image: np.ndarray, *, exact: bool = False, border_value: int | tuple = 0, out: np.ndarray | None = None
+    ) -> np.ndarray:
         """Sample ``image`` (the source) at the map with bilinear interpolation.
 
         exact=False uses the fixed-point map (1/32 px interpolation steps, the fast path);
         exact=True uses the float map. Destination pixels the source cannot see get border_value.
         """
         if exact:
-            return cv2.remap(image, self.map_x, self.map_y, cv2.INTER_LINEAR,
-                             dst=out, borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
-        return cv2.remap(image, self.fixed1, self.fixed2, cv2.INTER_LINEAR,
-                         dst=out, borderMode=cv2.BORDER_CONSTANT, borderValue=border_value)
+            return cv2.remap(
+                image,
+                self.map_x,
+                self.map_y,
+                cv2.INTER_LINEAR,
+                dst=out,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=border_value,
+            )
+        return cv2.remap(
+            image,
+            self.fixed1,
+            self.fixed2,
+            cv2.INTER_LINEAR,
+            dst=out,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=border_value,
+        )
 
 
 #: Destination pixels per block while building a map: the rays and pixels of one block stay in
@@ -108,8 +123,9 @@ def _bool_buffer(n: int) -> np.ndarray:
     return _buffer("bool", (n,), dtype=bool)
 
 
-def build_map(dst_lens: LensModel, dst_size: tuple[int, int], src_lens: LensModel,
-              rotation_src_from_dst: np.ndarray) -> ViewMap:
+def build_map(
+    dst_lens: LensModel, dst_size: tuple[int, int], src_lens: LensModel, rotation_src_from_dst: np.ndarray
+) -> ViewMap:
     """Build the lookup map of a destination camera that is a pure rotation of a source camera.
 
     dst_lens, dst_size=(width, height): the camera whose image is being made.
@@ -182,9 +198,14 @@ def _lagrange_kernel(step: int) -> np.ndarray:
     return kernel
 
 
-def build_map_interpolated(dst_lens: Rectilinear, dst_size: tuple[int, int], src_lens: LensModel,
-                           rotation_src_from_dst: np.ndarray, step: int = INTERP_STEP,
-                           tolerance_px: float = INTERP_TOLERANCE_PX) -> ViewMap | None:
+def build_map_interpolated(
+    dst_lens: Rectilinear,
+    dst_size: tuple[int, int],
+    src_lens: LensModel,
+    rotation_src_from_dst: np.ndarray,
+    step: int = INTERP_STEP,
+    tolerance_px: float = INTERP_TOLERANCE_PX,
+) -> ViewMap | None:
     """The lookup map of a pinhole view (as :func:`build_map`), computed exactly on nodes every
     ``step`` view pixels (two more beyond each border) and interpolated between them with cubic
     Lagrange polynomials (two separable filter passes in OpenCV); about a quarter of the exact
@@ -223,7 +244,7 @@ def build_map_interpolated(dst_lens: Rectilinear, dst_size: tuple[int, int], src
     kernel = _lagrange_kernel(step)
     full = cv2.sepFilter2D(spread, cv2.CV_32F, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
     o = 2 * step
-    xy = full[o:o + height, o:o + width]
+    xy = full[o : o + height, o : o + width]
     # The check: cell centres (pixels step/2 + 2 step i) against the exact projection.
     cu = np.arange(step // 2, width, 2 * step)
     cv = np.arange(step // 2, height, 2 * step)
@@ -266,8 +287,9 @@ class VirtualView:
     rotation_cam_from_view: np.ndarray
 
     @classmethod
-    def aimed_along(cls, source: "Camera", direction_cam: np.ndarray, hfov: float,
-                    size: tuple[int, int] = (256, 256)) -> "VirtualView":
+    def aimed_along(
+        cls, source: "Camera", direction_cam: np.ndarray, hfov: float, size: tuple[int, int] = (256, 256)
+    ) -> "VirtualView":
         """An upright view looking along ``direction_cam`` with horizontal field of view ``hfov`` (rad)."""
         if not 0 < hfov < np.pi:
             raise ValueError(f"field of view must be between 0 and pi radians, got {hfov}")
@@ -277,8 +299,9 @@ class VirtualView:
         return cls(source=source, lens=lens, width=int(size[0]), height=int(size[1]), rotation_cam_from_view=rot)
 
     @classmethod
-    def aimed_at(cls, source: "Camera", target_world: np.ndarray, hfov: float,
-                 size: tuple[int, int] = (256, 256)) -> "VirtualView":
+    def aimed_at(
+        cls, source: "Camera", target_world: np.ndarray, hfov: float, size: tuple[int, int] = (256, 256)
+    ) -> "VirtualView":
         """An upright view whose optical axis passes through the world point ``target_world``."""
         direction_cam = source.points_world_to_cam(np.asarray(target_world, dtype=np.float64))
         return cls.aimed_along(source, direction_cam, hfov, size)

@@ -50,9 +50,17 @@ class ReportWorker:
     reliable_frames: int
 
 
-def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring: ScoringSettings, ident: Naming,
-                 progress: ProgressCallback | None, run_each: RunEach | None = None, *,
-                 bom: bool = False) -> list[ReportWorker]:
+def score_tracks(
+    session: Session,
+    tracks: Tracks,
+    out_dir: Path,
+    scoring: ScoringSettings,
+    ident: Naming,
+    progress: ProgressCallback | None,
+    run_each: RunEach | None = None,
+    *,
+    bom: bool = False,
+) -> list[ReportWorker]:
     """Every tracked worker scored (:func:`ergopose.pipeline.score.score_workers`: the per-frame
     CSV files are written as it goes) and aggregated (:func:`worker_result`): what the report needs.
 
@@ -61,8 +69,12 @@ def score_tracks(session: Session, tracks: Tracks, out_dir: Path, scoring: Scori
     call of its own (its own pass over the table; the same bytes, as no worker's scores depend
     on another's)."""
     if run_each is not None and len(tracks.workers) > 1:
-        calls = [functools.partial(score_tracks, session, dataclasses.replace(tracks, workers=(w,)), out_dir,
-                                   scoring, ident, None) for w in tracks.workers]
+        calls = [
+            functools.partial(
+                score_tracks, session, dataclasses.replace(tracks, workers=(w,)), out_dir, scoring, ident, None
+            )
+            for w in tracks.workers
+        ]
         report(progress, "scoring", 0, len(calls), unit="worker")
         out = [r for part in run_each(calls) for r in part]
         report(progress, "scoring", len(calls), len(calls), unit="worker")
@@ -81,23 +93,42 @@ def worker_result(sink: WorkerSink, worker: int, tracks: Tracks, diagnostics: di
     rows, drawn = _period_frames(sink, summary)
     # the diagnostics under the reported id (a stature match or names.toml renames the tracked id)
     diag = dataclasses.replace(diagnostics[tracked], worker=sink.worker_id)
-    return ReportWorker(worker_id=sink.worker_id, summary=summary, diagnostics=diag,
-                        timeline=_timeline(sink), period_frames=rows,
-                        joints_at=_joints_at(tracks.path, _members(tracks, worker), drawn),
-                        reliable_frames=int(sink.column("reliable").sum()))
+    return ReportWorker(
+        worker_id=sink.worker_id,
+        summary=summary,
+        diagnostics=diag,
+        timeline=_timeline(sink),
+        period_frames=rows,
+        joints_at=_joints_at(tracks.path, _members(tracks, worker), drawn),
+        reliable_frames=int(sink.column("reliable").sum()),
+    )
 
 
 def _timeline(sink: WorkerSink) -> pd.DataFrame:
     c = sink.column
-    return frames_table(c("time_s"), rula_grand=c("rula_grand"), rula_action_level=c("rula_action_level"),
-                        reba_score=c("reba_score"), reba_risk_level=c("reba_risk_level"),
-                        floor_x_m=c("floor_x_m").astype(np.float64), floor_y_m=c("floor_y_m").astype(np.float64),
-                        reliable=c("reliable").astype(bool))
+    return frames_table(
+        c("time_s"),
+        rula_grand=c("rula_grand"),
+        rula_action_level=c("rula_action_level"),
+        reba_score=c("reba_score"),
+        reba_risk_level=c("reba_risk_level"),
+        floor_x_m=c("floor_x_m").astype(np.float64),
+        floor_y_m=c("floor_y_m").astype(np.float64),
+        reliable=c("reliable").astype(bool),
+    )
 
 
 #: Columns of the scored frames the report reads for the sustained periods.
-_PERIOD_COLUMNS = ("time_s", "frame", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level",
-                   *BODY_PART_COLUMNS["rula"], *periods.INPUT_COLUMNS)
+_PERIOD_COLUMNS = (
+    "time_s",
+    "frame",
+    "rula_grand",
+    "rula_action_level",
+    "reba_score",
+    "reba_risk_level",
+    *BODY_PART_COLUMNS["rula"],
+    *periods.INPUT_COLUMNS,
+)
 
 
 def _period_frames(sink: WorkerSink, summary: ShiftSummary) -> tuple[pd.DataFrame, np.ndarray]:
@@ -106,20 +137,25 @@ def _period_frames(sink: WorkerSink, summary: ShiftSummary) -> tuple[pd.DataFram
     the report reads) and the frame numbers drawn for them: the periods are then described as from
     every frame."""
     c = sink.column
-    found = periods.worker_periods(c("time_s"), c("rula_grand"), c("rula_action_level"), c("reba_score"),
-                                   c("reba_risk_level"), float(summary.frame_period_s))
+    found = periods.worker_periods(
+        c("time_s"),
+        c("rula_grand"),
+        c("rula_action_level"),
+        c("reba_score"),
+        c("reba_risk_level"),
+        float(summary.frame_period_s),
+    )
     if not found or not sink.scored_path.exists():
         return pd.DataFrame(), np.zeros(0, dtype=np.int64)
     frame = c("frame").astype(np.int64)
-    wanted = np.unique(np.concatenate([frame[p.start:p.stop] for p in found]))
+    wanted = np.unique(np.concatenate([frame[p.start : p.stop] for p in found]))
     table = _rows_of_frames(pq.ParquetFile(sink.scored_path), wanted).to_pandas()
     table = table.loc[:, [k for k in _PERIOD_COLUMNS if k in table.columns]]
     table = table.sort_values("time_s", kind="stable").reset_index(drop=True)
     return table, np.sort(frame[[p.drawn for p in found]])
 
 
-def _rows_of_frames(f: pq.ParquetFile, frames: np.ndarray,
-                    where: tuple[str, Sequence[str]] | None = None) -> pa.Table:
+def _rows_of_frames(f: pq.ParquetFile, frames: np.ndarray, where: tuple[str, Sequence[str]] | None = None) -> pa.Table:
     """The rows of a Parquet file (ordered by frame) whose frame is in ``frames`` (and whose column
     where[0] is one of where[1]), reading only the row groups whose frame range holds one of them."""
     col = f.schema_arrow.get_field_index("frame")
@@ -143,16 +179,21 @@ def _members(tracks: Tracks, worker: int) -> tuple[str, ...]:
     return tuple(identity_name(m) for m, g in tracks.groups.items() if g == worker) or (identity_name(worker),)
 
 
-def _joints_at(tracks_path: Path, tracked: tuple[str, ...],
-               frames: np.ndarray) -> Callable[[float], np.ndarray | None] | None:
+def _joints_at(
+    tracks_path: Path, tracked: tuple[str, ...], frames: np.ndarray
+) -> Callable[[float], np.ndarray | None] | None:
     """callable(seconds) -> (33, 3) joints (metres) at the nearest of ``frames`` (ascending frame
     numbers), from the tracks table (the rows of the tracked ids ``tracked``, merged as for scoring)."""
     if not len(frames):
         return None
-    tf = table_to_frames(_rows_of_frames(pq.ParquetFile(tracks_path), np.asarray(frames, dtype=np.int64),
-                                         ("worker", tracked)).to_pandas())
-    tf = merge_rows(tf, {tracker_number(t): tracker_number(tracked[0]) for t in tracked[1:]} if len(tracked) > 1
-                    else {})
+    tf = table_to_frames(
+        _rows_of_frames(
+            pq.ParquetFile(tracks_path), np.asarray(frames, dtype=np.int64), ("worker", tracked)
+        ).to_pandas()
+    )
+    tf = merge_rows(
+        tf, {tracker_number(t): tracker_number(tracked[0]) for t in tracked[1:]} if len(tracked) > 1 else {}
+    )
     times, points = tf.time_s, tf.points_world
 
     def joints_at(t: float) -> np.ndarray | None:

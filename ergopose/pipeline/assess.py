@@ -112,7 +112,9 @@ def _pose_for(pose: PoseSettings, gates) -> PoseSettings:
         pose,
         min_presence=float(gates.min_presence) if pose.min_presence == default.min_presence else pose.min_presence,
         min_keypoint_confidence=float(gates.min_keypoint_confidence)
-        if pose.min_keypoint_confidence == default.min_keypoint_confidence else pose.min_keypoint_confidence)
+        if pose.min_keypoint_confidence == default.min_keypoint_confidence
+        else pose.min_keypoint_confidence,
+    )
 
 
 def _recon_for(recon: ReconSettings, gates) -> ReconSettings:
@@ -127,8 +129,9 @@ def default_out_dir(session: Session) -> Path:
     return Path("reports") / session.path.resolve().name
 
 
-def assess(session_dir: str | Path, options: AssessOptions = AssessOptions(),
-           progress: ProgressCallback | None = None) -> AssessResult:
+def assess(
+    session_dir: str | Path, options: AssessOptions = AssessOptions(), progress: ProgressCallback | None = None
+) -> AssessResult:
     """Run the whole assessment of a session (see the module docstring)."""
     run = prepare(session_dir, options, progress)
     processes = options.processes or detect.default_workers()
@@ -170,8 +173,9 @@ class PreparedRun:
         return min(stop, self.session.frame_count) - first
 
 
-def prepare(session_dir: str | Path, options: AssessOptions = AssessOptions(),
-            progress: ProgressCallback | None = None) -> PreparedRun:
+def prepare(
+    session_dir: str | Path, options: AssessOptions = AssessOptions(), progress: ProgressCallback | None = None
+) -> PreparedRun:
     """The session and the output folder checked, the pose models in the cache."""
     t_start = time.perf_counter()
     timings: dict[str, float] = {}
@@ -193,15 +197,30 @@ def prepare(session_dir: str | Path, options: AssessOptions = AssessOptions(),
     timings["models"] = time.perf_counter() - t0
 
     chunk_frames = max(1, int(round(options.chunk_seconds * session.fps)))
-    job = detect.DetectJob(cameras=session.calibrated_cameras,
-                           videos=tuple(str(c.video_path) for c in session.cameras),
-                           fps=session.fps, model_dir=options.model_dir, max_bad_share=options.max_bad_frame_share,
-                           model=options.model, pose=_pose_for(session.pose, models[-1].card.gates),
-                           recon=_recon_for(session.reconstruction, models[-1].card.gates),
-                           num_threads=1)  # one thread per process: the same numbers whatever the process count
-    return PreparedRun(session=session, out_dir=out_dir, store=ResultStore(out_dir), job=job,
-                       chunk_frames=chunk_frames, models=models, scoring=scoring, t_start=t_start, timings=timings,
-                       window=window, bom=options.csv_bom)
+    job = detect.DetectJob(
+        cameras=session.calibrated_cameras,
+        videos=tuple(str(c.video_path) for c in session.cameras),
+        fps=session.fps,
+        model_dir=options.model_dir,
+        max_bad_share=options.max_bad_frame_share,
+        model=options.model,
+        pose=_pose_for(session.pose, models[-1].card.gates),
+        recon=_recon_for(session.reconstruction, models[-1].card.gates),
+        num_threads=1,
+    )  # one thread per process: the same numbers whatever the process count
+    return PreparedRun(
+        session=session,
+        out_dir=out_dir,
+        store=ResultStore(out_dir),
+        job=job,
+        chunk_frames=chunk_frames,
+        models=models,
+        scoring=scoring,
+        t_start=t_start,
+        timings=timings,
+        window=window,
+        bom=options.csv_bom,
+    )
 
 
 def open_store(run: PreparedRun, progress: ProgressCallback | None):
@@ -218,21 +237,37 @@ def open_store(run: PreparedRun, progress: ProgressCallback | None):
     return ranges, done, todo
 
 
-def prepare_source(session: Session, out_dir: Path, recon: ReconSettings, chunk_frames: int,
-                   source: dict) -> PreparedRun:
+def prepare_source(
+    session: Session, out_dir: Path, recon: ReconSettings, chunk_frames: int, source: dict
+) -> PreparedRun:
     """A run whose 2D records come from a source an evaluation brings
     (:class:`ergopose.pipeline.detect.Source2D`, given to :func:`people_in_3d`) instead of the pose
     networks on the videos: no models, ``recon`` for the body model and the tracking, ``source``
     (a description of the source) in the fingerprint of the stored chunks and in the tracks
     table's metadata. The output folder is not checked: the caller owns it."""
     job = detect.DetectJob(cameras=session.calibrated_cameras, videos=(), fps=session.fps, recon=recon)
-    return PreparedRun(session=session, out_dir=Path(out_dir), store=ResultStore(out_dir), job=job,
-                       chunk_frames=max(1, int(chunk_frames)), models=(), scoring=scoring_settings(session),
-                       t_start=time.perf_counter(), source=dict(source))
+    return PreparedRun(
+        session=session,
+        out_dir=Path(out_dir),
+        store=ResultStore(out_dir),
+        job=job,
+        chunk_frames=max(1, int(chunk_frames)),
+        models=(),
+        scoring=scoring_settings(session),
+        t_start=time.perf_counter(),
+        source=dict(source),
+    )
 
 
-def people_in_3d(run: PreparedRun, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int,
-                 progress: ProgressCallback | None, source: detect.Source2D | None = None) -> None:
+def people_in_3d(
+    run: PreparedRun,
+    todo: Sequence[tuple[int, int]],
+    ranges,
+    already: int,
+    processes: int,
+    progress: ProgressCallback | None,
+    source: detect.Source2D | None = None,
+) -> None:
     """Stages *find people*, *2D* and *body model* for every chunk still to do, each chunk stored
     as it finishes (:func:`ergopose.pipeline.detect.detect_chunk`). source: where the 2D records
     come from (None: the pose networks on the session's videos, in ``processes`` processes; else
@@ -251,15 +286,25 @@ def people_in_3d(run: PreparedRun, todo: Sequence[tuple[int, int]], ranges, alre
     run.timings["pose"] = time.perf_counter() - t0
 
 
-def finish(run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None,
-           run_each: RunEach | None = None) -> AssessResult:
+def finish(
+    run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None, run_each: RunEach | None = None
+) -> AssessResult:
     """The stages after the chunks, from the stored chunks (:func:`after_people`), and what the
     run wrote (run_each: see :func:`ergopose.pipeline.aggregate.score_tracks`)."""
     tracks, outputs = after_people(run, ranges, progress, run_each)
-    return AssessResult(session=run.session.path, report_dir=run.out_dir, index_html=outputs.index_html,
-                        session_csv=outputs.session_csv, tracks=tracks.path, workers=outputs.workers,
-                        frames=run.frames, chunks_total=len(ranges), chunks_reused=reused,
-                        seconds=time.perf_counter() - run.t_start, stage_seconds=run.timings)
+    return AssessResult(
+        session=run.session.path,
+        report_dir=run.out_dir,
+        index_html=outputs.index_html,
+        session_csv=outputs.session_csv,
+        tracks=tracks.path,
+        workers=outputs.workers,
+        frames=run.frames,
+        chunks_total=len(ranges),
+        chunks_reused=reused,
+        seconds=time.perf_counter() - run.t_start,
+        stage_seconds=run.timings,
+    )
 
 
 #: The stage *publish*: called as publisher(named, scored, stage, out_dir, scoring, models, progress,
@@ -269,27 +314,44 @@ def finish(run: PreparedRun, ranges, reused: int, progress: ProgressCallback | N
 Publisher = Callable[..., Any]
 
 
-def after_people(run: PreparedRun, ranges, progress: ProgressCallback | None, run_each: RunEach | None = None,
-                 publisher: Publisher = publish.publish) -> tuple[track.Tracks, Any]:
+def after_people(
+    run: PreparedRun,
+    ranges,
+    progress: ProgressCallback | None,
+    run_each: RunEach | None = None,
+    publisher: Publisher = publish.publish,
+) -> tuple[track.Tracks, Any]:
     """The stages after the chunks, from the stored chunks: track and smooth, then score,
     aggregate and publish (:func:`score_and_publish`). Returns the tracks and what ``publisher``
     wrote."""
     t0 = time.perf_counter()
-    tracks = track.track_session(run.session, run.store, ranges, run.job.recon, progress, window=run.window,
-                                 meta=run.source)
+    tracks = track.track_session(
+        run.session, run.store, ranges, run.job.recon, progress, window=run.window, meta=run.source
+    )
     run.timings["tracking"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    outputs = score_and_publish(run.session, tracks, run.out_dir, run.scoring, run.models, progress, run_each,
-                                bom=run.bom, publisher=publisher)
+    outputs = score_and_publish(
+        run.session, tracks, run.out_dir, run.scoring, run.models, progress, run_each, bom=run.bom, publisher=publisher
+    )
     run.timings["scoring_and_report"] = time.perf_counter() - t0
     return tracks, outputs
 
 
-def score_and_publish(session: Session, tracks: track.Tracks, out_dir: Path, scoring,
-                      models: Sequence[ModelUse], progress: ProgressCallback | None, run_each: RunEach | None = None,
-                      *, bom: bool = False, window: part_of_day.Window | None = None,
-                      store_dir: Path | None = None, publisher: Publisher = publish.publish) -> Any:
+def score_and_publish(
+    session: Session,
+    tracks: track.Tracks,
+    out_dir: Path,
+    scoring,
+    models: Sequence[ModelUse],
+    progress: ProgressCallback | None,
+    run_each: RunEach | None = None,
+    *,
+    bom: bool = False,
+    window: part_of_day.Window | None = None,
+    store_dir: Path | None = None,
+    publisher: Publisher = publish.publish,
+) -> Any:
     """The stages after tracking: who is who, score, aggregate, publish. Everything is written to
     a folder beside the outputs and moved into place when complete: a failure leaves the earlier
     outputs whole. Also run on stored tracks without video (:mod:`ergopose.pipeline.rescore`).
@@ -301,8 +363,9 @@ def score_and_publish(session: Session, tracks: track.Tracks, out_dir: Path, sco
     product's)."""
     named = track.name_workers(session, tracks, progress, window)
     with publish.staging(out_dir) as stage:
-        scored = aggregate.score_tracks(named.session, named.tracks, stage, scoring, named.naming, progress,
-                                        run_each, bom=bom)
+        scored = aggregate.score_tracks(
+            named.session, named.tracks, stage, scoring, named.naming, progress, run_each, bom=bom
+        )
         return publisher(named, scored, stage, out_dir, scoring, models, progress, bom=bom, store_dir=store_dir)
 
 
@@ -313,8 +376,9 @@ def chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
     return start, stop
 
 
-def _run_chunks(job, store, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int,
-                progress: ProgressCallback | None) -> None:
+def _run_chunks(
+    job, store, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int, progress: ProgressCallback | None
+) -> None:
     total_frames = sum(stop - start for start, stop in ranges)  # the chunks of this run (a window: some)
     done_frames = sum(stop - start for start, stop in ranges) - sum(stop - start for start, stop in todo)
     msg = f"{already} of {len(ranges)} chunks already done" if already else ""
@@ -340,4 +404,3 @@ def _run_chunks(job, store, todo: Sequence[tuple[int, int]], ranges, already: in
             for f in futures:
                 f.cancel()
             raise
-

@@ -76,13 +76,14 @@ def parse_address(address: str) -> tuple[str, int | str]:
     """("local", N) for ``local:N``, else ("remote", the scheduler address, e.g. tcp://host:8786)."""
     text = str(address).strip()
     if text.startswith(LOCAL_PREFIX):
-        n = text[len(LOCAL_PREFIX):]
+        n = text[len(LOCAL_PREFIX) :]
         if not n.isdigit() or int(n) < 1:
             raise ConfigError(f"expected local:N with N at least 1 worker process, got {address!r}", field="--cluster")
         return "local", int(n)
     if "://" not in text and ":" not in text:
-        raise ConfigError(f"expected a scheduler address such as tcp://host:8786, or local:N, got {address!r}",
-                          field="--cluster")
+        raise ConfigError(
+            f"expected a scheduler address such as tcp://host:8786, or local:N, got {address!r}", field="--cluster"
+        )
     return "remote", text
 
 
@@ -112,13 +113,19 @@ def local_cluster(n_workers: int) -> LocalCluster:
     """The LocalCluster of ``local:N``: N one-thread worker processes, the dashboard on a free port,
     the workers' profiler off (:data:`LOCAL_CLUSTER_CONFIG`; a restarted worker keeps it off)."""
     with dask.config.set(LOCAL_CLUSTER_CONFIG):
-        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                            silence_logs=logging.ERROR)
+        return LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
 
 
 @contextlib.contextmanager
-def connect(address: str, model_dir: str | None, progress: ProgressCallback | None = None,
-            model: str | None = None) -> Iterator[Any]:
+def connect(
+    address: str, model_dir: str | None, progress: ProgressCallback | None = None, model: str | None = None
+) -> Iterator[Any]:
     """A Dask client for ``address`` (a LocalCluster of N one-thread worker processes for local:N),
     with the pose networks loaded on every worker; the dashboard address is reported (stage
     "cluster", unit "note"). Closed (and a LocalCluster shut down) on leaving."""
@@ -134,18 +141,33 @@ def connect(address: str, model_dir: str | None, progress: ProgressCallback | No
                 raise ConfigError(f"cannot reach the Dask scheduler at {where} ({exc})", field="--cluster") from None
         versions = set(client.run(_worker_version).values())
         if versions - {__version__}:
-            raise ConfigError(f"the Dask workers run ergopose {', '.join(sorted(versions))}, this is {__version__}: "
-                              "install the same version everywhere", field="--cluster")
+            raise ConfigError(
+                f"the Dask workers run ergopose {', '.join(sorted(versions))}, this is {__version__}: "
+                "install the same version everywhere",
+                field="--cluster",
+            )
         client.register_plugin(PoseModels(model_dir, model), name=PoseModels.name)
         info = client.scheduler_info()
         workers = info.get("workers", {})
         threads = sorted({w.get("nthreads", 1) for w in workers.values()})
         dashboard = client.dashboard_link if "dashboard" in info.get("services", {}) else "none (needs bokeh)"
-        report(progress, "cluster", 0, None, unit="note",
-               message=f"scheduler {client.scheduler.address}, {len(workers)} workers, dashboard {dashboard}")
+        report(
+            progress,
+            "cluster",
+            0,
+            None,
+            unit="note",
+            message=f"scheduler {client.scheduler.address}, {len(workers)} workers, dashboard {dashboard}",
+        )
         if threads and threads[-1] > 1:
-            report(progress, "cluster", 0, None, unit="note",
-                   message="workers with more than one thread run one chunk at a time; start them with --nthreads 1")
+            report(
+                progress,
+                "cluster",
+                0,
+                None,
+                unit="note",
+                message="workers with more than one thread run one chunk at a time; start them with --nthreads 1",
+            )
         yield client
 
 
@@ -159,8 +181,11 @@ def session_out_dirs(session_dirs: Sequence[str | Path], out_dir: str | Path | N
     names = [d.resolve().name for d in dirs]
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
-        raise ConfigError(f"sessions of the same folder name ({', '.join(twice)}) would share an output folder; "
-                          "assess them in separate runs", field="--sessions")
+        raise ConfigError(
+            f"sessions of the same folder name ({', '.join(twice)}) would share an output folder; "
+            "assess them in separate runs",
+            field="--sessions",
+        )
     base = Path(out_dir) if out_dir is not None else Path("reports")
     return [base / n for n in names]
 
@@ -186,8 +211,9 @@ Copy = tuple[str, str, int]
 def _copies(run: local.PreparedRun) -> tuple[Copy, ...]:
     """The session's videos given as URLs, with the place of their copy (the client's: each worker
     copies the video to the same path on its machine)."""
-    return tuple((c.video_url, str(c.video_path), c.video_path.stat().st_size)
-                 for c in run.session.cameras if c.video_url)
+    return tuple(
+        (c.video_url, str(c.video_path), c.video_path.stat().st_size) for c in run.session.cameras if c.video_url
+    )
 
 
 def _fetch(copies: Sequence[Copy]) -> None:
@@ -200,16 +226,18 @@ def _forget(paths: Sequence[str]) -> int:
     return remote.forget(paths)
 
 
-def _cluster_chunk(job: detect.DetectJob, store_root: str, start: int, stop: int,
-                   copies: Sequence[Copy] = ()) -> tuple[int, int]:
+def _cluster_chunk(
+    job: detect.DetectJob, store_root: str, start: int, stop: int, copies: Sequence[Copy] = ()
+) -> tuple[int, int]:
     """Dask task: one chunk computed and stored (as a local worker process does)."""
     _fetch(copies)
     with _INFERENCE_LOCK:
         return local.chunk_task(job, store_root, start, stop)
 
 
-def _cluster_finish(run: local.PreparedRun, ranges: Sequence[tuple[int, int]], reused: int, *chunks: Any,
-                    copies: Sequence[Copy] = ()) -> tuple[local.AssessResult, list]:
+def _cluster_finish(
+    run: local.PreparedRun, ranges: Sequence[tuple[int, int]], reused: int, *chunks: Any, copies: Sequence[Copy] = ()
+) -> tuple[local.AssessResult, list]:
     """Dask task, once every chunk of the session is stored: tracking, scoring, CSV files and the
     report; returns the result and the warnings met."""
     _fetch(copies)  # the recording's fingerprint reads the videos' first and last bytes
@@ -251,9 +279,12 @@ class _Running:
     copies: tuple[Copy, ...] = ()
 
 
-def assess_sessions(session_dirs: Sequence[str | Path], address: str,
-                    options: local.AssessOptions = local.AssessOptions(),
-                    progress: ProgressCallback | None = None) -> list[SessionOutcome]:
+def assess_sessions(
+    session_dirs: Sequence[str | Path],
+    address: str,
+    options: local.AssessOptions = local.AssessOptions(),
+    progress: ProgressCallback | None = None,
+) -> list[SessionOutcome]:
     """Assess every session on the Dask cluster at ``address`` in one submission; one outcome per
     session, in the order given (see the module docstring). ``options.processes`` is not used
     (the cluster's workers do the work); ``options.out_dir`` is the output folder of a single
@@ -273,23 +304,33 @@ def assess_sessions(session_dirs: Sequence[str | Path], address: str,
                 try:
                     run = local.prepare(sdir, dataclasses.replace(options, out_dir=out), sp)
                     # absolute paths: the workers see the same shared folder, not this process's folder
-                    run = dataclasses.replace(run, out_dir=run.out_dir.resolve(), store=ResultStore(run.out_dir.resolve()))
+                    run = dataclasses.replace(
+                        run, out_dir=run.out_dir.resolve(), store=ResultStore(run.out_dir.resolve())
+                    )
                     with guard.output_faults(run.out_dir):
                         locks.enter_context(run.store.lock())
                         ranges, done, todo = local.open_store(run, sp)
                 except Exception as exc:  # this session fails alone
                     outcomes[i] = SessionOutcome(sdir, out, error=exc)
                     continue
-                state = _Running(i, run, sp, total_frames=ranges[-1][1] if ranges else 0,
-                                 done_frames=sum(b - a for a, b in ranges) - sum(b - a for a, b in todo),
-                                 t_submit=time.perf_counter(), copies=_copies(run))
+                state = _Running(
+                    i,
+                    run,
+                    sp,
+                    total_frames=ranges[-1][1] if ranges else 0,
+                    done_frames=sum(b - a for a, b in ranges) - sum(b - a for a, b in todo),
+                    t_submit=time.perf_counter(),
+                    copies=_copies(run),
+                )
                 msg = f"{len(done)} of {len(ranges)} chunks already done" if done else ""
                 report(sp, "pose", state.done_frames, state.total_frames, unit="frame", message=msg)
                 root = str(run.store.root.resolve())
-                state.chunks = [client.submit(_cluster_chunk, run.job, root, a, b, state.copies, pure=False)
-                                for a, b in todo]
-                state.finish = client.submit(_cluster_finish, run, ranges, len(done), *state.chunks,
-                                             copies=state.copies, pure=False)
+                state.chunks = [
+                    client.submit(_cluster_chunk, run.job, root, a, b, state.copies, pure=False) for a, b in todo
+                ]
+                state.finish = client.submit(
+                    _cluster_finish, run, ranges, len(done), *state.chunks, copies=state.copies, pure=False
+                )
                 running.append(state)
             _follow(client, running, outcomes, dirs)
     return [o for o in outcomes if o is not None]

@@ -78,8 +78,9 @@ class ChunkResult:
 _NETWORKS: dict[tuple[str | None, str | None, int], tuple[BlazePoseLandmarker, BlazePoseDetector]] = {}
 
 
-def networks(model_dir: str | None, num_threads: int,
-             model: str | None = None) -> tuple[BlazePoseLandmarker, BlazePoseDetector]:
+def networks(
+    model_dir: str | None, num_threads: int, model: str | None = None
+) -> tuple[BlazePoseLandmarker, BlazePoseDetector]:
     """The pose networks of this process (landmarker of ``model``, detector), loaded once and
     reused for every chunk (a Dask worker loads them when it starts: ergopose.pipeline.cluster)."""
     key = (model_dir, model, num_threads)
@@ -125,8 +126,9 @@ class Source2D(Protocol):
         ...
 
 
-def video_2d(job: DetectJob, start: int, stop: int,
-             progress: ProgressCallback | None = None) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
+def video_2d(
+    job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None
+) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
     """Stages *find people* and *2D* on the videos: the pose networks in every camera for frames
     start .. stop-1 (:class:`ergopose.pose.fisheye.FisheyePoseEstimator`); the records of
     :meth:`Source2D.frames_2d`.
@@ -139,11 +141,14 @@ def video_2d(job: DetectJob, start: int, stop: int,
         return _video_2d(job, start, stop, progress)
 
 
-def _video_2d(job: DetectJob, start: int, stop: int,
-              progress: ProgressCallback | None) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
+def _video_2d(
+    job: DetectJob, start: int, stop: int, progress: ProgressCallback | None
+) -> tuple[list[Sequence[Detections2D]], np.ndarray]:
     landmarker, detector = _networks(job)
-    stages = [FisheyePoseEstimator(cam, i, landmarker, detector, job.pose, progress=progress)
-              for i, cam in enumerate(job.cameras)]
+    stages = [
+        FisheyePoseEstimator(cam, i, landmarker, detector, job.pose, progress=progress)
+        for i, cam in enumerate(job.cameras)
+    ]
     readers = [read_frames_checked(path, start, stop) for path in job.videos]
     frames_2d: list[Sequence[Detections2D]] = []
     counts = np.zeros((stop - start, len(job.cameras)), np.int16)
@@ -156,7 +161,7 @@ def _video_2d(job: DetectJob, start: int, stop: int,
             if image is None:
                 counts[k, c] = SKIP_CODES[problem]
                 if np.count_nonzero(counts[:, c] < 0) > limit:
-                    raise _too_many_bad(job, c, start, stop, counts[:k + 1, c])
+                    raise _too_many_bad(job, c, start, stop, counts[: k + 1, c])
                 per_camera.append(FrameDetections.empty(c, index).to_recon(cam, time_s))
                 continue
             found = stage.process(image, index)
@@ -168,15 +173,17 @@ def _video_2d(job: DetectJob, start: int, stop: int,
     return frames_2d, counts
 
 
-def body_model(start: int, stop: int, frames_2d: Sequence[Sequence[Detections2D]], counts: np.ndarray,
-               recon: ReconSettings) -> ChunkResult:
+def body_model(
+    start: int, stop: int, frames_2d: Sequence[Sequence[Detections2D]], counts: np.ndarray, recon: ReconSettings
+) -> ChunkResult:
     """Stage *body model* (3D): the 2D records of frames start .. stop-1 associated across the
     cameras and triangulated into people in 3D (:func:`ergopose.recon.triangulate.reconstruct_frames`)."""
     return ChunkResult(start, stop, reconstruct_frames(frames_2d, recon), counts)
 
 
-def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None,
-                 source: Source2D | None = None) -> ChunkResult:
+def detect_chunk(
+    job: DetectJob, start: int, stop: int, progress: ProgressCallback | None = None, source: Source2D | None = None
+) -> ChunkResult:
     """One chunk through *find people*, *2D* (the videos, :func:`video_2d`, or ``source``) and
     *body model* (:func:`body_model`): frames start .. stop-1 as people in 3D."""
     frames_2d, counts = video_2d(job, start, stop, progress) if source is None else source.frames_2d(start, stop)
@@ -185,10 +192,13 @@ def detect_chunk(job: DetectJob, start: int, stop: int, progress: ProgressCallba
 
 def _too_many_bad(job: DetectJob, camera: int, start: int, stop: int, codes: np.ndarray) -> InputError:
     bad = np.flatnonzero(codes < 0) + start
-    return InputError(f"{bad.size} of the {stop - start} frames between {_clock(start / job.fps)} and "
-                      f"{_clock(stop / job.fps)} of the video cannot be read (first bad frame {bad[0]}, at "
-                      f"{_clock(bad[0] / job.fps)}); more than the {100 * job.max_bad_share:g} % allowed "
-                      "(--max-bad-frames): the video is damaged there", path=job.videos[camera])
+    return InputError(
+        f"{bad.size} of the {stop - start} frames between {_clock(start / job.fps)} and "
+        f"{_clock(stop / job.fps)} of the video cannot be read (first bad frame {bad[0]}, at "
+        f"{_clock(bad[0] / job.fps)}); more than the {100 * job.max_bad_share:g} % allowed "
+        "(--max-bad-frames): the video is damaged there",
+        path=job.videos[camera],
+    )
 
 
 def _clock(seconds: float) -> str:

@@ -56,8 +56,9 @@ def check_output_folder(out_dir: str | os.PathLike) -> None:
     """OutputError unless ``out_dir`` is a folder that can be written (or can be made where it is)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise OutputError("--out names a file, not a folder; give a folder for the report (it is made if missing)",
-                          path=out)
+        raise OutputError(
+            "--out names a file, not a folder; give a folder for the report (it is made if missing)", path=out
+        )
     base = _existing_ancestor(out)
     if not base.is_dir():
         raise OutputError(f"cannot make the output folder here: {base} is a file, not a folder", path=out)
@@ -73,8 +74,9 @@ def check_output_folder(out_dir: str | os.PathLike) -> None:
         if what is None:
             raise
         where = "cannot be written" if base == out.absolute() else f"cannot be made in {base}"
-        raise OutputError(f"the output folder {where} ({what}); give a folder you can write to with --out",
-                          path=out) from None
+        raise OutputError(
+            f"the output folder {where} ({what}); give a folder you can write to with --out", path=out
+        ) from None
 
 
 def estimate_output_bytes(frames: int, people: int, chunk_bytes_stored: int = 0) -> int:
@@ -92,9 +94,11 @@ def check_room(out_dir: str | os.PathLike, need_bytes: int) -> None:
     base = _existing_ancestor(Path(out_dir))
     free = shutil.disk_usage(base).free
     if free < need_bytes:
-        raise OutputError(f"not enough room on the disk: this assessment needs about {_size(need_bytes)} and "
-                          f"{_size(free)} is free; make room or give a folder on another disk with --out",
-                          path=out_dir)
+        raise OutputError(
+            f"not enough room on the disk: this assessment needs about {_size(need_bytes)} and "
+            f"{_size(free)} is free; make room or give a folder on another disk with --out",
+            path=out_dir,
+        )
 
 
 def _size(n: float) -> str:
@@ -133,8 +137,13 @@ def check_before_work(out_dir: Path, session: Session, force: bool, progress: Pr
     check_output_folder(out_dir)
     people = max(2, len(session.workers))
     check_room(out_dir, estimate_output_bytes(int(session.frame_count), people, stored_chunk_bytes(out_dir)))
-    check_results_session(out_dir, session, force, progress=progress,
-                          advice="give another folder with --out, or add --force to replace them")
+    check_results_session(
+        out_dir,
+        session,
+        force,
+        progress=progress,
+        advice="give another folder with --out, or add --force to replace them",
+    )
 
 
 # ------------------------------------------------------------------------- session fingerprint
@@ -148,8 +157,9 @@ def session_fingerprint(calibration_fingerprint: str, video_fingerprints: Sequen
 
 def fingerprint_of(session: Session) -> str:
     """The fingerprint of a loaded session (:class:`ergopose.session.Session`)."""
-    return session_fingerprint(file_fingerprint(session.calibration_path),
-                               [file_fingerprint(c.video_path) for c in session.cameras])
+    return session_fingerprint(
+        file_fingerprint(session.calibration_path), [file_fingerprint(c.video_path) for c in session.cameras]
+    )
 
 
 @dataclass(frozen=True)
@@ -182,8 +192,9 @@ def results_owner(out_dir: str | os.PathLike) -> ResultsOwner | None:
     with contextlib.suppress(OSError, ValueError, AttributeError, TypeError):
         data = json.loads(path.read_text(encoding="utf-8"))["data"]
         frames = data.get("frames")
-        return ResultsOwner(data.get("fingerprint"), data.get("session_id"),
-                            int(frames) if frames is not None else None, path)
+        return ResultsOwner(
+            data.get("fingerprint"), data.get("session_id"), int(frames) if frames is not None else None, path
+        )
     path = out / "pipeline" / "manifest.json"
     with contextlib.suppress(OSError, ValueError, AttributeError, TypeError, KeyError):
         manifest = json.loads(path.read_text(encoding="utf-8"))
@@ -215,22 +226,38 @@ def foreign_results(out_dir: str | os.PathLike, session: Session, fingerprint: s
     return None if same_name and same_length else owner
 
 
-def check_results_session(out_dir: str | os.PathLike, session: Session, force: bool, *, advice: str,
-                          progress: ProgressCallback | None = None) -> None:
+def check_results_session(
+    out_dir: str | os.PathLike, session: Session, force: bool, *, advice: str, progress: ProgressCallback | None = None
+) -> None:
     """OutputError if ``out_dir`` holds results of another recording than ``session``, unless
     ``force``; then a warning says so. ``advice``: what the user can do instead (the message
-    adds "or add --force to ..."). """
+    adds "or add --force to ...")."""
     fingerprint = fingerprint_of(session)
     owner = foreign_results(out_dir, session, fingerprint)
     if owner is None:
         return
     if not force:
-        raise OutputError(f"holds the results of another recording ({owner.describe()}), not of {session.path} "
-                          f"(fingerprint {fingerprint[:12]}); {advice}", path=out_dir)
-    warn(progress, f"{out_dir} holds the results of another recording ({owner.describe()}); "
-                   f"going on because of --force")
+        raise OutputError(
+            f"holds the results of another recording ({owner.describe()}), not of {session.path} "
+            f"(fingerprint {fingerprint[:12]}); {advice}",
+            path=out_dir,
+        )
+    warn(
+        progress, f"{out_dir} holds the results of another recording ({owner.describe()}); going on because of --force"
+    )
 
 
-__all__ = ["check_before_work", "check_output_folder", "check_room", "estimate_output_bytes", "stored_chunk_bytes", "output_faults",
-           "session_fingerprint", "fingerprint_of", "ResultsOwner", "results_owner", "foreign_results",
-           "check_results_session"]
+__all__ = [
+    "check_before_work",
+    "check_output_folder",
+    "check_room",
+    "estimate_output_bytes",
+    "stored_chunk_bytes",
+    "output_faults",
+    "session_fingerprint",
+    "fingerprint_of",
+    "ResultsOwner",
+    "results_owner",
+    "foreign_results",
+    "check_results_session",
+]

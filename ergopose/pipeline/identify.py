@@ -80,8 +80,13 @@ def identify_by_stature(measured: dict[str, float], session: Session) -> Identif
     if not workers:
         return Identification((), ())
     if not rules.by_stature:
-        return Identification((), ("the settings give statures, but matching tracked people by stature is off "
-                                   "([identification] by_stature = false)",))
+        return Identification(
+            (),
+            (
+                "the settings give statures, but matching tracked people by stature is off "
+                "([identification] by_stature = false)",
+            ),
+        )
     if not tracked:
         return Identification((), ("no tracked person's stature could be measured, so nobody was identified",))
     diff = np.abs(np.array([[measured[t] - w.stature_m for w in workers] for t in tracked]))
@@ -96,18 +101,24 @@ def identify_by_stature(measured: dict[str, float], session: Session) -> Identif
         _, _, alt_total = _best(alt)
         t, w = tracked[r], workers[c]
         if alt_total - total < rules.stature_margin_m:
-            notes.append(f"{t} (measured {measured[t]:.2f} m) could be {w.worker_id} (given {w.stature_m:.2f} m) "
-                         f"but another matching fits within {rules.stature_margin_m:.2f} m: not identified")
+            notes.append(
+                f"{t} (measured {measured[t]:.2f} m) could be {w.worker_id} (given {w.stature_m:.2f} m) "
+                f"but another matching fits within {rules.stature_margin_m:.2f} m: not identified"
+            )
             continue
         matches.append(Identity(t, w.worker_id, float(measured[t]), float(w.stature_m)))
     named = {m.worker_id for m in matches}
     for w in workers:
         if w.worker_id not in named and not any(w.worker_id in n for n in notes):
-            notes.append(f"{w.worker_id} (given {w.stature_m:.2f} m): no tracked person within "
-                         f"{rules.stature_tolerance_m:.2f} m of that height")
+            notes.append(
+                f"{w.worker_id} (given {w.stature_m:.2f} m): no tracked person within "
+                f"{rules.stature_tolerance_m:.2f} m of that height"
+            )
     taken = {m.tracked_id for m in matches}
     clash = [t for t in tracked if t in named and t not in taken]
     if clash:
-        notes.append(f"settings ids {', '.join(clash)} are also pseudonyms of unmatched tracked people; "
-                     "those keep the pseudonym with the suffix '_unmatched'")
+        notes.append(
+            f"settings ids {', '.join(clash)} are also pseudonyms of unmatched tracked people; "
+            "those keep the pseudonym with the suffix '_unmatched'"
+        )
     return Identification(tuple(matches), tuple(notes), tuple(clash))

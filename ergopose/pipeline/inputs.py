@@ -31,8 +31,9 @@ class ModelUse:
     path: Path
 
 
-def ensure_models(model_dir: str | None, progress: ProgressCallback | None,
-                  model: str | None = None) -> tuple[ModelUse, ...]:
+def ensure_models(
+    model_dir: str | None, progress: ProgressCallback | None, model: str | None = None
+) -> tuple[ModelUse, ...]:
     """The BlazePose detector and the landmark model ``model`` (lite, full, heavy; None: the
     default) in the cache (fetched with a progress bar on first use), verified."""
     out = []
@@ -46,8 +47,13 @@ def ensure_models(model_dir: str | None, progress: ProgressCallback | None,
     return tuple(out)
 
 
-def fingerprint_inputs(session: Session, job: DetectJob, chunk_frames: int, models: Sequence[ModelUse],
-                       source: Mapping[str, Any] | None = None) -> dict[str, Any]:
+def fingerprint_inputs(
+    session: Session,
+    job: DetectJob,
+    chunk_frames: int,
+    models: Sequence[ModelUse],
+    source: Mapping[str, Any] | None = None,
+) -> dict[str, Any]:
     """What the stored chunks depend on: videos, calibration, 2D and 3D settings, models, version.
 
     Task factors, worker names and scoring settings are not part of it: changing them re-runs

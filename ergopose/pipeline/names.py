@@ -51,8 +51,10 @@ NAMES_FILE = "names.toml"
 NAMES_FORMAT_VERSION = 1
 #: The tracker's pseudonyms (ergopose.recon.tracking.identity_name).
 PSEUDONYM = re.compile(r"^worker_(\d+)$")
-_HEADER = ("# Names of the tracked people of this session, written by 'ergopose workers --name'\n"
-           "# (docs/workers.md). tracked id = a [workers.<id>] key of settings.toml, its name, or any name.\n")
+_HEADER = (
+    "# Names of the tracked people of this session, written by 'ergopose workers --name'\n"
+    "# (docs/workers.md). tracked id = a [workers.<id>] key of settings.toml, its name, or any name.\n"
+)
 
 
 def names_path(session_dir: str | Path) -> Path:
@@ -67,19 +69,26 @@ def load_names(session_dir: str | Path) -> dict[str, str]:
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise ConfigError(f"cannot read the names file ({exc}); fix it or remove it and name the workers again "
-                          "with 'ergopose workers --name'", path=path) from None
+        raise ConfigError(
+            f"cannot read the names file ({exc}); fix it or remove it and name the workers again "
+            "with 'ergopose workers --name'",
+            path=path,
+        ) from None
     if data.get("format_version") != NAMES_FORMAT_VERSION:
-        raise ConfigError(f"unsupported format version {data.get('format_version')!r} (expected "
-                          f"{NAMES_FORMAT_VERSION})", path=path, field="format_version")
+        raise ConfigError(
+            f"unsupported format version {data.get('format_version')!r} (expected {NAMES_FORMAT_VERSION})",
+            path=path,
+            field="format_version",
+        )
     table = data.get("names", {})
     if not isinstance(table, dict):
         raise ConfigError("expected a [names] table (tracked id = name)", path=path, field="names")
     out = {}
     for tracked, alias in table.items():
         if not PSEUDONYM.match(tracked):
-            raise ConfigError(f"{tracked!r} is not a tracked id (worker_1, worker_2, ...)", path=path,
-                              field=f"names.{tracked}")
+            raise ConfigError(
+                f"{tracked!r} is not a tracked id (worker_1, worker_2, ...)", path=path, field=f"names.{tracked}"
+            )
         if not isinstance(alias, str) or not alias.strip():
             raise ConfigError(f"expected a non-empty name, got {alias!r}", path=path, field=f"names.{tracked}")
         out[tracked] = alias.strip()
@@ -92,8 +101,9 @@ def write_names(session_dir: str | Path, names: Mapping[str, str]) -> Path:
     if not names:
         path.unlink(missing_ok=True)
         return path
-    body = tomli_w.dumps({"format_version": NAMES_FORMAT_VERSION,
-                          "names": {t: names[t] for t in sorted(names, key=tracker_number)}})
+    body = tomli_w.dumps(
+        {"format_version": NAMES_FORMAT_VERSION, "names": {t: names[t] for t in sorted(names, key=tracker_number)}}
+    )
     return write_text(path, _HEADER + body)
 
 
@@ -109,8 +119,9 @@ def parse_name_args(items: Sequence[str]) -> dict[str, str]:
         tracked, sep, alias = item.partition("=")
         tracked = tracked.strip()
         if not sep or not PSEUDONYM.match(tracked):
-            raise InputError(f"expected TRACKED_ID=NAME with a tracked id such as worker_1, got {item!r}",
-                             field="--name")
+            raise InputError(
+                f"expected TRACKED_ID=NAME with a tracked id such as worker_1, got {item!r}", field="--name"
+            )
         out[tracked] = alias.strip()
     return out
 
@@ -186,8 +197,12 @@ class Naming:
         return dataclasses.replace(session, workers=tuple(workers))
 
 
-def resolve_naming(session: Session, tracked: Sequence[str], names: Mapping[str, str],
-                   measured: Mapping[str, float | None] | None = None) -> Naming:
+def resolve_naming(
+    session: Session,
+    tracked: Sequence[str],
+    names: Mapping[str, str],
+    measured: Mapping[str, float | None] | None = None,
+) -> Naming:
     """The reported id of every tracked id (in ``tracked``; names of other ids are ignored)."""
     tracked = sorted(tracked, key=tracker_number)
     measured = dict(measured or {})
@@ -207,8 +222,9 @@ def resolve_naming(session: Session, tracked: Sequence[str], names: Mapping[str,
             display[first] = alias
     named_ids = set(reported.values())
     rest = [t for t in tracked if t not in reported]
-    stature_session = dataclasses.replace(session, workers=tuple(w for w in session.workers
-                                                                 if w.worker_id not in named_ids))
+    stature_session = dataclasses.replace(
+        session, workers=tuple(w for w in session.workers if w.worker_id not in named_ids)
+    )
     known = {t: float(v) for t in rest if (v := measured.get(t)) is not None}
     ident = identify_by_stature(known, stature_session)
     taken = set(named_ids)
@@ -221,8 +237,13 @@ def resolve_naming(session: Session, tracked: Sequence[str], names: Mapping[str,
     members: dict[str, list[str]] = {}
     for t in tracked:
         members.setdefault(reported[t], []).append(t)
-    return Naming(reported=reported, members={k: tuple(v) for k, v in members.items()}, display=display,
-                  stature=ident, named=frozenset(t for t in tracked if t in names))
+    return Naming(
+        reported=reported,
+        members={k: tuple(v) for k, v in members.items()},
+        display=display,
+        stature=ident,
+        named=frozenset(t for t in tracked if t in names),
+    )
 
 
 # ------------------------------------------------------------------ task inputs that reach nobody
@@ -251,13 +272,18 @@ def unused_task_inputs(session: Session, reported_ids: Sequence[str]) -> list[st
 def unused_message(session: Session, ids: Sequence[str], *, tracked_ids: Sequence[str] = ()) -> str:
     """The warning naming settings ids whose task inputs are applied to nobody."""
     listing = ", ".join(f"[workers.{i}]" for i in ids)
-    where = f"; the tracked people are {', '.join(tracked_ids)}" if tracked_ids else \
-        " (the tracker calls the people it follows worker_1, worker_2, ...)"
+    where = (
+        f"; the tracked people are {', '.join(tracked_ids)}"
+        if tracked_ids
+        else " (the tracker calls the people it follows worker_1, worker_2, ...)"
+    )
     example = tracked_ids[0] if tracked_ids else "worker_1"
-    return (f"{session.settings_path.name}: the task inputs of {listing} are applied to nobody: no tracked person "
-            f"has {'that id' if len(ids) == 1 else 'those ids'}{where}; list the tracked people with 'ergopose "
-            f"workers --session {session.path}' and name them with 'ergopose workers --session {session.path} "
-            f"--name {example}={ids[0]}'")
+    return (
+        f"{session.settings_path.name}: the task inputs of {listing} are applied to nobody: no tracked person "
+        f"has {'that id' if len(ids) == 1 else 'those ids'}{where}; list the tracked people with 'ergopose "
+        f"workers --session {session.path}' and name them with 'ergopose workers --session {session.path} "
+        f"--name {example}={ids[0]}'"
+    )
 
 
 # ------------------------------------------------------------------ tracked ids scored together
@@ -284,6 +310,18 @@ def merge_rows(rows: TrackFrames, groups: Mapping[int, int]) -> TrackFrames:
     return type(rows)(**fields)
 
 
-__all__ = ["NAMES_FILE", "Naming", "load_names", "write_names", "parse_name_args", "resolve_naming",
-           "settings_id", "unreachable_task_inputs", "unused_task_inputs", "unused_message", "merge_rows",
-           "tracker_number", "names_path"]
+__all__ = [
+    "NAMES_FILE",
+    "Naming",
+    "load_names",
+    "write_names",
+    "parse_name_args",
+    "resolve_naming",
+    "settings_id",
+    "unreachable_task_inputs",
+    "unused_task_inputs",
+    "unused_message",
+    "merge_rows",
+    "tracker_number",
+    "names_path",
+]

@@ -59,17 +59,24 @@ class PoseVideoResult:
         return int(np.count_nonzero(self.people > 0))
 
 
-def circle_from_video(path: str | os.PathLike, start: int, stop: int,
-                      samples: int = CIRCLE_SAMPLES) -> CircleSearch:
+def circle_from_video(path: str | os.PathLike, start: int, stop: int, samples: int = CIRCLE_SAMPLES) -> CircleSearch:
     """The image circle seen in up to ``samples`` frames spread evenly over start .. stop-1."""
     picks = np.unique(np.linspace(start, stop - 1, min(samples, stop - start)).round().astype(int))
     frames = (frame for i in picks for _, frame in read_frames(path, int(i), int(i) + 1))
     return find_image_circle(max_image(frames))
 
 
-def pose_video(path: str | os.PathLike, camera: Camera, fps: float, start: int, stop: int,
-               landmarker: Landmarker, detector: Detector | None, settings: PoseSettings = PoseSettings(),
-               progress: ProgressCallback | None = None) -> PoseVideoResult:
+def pose_video(
+    path: str | os.PathLike,
+    camera: Camera,
+    fps: float,
+    start: int,
+    stop: int,
+    landmarker: Landmarker,
+    detector: Detector | None,
+    settings: PoseSettings = PoseSettings(),
+    progress: ProgressCallback | None = None,
+) -> PoseVideoResult:
     """The 2D stage on frames start .. stop-1 of one video. Frames that cannot be decoded are
     skipped (counted in ``people`` as -1, and told through ``progress``); reaching
     ``settings.max_people`` is told once, naming the camera and the setting."""
@@ -98,25 +105,37 @@ def pose_video(path: str | os.PathLike, camera: Camera, fps: float, start: int, 
     return PoseVideoResult(table, people, start, stop, stage.capped_frames)
 
 
-def _table(frames: list[np.ndarray], persons: list[np.ndarray], pixels: list[np.ndarray],
-           confidence: list[np.ndarray], fps: float) -> pd.DataFrame:
+def _table(
+    frames: list[np.ndarray],
+    persons: list[np.ndarray],
+    pixels: list[np.ndarray],
+    confidence: list[np.ndarray],
+    fps: float,
+) -> pd.DataFrame:
     if not frames:
-        return pd.DataFrame({c: pd.Series(dtype=t) for c, t in zip(
-            POSE_COLUMNS, ("int64", "float64", "int64", "str", "float64", "float64", "float64"))})
+        return pd.DataFrame(
+            {
+                c: pd.Series(dtype=t)
+                for c, t in zip(POSE_COLUMNS, ("int64", "float64", "int64", "str", "float64", "float64", "float64"))
+            }
+        )
     frame = np.concatenate(frames)
     person = np.concatenate(persons)
     xy = np.concatenate(pixels)  # (P, 33, 2)
     conf = np.concatenate(confidence)  # (P, 33)
     rows = frame.size * NUM_JOINTS
-    return pd.DataFrame({
-        "frame": np.repeat(frame, NUM_JOINTS),
-        "time_s": np.repeat(np.round(frame / fps, 4), NUM_JOINTS),
-        "person": np.repeat(person, NUM_JOINTS),
-        "joint": np.tile(np.array(BLAZEPOSE33, dtype=object), frame.size),
-        "x_px": np.round(xy[..., 0].reshape(rows), 2),
-        "y_px": np.round(xy[..., 1].reshape(rows), 2),
-        "confidence": np.round(np.where(np.isfinite(xy).all(axis=-1), conf, 0.0).reshape(rows), 4),
-    }, columns=list(POSE_COLUMNS))
+    return pd.DataFrame(
+        {
+            "frame": np.repeat(frame, NUM_JOINTS),
+            "time_s": np.repeat(np.round(frame / fps, 4), NUM_JOINTS),
+            "person": np.repeat(person, NUM_JOINTS),
+            "joint": np.tile(np.array(BLAZEPOSE33, dtype=object), frame.size),
+            "x_px": np.round(xy[..., 0].reshape(rows), 2),
+            "y_px": np.round(xy[..., 1].reshape(rows), 2),
+            "confidence": np.round(np.where(np.isfinite(xy).all(axis=-1), conf, 0.0).reshape(rows), 4),
+        },
+        columns=list(POSE_COLUMNS),
+    )
 
 
 def write_pose_csv(path: str | os.PathLike, table: pd.DataFrame) -> Path:

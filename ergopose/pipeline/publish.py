@@ -86,9 +86,18 @@ def staging(out_dir: Path) -> Iterator[Path]:
         shutil.rmtree(stage, ignore_errors=True)
 
 
-def publish(named: NamedTracks, scored: Sequence[ReportWorker], stage: Path, out_dir: Path, scoring: ScoringSettings,
-            models: Sequence[ModelUse], progress: ProgressCallback | None, *, bom: bool = False,
-            store_dir: Path | None = None) -> Outputs:
+def publish(
+    named: NamedTracks,
+    scored: Sequence[ReportWorker],
+    stage: Path,
+    out_dir: Path,
+    scoring: ScoringSettings,
+    models: Sequence[ModelUse],
+    progress: ProgressCallback | None,
+    *,
+    bom: bool = False,
+    store_dir: Path | None = None,
+) -> Outputs:
     """The scored workers' summary CSV files, the session summary, the skipped frames, the stored
     results and the pages, written into ``stage`` beside the per-frame files the scoring wrote
     there, then moved into ``out_dir`` (:func:`swap_outputs`).
@@ -103,24 +112,49 @@ def publish(named: NamedTracks, scored: Sequence[ReportWorker], stage: Path, out
     for s in scored:
         frames_csv = out_dir / CSV_DIR / f"{s.worker_id}{FRAMES_SUFFIX}"
         summary_csv = write_worker_summary_csv(csv_dir / f"{s.worker_id}{SUMMARY_SUFFIX}", s.summary, bom=bom)
-        csv_files[s.worker_id] = [("Angles and scores per frame, with clock time and confidence (CSV)",
-                                   f"{CSV_DIR}/{frames_csv.name}"),
-                                  ("Every RULA/REBA step per frame (CSV)", f"{CSV_DIR}/{steps_path(frames_csv).name}"),
-                                  ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}")]
-        outputs.append(WorkerOutput(worker_id=s.worker_id, name=session.display_name(s.worker_id),
-                                    summary=s.summary,
-                                    csv_files=(frames_csv, frames_csv.with_suffix(".parquet"), steps_path(frames_csv),
-                                               out_dir / CSV_DIR / summary_csv.name)))
-    write_session_summary_csv(csv_dir / SESSION_CSV, {s.worker_id: s.summary for s in scored},
-                              names={s.worker_id: session.display_name(s.worker_id) for s in scored},
-                              recorded_at=session.recorded_at, bom=bom)
-    skipped = _skipped_frames(session, Path(store_dir) if store_dir is not None else out_dir, stage, bom=bom,
-                              window=named.tracks.window)
-    index = write_report(session, scored, stage, scoring, models, csv_files, named.naming, progress, skipped,
-                         unused=named.unused, window=named.tracks.window)
+        csv_files[s.worker_id] = [
+            ("Angles and scores per frame, with clock time and confidence (CSV)", f"{CSV_DIR}/{frames_csv.name}"),
+            ("Every RULA/REBA step per frame (CSV)", f"{CSV_DIR}/{steps_path(frames_csv).name}"),
+            ("Shift summary (CSV)", f"{CSV_DIR}/{summary_csv.name}"),
+        ]
+        outputs.append(
+            WorkerOutput(
+                worker_id=s.worker_id,
+                name=session.display_name(s.worker_id),
+                summary=s.summary,
+                csv_files=(
+                    frames_csv,
+                    frames_csv.with_suffix(".parquet"),
+                    steps_path(frames_csv),
+                    out_dir / CSV_DIR / summary_csv.name,
+                ),
+            )
+        )
+    write_session_summary_csv(
+        csv_dir / SESSION_CSV,
+        {s.worker_id: s.summary for s in scored},
+        names={s.worker_id: session.display_name(s.worker_id) for s in scored},
+        recorded_at=session.recorded_at,
+        bom=bom,
+    )
+    skipped = _skipped_frames(
+        session, Path(store_dir) if store_dir is not None else out_dir, stage, bom=bom, window=named.tracks.window
+    )
+    index = write_report(
+        session,
+        scored,
+        stage,
+        scoring,
+        models,
+        csv_files,
+        named.naming,
+        progress,
+        skipped,
+        unused=named.unused,
+        window=named.tracks.window,
+    )
     swap_outputs(stage, out_dir)
-    return Outputs(index_html=out_dir / index.name, session_csv=out_dir / CSV_DIR / SESSION_CSV,
-                   workers=tuple(outputs))
+    return Outputs(index_html=out_dir / index.name, session_csv=out_dir / CSV_DIR / SESSION_CSV, workers=tuple(outputs))
 
 
 #: What the stages after tracking write, relative to the output folder: folders, then pages.
@@ -151,8 +185,9 @@ def swap_outputs(stage: Path, out_dir: Path) -> None:
         os.replace(stage / name, out_dir / name)
 
 
-def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = None, bom: bool = False,
-                    window: Window | None = None) -> tuple:
+def _skipped_frames(
+    session: Session, out_dir: Path, write_to: Path | None = None, bom: bool = False, window: Window | None = None
+) -> tuple:
     """csv/frames_skipped.csv (under ``write_to``, default ``out_dir``) from the stored chunks of
     ``out_dir`` (those within ``window`` when given); the report's records of them."""
     rows = skipped_in_store(ResultStore(out_dir))
@@ -162,9 +197,19 @@ def _skipped_frames(session: Session, out_dir: Path, write_to: Path | None = Non
     return skipped_records(rows, session.camera_names, session.fps)
 
 
-def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path, scoring: ScoringSettings,
-                 models: Sequence[ModelUse], csv_files: dict, ident: Any, progress: ProgressCallback | None,
-                 skipped: tuple = (), unused: Sequence[str] = (), window: Window | None = None) -> Path:
+def write_report(
+    session: Session,
+    scored: Sequence[ReportWorker],
+    out_dir: Path,
+    scoring: ScoringSettings,
+    models: Sequence[ModelUse],
+    csv_files: dict,
+    ident: Any,
+    progress: ProgressCallback | None,
+    skipped: tuple = (),
+    unused: Sequence[str] = (),
+    window: Window | None = None,
+) -> Path:
     """Store the report results (ergopose.report.results) and render the pages.
 
     window: the part of the day scored (named in the report's title).
@@ -175,27 +220,44 @@ def write_report(session: Session, scored: Sequence[ReportWorker], out_dir: Path
     """
     worker_records = []
     for s in scored:
-        summary = adapters.worker_summary(s.summary, timeline=s.timeline,
-                                          frames=s.period_frames if len(s.period_frames) else None,
-                                          joints_at=s.joints_at)
-        diag = adapters.worker_diagnostics(s.diagnostics, frames_reliable=s.reliable_frames,
-                                           reliable_rule=reliable_rule())
+        summary = adapters.worker_summary(
+            s.summary,
+            timeline=s.timeline,
+            frames=s.period_frames if len(s.period_frames) else None,
+            joints_at=s.joints_at,
+        )
+        diag = adapters.worker_diagnostics(
+            s.diagnostics, frames_reliable=s.reliable_frames, reliable_rule=reliable_rule()
+        )
         worker_records.append((summary, diag, s.timeline))
     floor = _floor_plan(session)
     info = SessionInfo(
-        session_id=session.path.resolve().name, title=_title(session, window), site="",
-        start=session.recorded_at.isoformat() if session.recorded_at else None, fps=float(session.fps),
-        frames=int(session.frame_count), duration_s=float(session.duration_s), ergopose_version=__version__,
+        session_id=session.path.resolve().name,
+        title=_title(session, window),
+        site="",
+        start=session.recorded_at.isoformat() if session.recorded_at else None,
+        fps=float(session.fps),
+        frames=int(session.frame_count),
+        duration_s=float(session.duration_s),
+        ergopose_version=__version__,
         created=dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat(),
-        models=tuple(adapters.model_info(m.card, m.sha256) for m in models), methods=adapters.methods_info(),
+        models=tuple(adapters.model_info(m.card, m.sha256) for m in models),
+        methods=adapters.methods_info(),
         settings=adapters.settings_records(scoring),
-        calibration=adapters.calibration_info(session.calibration_path, session.camera_names,
-                                              check=calibration_check(session)),
-        floor=floor, workers=_with_identities(adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
-                                              ident, session, unused),
-        csv_files=(DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
-                   DataFile("Skipped video frames (CSV)", f"{CSV_DIR}/{SKIPPED_CSV}")),
-        fingerprint=fingerprint_of(session), skipped_frames=tuple(skipped))
+        calibration=adapters.calibration_info(
+            session.calibration_path, session.camera_names, check=calibration_check(session)
+        ),
+        floor=floor,
+        workers=_with_identities(
+            adapters.worker_infos(session, [s.worker_id for s in scored], csv_files), ident, session, unused
+        ),
+        csv_files=(
+            DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
+            DataFile("Skipped video frames (CSV)", f"{CSV_DIR}/{SKIPPED_CSV}"),
+        ),
+        fingerprint=fingerprint_of(session),
+        skipped_frames=tuple(skipped),
+    )
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, session_results(info, worker_records), progress=progress)
     return files.index
@@ -232,28 +294,46 @@ def _with_identities(infos: Sequence[Any], ident: Any, session: Session, unused:
         m = ident.match_of(info.worker_id)
         tracked = members.get(info.worker_id, ())
         if any(t in named for t in tracked):
-            extras.append(Assumption(item="who this is",
-                                     value="the person tracked as " + " and ".join(tracked)
-                                     + (" (scored as one worker)" if len(tracked) > 1 else ""),
-                                     applies_to="the name, task factors and periods of this worker",
-                                     source=f"{NAMES_FILE} (ergopose workers --name)"))
+            extras.append(
+                Assumption(
+                    item="who this is",
+                    value="the person tracked as "
+                    + " and ".join(tracked)
+                    + (" (scored as one worker)" if len(tracked) > 1 else ""),
+                    applies_to="the name, task factors and periods of this worker",
+                    source=f"{NAMES_FILE} (ergopose workers --name)",
+                )
+            )
         elif m is not None:
-            extras.append(Assumption(item="who this is",
-                                     value=f"the person tracked as {m.tracked_id}: measured stature "
-                                           f"{m.measured_m:.2f} m, given {m.given_m:.2f} m",
-                                     applies_to="the name, task factors and periods of this worker",
-                                     source=f"{session.settings_path.name} [workers.{m.worker_id}] stature_m"))
+            extras.append(
+                Assumption(
+                    item="who this is",
+                    value=f"the person tracked as {m.tracked_id}: measured stature "
+                    f"{m.measured_m:.2f} m, given {m.given_m:.2f} m",
+                    applies_to="the name, task factors and periods of this worker",
+                    source=f"{session.settings_path.name} [workers.{m.worker_id}] stature_m",
+                )
+            )
         elif ident.notes:
-            extras.append(Assumption(item="who this is", value="not matched to a worker of the settings: "
-                                     + "; ".join(ident.notes), applies_to="the defaults and periods for everyone apply",
-                                     source=f"{session.settings_path.name} stature_m"))
+            extras.append(
+                Assumption(
+                    item="who this is",
+                    value="not matched to a worker of the settings: " + "; ".join(ident.notes),
+                    applies_to="the defaults and periods for everyone apply",
+                    source=f"{session.settings_path.name} stature_m",
+                )
+            )
         if unused:
-            extras.append(Assumption(item="task inputs applied to nobody",
-                                     value=", ".join(f"[workers.{u}]" for u in unused)
-                                     + ": no tracked person has that id; name the tracked people with "
-                                       "'ergopose workers --name'",
-                                     applies_to="nobody (these loads, couplings and periods are not in any score)",
-                                     source=session.settings_path.name))
+            extras.append(
+                Assumption(
+                    item="task inputs applied to nobody",
+                    value=", ".join(f"[workers.{u}]" for u in unused)
+                    + ": no tracked person has that id; name the tracked people with "
+                    "'ergopose workers --name'",
+                    applies_to="nobody (these loads, couplings and periods are not in any score)",
+                    source=session.settings_path.name,
+                )
+            )
         if extras:
             info = dataclasses.replace(info, assumptions=tuple(extras) + tuple(info.assumptions))
         out.append(info)

@@ -52,9 +52,11 @@ def results_folder(session_dir: str | Path, results: str | Path | None = None) -
     else:
         folder = Path(DEFAULT_REPORTS_DIR) / session_dir.resolve().name
     if not ResultStore(folder).tracks_path.is_file():
-        raise InputError(f"no stored tracks for this session (expected {ResultStore(folder).tracks_path}); run "
-                         f"'ergopose assess --session {session_dir}' first, or give its output folder with --results",
-                         path=folder)
+        raise InputError(
+            f"no stored tracks for this session (expected {ResultStore(folder).tracks_path}); run "
+            f"'ergopose assess --session {session_dir}' first, or give its output folder with --results",
+            path=folder,
+        )
     return folder
 
 
@@ -86,8 +88,9 @@ def tracked_people(session: Session, folder: Path) -> list[TrackedPerson]:
     path = ResultStore(folder).tracks_path
     meta = read_metadata(path)
     fps = float(meta.get("fps") or session.fps)
-    table = pq.read_table(path, columns=["worker", "frame", "joint", "x", "y"],
-                          filters=[("joint", "in", ["left_hip", "right_hip"])])
+    table = pq.read_table(
+        path, columns=["worker", "frame", "joint", "x", "y"], filters=[("joint", "in", ["left_hip", "right_hip"])]
+    )
     df = table.to_pandas()
     df["worker"] = df["worker"].astype(str)
     hips = df.groupby(["worker", "frame"], sort=False)[["x", "y"]].mean()  # NaN unless both hips known
@@ -104,11 +107,20 @@ def tracked_people(session: Session, folder: Path) -> list[TrackedPerson]:
         x, y = float(where.loc[t, "x"]), float(where.loc[t, "y"])
         reported = naming.rename(t)
         stature = statures.get(t)
-        out.append(TrackedPerson(
-            tracked_id=t, reported_id=reported, name=shown.display_name(reported),
-            stature_m=float(stature) if stature is not None else math.nan,
-            tracked_s=int(frames.loc[t, "count"]) / fps, first_s=int(frames.loc[t, "min"]) / fps,
-            last_s=int(frames.loc[t, "max"]) / fps, x_m=x, y_m=y, place=_nearest(furniture, x, y)))
+        out.append(
+            TrackedPerson(
+                tracked_id=t,
+                reported_id=reported,
+                name=shown.display_name(reported),
+                stature_m=float(stature) if stature is not None else math.nan,
+                tracked_s=int(frames.loc[t, "count"]) / fps,
+                first_s=int(frames.loc[t, "min"]) / fps,
+                last_s=int(frames.loc[t, "max"]) / fps,
+                x_m=x,
+                y_m=y,
+                place=_nearest(furniture, x, y),
+            )
+        )
     return out
 
 
@@ -155,8 +167,14 @@ def _models(folder: Path | None = None) -> tuple:
     return tuple(ModelUse(card=card, sha256=card.file.sha256, path=Path(card.name)) for card in cards)
 
 
-def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Path | None = None,
-           progress: ProgressCallback | None = None, *, bom: bool = False) -> Any:
+def rename(
+    session_dir: str | Path,
+    given: Mapping[str, str],
+    results: str | Path | None = None,
+    progress: ProgressCallback | None = None,
+    *,
+    bom: bool = False,
+) -> Any:
     """Store names for tracked ids (``{tracked id: alias}``; an empty alias removes the name) in
     the session's names.toml and score the stored tracks again under them.
 
@@ -169,11 +187,14 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
     known = tracked_ids(folder)
     unknown = [t for t in given if t not in known]
     if unknown:
-        raise InputError(f"{', '.join(unknown)}: no such tracked id in these results (tracked: "
-                         f"{', '.join(known) or 'nobody'}); see them with 'ergopose workers --session {session_dir}'",
-                         field="--name")
-    guard.check_results_session(folder, session, False, progress=progress,
-                                advice="give the output folder of this session with --results")
+        raise InputError(
+            f"{', '.join(unknown)}: no such tracked id in these results (tracked: "
+            f"{', '.join(known) or 'nobody'}); see them with 'ergopose workers --session {session_dir}'",
+            field="--name",
+        )
+    guard.check_results_session(
+        folder, session, False, progress=progress, advice="give the output folder of this session with --results"
+    )
     path = names.names_path(session.path)
     before = path.read_text(encoding="utf-8") if path.is_file() else None
     mapping = names.load_names(session.path)
@@ -193,19 +214,23 @@ def rename(session_dir: str | Path, given: Mapping[str, str], results: str | Pat
         raise
 
 
-def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None, *,
-            bom: bool = False) -> Any:
+def rescore(session: Session, folder: Path, progress: ProgressCallback | None = None, *, bom: bool = False) -> Any:
     """Score the stored tracks of ``folder`` again with the session's settings and names (no video);
     bom: CSV files with a UTF-8 byte order mark (Excel)."""
     store = ResultStore(folder)
     with guard.output_faults(folder), store.lock():
         tracks = stored_tracks(store.tracks_path, session.reconstruction)
-        return score_and_publish(session, tracks, folder, scoring_settings(session), _models(folder), progress,
-                                 bom=bom)
+        return score_and_publish(session, tracks, folder, scoring_settings(session), _models(folder), progress, bom=bom)
 
 
-def rescore_window(session: Session, folder: Path, window: part_of_day.Window,
-                   progress: ProgressCallback | None = None, *, bom: bool = False) -> Any:
+def rescore_window(
+    session: Session,
+    folder: Path,
+    window: part_of_day.Window,
+    progress: ProgressCallback | None = None,
+    *,
+    bom: bool = False,
+) -> Any:
     """Score the stored tracks of ``folder`` again for a part of the day (``window``: an
     :class:`ergopose.pipeline.window.Window`) into ``folder/part-HHMM-HHMM`` (CSV files, stored
     results, pages; replaced whole), leaving the whole day's outputs as they are. No video."""
@@ -213,8 +238,17 @@ def rescore_window(session: Session, folder: Path, window: part_of_day.Window,
     out = Path(folder) / part_of_day.folder_name(window, session.recorded_at)
     with guard.output_faults(out), store.lock():
         tracks = stored_tracks(store.tracks_path, session.reconstruction)
-        return score_and_publish(session, tracks, out, scoring_settings(session), _models(folder), progress,
-                                 bom=bom, window=window, store_dir=Path(folder))
+        return score_and_publish(
+            session,
+            tracks,
+            out,
+            scoring_settings(session),
+            _models(folder),
+            progress,
+            bom=bom,
+            window=window,
+            store_dir=Path(folder),
+        )
 
 
 def warn_unused(session: Session, people: Sequence[TrackedPerson], progress: ProgressCallback | None) -> list[str]:
@@ -226,6 +260,14 @@ def warn_unused(session: Session, people: Sequence[TrackedPerson], progress: Pro
     return unused
 
 
-__all__ = ["TrackedPerson", "tracked_people", "results_folder", "rename", "rescore", "rescore_window", "tracked_ids",
-           "clock",
-           "warn_unused"]
+__all__ = [
+    "TrackedPerson",
+    "tracked_people",
+    "results_folder",
+    "rename",
+    "rescore",
+    "rescore_window",
+    "tracked_ids",
+    "clock",
+    "warn_unused",
+]

@@ -59,8 +59,13 @@ class ScoredWorker:
     points_world: np.ndarray  # (n, 33, 3)
 
 
-def score_rows(session: Session, rows: TrackFrames, worker_id: str, scoring: ScoringSettings,
-               shoulder_reference_m: float | None = None) -> pd.DataFrame:
+def score_rows(
+    session: Session,
+    rows: TrackFrames,
+    worker_id: str,
+    scoring: ScoringSettings,
+    shoulder_reference_m: float | None = None,
+) -> pd.DataFrame:
     """One worker's consecutive rows -> joint angles, the task factors of the settings, RULA and
     REBA: one row per row of ``rows`` (worker, frame, posture in radians, every score column, and
     ``inputs_from_settings``).
@@ -82,17 +87,22 @@ def score_rows(session: Session, rows: TrackFrames, worker_id: str, scoring: Sco
     use = T.settings_use(T.hidden_inputs(posture, getattr(rows, "inferred", None)), task)
     posture = T.apply_settings(posture, use, task)
     factors = session.factor_table(worker_id, rows.time_s)
-    posture = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])],
-                        axis=1)
+    posture = pd.concat([posture, factors.drop(columns=[c for c in factors.columns if c in posture.columns])], axis=1)
     scores = score_posture(posture, settings=scoring, with_events=True)
     ident = pd.DataFrame({"worker": worker_id, "frame": np.asarray(rows.frame, dtype=np.int64)})
     spread = score_uncertainty(rows, posture, scores, factors, settings, scoring, task_use=(use, task))
     return pd.concat([ident, posture, scores, spread, T.inputs_column(use, len(posture)).to_frame()], axis=1)
 
 
-def score_uncertainty(rows: TrackFrames, posture: pd.DataFrame, scores: pd.DataFrame, factors: pd.DataFrame,
-                      angle_settings: AngleSettings | None, scoring: ScoringSettings,
-                      task_use: tuple[dict, pd.DataFrame] | None = None) -> pd.DataFrame:
+def score_uncertainty(
+    rows: TrackFrames,
+    posture: pd.DataFrame,
+    scores: pd.DataFrame,
+    factors: pd.DataFrame,
+    angle_settings: AngleSettings | None,
+    scoring: ScoringSettings,
+    task_use: tuple[dict, pd.DataFrame] | None = None,
+) -> pd.DataFrame:
     """Angle deviations, score probabilities and ranges, confidence and its cause per frame
     (:mod:`ergopose.ergonomics.uncertainty`): the joints resampled within the reconstruction's
     deviations and scored again with the same task inputs.
@@ -117,28 +127,47 @@ def score_uncertainty(rows: TrackFrames, posture: pd.DataFrame, scores: pd.DataF
         reba.append(s["reba_score"].copy())
         del a, s
     out = U.angle_sd(posture, angle_draws)
-    for name, reported, draws in (("rula_grand", scores["rula_grand"], rula), ("reba_score", scores["reba_score"], reba)):
+    for name, reported, draws in (
+        ("rula_grand", scores["rula_grand"], rula),
+        ("reba_score", scores["reba_score"], reba),
+    ):
         p, low, high = U.score_spread(reported, draws)
         out[f"{name}_p"] = np.round(p, 4)
         out[f"{name}_low"] = pd.array(np.where(np.isfinite(low), low, np.nan), dtype="Float64").round().astype("Int16")
-        out[f"{name}_high"] = pd.array(np.where(np.isfinite(high), high, np.nan), dtype="Float64").round().astype("Int16")
+        out[f"{name}_high"] = (
+            pd.array(np.where(np.isfinite(high), high, np.nan), dtype="Float64").round().astype("Int16")
+        )
     seen = rows.views.max(axis=1) if n else np.zeros(0, np.int8)
-    conf, cause = U.frame_confidence(out["rula_grand_p"].to_numpy(np.float64), out["reba_score_p"].to_numpy(np.float64),
-                                     rows.views, getattr(rows, "inferred", None), seen)
+    conf, cause = U.frame_confidence(
+        out["rula_grand_p"].to_numpy(np.float64),
+        out["reba_score_p"].to_numpy(np.float64),
+        rows.views,
+        getattr(rows, "inferred", None),
+        seen,
+    )
     out["confidence"] = pd.array(conf, dtype="string")
     out["cause"] = pd.array(cause, dtype="string")
     return out
 
 
-def score_worker(session: Session, rows: TrackFrames, worker_id: str, scoring: ScoringSettings,
-                 diagnostics: Any) -> ScoredWorker:
+def score_worker(
+    session: Session, rows: TrackFrames, worker_id: str, scoring: ScoringSettings, diagnostics: Any
+) -> ScoredWorker:
     """A worker's rows scored in one piece (:func:`score_rows`) and the shift summary; for
     evaluations of short sessions. ``ergopose assess`` scores in blocks (:func:`score_tracks`)."""
     frames = score_rows(session, rows, worker_id, scoring)
-    summary = aggregate_shift(frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps,
-                              inferred=getattr(rows, "inferred", None))
-    return ScoredWorker(worker_id=worker_id, frames=frames, summary=summary, diagnostics=diagnostics,
-                        reliable=reliable_frames(rows.points_world), points_world=rows.points_world)
+    summary = aggregate_shift(
+        frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps, inferred=getattr(rows, "inferred", None)
+    )
+    return ScoredWorker(
+        worker_id=worker_id,
+        frames=frames,
+        summary=summary,
+        diagnostics=diagnostics,
+        reliable=reliable_frames(rows.points_world),
+        points_world=rows.points_world,
+    )
+
 
 SCORED_DIR = "scored"
 
@@ -148,14 +177,27 @@ class WorkerSink:
     back for the report's worst moments), the shift aggregation and the report's timeline
     (eight numbers per frame, the only per-frame data kept in memory)."""
 
-    def __init__(self, stack: contextlib.ExitStack, worker_id: str, csv_path: Path, scored_path: Path,
-                 scoring: ScoringSettings, fps: float,
-                 limb_medians_m: np.ndarray, *, recorded_at: dt.datetime | None = None, name: str | None = None,
-                 bom: bool = False) -> None:
+    def __init__(
+        self,
+        stack: contextlib.ExitStack,
+        worker_id: str,
+        csv_path: Path,
+        scored_path: Path,
+        scoring: ScoringSettings,
+        fps: float,
+        limb_medians_m: np.ndarray,
+        *,
+        recorded_at: dt.datetime | None = None,
+        name: str | None = None,
+        bom: bool = False,
+    ) -> None:
         self.worker_id = worker_id
         csv_path = Path(csv_path)
-        self.csv = stack.enter_context(FramesCsvWriter(csv_path, recorded_at=recorded_at, name=name, bom=bom,
-                                                       parquet=csv_path.with_suffix(".parquet")))
+        self.csv = stack.enter_context(
+            FramesCsvWriter(
+                csv_path, recorded_at=recorded_at, name=name, bom=bom, parquet=csv_path.with_suffix(".parquet")
+            )
+        )
         self.steps = stack.enter_context(StepsCsvWriter(steps_path(csv_path), bom=bom))
         self.scored_path = scored_path
         self._scored_tmp = stack.enter_context(atomic_path(scored_path))
@@ -164,9 +206,20 @@ class WorkerSink:
         self._schema: pa.Schema | None = None
         self.acc = ShiftAccumulator(worker_id, settings=scoring, frame_period_s=1.0 / fps)
         self.medians = limb_medians_m
-        self.timeline: dict[str, list[np.ndarray]] = {k: [] for k in (
-            "time_s", "frame", "rula_grand", "rula_action_level", "reba_score", "reba_risk_level", "floor_x_m",
-            "floor_y_m", "reliable")}
+        self.timeline: dict[str, list[np.ndarray]] = {
+            k: []
+            for k in (
+                "time_s",
+                "frame",
+                "rula_grand",
+                "rula_action_level",
+                "reba_score",
+                "reba_risk_level",
+                "floor_x_m",
+                "floor_y_m",
+                "reliable",
+            )
+        }
 
     def write(self, frames: pd.DataFrame, rows: TrackFrames) -> None:
         self.csv.write(frames)
@@ -174,8 +227,9 @@ class WorkerSink:
         self.acc.add(frames, getattr(rows, "inferred", None))
         if self._parquet is None:
             self._schema = pa.Schema.from_pandas(frames, preserve_index=False)
-            self._parquet = self._stack.enter_context(pq.ParquetWriter(self._scored_tmp, self._schema,
-                                                                       compression="zstd"))
+            self._parquet = self._stack.enter_context(
+                pq.ParquetWriter(self._scored_tmp, self._schema, compression="zstd")
+            )
         self._parquet.write_table(pa.Table.from_pandas(frames, schema=self._schema, preserve_index=False))
         mid_hip = rows.points_world[:, _HIPS, :].mean(axis=1)  # NaN unless both hips are known
         tl = self.timeline
@@ -193,8 +247,16 @@ class WorkerSink:
         return np.concatenate(parts) if parts else np.zeros(0)
 
 
-def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring: ScoringSettings, ident: Naming,
-                  progress: ProgressCallback | None, *, bom: bool = False) -> dict[int, WorkerSink]:
+def score_workers(
+    session: Session,
+    tracks: Tracks,
+    out_dir: Path,
+    scoring: ScoringSettings,
+    ident: Naming,
+    progress: ProgressCallback | None,
+    *,
+    bom: bool = False,
+) -> dict[int, WorkerSink]:
     """Every worker of ``tracks`` scored in blocks (:class:`ergopose.pipeline.scoring.WorkerScorer`)
     from one pass over the tracks table, into ``out_dir``: the frames and steps CSV files under
     csv/, the scored frames under pipeline/scored/ (ident: the reported id of a tracked id,
@@ -210,9 +272,18 @@ def score_workers(session: Session, tracks: Tracks, out_dir: Path, scoring: Scor
             tracked = identity_name(w)
             wid = ident.rename(tracked)
             ref = tracks.references.shoulder_reference_m(w)
-            sink = WorkerSink(stack, wid, csv_dir / f"{wid}{FRAMES_SUFFIX}", scored_dir / f"{tracked}.parquet",
-                               scoring, session.fps, tracks.references.limb_medians_m(w),
-                               recorded_at=session.recorded_at, name=session.display_name(wid), bom=bom)
+            sink = WorkerSink(
+                stack,
+                wid,
+                csv_dir / f"{wid}{FRAMES_SUFFIX}",
+                scored_dir / f"{tracked}.parquet",
+                scoring,
+                session.fps,
+                tracks.references.limb_medians_m(w),
+                recorded_at=session.recorded_at,
+                name=session.display_name(wid),
+                bom=bom,
+            )
             sinks[w] = sink
 
             def score(rows: TrackFrames, wid: str = wid, ref: float | None = ref) -> pd.DataFrame:

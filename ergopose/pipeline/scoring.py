@@ -47,8 +47,13 @@ def context_seconds(scoring: ScoringSettings, walking_window_s: float = 1.0) -> 
     """Seconds of context each block is scored with: the longest time window of the settings
     (hold limits, repetition window, rapid-change window, walking window) plus half of it (the
     repetition peak search looks half a window further) plus the gap that breaks a hold."""
-    longest = max(scoring.rula_static_hold_s, scoring.reba_static_hold_s, scoring.repetition_window_s,
-                  scoring.rapid_change_window_s, walking_window_s)
+    longest = max(
+        scoring.rula_static_hold_s,
+        scoring.reba_static_hold_s,
+        scoring.repetition_window_s,
+        scoring.rapid_change_window_s,
+        walking_window_s,
+    )
     return 1.5 * longest + scoring.max_gap_s + 1.0
 
 
@@ -129,8 +134,10 @@ def scoring_rows(rows: TrackFrames) -> TrackFrames:
     arrays. A :class:`WorkerScorer` holds a block and its context of each worker's rows: this
     halves them (3.3 -> 1.7 kB per row)."""
     n = len(rows)
-    kept: dict[str, Any] = {k: (v if k in SCORED_FIELDS or not isinstance(v, np.ndarray) else np.empty((n, 0), v.dtype))
-                            for k, v in rows.__dict__.items()}
+    kept: dict[str, Any] = {
+        k: (v if k in SCORED_FIELDS or not isinstance(v, np.ndarray) else np.empty((n, 0), v.dtype))
+        for k, v in rows.__dict__.items()
+    }
     return TrackFrames(**kept)
 
 

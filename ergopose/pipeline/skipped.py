@@ -41,16 +41,19 @@ def skipped_in_store(store: ResultStore) -> np.ndarray:
     return np.concatenate(rows)
 
 
-def write_skipped_csv(path: str | Path, skipped: np.ndarray, camera_names: Sequence[str], fps: float, *,
-                      bom: bool = False) -> Path:
+def write_skipped_csv(
+    path: str | Path, skipped: np.ndarray, camera_names: Sequence[str], fps: float, *, bom: bool = False
+) -> Path:
     """csv/frames_skipped.csv from :func:`skipped_in_store` rows (written atomically; bom: with a UTF-8
     byte order mark)."""
-    table = pd.DataFrame({
-        "camera": [camera_names[int(c)] for c in skipped[:, 1]],
-        "frame": skipped[:, 0],
-        "time_s": np.round(skipped[:, 0] / fps, 3),
-        "reason": [_REASONS.get(int(k), "cannot be read") for k in skipped[:, 2]],
-    })
+    table = pd.DataFrame(
+        {
+            "camera": [camera_names[int(c)] for c in skipped[:, 1]],
+            "frame": skipped[:, 0],
+            "time_s": np.round(skipped[:, 0] / fps, 3),
+            "reason": [_REASONS.get(int(k), "cannot be read") for k in skipped[:, 2]],
+        }
+    )
     with atomic_path(path) as tmp:
         table.to_csv(tmp, index=False, lineterminator="\n", encoding="utf-8-sig" if bom else "utf-8")
     return Path(path)
@@ -66,8 +69,9 @@ def skipped_records(skipped: np.ndarray, camera_names: Sequence[str], fps: float
         breaks = np.flatnonzero(np.diff(frames) > 1)
         firsts = np.concatenate([frames[:1], frames[breaks + 1]])
         lasts = np.concatenate([frames[breaks], frames[-1:]])
-        spans = tuple((float(a / fps), float(b / fps)) for a, b in zip(firsts[:MAX_SKIPPED_SPANS],
-                                                                      lasts[:MAX_SKIPPED_SPANS]))
+        spans = tuple(
+            (float(a / fps), float(b / fps)) for a, b in zip(firsts[:MAX_SKIPPED_SPANS], lasts[:MAX_SKIPPED_SPANS])
+        )
         out.append(SkippedFrames(camera=name, frames=int(frames.size), spans_s=spans))
     return tuple(out)
 

@@ -119,8 +119,11 @@ class ResultStore:
                 try:
                     fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
                 except OSError:
-                    raise InputError("another 'ergopose assess' is writing to this output folder; wait for it "
-                                     "to finish or give another folder with --out", path=self.root.parent) from None
+                    raise InputError(
+                        "another 'ergopose assess' is writing to this output folder; wait for it "
+                        "to finish or give another folder with --out",
+                        path=self.root.parent,
+                    ) from None
             clean_up(self.root.parent)
             try:
                 yield
@@ -135,11 +138,18 @@ class ResultStore:
         fingerprint of its inputs), so a damaged or missing manifest costs nothing.
         """
         self.inputs_fingerprint = fingerprint(inputs)
-        manifest = {"format": FORMAT_VERSION, "ergopose": __version__, "fingerprint": self.inputs_fingerprint,
-                    "inputs": inputs}
+        manifest = {
+            "format": FORMAT_VERSION,
+            "ergopose": __version__,
+            "fingerprint": self.inputs_fingerprint,
+            "inputs": inputs,
+        }
         old = self._read_manifest()
-        reuse = old is not None and old.get("fingerprint") == manifest["fingerprint"] \
+        reuse = (
+            old is not None
+            and old.get("fingerprint") == manifest["fingerprint"]
             and old.get("format") == FORMAT_VERSION
+        )
         self.chunks_dir.mkdir(parents=True, exist_ok=True)
         if old != json.loads(json.dumps(manifest, sort_keys=True, default=repr)):
             write_text(self.manifest_path, json.dumps(manifest, indent=2, sort_keys=True, default=repr) + "\n")
@@ -166,8 +176,12 @@ class ResultStore:
     def save_chunk(self, result: ChunkResult) -> Path:
         final = self.chunk_path(result.start)
         arrays = people_to_arrays(result.people)
-        arrays.update(start=np.array(result.start, dtype=np.int64), stop=np.array(result.stop, dtype=np.int64),
-                      detections=np.asarray(result.detections), **{_INPUTS: np.array(self._fingerprint())})
+        arrays.update(
+            start=np.array(result.start, dtype=np.int64),
+            stop=np.array(result.stop, dtype=np.int64),
+            detections=np.asarray(result.detections),
+            **{_INPUTS: np.array(self._fingerprint())},
+        )
         arrays[_CHECKSUM] = np.array(arrays_checksum(arrays))
         with atomic_path(final) as tmp:
             with tmp.open("wb") as f:

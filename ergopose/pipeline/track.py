@@ -59,27 +59,37 @@ class Tracks:
     window: Window | None = None
 
 
-def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], recon: ReconSettings,
-                  progress: ProgressCallback | None, window: Window | None = None,
-                  meta: Mapping[str, Any] | None = None) -> Tracks:
+def track_session(
+    session: Session,
+    store,
+    ranges: Sequence[tuple[int, int]],
+    recon: ReconSettings,
+    progress: ProgressCallback | None,
+    window: Window | None = None,
+    meta: Mapping[str, Any] | None = None,
+) -> Tracks:
     """Stored chunks, in frame order -> identities, smoothing, the tracks table (Parquet).
 
     ranges: consecutive chunks (all of the session, or those around ``window``: the part of the
     day assessed, stored in the table's metadata for the scoring). meta: more entries of the table's
     metadata (how the 2D records were made, when not by the pose networks)."""
-    shift = ShiftReconstruction(recon, fps=session.fps, cameras=session.calibrated_cameras,
-                                first_frame=ranges[0][0] if ranges else 0)
+    shift = ShiftReconstruction(
+        recon, fps=session.fps, cameras=session.calibrated_cameras, first_frame=ranges[0][0] if ranges else 0
+    )
     refs = ShiftReferences(recon)
-    with TracksWriter(store.tracks_path, fps=session.fps, cameras=session.camera_names,
-                      settings=recon.as_dict()) as writer:
+    with TracksWriter(
+        store.tracks_path, fps=session.fps, cameras=session.camera_names, settings=recon.as_dict()
+    ) as writer:
         if window is not None:
             writer.meta["window"] = window.as_dict()
         writer.meta.update(meta or {})
         for k, (start, stop) in enumerate(ranges):
             chunk = store.load_chunk(start, stop)
             if chunk is None:
-                raise InputError(f"the stored chunk of frames {start}-{stop - 1} is missing or unreadable; "
-                                 "run the assessment again", path=store.chunk_path(start))
+                raise InputError(
+                    f"the stored chunk of frames {start}-{stop - 1} is missing or unreadable; run the assessment again",
+                    path=store.chunk_path(start),
+                )
             part = shift.push(chunk.people, start, stop)
             writer.write(part)
             refs.add(part)
@@ -91,8 +101,15 @@ def track_session(session: Session, store, ranges: Sequence[tuple[int, int]], re
         writer.set_workers(summary)
         rows = writer.rows
     report(progress, "tracking", len(ranges) + 1, len(ranges) + 1, unit="chunk")
-    return Tracks(path=store.tracks_path, worker_summary=summary, references=refs,
-                  workers=tuple(refs.limbs.workers()), rows=rows, recon=recon, window=window)
+    return Tracks(
+        path=store.tracks_path,
+        worker_summary=summary,
+        references=refs,
+        workers=tuple(refs.limbs.workers()),
+        rows=rows,
+        recon=recon,
+        window=window,
+    )
 
 
 def stored_tracks(path: Path, recon: ReconSettings, groups: dict | None = None) -> Tracks:
@@ -109,9 +126,16 @@ def stored_tracks(path: Path, recon: ReconSettings, groups: dict | None = None) 
     for part in read_track_parts(path):
         refs.add(merge_rows(part, groups))
         rows += len(part)
-    return Tracks(path=Path(path), worker_summary=dict(meta.get("workers") or {}), references=refs,
-                  workers=tuple(refs.limbs.workers()), rows=rows, recon=recon, groups=groups,
-                  window=Window.from_dict(meta.get("window")))
+    return Tracks(
+        path=Path(path),
+        worker_summary=dict(meta.get("workers") or {}),
+        references=refs,
+        workers=tuple(refs.limbs.workers()),
+        rows=rows,
+        recon=recon,
+        groups=groups,
+        window=Window.from_dict(meta.get("window")),
+    )
 
 
 def regroup(tracks: Tracks, groups: dict) -> Tracks:
@@ -119,8 +143,9 @@ def regroup(tracks: Tracks, groups: dict) -> Tracks:
     there is nothing to merge)."""
     if groups == tracks.groups:
         return tracks
-    return dataclasses.replace(stored_tracks(tracks.path, tracks.recon, groups), worker_summary=tracks.worker_summary,
-                               window=tracks.window)
+    return dataclasses.replace(
+        stored_tracks(tracks.path, tracks.recon, groups), worker_summary=tracks.worker_summary, window=tracks.window
+    )
 
 
 def read_track_parts(path: Path):
@@ -152,8 +177,9 @@ def _within(tracks: Tracks, fps: float) -> Tracks:
     first, stop = tracks.window.frame_range(fps)
     table = pq.read_table(tracks.path, columns=["worker"], filters=[("frame", ">=", first), ("frame", "<", stop)])
     present = {tracker_number(str(w)) for w in pc.unique(table.column("worker")).to_pylist()}
-    keep = tuple(w for w in tracks.workers if w in present or any(g == w for m, g in tracks.groups.items()
-                                                                   if m in present))
+    keep = tuple(
+        w for w in tracks.workers if w in present or any(g == w for m, g in tracks.groups.items() if m in present)
+    )
     return dataclasses.replace(tracks, workers=keep)
 
 
@@ -171,8 +197,9 @@ class NamedTracks:
     unused: tuple[str, ...]
 
 
-def name_workers(session: Session, tracks: Tracks, progress: ProgressCallback | None,
-                 window: Window | None = None) -> NamedTracks:
+def name_workers(
+    session: Session, tracks: Tracks, progress: ProgressCallback | None, window: Window | None = None
+) -> NamedTracks:
     """Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
     (:mod:`ergopose.pipeline.names`); names of names.toml that are not a tracked id and settings
     ids whose task inputs reach nobody are named in warnings.
@@ -186,9 +213,12 @@ def name_workers(session: Session, tracks: Tracks, progress: ProgressCallback | 
     given = load_names(session.path)
     stale = [t for t in given if t not in tracked]
     if stale:
-        warn(progress, f"{NAMES_FILE}: {', '.join(stale)} {'is' if len(stale) == 1 else 'are'} not a tracked id of "
-                       f"these results (tracked: {', '.join(tracked) or 'nobody'}); the name is not used; check "
-                       f"with 'ergopose workers --session {session.path}'")
+        warn(
+            progress,
+            f"{NAMES_FILE}: {', '.join(stale)} {'is' if len(stale) == 1 else 'are'} not a tracked id of "
+            f"these results (tracked: {', '.join(tracked) or 'nobody'}); the name is not used; check "
+            f"with 'ergopose workers --session {session.path}'",
+        )
     naming = resolve_naming(session, tracked, given, measured)
     tracks = regroup(tracks, naming.groups())
     if tracks.window is not None:

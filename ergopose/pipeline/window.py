@@ -79,15 +79,21 @@ def parse_time(value: str, recorded_at: dt.datetime, duration_s: float, option: 
         return float(m.group(1))
     m = _CLOCK.match(text)
     if not m:
-        raise ConfigError(f"{value!r} is not a time: give a clock time HH:MM or HH:MM:SS of the session's day "
-                          "(its recorded_at), or seconds from its start (e.g. 90)", field=option)
+        raise ConfigError(
+            f"{value!r} is not a time: give a clock time HH:MM or HH:MM:SS of the session's day "
+            "(its recorded_at), or seconds from its start (e.g. 90)",
+            field=option,
+        )
     hours, minutes = int(m.group(1)), int(m.group(2))
     seconds = float(m.group(3) or 0.0)
     if hours > 23 or minutes > 59 or seconds >= 60:
         raise ConfigError(f"{value!r} is not a clock time (hours 0-23, minutes and seconds 0-59)", field=option)
     whole = int(seconds)
-    moment = dt.datetime.combine(recorded_at.date(), dt.time(hours, minutes, whole, int(round((seconds - whole) * 1e6))),
-                                 tzinfo=recorded_at.tzinfo)
+    moment = dt.datetime.combine(
+        recorded_at.date(),
+        dt.time(hours, minutes, whole, int(round((seconds - whole) * 1e6))),
+        tzinfo=recorded_at.tzinfo,
+    )
     offset = (moment - recorded_at).total_seconds()
     if offset < 0 and offset + 86400.0 <= duration_s:  # a shift past midnight
         offset += 86400.0
@@ -100,15 +106,20 @@ def resolve(start: str | None, end: str | None, recorded_at: dt.datetime, durati
         return None
     first = parse_time(start, recorded_at, duration_s, "--start") if start is not None else 0.0
     last = parse_time(end, recorded_at, duration_s, "--end") if end is not None else float(duration_s)
-    span = f"the session runs from {clock_label(recorded_at, 0.0)} to {clock_label(recorded_at, duration_s)} " \
-           f"({duration_s:g} s)"
+    span = (
+        f"the session runs from {clock_label(recorded_at, 0.0)} to {clock_label(recorded_at, duration_s)} "
+        f"({duration_s:g} s)"
+    )
     if start is not None and not (0.0 <= first < duration_s):
         raise ConfigError(f"{start} is outside the session: {span}", field="--start")
     if end is not None and not (0.0 < last <= duration_s + 1e-6):
         raise ConfigError(f"{end} is outside the session: {span}", field="--end")
     if last <= first:
-        raise ConfigError(f"{end if end is not None else 'the end'} is not after --start "
-                          f"{start if start is not None else 'the start'}: {span}", field="--end")
+        raise ConfigError(
+            f"{end if end is not None else 'the end'} is not after --start "
+            f"{start if start is not None else 'the start'}: {span}",
+            field="--end",
+        )
     return Window(first, min(last, float(duration_s)))
 
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.records import APPEARANCE_DIMS  # (L*, a*, b*) of the upper body, then of the thighs
+
 #: Smallest keypoint confidence of the joints a part is sampled between.
 MIN_CONFIDENCE = 0.5
 #: Sample grid of the upper body (fractions across the shoulders-hips quadrilateral, both ways)

@@ -31,13 +31,7 @@ import numpy as np
 
 from ergopose.errors import InputError, ModelError
 from ergopose.keypoints import NUM_JOINTS
-from ergopose.pose.models import (
-    BLAZEPOSE_DETECTOR,
-    ModelCard,
-    ensure_model,
-    landmark_card,
-    model_card,
-)
+from ergopose.pose.models import BLAZEPOSE_DETECTOR, ModelCard, ensure_model, landmark_card, model_card
 from ergopose.progress import ProgressCallback
 
 DEFAULT_THREADS = 2
@@ -93,8 +87,9 @@ class Keypoints2D:
         scale = float(np.sqrt(abs(np.linalg.det(m[:, :2]))))
         depth = None if self.depth is None else self.depth * scale
         alignment = None if self.alignment is None else self.alignment @ m[:, :2].T + m[:, 2]
-        return Keypoints2D(pixels, self.confidence, self.presence, depth, self.landmark_presence, self.world_m,
-                           alignment)
+        return Keypoints2D(
+            pixels, self.confidence, self.presence, depth, self.landmark_presence, self.world_m, alignment
+        )
 
 
 @dataclass(frozen=True)
@@ -124,8 +119,12 @@ class Roi:
     def crop(self, image: np.ndarray, size: int) -> np.ndarray:
         """The region resampled (bilinear) to ``size`` x ``size``, black outside the image."""
         return cv2.warpAffine(
-            image, self.image_to_crop(size), (size, size), flags=cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_CONSTANT, borderValue=0,
+            image,
+            self.image_to_crop(size),
+            (size, size),
+            flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=0,
         )
 
 
@@ -248,14 +247,15 @@ def _load_interpreter(path: Path, card: ModelCard, num_threads: int, unused: Seq
     w, h = card.input_size
     if len(inputs) != 1 or tuple(inputs[0]["shape"]) != (1, h, w, 3) or inputs[0]["dtype"] != np.float32:
         found = [(tuple(d["shape"]), np.dtype(d["dtype"]).name) for d in inputs]
-        raise ModelError(f"expected one float32 input of shape (1, {h}, {w}, 3) for {card.name}, found {found}", path=path)
+        raise ModelError(
+            f"expected one float32 input of shape (1, {h}, {w}, 3) for {card.name}, found {found}", path=path
+        )
     outputs = {tuple(d["shape"][1:]): d["index"] for d in interpreter.get_output_details()}
     expected = [tuple(o.shape[1:]) for o in used]
     missing = [s for s in expected if s not in outputs]
     if missing or len(outputs) != len(expected):
         raise ModelError(
-            f"outputs do not match the {card.name} card: expected shapes {expected}, found {sorted(outputs)}",
-            path=path,
+            f"outputs do not match the {card.name} card: expected shapes {expected}, found {sorted(outputs)}", path=path
         )
     return interpreter, inputs[0]["index"], {o.role: outputs[s] for o, s in zip(used, expected)}
 
@@ -263,9 +263,7 @@ def _load_interpreter(path: Path, card: ModelCard, num_threads: int, unused: Seq
 def _check_image(image: np.ndarray, size: tuple[int, int], what: str) -> np.ndarray:
     w, h = size
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.shape != (h, w, 3):
-        got = (
-            f"{image.dtype} array of shape {image.shape}" if isinstance(image, np.ndarray) else type(image).__name__
-        )
+        got = f"{image.dtype} array of shape {image.shape}" if isinstance(image, np.ndarray) else type(image).__name__
         raise InputError(f"expected a uint8 BGR image of shape ({h}, {w}, 3), got {got}", field=what)
     return image
 
@@ -295,10 +293,7 @@ def _to_tensor(images_bgr: np.ndarray, card: ModelCard) -> np.ndarray:
 
 
 def ssd_anchors(
-    input_size: int = 224,
-    strides: Sequence[int] = (8, 16, 32, 32, 32),
-    anchors_per_layer: int = 2,
-    offset: float = 0.5,
+    input_size: int = 224, strides: Sequence[int] = (8, 16, 32, 32, 32), anchors_per_layer: int = 2, offset: float = 0.5
 ) -> np.ndarray:
     """SSD anchor centres (N, 2), normalised to [0, 1], in the order the detector outputs them.
 
@@ -348,11 +343,13 @@ def weighted_nms(
         group = order[overlap > iou_threshold]
         group = group if group.size else order[:1]
         w = scores[group] / scores[group].sum()
-        out.append((
-            float(scores[best]),
-            (boxes[group] * w[:, None]).sum(axis=0),
-            (keypoints[group] * w[:, None, None]).sum(axis=0),
-        ))
+        out.append(
+            (
+                float(scores[best]),
+                (boxes[group] * w[:, None]).sum(axis=0),
+                (keypoints[group] * w[:, None, None]).sum(axis=0),
+            )
+        )
         order = order[overlap <= iou_threshold]
         order = order[order != best]
     return out
@@ -402,7 +399,11 @@ class BlazePoseDetector:
         progress: ProgressCallback | None = None,
     ):
         self.card = model_card(BLAZEPOSE_DETECTOR)
-        path = Path(model_path) if model_path is not None else ensure_model(BLAZEPOSE_DETECTOR, progress, model_dir=model_dir)
+        path = (
+            Path(model_path)
+            if model_path is not None
+            else ensure_model(BLAZEPOSE_DETECTOR, progress, model_dir=model_dir)
+        )
         self.model_path = path
         self._interp, self._input, outs = _load_interpreter(path, self.card, num_threads)
         self._regressors, self._scores = (outs[o.role] for o in self.card.outputs)
@@ -498,7 +499,9 @@ class BlazePoseLandmarker:
         progress: ProgressCallback | None = None,
     ):
         self.card = landmark_card(model)
-        path = Path(model_path) if model_path is not None else ensure_model(self.card.name, progress, model_dir=model_dir)
+        path = (
+            Path(model_path) if model_path is not None else ensure_model(self.card.name, progress, model_dir=model_dir)
+        )
         self.model_path = path
         # The person mask is never read, nor the world landmarks unless asked for: the network
         # runs without the operators only they need (the same landmarks, about 25 % faster).
@@ -538,5 +541,5 @@ class BlazePoseLandmarker:
             depth=raw[:NUM_JOINTS, 2].copy(),
             landmark_presence=sigmoid(raw[:NUM_JOINTS, 4]),
             world_m=world,
-            alignment=raw[NUM_JOINTS:NUM_JOINTS + 2, 0:2] - 0.5 if raw.shape[0] >= NUM_JOINTS + 2 else None,
+            alignment=raw[NUM_JOINTS : NUM_JOINTS + 2, 0:2] - 0.5 if raw.shape[0] >= NUM_JOINTS + 2 else None,
         )

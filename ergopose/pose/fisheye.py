@@ -81,10 +81,30 @@ from ergopose.progress import ProgressCallback, warn
 
 _LEFT_HIP, _RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
 _LEFT_SHOULDER, _RIGHT_SHOULDER = JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]
-_BODY_JOINTS = np.array([JOINT_INDEX[n] for n in (
-    "nose", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
-    "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle",
-    "left_heel", "right_heel", "left_foot_index", "right_foot_index")])
+_BODY_JOINTS = np.array(
+    [
+        JOINT_INDEX[n]
+        for n in (
+            "nose",
+            "left_shoulder",
+            "right_shoulder",
+            "left_elbow",
+            "right_elbow",
+            "left_wrist",
+            "right_wrist",
+            "left_hip",
+            "right_hip",
+            "left_knee",
+            "right_knee",
+            "left_ankle",
+            "right_ankle",
+            "left_heel",
+            "right_heel",
+            "left_foot_index",
+            "right_foot_index",
+        )
+    ]
+)
 
 
 class FisheyePoseEstimator:
@@ -95,9 +115,15 @@ class FisheyePoseEstimator:
     detector: the person detector run on the search views (None: search by motion only).
     """
 
-    def __init__(self, camera: Camera, camera_index: int, landmarker: Landmarker,
-                 detector: Detector | None = None, settings: PoseSettings = PoseSettings(),
-                 progress: ProgressCallback | None = None):
+    def __init__(
+        self,
+        camera: Camera,
+        camera_index: int,
+        landmarker: Landmarker,
+        detector: Detector | None = None,
+        settings: PoseSettings = PoseSettings(),
+        progress: ProgressCallback | None = None,
+    ):
         self.camera = camera
         self.progress = progress
         #: Frames where the stage reached ``settings.max_people`` (people found or views to run).
@@ -106,8 +132,9 @@ class FisheyePoseEstimator:
         self.landmarker = landmarker
         self.detector = detector
         self.settings = settings
-        self.views = ViewCache(camera, (int(landmarker.input_size[0]), int(landmarker.input_size[1])),
-                               settings.view_cache_px)
+        self.views = ViewCache(
+            camera, (int(landmarker.input_size[0]), int(landmarker.input_size[1])), settings.view_cache_px
+        )
         #: Detector and landmark network runs so far (the stage's cost, for benches and reports).
         self.detector_runs = 0
         self.landmark_runs = 0
@@ -130,14 +157,22 @@ class FisheyePoseEstimator:
         assert self.detector is not None
         self.detector_runs += len(which)
         # The detector's second point lies along the body axis from the hips (beyond the head).
-        return [Target(rays[0], self._half_fov(float(angle_between(rays[0], rays[1]))), SOURCE_SEARCH,
-                       up_cam=self._view_up(rays[0], rays[1]))
-                for rays in self.search.detections(frame_bgr, self.detector, which)]
+        return [
+            Target(
+                rays[0],
+                self._half_fov(float(angle_between(rays[0], rays[1]))),
+                SOURCE_SEARCH,
+                up_cam=self._view_up(rays[0], rays[1]),
+            )
+            for rays in self.search.detections(frame_bgr, self.detector, which)
+        ]
 
     def _motion_cues(self, frame_bgr: np.ndarray) -> list[Target]:
         """Motion cues (the background model learns on every frame)."""
-        return [Target(ray, self._half_fov(radius), SOURCE_MOTION)
-                for ray, radius in self._motion(frame_bgr, self._frames_seen)]
+        return [
+            Target(ray, self._half_fov(radius), SOURCE_MOTION)
+            for ray, radius in self._motion(frame_bgr, self._frames_seen)
+        ]
 
     # -- per frame ---------------------------------------------------------------------------
     def _half_fov(self, body_radius: float) -> float:
@@ -178,13 +213,17 @@ class FisheyePoseEstimator:
         found = [self._refocus(p) for p in people]
         # Views that found nobody this time keep looking for a few frames (brief occlusions),
         # unless a person found elsewhere now covers them.
-        coasting = [Target(t.direction_cam, t.half_fov, t.source, t.missed + 1, t.up_cam)
-                    for t, r in zip(targets, results)
-                    if r is None and t.source == SOURCE_REFOCUS and t.missed < s.coast_frames]
+        coasting = [
+            Target(t.direction_cam, t.half_fov, t.source, t.missed + 1, t.up_cam)
+            for t, r in zip(targets, results)
+            if r is None and t.source == SOURCE_REFOCUS and t.missed < s.coast_frames
+        ]
         self._targets = found + [t for t in coasting if not self._covered(t, found)]
-        self._lost = [t for t, r in zip(targets, results)
-                      if r is None and t.source == SOURCE_REFOCUS and t.missed >= s.coast_frames
-                      and not self._covered(t, found)]
+        self._lost = [
+            t
+            for t, r in zip(targets, results)
+            if r is None and t.source == SOURCE_REFOCUS and t.missed >= s.coast_frames and not self._covered(t, found)
+        ]
         return self._record(people, frame_index)
 
     def _capped(self, frame_index: int, found: int, views: int) -> None:
@@ -193,9 +232,12 @@ class FisheyePoseEstimator:
         self.capped_frames += 1
         if self.capped_frames == 1:
             cap = self.settings.max_people
-            warn(self.progress, f"camera {self.camera.name} reached max_people = {cap} in frame {frame_index} "
-                                f"({found} people found, {views} places to look for {4 * cap} allowed): the 2D "
-                                f"stage follows at most {cap} people per camera, more are not followed")
+            warn(
+                self.progress,
+                f"camera {self.camera.name} reached max_people = {cap} in frame {frame_index} "
+                f"({found} people found, {views} places to look for {4 * cap} allowed): the 2D "
+                f"stage follows at most {cap} people per camera, more are not followed",
+            )
 
     def _view_up(self, direction_cam: np.ndarray, body_up_cam: np.ndarray | None) -> np.ndarray | None:
         """The up direction of a view along ``direction_cam`` for a body whose axis points
@@ -205,9 +247,11 @@ class FisheyePoseEstimator:
         s = self.settings
         if not s.align_views or body_up_cam is None:
             return None
-        if s.recheck_roll is not None and \
-                upright_defined(self.camera, direction_cam, s.upright_undefined_angle) and \
-                abs(roll_from_upright(self.camera, direction_cam, body_up_cam)) > s.recheck_roll:
+        if (
+            s.recheck_roll is not None
+            and upright_defined(self.camera, direction_cam, s.upright_undefined_angle)
+            and abs(roll_from_upright(self.camera, direction_cam, body_up_cam)) > s.recheck_roll
+        ):
             return None
         return bounded_up(self.camera, direction_cam, body_up_cam, s.max_body_roll, s.upright_undefined_angle)
 
@@ -222,8 +266,13 @@ class FisheyePoseEstimator:
         up (by more than ``recheck_roll``) in a rolled view is checked again in an upright view."""
         s = self.settings
         person = self._landmarks(frame_bgr, target, target.up_cam)
-        if person is None or s.recheck_roll is None or target.up_cam is None or \
-                abs(person["body_roll"]) <= s.recheck_roll or abs(person["view_roll"]) < 1e-6:
+        if (
+            person is None
+            or s.recheck_roll is None
+            or target.up_cam is None
+            or abs(person["body_roll"]) <= s.recheck_roll
+            or abs(person["view_roll"]) < 1e-6
+        ):
             return person
         again = self._landmarks(frame_bgr, target, None)
         if again is None or abs(again["body_roll"]) > s.recheck_roll:
@@ -242,9 +291,16 @@ class FisheyePoseEstimator:
         alignment = getattr(kp, "alignment", None)
         if alignment is not None:
             alignment = view.view_pixels_to_rays_cam(alignment)
-        person = {"kp": kp, "view": view, "rays_cam": rays_cam, "source": target.source,
-                  "half_fov": target.half_fov, "alignment_rays": alignment, "rechecked": False,
-                  "view_roll": roll_from_upright(self.camera, target.direction_cam, up_cam)}
+        person = {
+            "kp": kp,
+            "view": view,
+            "rays_cam": rays_cam,
+            "source": target.source,
+            "half_fov": target.half_fov,
+            "alignment_rays": alignment,
+            "rechecked": False,
+            "view_roll": roll_from_upright(self.camera, target.direction_cam, up_cam),
+        }
         person["body_roll"] = self._body_roll(person)
         return person
 
@@ -301,6 +357,7 @@ class FisheyePoseEstimator:
             def rank(i: int) -> tuple[bool, int, float]:
                 implausible = s.recheck_roll is not None and abs(people[i]["body_roll"]) > s.recheck_roll
                 return implausible, round(abs(people[i]["view_roll"]) / s.merge_roll_step), -score[i]
+
             order = sorted(range(len(people)), key=rank)
         else:
             order = sorted(range(len(people)), key=lambda i: -score[i])
@@ -312,8 +369,7 @@ class FisheyePoseEstimator:
                 continue
             ci, ri = bearing[:2]
             duplicate = any(
-                angle_between(ci, found[j][0]) < self.settings.same_person_angle * max(ri, found[j][1])
-                for j in kept
+                angle_between(ci, found[j][0]) < self.settings.same_person_angle * max(ri, found[j][1]) for j in kept
             )
             if not duplicate:
                 kept.append(i)
@@ -332,8 +388,7 @@ class FisheyePoseEstimator:
             centre, extent = unit(aux[0]), unit(aux[1])
             radius = float(angle_between(centre, extent))
             if radius > 0:
-                return Target(centre, self._half_fov(radius), SOURCE_REFOCUS,
-                              up_cam=self._view_up(centre, extent))
+                return Target(centre, self._half_fov(radius), SOURCE_REFOCUS, up_cam=self._view_up(centre, extent))
         up = None
         if shoulder is not None and angle_between(shoulder, centre) >= s.min_axis_fraction * radius:
             up = self._view_up(centre, shoulder)

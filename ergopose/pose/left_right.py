@@ -18,18 +18,28 @@ from ergopose.pose.settings import PoseSettings
 from ergopose.pose.view_geometry import angle_between
 
 #: Every left/right pair of the 33 keypoints (swapping a skeleton exchanges all of them).
-_LR_PAIRS = np.array([(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")])
-                      for n in JOINT_INDEX if "left" in n], dtype=np.int64)
+_LR_PAIRS = np.array(
+    [(JOINT_INDEX[n], JOINT_INDEX[n.replace("left", "right")]) for n in JOINT_INDEX if "left" in n], dtype=np.int64
+)
 #: The pairs that decide a skeleton's left and right, and the two limb groups checked on their own.
-_LR_DECIDE = np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n])
-                       for n in ("shoulder", "hip", "elbow", "wrist", "knee", "ankle")], dtype=np.int64)
+_LR_DECIDE = np.array(
+    [
+        (JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n])
+        for n in ("shoulder", "hip", "elbow", "wrist", "knee", "ankle")
+    ],
+    dtype=np.int64,
+)
 _LR_LIMBS = {
     "arms": (("elbow", "wrist"), ("elbow", "wrist", "pinky", "index", "thumb")),
     "legs": (("knee", "ankle"), ("knee", "ankle", "heel", "foot_index")),
 }
-_LR_LIMB_PAIRS = {k: (np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n]) for n in check]),
-                      np.array([JOINT_INDEX[side + n] for n in joints for side in ("left_", "right_")]))
-                  for k, (check, joints) in _LR_LIMBS.items()}
+_LR_LIMB_PAIRS = {
+    k: (
+        np.array([(JOINT_INDEX["left_" + n], JOINT_INDEX["right_" + n]) for n in check]),
+        np.array([JOINT_INDEX[side + n] for n in joints for side in ("left_", "right_")]),
+    )
+    for k, (check, joints) in _LR_LIMBS.items()
+}
 
 
 def _lowered(confidence: np.ndarray, joints: np.ndarray, ceiling: float) -> np.ndarray:
@@ -44,10 +54,13 @@ def swap_left_right(person: dict) -> None:
     detection dict with "kp" and "rays_cam")."""
     kp = person["kp"]
     person["kp"] = replace(
-        kp, pixels=kp.pixels[MIRROR], confidence=kp.confidence[MIRROR],
+        kp,
+        pixels=kp.pixels[MIRROR],
+        confidence=kp.confidence[MIRROR],
         depth=None if kp.depth is None else kp.depth[MIRROR],
         landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[MIRROR],
-        world_m=None if kp.world_m is None else kp.world_m[MIRROR])
+        world_m=None if kp.world_m is None else kp.world_m[MIRROR],
+    )
     person["rays_cam"] = person["rays_cam"][MIRROR]
     person["left_right_swapped"] = True
 
@@ -71,8 +84,12 @@ class LeftRightCheck:
         s = self.settings
         left, right = pairs[:, 0], pairs[:, 1]
         prev_rays, prev_conf = before["rays"], before["conf"]
-        good = ((conf >= s.min_keypoint_confidence) & (prev_conf >= s.min_keypoint_confidence)
-                & np.isfinite(rays).all(axis=1) & np.isfinite(prev_rays).all(axis=1))
+        good = (
+            (conf >= s.min_keypoint_confidence)
+            & (prev_conf >= s.min_keypoint_confidence)
+            & np.isfinite(rays).all(axis=1)
+            & np.isfinite(prev_rays).all(axis=1)
+        )
         ok = good[left] & good[right]
         if ok.sum() < 2:
             return None
@@ -97,8 +114,11 @@ class LeftRightCheck:
             best = None
             for k, t in enumerate(tracks):
                 a = float(angle_between(centre, t["centre"]))
-                if k not in used and a < s.same_person_angle * max(radius, t["radius"]) and \
-                        (best is None or a < best[0]):
+                if (
+                    k not in used
+                    and a < s.same_person_angle * max(radius, t["radius"])
+                    and (best is None or a < best[0])
+                ):
                     best = (a, k)
             votes: list[int | None] = []
             uncertain = False
@@ -126,14 +146,24 @@ class LeftRightCheck:
                 # Limbs whose own left and right disagree with the body's are not trusted.
                 for check, joints in _LR_LIMB_PAIRS.values():
                     if self.verdict(tracks[best[1]], rays, conf, check) == 1 and s.uncertain_confidence is not None:
-                        p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, joints,
-                                                                      s.uncertain_confidence))
+                        p["kp"] = replace(
+                            p["kp"], confidence=_lowered(p["kp"].confidence, joints, s.uncertain_confidence)
+                        )
             if uncertain and s.uncertain_confidence is not None:
                 paired = _LR_PAIRS.ravel()
                 p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, paired, s.uncertain_confidence))
             p["left_right_uncertain"] = uncertain
-            kept.append({"centre": centre, "radius": radius, "rays": rays, "conf": conf, "votes": votes,
-                         "since_flip": since_flip, "missed": 0})
+            kept.append(
+                {
+                    "centre": centre,
+                    "radius": radius,
+                    "rays": rays,
+                    "conf": conf,
+                    "votes": votes,
+                    "since_flip": since_flip,
+                    "missed": 0,
+                }
+            )
         for k, t in enumerate(tracks):
             if k not in used and t["missed"] < s.coast_frames:
                 kept.append({**t, "missed": t["missed"] + 1})

@@ -86,14 +86,28 @@ class WheelSource:
     def pip_download_command(self, dest: str | os.PathLike) -> list[str]:
         """The pip command that downloads this wheel (and nothing else) into ``dest``."""
         return [
-            sys.executable, "-m", "pip", "download",
-            "--no-deps", "--only-binary=:all:",
-            "--platform", self.platform,
-            "--python-version", self.python_version,
-            "--implementation", "cp",
-            "--dest", str(dest),
-            "--disable-pip-version-check", "--no-input", "--progress-bar", "off",
-            "--retries", "2", "--timeout", "20",
+            sys.executable,
+            "-m",
+            "pip",
+            "download",
+            "--no-deps",
+            "--only-binary=:all:",
+            "--platform",
+            self.platform,
+            "--python-version",
+            self.python_version,
+            "--implementation",
+            "cp",
+            "--dest",
+            str(dest),
+            "--disable-pip-version-check",
+            "--no-input",
+            "--progress-bar",
+            "off",
+            "--retries",
+            "2",
+            "--timeout",
+            "20",
             self.requirement,
         ]
 
@@ -218,16 +232,18 @@ BLAZEPOSE_LANDMARK_FULL = "blazepose_landmark_full"
 #: The detector's four keypoints (MediaPipe pose detection): the hip centre, a point whose
 #: distance from the hip centre is the radius of a circle around the whole body and whose
 #: direction is the body's axis, and the same pair for the upper body.
-DETECTOR_KEYPOINTS: tuple[str, ...] = (
-    "hip_centre", "full_body_extent", "shoulder_centre", "upper_body_extent",
-)
+DETECTOR_KEYPOINTS: tuple[str, ...] = ("hip_centre", "full_body_extent", "shoulder_centre", "upper_body_extent")
 
 #: The landmark network's 39 points: the 33 of the schema, then six auxiliary points (33: hip
 #: centre and 34: full-body extent, the pair the next frame's crop is aligned with; 35-38 lie
 #: on the hands). Only the first 33 are kept.
 LANDMARK_NAMES: tuple[str, ...] = BLAZEPOSE33 + (
-    "aux_hip_centre", "aux_full_body_extent",
-    "aux_hand_a", "aux_hand_b", "aux_hand_c", "aux_hand_d",
+    "aux_hip_centre",
+    "aux_full_body_extent",
+    "aux_hand_a",
+    "aux_hand_b",
+    "aux_hand_c",
+    "aux_hand_d",
 )
 
 #: The npm package that carries the lite and heavy landmark models (the wheel has only full).
@@ -260,53 +276,60 @@ DEFAULT_LANDMARK_MODEL = "full"
 #: gate keeps the same share of the model's right keypoints as full's gate keeps of full's, and the
 #: pose-flag gate lies above every crop without a person (docs/models.md, "Choosing a model").
 FULL_GATES = ConfidenceGates(
-    min_presence=0.5, min_keypoint_confidence=0.3, min_triangulation_confidence=0.5,
+    min_presence=0.5,
+    min_keypoint_confidence=0.3,
+    min_triangulation_confidence=0.5,
     how="the stage's and the reconstruction's gates since the first release (MediaPipe's pose-flag "
-        "threshold is 0.5); on the measured crops they keep 99.1 % and 97.7 % of its right keypoints "
-        "and 96.7 % of the person crops, and no empty crop (largest pose flag 0.000 of 38)",
+    "threshold is 0.5); on the measured crops they keep 99.1 % and 97.7 % of its right keypoints "
+    "and 96.7 % of the person crops, and no empty crop (largest pose flag 0.000 of 38)",
 )
 LITE_GATES = ConfidenceGates(
-    min_presence=0.75, min_keypoint_confidence=0.3, min_triangulation_confidence=0.5,
+    min_presence=0.75,
+    min_keypoint_confidence=0.3,
+    min_triangulation_confidence=0.5,
     how="pose flag raised to 0.75: 3 of 38 crops without a person scored 0.54-0.72 (none above); "
-        "93.8 % of person crops kept (94.3 % at 0.5); keypoint gates as full's (matched 0.31: "
-        "lite's right keypoints have full's confidences)",
+    "93.8 % of person crops kept (94.3 % at 0.5); keypoint gates as full's (matched 0.31: "
+    "lite's right keypoints have full's confidences)",
 )
 HEAVY_GATES = ConfidenceGates(
-    min_presence=0.5, min_keypoint_confidence=0.06, min_triangulation_confidence=0.15,
+    min_presence=0.5,
+    min_keypoint_confidence=0.06,
+    min_triangulation_confidence=0.15,
     how="heavy's visibilities run lower: 3.9 % of its right keypoints are below 0.3 (full: 0.9 %; "
-        "13 % on the rendered views, full 0.0 %), 5.9 % below 0.5 (full 2.3 %); the matched gates "
-        "are 0.064 (to full's 0.3) and 0.148 (to full's 0.5); the pose flag keeps 99.6 % of person "
-        "crops at 0.5 and every crop without a person stays below 0.043",
+    "13 % on the rendered views, full 0.0 %), 5.9 % below 0.5 (full 2.3 %); the matched gates "
+    "are 0.064 (to full's 0.3) and 0.148 (to full's 0.5); the pose flag keeps 99.6 % of person "
+    "crops at 0.5 and every crop without a person stays below 0.043",
 )
 
 _LANDMARK_OUTPUTS = (
     OutputTensor(
-        "landmarks", (1, 195),
+        "landmarks",
+        (1, 195),
         "39 x (x, y, z, visibility, presence): x, y in input pixels (0..256, image "
         "corner at 0), z in the same scale relative to the hips, visibility and "
         "presence as logits (sigmoid)",
     ),
     OutputTensor(
-        "pose_flag", (1, 1),
+        "pose_flag",
+        (1, 1),
         "probability that a person is in the crop (already in [0, 1]: measured 0.9993 "
         "on a drawn person, 0.0005 on a grey image, full model)",
     ),
     OutputTensor("segmentation", (1, 256, 256, 1), "person mask logits (not used)"),
     OutputTensor(
-        "heatmap", (1, 64, 64, 39),
+        "heatmap",
+        (1, 64, 64, 39),
         "per landmark logits; sigmoid, then a 7x7 confidence-weighted mean of cell "
         "indices around the regressed position refines x, y (cell i at 4 i pixels) "
         "when the window's peak is at least 0.5",
     ),
-    OutputTensor(
-        "world_landmarks", (1, 117),
-        "39 x (x, y, z) in metres, origin between the hips",
-    ),
+    OutputTensor("world_landmarks", (1, 117), "39 x (x, y, z) in metres, origin between the hips"),
 )
 
 
-def _landmark_card(name: str, size: str, file: ModelFile, source: WheelSource | NpmSource,
-                   gates: ConfidenceGates) -> ModelCard:
+def _landmark_card(
+    name: str, size: str, file: ModelFile, source: WheelSource | NpmSource, gates: ConfidenceGates
+) -> ModelCard:
     """A BlazePose landmark model card: lite, full and heavy share input, outputs and decoding."""
     return ModelCard(
         name=name,
@@ -353,14 +376,12 @@ MODEL_CARDS: dict[str, ModelCard] = {
             normalisation=Normalisation(mean=(127.5, 127.5, 127.5), std=(127.5, 127.5, 127.5)),
             outputs=(
                 OutputTensor(
-                    "regressors", (1, 2254, 12),
+                    "regressors",
+                    (1, 2254, 12),
                     "per SSD anchor: box centre x, y and size w, h, then 4 keypoints (x, y); "
                     "offsets divided by 224 and added to the anchor centre (normalised units)",
                 ),
-                OutputTensor(
-                    "scores", (1, 2254, 1),
-                    "per anchor: logit, clipped to [-100, 100], then sigmoid",
-                ),
+                OutputTensor("scores", (1, 2254, 1), "per anchor: logit, clipped to [-100, 100], then sigmoid"),
             ),
             keypoint_names=DETECTOR_KEYPOINTS,
             keypoint_schema=(-1, -1, -1, -1),
@@ -373,34 +394,40 @@ MODEL_CARDS: dict[str, ModelCard] = {
             ),
         ),
         _landmark_card(
-            BLAZEPOSE_LANDMARK_LITE, "lite",
+            BLAZEPOSE_LANDMARK_LITE,
+            "lite",
             ModelFile(
                 filename="pose_landmark_lite.tflite",
                 path_in_source="package/pose_landmark_lite.tflite",
                 sha256="f17bfbecadb61c3be1baa8b8d851cc6619c870a87167b32848ad20db306b9d61",
                 size_bytes=2819824,
             ),
-            MEDIAPIPE_POSE_NPM, LITE_GATES,
+            MEDIAPIPE_POSE_NPM,
+            LITE_GATES,
         ),
         _landmark_card(
-            BLAZEPOSE_LANDMARK_FULL, "full",
+            BLAZEPOSE_LANDMARK_FULL,
+            "full",
             ModelFile(
                 filename="pose_landmark_full.tflite",
                 path_in_source="mediapipe/modules/pose_landmark/pose_landmark_full.tflite",
                 sha256="e9a5c5cb17f736fafd4c2ec1da3b3d331d6edbe8a0d32395855aeb2cdfd64b9f",
                 size_bytes=6440512,
             ),
-            MEDIAPIPE_WHEEL, FULL_GATES,
+            MEDIAPIPE_WHEEL,
+            FULL_GATES,
         ),
         _landmark_card(
-            BLAZEPOSE_LANDMARK_HEAVY, "heavy",
+            BLAZEPOSE_LANDMARK_HEAVY,
+            "heavy",
             ModelFile(
                 filename="pose_landmark_heavy.tflite",
                 path_in_source="package/pose_landmark_heavy.tflite",
                 sha256="59e42d71bcd44cbdbabc419f0ff76686595fd265419566bd4009ef703ea8e1fe",
                 size_bytes=27709200,
             ),
-            MEDIAPIPE_POSE_NPM, HEAVY_GATES,
+            MEDIAPIPE_POSE_NPM,
+            HEAVY_GATES,
         ),
     )
 }
@@ -482,19 +509,14 @@ def verify_model(name: str, model_dir: str | os.PathLike | None = None) -> Path:
     """Re-hash the cached file of ``name``; return its path, or raise ModelError if missing/corrupt."""
     status = model_status(name, model_dir)
     if status.state == "missing":
-        raise ModelError(
-            f"model {name!r} is not in the cache yet; run 'ergopose models fetch'", path=status.path
-        )
+        raise ModelError(f"model {name!r} is not in the cache yet; run 'ergopose models fetch'", path=status.path)
     if status.state == "corrupt":
         raise ModelError(corrupt_message(status), path=status.path)
     return status.path
 
 
 def ensure_model(
-    name: str,
-    progress: ProgressCallback | None = None,
-    *,
-    model_dir: str | os.PathLike | None = None,
+    name: str, progress: ProgressCallback | None = None, *, model_dir: str | os.PathLike | None = None
 ) -> Path:
     """Path of a verified model file, fetching the models first if they are not cached.
 
@@ -515,8 +537,16 @@ def ensure_model(
 
 
 _NETWORK_MARKERS = (
-    "NewConnectionError", "Connection refused", "Name or service not known", "Temporary failure in name resolution",
-    "Network is unreachable", "ConnectTimeout", "Read timed out", "ProxyError", "SSLError", "No route to host",
+    "NewConnectionError",
+    "Connection refused",
+    "Name or service not known",
+    "Temporary failure in name resolution",
+    "Network is unreachable",
+    "ConnectTimeout",
+    "Read timed out",
+    "ProxyError",
+    "SSLError",
+    "No route to host",
     "Connection reset",
 )
 
@@ -573,8 +603,7 @@ def extract_from_wheel(wheel: str | os.PathLike, cards: list[ModelCard]) -> dict
             inner = card.file.path_in_source
             if inner not in names:
                 raise ModelError(
-                    f"{inner} is not in this wheel; expected the {card.source.requirement} wheel",
-                    path=wheel,
+                    f"{inner} is not in this wheel; expected the {card.source.requirement} wheel", path=wheel
                 )
             try:
                 data = archive.read(inner)
@@ -601,8 +630,9 @@ def _hash_tarball(path: Path) -> tuple[str, str]:
     return h256.hexdigest(), "sha512-" + base64.b64encode(h512.digest()).decode("ascii")
 
 
-def download_tarball(source: NpmSource, dest: str | os.PathLike, registry: str | None = None,
-                     timeout_s: float = 60.0) -> Path:
+def download_tarball(
+    source: NpmSource, dest: str | os.PathLike, registry: str | None = None, timeout_s: float = 60.0
+) -> Path:
     """Download ``source``'s package tarball from the npm registry into the folder ``dest``."""
     url = source.tarball_url(registry)
     path = Path(dest) / source.tarball_name
@@ -642,7 +672,8 @@ def extract_from_tarball(tarball: str | os.PathLike, cards: list[ModelCard]) -> 
     if sha256 != source.tarball_sha256 or integrity != source.integrity:
         raise ModelError(
             f"package tarball has SHA-256 {sha256[:12]}..., expected {source.tarball_sha256[:12]}...; this is not "
-            f"the {source.requirement} tarball ergopose was validated with", path=tarball,
+            f"the {source.requirement} tarball ergopose was validated with",
+            path=tarball,
         )
     out: dict[str, bytes] = {}
     try:
@@ -658,8 +689,9 @@ def extract_from_tarball(tarball: str | os.PathLike, cards: list[ModelCard]) -> 
                 data = member.read()
                 digest = hashlib.sha256(data).hexdigest()
                 if digest != card.file.sha256:  # cannot happen with the tarball's digest checked; kept as a guard
-                    raise ModelError(f"{inner} has SHA-256 {digest[:12]}..., expected {card.file.sha256[:12]}...",
-                                     path=tarball)
+                    raise ModelError(
+                        f"{inner} has SHA-256 {digest[:12]}..., expected {card.file.sha256[:12]}...", path=tarball
+                    )
                 out[card.name] = data
     except (tarfile.TarError, OSError, EOFError) as exc:
         raise ModelError(f"not a readable package tarball (.tgz): {exc}", path=tarball) from None
@@ -699,16 +731,31 @@ def fetch_models(
         local = wheel if isinstance(source, WheelSource) else tarball
         if local is not None:
             report(progress, PROGRESS_STAGE, done, total, unit="step", message=f"reading {Path(local).name}")
-            blobs = extract_from_wheel(local, group) if isinstance(source, WheelSource) else \
-                extract_from_tarball(local, group)
+            blobs = (
+                extract_from_wheel(local, group)
+                if isinstance(source, WheelSource)
+                else extract_from_tarball(local, group)
+            )
         elif isinstance(source, WheelSource):
-            report(progress, PROGRESS_STAGE, done, total, unit="step",
-                   message=f"downloading {source.requirement} with pip (about 36 MB)")
+            report(
+                progress,
+                PROGRESS_STAGE,
+                done,
+                total,
+                unit="step",
+                message=f"downloading {source.requirement} with pip (about 36 MB)",
+            )
             with tempfile.TemporaryDirectory(prefix="ergopose-wheel-") as tmp:
                 blobs = extract_from_wheel(download_wheel(source, tmp), group)
         else:
-            report(progress, PROGRESS_STAGE, done, total, unit="step",
-                   message=f"downloading {source.requirement} from npm (about {source.size_bytes / 1e6:.0f} MB)")
+            report(
+                progress,
+                PROGRESS_STAGE,
+                done,
+                total,
+                unit="step",
+                message=f"downloading {source.requirement} from npm (about {source.size_bytes / 1e6:.0f} MB)",
+            )
             with tempfile.TemporaryDirectory(prefix="ergopose-npm-") as tmp:
                 blobs = extract_from_tarball(download_tarball(source, tmp), group)
         done += 1

@@ -53,7 +53,15 @@ from ergopose.pose.models import Normalisation, sha256_file
 #: Halpe's 26 keypoints; the big toes become BlazePose's foot_index points, the heels its heels;
 #: head, neck, hip centre and small toes have no schema joint ("").
 HALPE26_TO_SCHEMA: tuple[str, ...] = COCO17 + (
-    "", "", "", "left_foot_index", "right_foot_index", "", "", "left_heel", "right_heel",
+    "",
+    "",
+    "",
+    "left_foot_index",
+    "right_foot_index",
+    "",
+    "",
+    "left_heel",
+    "right_heel",
 )
 KEYPOINT_PRESETS: dict[str, tuple[str, ...]] = {"coco17": COCO17, "halpe26": HALPE26_TO_SCHEMA}
 OUTPUT_TYPES = ("heatmap", "simcc")
@@ -90,11 +98,17 @@ class OnnxPoseCard:
     def __post_init__(self) -> None:
         where = self.card_path
         if self.channel_order not in ("RGB", "BGR"):
-            raise ConfigError(f"expected 'RGB' or 'BGR', got {self.channel_order!r}", path=where, field="input.channel_order")
+            raise ConfigError(
+                f"expected 'RGB' or 'BGR', got {self.channel_order!r}", path=where, field="input.channel_order"
+            )
         if self.output_type not in OUTPUT_TYPES:
-            raise ConfigError(f"expected one of {OUTPUT_TYPES}, got {self.output_type!r}", path=where, field="output.type")
+            raise ConfigError(
+                f"expected one of {OUTPUT_TYPES}, got {self.output_type!r}", path=where, field="output.type"
+            )
         if self.confidence not in CONFIDENCE_MODES:
-            raise ConfigError(f"expected one of {CONFIDENCE_MODES}, got {self.confidence!r}", path=where, field="output.confidence")
+            raise ConfigError(
+                f"expected one of {CONFIDENCE_MODES}, got {self.confidence!r}", path=where, field="output.confidence"
+            )
         if not (self.split_ratio > 0):
             raise ConfigError(f"must be positive, got {self.split_ratio}", path=where, field="output.split_ratio")
         w, h = self.input_size
@@ -107,7 +121,8 @@ class OnnxPoseCard:
             raise ConfigError(
                 f"unknown keypoint names {unknown}; use names from ergopose.keypoints.BLAZEPOSE33 "
                 "(e.g. 'left_shoulder') or \"\" for a keypoint without a schema joint",
-                path=where, field="output.keypoints",
+                path=where,
+                field="output.keypoints",
             )
         used = [n for n in self.keypoint_names if n]
         if len(set(used)) != len(used):
@@ -132,7 +147,8 @@ def _field(table: dict, key: str, kind: type, path: Path, prefix: str, default: 
 def _triple(table: dict, key: str, path: Path) -> tuple[float, float, float]:
     value = table.get(key)
     if (
-        not isinstance(value, list) or len(value) != 3
+        not isinstance(value, list)
+        or len(value) != 3
         or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     ):
         raise ConfigError(f"expected a list of 3 numbers, got {value!r}", path=path, field=f"input.{key}")
@@ -161,7 +177,8 @@ def load_onnx_card(path: str | os.PathLike) -> OnnxPoseCard:
         if kps.lower() not in KEYPOINT_PRESETS:
             raise ConfigError(
                 f"unknown keypoint preset {kps!r}; use one of {sorted(KEYPOINT_PRESETS)} or a list of names",
-                path=path, field="output.keypoints",
+                path=path,
+                field="output.keypoints",
             )
         names = KEYPOINT_PRESETS[kps.lower()]
     elif isinstance(kps, list) and all(isinstance(n, str) for n in kps):
@@ -193,7 +210,9 @@ def load_onnx_card(path: str | os.PathLike) -> OnnxPoseCard:
 # Decoding
 
 
-def decode_heatmaps(heatmaps: np.ndarray, input_size: tuple[int, int], refine: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def decode_heatmaps(
+    heatmaps: np.ndarray, input_size: tuple[int, int], refine: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """Keypoints from heatmaps (N, K, Hh, Wh): returns (N, K, 2) input pixels and (N, K) peak values.
 
     Arg-max cell, then (``refine``) one Newton step on log(heatmap) using central differences
@@ -317,13 +336,17 @@ class OnnxPoseModel:
         k = len(card.keypoint_names)
         if card.output_type == "heatmap":
             if len(outputs) < 1 or len(outputs[0].shape) != 4:
-                raise ModelError(f"expected a heatmap output (N, K, H, W), found {[(o.name, o.shape) for o in outputs]}", path=path)
+                raise ModelError(
+                    f"expected a heatmap output (N, K, H, W), found {[(o.name, o.shape) for o in outputs]}", path=path
+                )
             self._outputs = [outputs[0].name]
             kk = outputs[0].shape[1]
         else:
             three = [o for o in outputs if len(o.shape) == 3]
             if len(three) < 2:
-                raise ModelError(f"expected two SimCC outputs (N, K, bins), found {[(o.name, o.shape) for o in outputs]}", path=path)
+                raise ModelError(
+                    f"expected two SimCC outputs (N, K, bins), found {[(o.name, o.shape) for o in outputs]}", path=path
+                )
             pair = three[:2]
             named_x = [o for o in three if "x" in o.name.lower() and "y" not in o.name.lower()]
             named_y = [o for o in three if "y" in o.name.lower() and "x" not in o.name.lower()]
@@ -345,8 +368,12 @@ class OnnxPoseModel:
     def _check(self, image: np.ndarray) -> None:
         w, h = self.card.input_size
         if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.shape != (h, w, 3):
-            got = f"{image.dtype} array of shape {image.shape}" if isinstance(image, np.ndarray) else type(image).__name__
-            raise InputError(f"expected a uint8 BGR image of shape ({h}, {w}, 3), got {got}", field=f"{self.card.name} input")
+            got = (
+                f"{image.dtype} array of shape {image.shape}" if isinstance(image, np.ndarray) else type(image).__name__
+            )
+            raise InputError(
+                f"expected a uint8 BGR image of shape ({h}, {w}, 3), got {got}", field=f"{self.card.name} input"
+            )
 
     def run_batch(self, images_bgr: Sequence[np.ndarray]) -> list[Keypoints2D]:
         """Keypoints for several crops; one session call when the model's batch axis is dynamic."""

@@ -90,13 +90,29 @@ class FrameDetections:
         """The reconstruction stage's record (ergopose.recon.records.Detections2D) of these people;
         appearance: (N, 6) their clothing colours (ergopose.pose.appearance), None: unknown."""
         rotation = np.asarray(camera.rotation_world_from_cam, dtype=np.float64)
-        return Detections2D(camera=camera.name, frame=self.frame_index, time_s=time_s,
-                            pixels_view=self.pixels_view, confidence=self.confidence,
-                            projection=self.projection, rays_world=self.rays_cam @ rotation.T,
-                            appearance=appearance)
+        return Detections2D(
+            camera=camera.name,
+            frame=self.frame_index,
+            time_s=time_s,
+            pixels_view=self.pixels_view,
+            confidence=self.confidence,
+            projection=self.projection,
+            rays_world=self.rays_cam @ rotation.T,
+            appearance=appearance,
+        )
 
     @classmethod
     def empty(cls, camera_index: int, frame_index: int) -> "FrameDetections":
-        return cls(camera_index, frame_index, np.zeros((0, NUM_JOINTS, 2)), np.zeros((0, NUM_JOINTS, 2)),
-                   np.zeros((0, NUM_JOINTS, 3)), np.zeros((0, NUM_JOINTS)), np.zeros(0), np.zeros((0, 3, 4)),
-                   np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64))
+        return cls(
+            camera_index,
+            frame_index,
+            np.zeros((0, NUM_JOINTS, 2)),
+            np.zeros((0, NUM_JOINTS, 2)),
+            np.zeros((0, NUM_JOINTS, 3)),
+            np.zeros((0, NUM_JOINTS)),
+            np.zeros(0),
+            np.zeros((0, 3, 4)),
+            np.zeros((0, 3)),
+            np.zeros(0),
+            np.zeros(0, dtype=np.int64),
+        )

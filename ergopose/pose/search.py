@@ -25,10 +25,15 @@ from ergopose.pose.view_geometry import angle_between, unit, view_rotation
 
 def search_sizing(s: PoseSettings) -> SearchSizing:
     """The search-layout rule's inputs from the settings."""
-    return SearchSizing(person_height=s.search_person_height, max_distance=s.search_max_distance,
-                        person_px=s.search_person_px, max_upsampling=s.search_max_upsampling,
-                        min_half_fov=s.search_min_half_fov, max_half_fov=s.search_max_half_fov,
-                        max_polar=s.search_max_polar)
+    return SearchSizing(
+        person_height=s.search_person_height,
+        max_distance=s.search_max_distance,
+        person_px=s.search_person_px,
+        max_upsampling=s.search_max_upsampling,
+        min_half_fov=s.search_min_half_fov,
+        max_half_fov=s.search_max_half_fov,
+        max_polar=s.search_max_polar,
+    )
 
 
 class SearchViews:
@@ -57,8 +62,9 @@ class SearchViews:
         if s.search_layout == "lens":
             layout = derive_layout(self.camera, size[0], search_sizing(s))
         elif s.search_layout == "fixed":
-            layout = fixed_layout(tuple(s.search_rings), s.search_views_per_ring, s.search_half_fov,
-                                  self.camera.max_theta_in_image())
+            layout = fixed_layout(
+                tuple(s.search_rings), s.search_views_per_ring, s.search_half_fov, self.camera.max_theta_in_image()
+            )
         else:
             raise ConfigError(f"must be 'lens' or 'fixed', got {s.search_layout!r}", field="search_layout")
         self.layout = layout
@@ -78,16 +84,24 @@ class SearchViews:
                 view = VirtualView.aimed_along(self.camera, d, hfov=2 * float(half), size=size)
             else:
                 lens = Rectilinear.from_fov(size[0], size[1], 2 * float(half))
-                view = VirtualView(source=self.camera, lens=lens, width=size[0], height=size[1],
-                                   rotation_cam_from_view=view_rotation(self.camera, d, up))
+                view = VirtualView(
+                    source=self.camera,
+                    lens=lens,
+                    width=size[0],
+                    height=size[1],
+                    rotation_cam_from_view=view_rotation(self.camera, d, up),
+                )
             self.views.append((view, view.build_map(interpolated=True)))
         self.half_fov = halves
 
     def period(self, following: bool) -> int:
         """Frames one pass over the search views takes (``PoseSettings.search_every``)."""
         s = self.settings
-        every, budget = (s.search_every, s.search_views_per_frame) if following else \
-            (s.idle_search_every, s.idle_search_views_per_frame)
+        every, budget = (
+            (s.search_every, s.search_views_per_frame)
+            if following
+            else (s.idle_search_every, s.idle_search_views_per_frame)
+        )
         return max(int(every), int(np.ceil(len(self.views) / budget - 1e-9)))
 
     def scheduled(self, period: int, seen: int) -> list[int]:
@@ -147,8 +161,9 @@ class MotionCues:
         first ``motion_warmup`` frames, ``seen`` being the frames seen before this one), each
         as the ray to its centre and its angular radius (to its bounding box's corners)."""
         s = self.settings
-        small = cv2.resize(frame_bgr, None, fx=1.0 / s.motion_scale, fy=1.0 / s.motion_scale,
-                           interpolation=cv2.INTER_AREA)
+        small = cv2.resize(
+            frame_bgr, None, fx=1.0 / s.motion_scale, fy=1.0 / s.motion_scale, interpolation=cv2.INTER_AREA
+        )
         mask = self._background.apply(small)
         if seen < s.motion_warmup:
             return []
@@ -163,8 +178,18 @@ class MotionCues:
         centre_px = (centroids[keep] + 0.5) * scale - 0.5
         x0, y0 = stats[keep, cv2.CC_STAT_LEFT], stats[keep, cv2.CC_STAT_TOP]
         w, h = stats[keep, cv2.CC_STAT_WIDTH], stats[keep, cv2.CC_STAT_HEIGHT]
-        corners = np.stack([np.stack([x0, y0], -1), np.stack([x0 + w, y0], -1),
-                            np.stack([x0, y0 + h], -1), np.stack([x0 + w, y0 + h], -1)], axis=1) * scale
+        corners = (
+            np.stack(
+                [
+                    np.stack([x0, y0], -1),
+                    np.stack([x0 + w, y0], -1),
+                    np.stack([x0, y0 + h], -1),
+                    np.stack([x0 + w, y0 + h], -1),
+                ],
+                axis=1,
+            )
+            * scale
+        )
         centre_rays = self.camera.lens.unproject(centre_px)
         corner_rays = self.camera.lens.unproject(corners)
         radius = np.nanmax(angle_between(corner_rays, centre_rays[:, None, :]), axis=1)

@@ -100,8 +100,12 @@ class SearchLayout:
         axes, halves = [], []
         for r in self.rings:
             az = r.azimuth0 + 2.0 * np.pi * np.arange(r.count) / r.count
-            axes.append(np.stack([np.sin(r.polar) * np.cos(az), np.sin(r.polar) * np.sin(az),
-                                  np.full(r.count, np.cos(r.polar))], axis=-1))
+            axes.append(
+                np.stack(
+                    [np.sin(r.polar) * np.cos(az), np.sin(r.polar) * np.sin(az), np.full(r.count, np.cos(r.polar))],
+                    axis=-1,
+                )
+            )
             halves.append(np.full(r.count, r.half_fov))
         return np.concatenate(axes), np.concatenate(halves)
 
@@ -127,8 +131,10 @@ def fixed_layout(polars: tuple[float, ...], per_ring: int, half_fov: float, max_
 
 
 def _directions(polar: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
-    return np.stack([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth),
-                     np.cos(polar) * np.ones_like(azimuth)], axis=-1)
+    return np.stack(
+        [np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar) * np.ones_like(azimuth)],
+        axis=-1,
+    )
 
 
 def person_size(camera: Camera, directions_cam: np.ndarray, sizing: SearchSizing) -> np.ndarray:
@@ -169,8 +175,7 @@ def pixel_density(camera: Camera, directions_cam: np.ndarray, step: float = 1e-4
     return np.linalg.svd(jac, compute_uv=False)[..., -1]
 
 
-def required_half_fov(camera: Camera, directions_cam: np.ndarray, detector_px: int,
-                      sizing: SearchSizing) -> np.ndarray:
+def required_half_fov(camera: Camera, directions_cam: np.ndarray, detector_px: int, sizing: SearchSizing) -> np.ndarray:
     """(...) the largest half field of view a search view holding a person at each direction may
     have (the module's rule): the person-size limit, not finer than the image, within the limits."""
     half_px = 0.5 * float(detector_px)
@@ -178,8 +183,9 @@ def required_half_fov(camera: Camera, directions_cam: np.ndarray, detector_px: i
     by_size = np.arctan(half_px * size / sizing.person_px)
     density = pixel_density(camera, directions_cam)
     with np.errstate(divide="ignore", invalid="ignore"):
-        by_image = np.where(np.isfinite(density) & (density > 0),
-                            np.arctan(half_px / (sizing.max_upsampling * density)), 0.0)
+        by_image = np.where(
+            np.isfinite(density) & (density > 0), np.arctan(half_px / (sizing.max_upsampling * density)), 0.0
+        )
     return np.clip(np.maximum(by_size, by_image), sizing.min_half_fov, sizing.max_half_fov)
 
 
@@ -193,8 +199,10 @@ def derive_layout(camera: Camera, detector_px: int, sizing: SearchSizing = Searc
     (module docstring). InputError when the camera sees no part of its image circle."""
     top = min(float(camera.max_theta_in_image()), float(sizing.max_polar))
     if not np.isfinite(top) or top <= 0:
-        raise InputError(f"camera {camera.name}: no lit image to search for people (largest angle off the lens "
-                         f"axis in the image: {top})")
+        raise InputError(
+            f"camera {camera.name}: no lit image to search for people (largest angle off the lens "
+            f"axis in the image: {top})"
+        )
     polars = np.linspace(0.0, top, _POLARS)
     az = 2.0 * np.pi * np.arange(_AZIMUTHS) / _AZIMUTHS
     grid = _directions(polars[:, None], az[None, :])  # (P, A, 3)
@@ -229,7 +237,7 @@ def _cone(axis: np.ndarray, radius: float, n: int = 400) -> np.ndarray:
     """n directions spread evenly over the cone of ``radius`` around the unit ``axis``."""
     k = np.arange(n) + 0.5
     z = 1.0 - (1.0 - np.cos(radius)) * k / n
-    az = np.pi * (1.0 + 5 ** 0.5) * k
+    az = np.pi * (1.0 + 5**0.5) * k
     r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
     local = np.stack([r * np.cos(az), r * np.sin(az), z], axis=-1)
     helper = np.array([1.0, 0.0, 0.0]) if abs(axis[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
@@ -279,8 +287,9 @@ def _ring_reach(inner: float, polar: float, cover: float) -> tuple[int, float] |
     return count, float(np.arctan2(b, a) + np.arccos(np.cos(cover) / norm))
 
 
-def _next_ring(inner: float, top: float,
-               band: Callable[[float, float], tuple[float, float]]) -> tuple[SearchRing | None, float]:
+def _next_ring(
+    inner: float, top: float, band: Callable[[float, float], tuple[float, float]]
+) -> tuple[SearchRing | None, float]:
     """The ring that continues the coverage from ``inner`` with the most new area per view; its
     half field of view is the smallest the rule asks for over the band it covers (found by
     shrinking until the band and the view agree)."""

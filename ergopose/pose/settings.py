@@ -154,5 +154,6 @@ class PoseSettings:
         (:class:`ergopose.pose.models.ConfidenceGates`; None: unchanged)."""
         if gates is None:
             return self
-        return replace(self, min_presence=float(gates.min_presence),
-                       min_keypoint_confidence=float(gates.min_keypoint_confidence))
+        return replace(
+            self, min_presence=float(gates.min_presence), min_keypoint_confidence=float(gates.min_keypoint_confidence)
+        )

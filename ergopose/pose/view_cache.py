@@ -24,8 +24,7 @@ class ViewCache:
     request. ``tolerance_px`` 0 disables the cache (every call builds a fresh map).
     """
 
-    def __init__(self, camera: Camera, view_size: tuple[int, int], tolerance_px: float = 0.5,
-                 capacity: int = 96):
+    def __init__(self, camera: Camera, view_size: tuple[int, int], tolerance_px: float = 0.5, capacity: int = 96):
         self.camera = camera
         self.view_size = (int(view_size[0]), int(view_size[1]))
         self.tolerance_px = float(tolerance_px)
@@ -36,12 +35,18 @@ class ViewCache:
 
     def _build(self, direction_cam: np.ndarray, half_fov: float, roll: float) -> tuple[VirtualView, ViewMap]:
         lens = Rectilinear.from_fov(self.view_size[0], self.view_size[1], 2.0 * half_fov)
-        view = VirtualView(source=self.camera, lens=lens, width=self.view_size[0], height=self.view_size[1],
-                           rotation_cam_from_view=rolled_view_rotation(self.camera, direction_cam, roll))
+        view = VirtualView(
+            source=self.camera,
+            lens=lens,
+            width=self.view_size[0],
+            height=self.view_size[1],
+            rotation_cam_from_view=rolled_view_rotation(self.camera, direction_cam, roll),
+        )
         return view, view.build_map(interpolated=True)
 
-    def get(self, direction_cam: np.ndarray, half_fov: float,
-            up_cam: np.ndarray | None = None) -> tuple[VirtualView, ViewMap]:
+    def get(
+        self, direction_cam: np.ndarray, half_fov: float, up_cam: np.ndarray | None = None
+    ) -> tuple[VirtualView, ViewMap]:
         """The view (and its map) looking along ``direction_cam`` with half field of view
         ``half_fov`` (horizontal), rolled so ``up_cam`` points up (None: upright)."""
         d = unit(np.asarray(direction_cam, dtype=np.float64))
@@ -61,7 +66,7 @@ class ViewCache:
         # Direction: a turn by a moves a pixel at angle t off the axis by f a / cos^2 t, most at the corner.
         focal = half_w / tan_q
         tan_corner = corner_px / focal
-        dir_step = 2.0 * third / (focal * (1.0 + tan_corner ** 2)) / np.sqrt(2.0)  # two axes
+        dir_step = 2.0 * third / (focal * (1.0 + tan_corner**2)) / np.sqrt(2.0)  # two axes
         polar = float(np.arccos(np.clip(d[2], -1.0, 1.0)))
         azimuth = float(np.arctan2(d[1], d[0]))
         i_polar = int(round(polar / dir_step))

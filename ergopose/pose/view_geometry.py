@@ -85,8 +85,9 @@ def roll_from_upright(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndar
     return roll_towards(camera, unit(np.asarray(direction_cam, dtype=np.float64)), up_cam)
 
 
-def bounded_up(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None, max_roll: float,
-               undefined_angle: float = 0.0) -> np.ndarray | None:
+def bounded_up(
+    camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None, max_roll: float, undefined_angle: float = 0.0
+) -> np.ndarray | None:
     """The up direction of a view along ``direction_cam`` that follows ``up_cam`` (e.g. the body
     axis) but is rolled at most ``max_roll`` from world upright. None when ``up_cam`` is None;
     ``up_cam`` unchanged when the view is within ``undefined_angle`` of the world's vertical (no

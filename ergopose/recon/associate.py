@@ -249,7 +249,7 @@ def canonical_sides(dets: Sequence[Detections2D], settings: ReconSettings | None
         # The root is the group's lowest node, i.e. its detection of the first camera.
         keep = 1 if ones * 2 > len(members) else 0
         flip[members] = par_a[members] != keep
-    return [d.with_sides_exchanged(flip[offset[c]:offset[c + 1]]) for c, d in enumerate(dets)]
+    return [d.with_sides_exchanged(flip[offset[c] : offset[c + 1]]) for c, d in enumerate(dets)]
 
 
 def associate(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings | None = None) -> Association:
@@ -264,8 +264,13 @@ def associate(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings 
     pairs = np.stack([rows, cols], axis=1).astype(np.int64)
     single_a = np.setdiff1d(np.arange(na), pairs[:, 0])
     single_b = np.setdiff1d(np.arange(nb), pairs[:, 1])
-    return Association(pairs=pairs, cost_m=cost[pairs[:, 0], pairs[:, 1]] if len(pairs) else np.zeros(0),
-                       single_a=single_a, single_b=single_b, cost_matrix_m=cost)
+    return Association(
+        pairs=pairs,
+        cost_m=cost[pairs[:, 0], pairs[:, 1]] if len(pairs) else np.zeros(0),
+        single_a=single_a,
+        single_b=single_b,
+        cost_matrix_m=cost,
+    )
 
 
 @dataclass(frozen=True)
@@ -354,8 +359,7 @@ def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None
     else:
         g, cst = np.zeros((0, C), np.int64), np.zeros(0)
     singles = [(c, i) for c in range(C) for i in np.flatnonzero(~used[c])]
-    return ViewAssociation(groups=g, cost_m=cst,
-                           singles=np.array(singles, np.int64).reshape(-1, 2))
+    return ViewAssociation(groups=g, cost_m=cst, singles=np.array(singles, np.int64).reshape(-1, 2))
 
 
 class _Views:
@@ -373,8 +377,8 @@ class _Views:
         min_conf = max(settings.min_confidence, 1e-12)
         for c, d in enumerate(dets):
             if d.count:
-                self.S[c, :d.count] = d.confidence >= min_conf
-                self.R[c, :d.count], self.O[c, :d.count] = rays[c]
+                self.S[c, : d.count] = d.confidence >= min_conf
+                self.R[c, : d.count], self.O[c, : d.count] = rays[c]
         self.cam = np.arange(C)[None, :]
 
     def check(self, mem: np.ndarray, settings: ReconSettings):
@@ -385,21 +389,22 @@ class _Views:
         has too few joints or a point lies behind it, NaN for non-members; plausible (H,): the
         torso's height and trunk length pass the checks of a pair)."""
         member = mem >= 0
-        tri = triangulate_midpoint(self.O[self.cam, mem], self.R[self.cam, mem],
-                                   (member[..., None] & self.S[self.cam, mem]).astype(np.float64))
+        tri = triangulate_midpoint(
+            self.O[self.cam, mem], self.R[self.cam, mem], (member[..., None] & self.S[self.cam, mem]).astype(np.float64)
+        )
         res = tri.residuals_m  # (H, C, J): +inf behind the camera, NaN where not used or no point
         view_dist, ok = _view_distance(res, ~np.isnan(res), settings)
         view_dist = np.where(member, np.where(ok, view_dist, np.inf), np.nan)
         P = tri.points
         z = P[..., TORSO_JOINTS, 2]
         with np.errstate(invalid="ignore"):
-            plausible = ~np.any(np.isfinite(z) & ((z < settings.torso_min_z_m) | (z > settings.torso_max_z_m)),
-                                axis=1)
+            plausible = ~np.any(np.isfinite(z) & ((z < settings.torso_min_z_m) | (z > settings.torso_max_z_m)), axis=1)
             sh = _masked_mean(P[:, SHOULDERS], np.isfinite(P[:, SHOULDERS]).all(axis=-1))
             hp = _masked_mean(P[:, HIPS], np.isfinite(P[:, HIPS]).all(axis=-1))
             trunk = np.linalg.norm(sh - hp, axis=-1)
-            plausible &= ~np.isfinite(trunk) | ((trunk >= settings.trunk_min_length_m)
-                                                & (trunk <= settings.trunk_max_length_m))
+            plausible &= ~np.isfinite(trunk) | (
+                (trunk >= settings.trunk_min_length_m) & (trunk <= settings.trunk_max_length_m)
+            )
         return view_dist, plausible
 
 
@@ -500,7 +505,7 @@ def _merge_sets(groups: list, group_cost: list, used: list, geo: _Views, costs: 
     link = np.zeros((offset[-1], offset[-1]), bool)
     for (a, b), cst in costs.items():
         if cst.size:
-            link[offset[a]:offset[a + 1], offset[b]:offset[b + 1]] = cst <= gate
+            link[offset[a] : offset[a + 1], offset[b] : offset[b + 1]] = cst <= gate
     link |= link.T
     while len(mem) >= 2:
         M = np.stack(mem)

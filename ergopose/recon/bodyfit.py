@@ -68,11 +68,31 @@ def _pt(*names: str) -> dict[int, float]:
 #: (mid-ears to mid-shoulders); then every pair of points within a rigid part -- the head's 11
 #: face points, each hand's wrist, pinky, index and thumb, each foot's ankle, heel and toe -- so
 #: that each rigid part keeps its shape (all its distances) and only moves as a whole.
-_LIMB_KIND = {"left_trunk_side": "flexible", "right_trunk_side": "flexible", "left_foot": "rigid",
-              "right_foot": "rigid", "left_hand": "hand", "right_hand": "hand"}
+_LIMB_KIND = {
+    "left_trunk_side": "flexible",
+    "right_trunk_side": "flexible",
+    "left_foot": "rigid",
+    "right_foot": "rigid",
+    "left_hand": "hand",
+    "right_hand": "hand",
+}
 _RIGID_PARTS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("face", ("nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye",
-              "right_eye_outer", "left_ear", "right_ear", "mouth_left", "mouth_right")),
+    (
+        "face",
+        (
+            "nose",
+            "left_eye_inner",
+            "left_eye",
+            "left_eye_outer",
+            "right_eye_inner",
+            "right_eye",
+            "right_eye_outer",
+            "left_ear",
+            "right_ear",
+            "mouth_left",
+            "mouth_right",
+        ),
+    ),
     ("hand", ("left_wrist", "left_pinky", "left_index", "left_thumb")),
     ("hand", ("right_wrist", "right_pinky", "right_index", "right_thumb")),
     ("rigid", ("left_ankle", "left_heel", "left_foot_index")),
@@ -86,7 +106,7 @@ def _segment_defs() -> tuple[tuple[str, dict[int, float], dict[int, float], str]
     pairs = {frozenset((a, b)) for _, a, b in LIMBS}
     for kind, names in _RIGID_PARTS:
         for i, a in enumerate(names):
-            for b in names[i + 1:]:
+            for b in names[i + 1 :]:
                 if frozenset((a, b)) not in pairs:
                     defs.append((f"{a}-{b}", _pt(a), _pt(b), kind))
     return tuple(defs)
@@ -116,8 +136,13 @@ SEGMENT_KIND = tuple(s[3] for s in _SEGMENT_DEFS)
 #: Play of a segment's length around the worker's median (metres + fraction of the length):
 #: limbs carry keypoints that slide over the joint as it turns (BlazePose's shoulder and hip
 #: points are not joint centres), the trunk sides and the neck bend; the face is rigid.
-SEGMENT_PLAY = {"limb": (0.01, 0.04), "flexible": (0.015, 0.08), "rigid": (0.005, 0.05), "hand": (0.005, 0.10),
-                "face": (0.003, 0.05)}
+SEGMENT_PLAY = {
+    "limb": (0.01, 0.04),
+    "flexible": (0.015, 0.08),
+    "rigid": (0.005, 0.05),
+    "hand": (0.005, 0.10),
+    "face": (0.003, 0.05),
+}
 #: Long segments: limbs and the bending trunk sides and neck (not the hands, feet and face).
 _LONG = np.array([k in ("limb", "flexible") for k in SEGMENT_KIND])
 _PLAY_ABS = np.array([SEGMENT_PLAY[k][0] for k in SEGMENT_KIND])
@@ -130,22 +155,39 @@ PRIOR_PLAY = 0.15
 #: y forward, z up (metres). Only a weak prior for joints nothing else determines.
 TEMPLATE_BODY = np.zeros((J, 3))
 _TEMPLATE = {
-    "nose": (0.0, 0.10, 0.66), "left_eye_inner": (0.015, 0.085, 0.69), "left_eye": (0.03, 0.08, 0.69),
-    "left_eye_outer": (0.045, 0.075, 0.69), "right_eye_inner": (-0.015, 0.085, 0.69),
-    "right_eye": (-0.03, 0.08, 0.69), "right_eye_outer": (-0.045, 0.075, 0.69),
-    "left_ear": (0.075, 0.0, 0.67), "right_ear": (-0.075, 0.0, 0.67),
-    "mouth_left": (0.025, 0.09, 0.62), "mouth_right": (-0.025, 0.09, 0.62),
-    "left_shoulder": (0.18, 0.0, 0.50), "right_shoulder": (-0.18, 0.0, 0.50),
-    "left_elbow": (0.20, 0.0, 0.18), "right_elbow": (-0.20, 0.0, 0.18),
-    "left_wrist": (0.21, 0.03, -0.07), "right_wrist": (-0.21, 0.03, -0.07),
-    "left_pinky": (0.225, 0.02, -0.17), "right_pinky": (-0.225, 0.02, -0.17),
-    "left_index": (0.21, 0.06, -0.18), "right_index": (-0.21, 0.06, -0.18),
-    "left_thumb": (0.20, 0.08, -0.12), "right_thumb": (-0.20, 0.08, -0.12),
-    "left_hip": (0.11, 0.0, 0.0), "right_hip": (-0.11, 0.0, 0.0),
-    "left_knee": (0.11, 0.02, -0.43), "right_knee": (-0.11, 0.02, -0.43),
-    "left_ankle": (0.11, 0.0, -0.86), "right_ankle": (-0.11, 0.0, -0.86),
-    "left_heel": (0.11, -0.06, -0.93), "right_heel": (-0.11, -0.06, -0.93),
-    "left_foot_index": (0.12, 0.20, -0.93), "right_foot_index": (-0.12, 0.20, -0.93),
+    "nose": (0.0, 0.10, 0.66),
+    "left_eye_inner": (0.015, 0.085, 0.69),
+    "left_eye": (0.03, 0.08, 0.69),
+    "left_eye_outer": (0.045, 0.075, 0.69),
+    "right_eye_inner": (-0.015, 0.085, 0.69),
+    "right_eye": (-0.03, 0.08, 0.69),
+    "right_eye_outer": (-0.045, 0.075, 0.69),
+    "left_ear": (0.075, 0.0, 0.67),
+    "right_ear": (-0.075, 0.0, 0.67),
+    "mouth_left": (0.025, 0.09, 0.62),
+    "mouth_right": (-0.025, 0.09, 0.62),
+    "left_shoulder": (0.18, 0.0, 0.50),
+    "right_shoulder": (-0.18, 0.0, 0.50),
+    "left_elbow": (0.20, 0.0, 0.18),
+    "right_elbow": (-0.20, 0.0, 0.18),
+    "left_wrist": (0.21, 0.03, -0.07),
+    "right_wrist": (-0.21, 0.03, -0.07),
+    "left_pinky": (0.225, 0.02, -0.17),
+    "right_pinky": (-0.225, 0.02, -0.17),
+    "left_index": (0.21, 0.06, -0.18),
+    "right_index": (-0.21, 0.06, -0.18),
+    "left_thumb": (0.20, 0.08, -0.12),
+    "right_thumb": (-0.20, 0.08, -0.12),
+    "left_hip": (0.11, 0.0, 0.0),
+    "right_hip": (-0.11, 0.0, 0.0),
+    "left_knee": (0.11, 0.02, -0.43),
+    "right_knee": (-0.11, 0.02, -0.43),
+    "left_ankle": (0.11, 0.0, -0.86),
+    "right_ankle": (-0.11, 0.0, -0.86),
+    "left_heel": (0.11, -0.06, -0.93),
+    "right_heel": (-0.11, -0.06, -0.93),
+    "left_foot_index": (0.12, 0.20, -0.93),
+    "right_foot_index": (-0.12, 0.20, -0.93),
 }
 for _name, _p in _TEMPLATE.items():
     TEMPLATE_BODY[JOINT_INDEX[_name]] = _p
@@ -161,8 +203,12 @@ PRIOR_LENGTH_VECTOR.setflags(write=False)
 _TRUNK_SIDE = SEGMENTS.index("left_trunk_side")
 
 _LHIP, _RHIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
-_FOOT = np.array([JOINT_INDEX[n] for n in ("left_ankle", "right_ankle", "left_heel", "right_heel",
-                                           "left_foot_index", "right_foot_index")])
+_FOOT = np.array(
+    [
+        JOINT_INDEX[n]
+        for n in ("left_ankle", "right_ankle", "left_heel", "right_heel", "left_foot_index", "right_foot_index")
+    ]
+)
 _FLOOR_SIGMA_M = 0.02
 
 #: The hand's long axis continues the forearm: per side, mid(index, pinky) - wrist - k (wrist -
@@ -189,7 +235,9 @@ def _hand_prior_matrix() -> np.ndarray:
 
 HAND_PRIOR = _hand_prior_matrix()
 HAND_PRIOR.setflags(write=False)
-_HAND_POINTS = np.array([[JOINT_INDEX[f"{side}_{j}"] for j in ("wrist", "index", "pinky")] for side in ("left", "right")])
+_HAND_POINTS = np.array(
+    [[JOINT_INDEX[f"{side}_{j}"] for j in ("wrist", "index", "pinky")] for side in ("left", "right")]
+)
 #: A segment takes the median of its best-seen samples once it has this many (else of all).
 BEST_SAMPLES = 30
 #: Weight of each frame in a worker's running keypoint-noise estimate (about 5 frames' memory).
@@ -219,12 +267,18 @@ class FitOptions:
 
     @classmethod
     def from_settings(cls, settings) -> "FitOptions":
-        return cls(keypoint_sigma_px=settings.keypoint_sigma_px, min_confidence=settings.min_confidence,
-                   huber_k=settings.fit_huber_k, temporal_sigma_m=settings.fit_temporal_sigma_m,
-                   speed_m_s=settings.fit_speed_m_s, pose_prior_sigma_m=settings.fit_pose_prior_sigma_m,
-                   hand_prior_sigma_m=settings.fit_hand_prior_sigma_m,
-                   turn_rate_rad_s=settings.fit_turn_rate_rad_s,
-                   iterations=settings.fit_iterations, max_prior_gap_s=settings.max_coast_s)
+        return cls(
+            keypoint_sigma_px=settings.keypoint_sigma_px,
+            min_confidence=settings.min_confidence,
+            huber_k=settings.fit_huber_k,
+            temporal_sigma_m=settings.fit_temporal_sigma_m,
+            speed_m_s=settings.fit_speed_m_s,
+            pose_prior_sigma_m=settings.fit_pose_prior_sigma_m,
+            hand_prior_sigma_m=settings.fit_hand_prior_sigma_m,
+            turn_rate_rad_s=settings.fit_turn_rate_rad_s,
+            iterations=settings.fit_iterations,
+            max_prior_gap_s=settings.max_coast_s,
+        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -302,11 +356,19 @@ def template_pose(pelvis_world: np.ndarray, rotation: np.ndarray, scale: np.ndar
     return pelvis_world[:, None, :] + scale[:, None, None] * np.matmul(TEMPLATE_BODY, np.swapaxes(rotation, -1, -2))
 
 
-def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
-               initial_world: np.ndarray, lengths: np.ndarray, play: np.ndarray,
-               previous_world: np.ndarray | None = None, previous_sigma_m: np.ndarray | None = None,
-               previous_dt_s: np.ndarray | None = None, options: FitOptions | None = None,
-               sigma_scale: np.ndarray | None = None) -> BodyFit:
+def fit_bodies(
+    projections: np.ndarray,
+    pixels_view: np.ndarray,
+    confidence: np.ndarray,
+    initial_world: np.ndarray,
+    lengths: np.ndarray,
+    play: np.ndarray,
+    previous_world: np.ndarray | None = None,
+    previous_sigma_m: np.ndarray | None = None,
+    previous_dt_s: np.ndarray | None = None,
+    options: FitOptions | None = None,
+    sigma_scale: np.ndarray | None = None,
+) -> BodyFit:
     """Fit the body model to R worker-frames at once.
 
     projections: (R, C, 3, 4) each camera's view projection (world -> view pixels; any finite
@@ -339,18 +401,18 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     else:
         prev = np.asarray(previous_world, dtype=np.float64)
         ps = np.asarray(previous_sigma_m, dtype=np.float64)
-        w_prev = np.where(np.isfinite(prev).all(axis=(1, 2)) & np.isfinite(ps), 1.0 / ps ** 2, 0.0)
+        w_prev = np.where(np.isfinite(prev).all(axis=(1, 2)) & np.isfinite(ps), 1.0 / ps**2, 0.0)
     prev0 = np.where(np.isfinite(prev), prev, 0.0)
     # Segment turning: the segment vectors D X stay near those of the previous pose.
     if previous_dt_s is None:
         w_turn = np.zeros((R, NUM_SEGMENTS))
     else:
         sig_turn = opt.temporal_sigma_m + opt.turn_rate_rad_s * L * np.asarray(previous_dt_s, dtype=np.float64)[:, None]
-        w_turn = np.where((w_prev > 0)[:, None] & np.isfinite(sig_turn), 1.0 / sig_turn ** 2, 0.0)
+        w_turn = np.where((w_prev > 0)[:, None] & np.isfinite(sig_turn), 1.0 / sig_turn**2, 0.0)
     D = SEGMENT_MATRIX
     d_prev = np.matmul(D, prev0)  # (R, S, 3)
     turn_H = np.matmul(np.swapaxes(w_turn[:, :, None] * D, 1, 2), D)  # (R, J, J)
-    w_pose = 1.0 / opt.pose_prior_sigma_m ** 2
+    w_pose = 1.0 / opt.pose_prior_sigma_m**2
     scale = L[:, _TRUNK_SIDE] / PRIOR_LENGTH_VECTOR[_TRUNK_SIDE]
     n = 3 * J
     idx = np.arange(J)
@@ -405,12 +467,32 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
         zf = np.minimum(X[:, _FOOT, 2], 0.0)
         dturn = d - d_prev
         dh = np.matmul(HAND_PRIOR, X)  # (R, 2, 3)
-        cost = (rho.sum(axis=(1, 2)) + cost_seg.sum(axis=1) + w_pose * (dp * dp).sum(axis=(1, 2))
-                + (w_hand * (dh * dh).sum(axis=-1)).sum(axis=1)
-                + (w_turn * (dturn * dturn).sum(axis=-1)).sum(axis=1)
-                + w_prev * (dt * dt).sum(axis=(1, 2)) + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M ** 2)
-        return dict(dsafe=dsafe, u=u, e=e, e2=e2, wr=wr, d=d, ln=ln, rs=rs, dp=dp, dt=dt, zf=zf,
-                    dturn=dturn, dh=dh, cost=cost, use=use)
+        cost = (
+            rho.sum(axis=(1, 2))
+            + cost_seg.sum(axis=1)
+            + w_pose * (dp * dp).sum(axis=(1, 2))
+            + (w_hand * (dh * dh).sum(axis=-1)).sum(axis=1)
+            + (w_turn * (dturn * dturn).sum(axis=-1)).sum(axis=1)
+            + w_prev * (dt * dt).sum(axis=(1, 2))
+            + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M**2
+        )
+        return dict(
+            dsafe=dsafe,
+            u=u,
+            e=e,
+            e2=e2,
+            wr=wr,
+            d=d,
+            ln=ln,
+            rs=rs,
+            dp=dp,
+            dt=dt,
+            zf=zf,
+            dturn=dturn,
+            dh=dh,
+            cost=cost,
+            use=use,
+        )
 
     def normal_equations(X, r):
         H = H_const.copy()
@@ -430,7 +512,7 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
         # priors
         g += w_pose * r["dp"] + w_prev[:, None, None] * r["dt"] + np.matmul(HAND_PRIOR.T, w_hand[..., None] * r["dh"])
         # floor
-        fl = np.where(X[:, _FOOT, 2] < 0.0, 1.0 / _FLOOR_SIGMA_M ** 2, 0.0)
+        fl = np.where(X[:, _FOOT, 2] < 0.0, 1.0 / _FLOOR_SIGMA_M**2, 0.0)
         H[:, _FOOT, 2, _FOOT, 2] += fl
         g[:, _FOOT, 2] += fl * r["zf"]
         return H.reshape(R, n, n), g.reshape(R, n)
@@ -466,8 +548,14 @@ def fit_bodies(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.
     n_used = used.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         rms = np.where(n_used > 0, np.sqrt(np.where(used, e2, 0.0).sum(axis=1) / n_used), np.nan)
-    return BodyFit(points_world=X, variance_world=var, inferred=strong < 2, reprojection_error_px=rms,
-                   cost=r["cost"], noise_scale=noise)
+    return BodyFit(
+        points_world=X,
+        variance_world=var,
+        inferred=strong < 2,
+        reprojection_error_px=rms,
+        cost=r["cost"],
+        noise_scale=noise,
+    )
 
 
 _LATERAL = MIRROR != np.arange(J)
@@ -486,13 +574,20 @@ def _side_group(*parts: str) -> np.ndarray:
 
 #: Limbs a 2D network can label the wrong way round on their own, the rest of the body right (legs
 #: crossing as a person turns, arms seen side-on): checked one by one after the whole body.
-LIMB_SIDE_GROUPS = (_side_group("elbow", "wrist", "pinky", "index", "thumb"),
-                    _side_group("knee", "ankle", "heel", "foot_index"))
+LIMB_SIDE_GROUPS = (
+    _side_group("elbow", "wrist", "pinky", "index", "thumb"),
+    _side_group("knee", "ankle", "heel", "foot_index"),
+)
 
 
-def correct_left_right(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
-                       reference_world: np.ndarray, margin: float = 0.5,
-                       trust_cameras: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def correct_left_right(
+    projections: np.ndarray,
+    pixels_view: np.ndarray,
+    confidence: np.ndarray,
+    reference_world: np.ndarray,
+    margin: float = 0.5,
+    trust_cameras: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Undo a 2D network's left/right swap, camera by camera, against a reference pose.
 
     The reference (R, 33, 3) -- the worker's previous fitted pose -- is projected into each
@@ -566,8 +661,13 @@ def raw_noise_scale(reprojection_error_px: np.ndarray, confidence: np.ndarray, v
     return np.where(ok.any(axis=1), out, np.nan)
 
 
-def _pelvis_guess(points_world: np.ndarray, projections: np.ndarray, pixels_view: np.ndarray,
-                  confidence: np.ndarray, height_m: float = 0.95) -> np.ndarray:
+def _pelvis_guess(
+    points_world: np.ndarray,
+    projections: np.ndarray,
+    pixels_view: np.ndarray,
+    confidence: np.ndarray,
+    height_m: float = 0.95,
+) -> np.ndarray:
     """(R, 3) where to put a body nothing is known about yet: the mid-hip of the triangulation,
     else 0.3 m below its other torso joints, else on the mean ray of the first camera that saw
     the person, at ``height_m`` above the floor. NaN when none of these exists."""
@@ -619,8 +719,9 @@ class ShiftBodies:
         # on its sides, per side group (whole body, arms, legs); from side_lock_break_frames on,
         # the cameras win.
         self.side_lock: dict[int, np.ndarray] = {}
-        self.side_lock_break_frames = int(round(settings.side_lock_break_s * self.fps)) \
-            if settings.side_lock_break_s > 0 else None
+        self.side_lock_break_frames = (
+            int(round(settings.side_lock_break_s * self.fps)) if settings.side_lock_break_s > 0 else None
+        )
         self.lock_breaks = 0  # worker-frames and groups where the cameras' unanimous sides beat the previous fit
         self.fitted_rows = 0  # worker-frames fitted, and the seconds spent (for the benchmark)
         self.fit_seconds = 0.0
@@ -665,7 +766,7 @@ class ShiftBodies:
             e = min(int(f1), (b // self.refresh + 1) * self.refresh)
             i0, i1 = (int(i) for i in np.searchsorted(frames, [b, e]))
             if i1 > i0:
-                starts = np.flatnonzero(np.r_[True, frames[i0 + 1:i1] != frames[i0:i1 - 1]]) + i0
+                starts = np.flatnonzero(np.r_[True, frames[i0 + 1 : i1] != frames[i0 : i1 - 1]]) + i0
                 for s, t in zip(starts, np.r_[starts[1:], i1]):
                     self._fit_frame(rows, np.arange(s, t))
                 best = segment_lengths(rows["points"][i0:i1])
@@ -713,8 +814,9 @@ class ShiftBodies:
             runs = np.stack([self.side_lock.get(int(i), np.zeros(groups, int)) for i in ids])
             limit = self.side_lock_break_frames
             trust = runs >= limit if limit is not None else np.zeros_like(runs, bool)
-            px, oc, swapped, unanimous = correct_left_right(P, px, oc, np.where(have_prev[:, None, None], prev, np.nan),
-                                                            trust_cameras=trust)
+            px, oc, swapped, unanimous = correct_left_right(
+                P, px, oc, np.where(have_prev[:, None, None], prev, np.nan), trust_cameras=trust
+            )
             self.swaps += int(swapped.sum())
             self.lock_breaks += int((unanimous & trust).sum())
             runs = np.where(unanimous & ~trust & have_prev[:, None], runs + 1, 0)
@@ -729,17 +831,32 @@ class ShiftBodies:
         start = np.where(np.isfinite(tri), tri, start)
         used_scale = np.array([self.noise.get(int(i), 1.0) for i in ids])
         self.fitted_rows += n
-        fit = fit_bodies(P, px, oc, start, np.stack(Ls), np.stack(plays), prev, prev_sigma, prev_dt, self.options,
-                         sigma_scale=used_scale)
+        fit = fit_bodies(
+            P,
+            px,
+            oc,
+            start,
+            np.stack(Ls),
+            np.stack(plays),
+            prev,
+            prev_sigma,
+            prev_dt,
+            self.options,
+            sigma_scale=used_scale,
+        )
         # The worker's keypoint noise: a running mean (log domain, NOISE_RATE per frame) of what the
         # cameras' disagreement shows (raw_noise_scale: from the plain triangulation, so the
         # estimate cannot feed on the fit's own priors -- measured from the fit's residuals it ran
         # away on a real recording, 38 x in 70 frames, and the body drifted 30 cm), never below
         # keypoint_sigma_px; this frame's variance grows with it at once.
-        measured = raw_noise_scale(rows["err"][idx], rows["conf"][idx], rows["views"][idx]) / self.options.keypoint_sigma_px
-        new_scale = np.where(np.isfinite(measured),
-                             np.exp(np.log(used_scale) + NOISE_RATE * (np.log(np.maximum(measured, 1e-6))
-                                                                       - np.log(used_scale))), used_scale)
+        measured = (
+            raw_noise_scale(rows["err"][idx], rows["conf"][idx], rows["views"][idx]) / self.options.keypoint_sigma_px
+        )
+        new_scale = np.where(
+            np.isfinite(measured),
+            np.exp(np.log(used_scale) + NOISE_RATE * (np.log(np.maximum(measured, 1e-6)) - np.log(used_scale))),
+            used_scale,
+        )
         new_scale = np.maximum(new_scale, MIN_NOISE_SCALE)
         for k, ident in enumerate(ids):
             self.noise[int(ident)] = float(new_scale[k])

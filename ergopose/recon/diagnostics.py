@@ -92,8 +92,9 @@ LENGTH_BIN_M = 0.001
 LENGTH_BINS = 2000
 
 
-def histogram_percentiles(counts: np.ndarray, q: Sequence[float], bin_m: float = LENGTH_BIN_M,
-                          overflow_max_m: np.ndarray | float = np.nan) -> np.ndarray:
+def histogram_percentiles(
+    counts: np.ndarray, q: Sequence[float], bin_m: float = LENGTH_BIN_M, overflow_max_m: np.ndarray | float = np.nan
+) -> np.ndarray:
     """Percentiles q (0-100) of values counted in bins of width ``bin_m`` from 0 (last axis of
     ``counts``; its last bin is the overflow bin, spanning up to ``overflow_max_m``).
 
@@ -113,6 +114,7 @@ def histogram_percentiles(counts: np.ndarray, q: Sequence[float], bin_m: float =
     rows = np.flatnonzero(n > 0)
     nb = c.shape[1]
     top = np.broadcast_to(np.asarray(overflow_max_m, dtype=np.float64), lead).reshape(-1)
+
     def value_at(j: np.ndarray) -> np.ndarray:
         """Estimated value of the sorted item of index j (per row of ``rows``): placed evenly in its bin."""
         k = np.minimum(np.argmax(cum[rows] > j[:, None], axis=1), nb - 1)  # the bin holding item j
@@ -150,10 +152,15 @@ class LimbStatsAccumulator:
     def _state(self, worker: int) -> dict[str, np.ndarray]:
         if worker not in self._w:
             L, R = len(LIMBS), len(REGIONS) + 1  # region 0 = all, 1.. = REGIONS
-            self._w[worker] = {"rows": np.zeros(1, np.int64), "frames": np.zeros((L, R), np.int64),
-                               "known": np.zeros((L, R), np.int64), "sum": np.zeros((L, R)),
-                               "sumsq": np.zeros((L, R)), "max": np.full((L, R), np.nan),
-                               "hist": np.zeros((L, R, LENGTH_BINS + 1), np.int32)}
+            self._w[worker] = {
+                "rows": np.zeros(1, np.int64),
+                "frames": np.zeros((L, R), np.int64),
+                "known": np.zeros((L, R), np.int64),
+                "sum": np.zeros((L, R)),
+                "sumsq": np.zeros((L, R)),
+                "max": np.full((L, R), np.nan),
+                "hist": np.zeros((L, R, LENGTH_BINS + 1), np.int32),
+            }
         return self._w[worker]
 
     def add(self, tracks: TrackFrames) -> None:
@@ -183,8 +190,9 @@ class LimbStatsAccumulator:
                 st["sum"] += np.bincount(kc, weights=v - _SHIFT_M, minlength=L * R).reshape(L, R)
                 st["sumsq"] += np.bincount(kc, weights=(v - _SHIFT_M) ** 2, minlength=L * R).reshape(L, R)
                 b = np.minimum(np.floor(v / LENGTH_BIN_M), LENGTH_BINS).astype(np.int64)
-                st["hist"] += np.bincount(kc * (LENGTH_BINS + 1) + b,
-                                          minlength=L * R * (LENGTH_BINS + 1)).reshape(L, R, LENGTH_BINS + 1)
+                st["hist"] += np.bincount(kc * (LENGTH_BINS + 1) + b, minlength=L * R * (LENGTH_BINS + 1)).reshape(
+                    L, R, LENGTH_BINS + 1
+                )
                 m = np.full(L * R, -np.inf)
                 np.maximum.at(m, kc, v)
                 st["max"] = np.fmax(st["max"], np.where(np.isfinite(m), m, np.nan).reshape(L, R))
@@ -205,11 +213,20 @@ class LimbStatsAccumulator:
             stats = {}
             for li, (name, _, _) in enumerate(LIMBS):
                 for r, region in enumerate(("all",) + REGIONS):
-                    stats[(name, region)] = _length_stats(name, region, int(st["frames"][li, r]),
-                                                          int(st["known"][li, r]), st["sum"][li, r],
-                                                          st["sumsq"][li, r], pct[li, r])
-            out.append(WorkerLimbDiagnostics(worker=identity_name(w), source=self.source, frames=int(st["rows"][0]),
-                                             stats=stats))
+                    stats[(name, region)] = _length_stats(
+                        name,
+                        region,
+                        int(st["frames"][li, r]),
+                        int(st["known"][li, r]),
+                        st["sum"][li, r],
+                        st["sumsq"][li, r],
+                        pct[li, r],
+                    )
+            out.append(
+                WorkerLimbDiagnostics(
+                    worker=identity_name(w), source=self.source, frames=int(st["rows"][0]), stats=stats
+                )
+            )
         return out
 
 
@@ -221,18 +238,27 @@ def _length_stats(limb: str, region: str, n: int, k: int, s: float, ss: float, p
     if k:
         mean_off = s / k
         mean = _SHIFT_M + mean_off
-        std = float(np.sqrt(max(ss / k - mean_off ** 2, 0.0))) if k > 1 else float("nan")
+        std = float(np.sqrt(max(ss / k - mean_off**2, 0.0))) if k > 1 else float("nan")
         percentiles = tuple(float(x) for x in pct)
     else:
         mean = std = float("nan")
         percentiles = tuple(float("nan") for _ in PERCENTILES)
-    return LengthStats(limb=limb, region=region, frames=n, reconstructed=k,
-                       frequency=k / n if n else float("nan"), mean_m=float(mean), std_m=std,
-                       cv=std / mean if k > 1 and mean > 0 else float("nan"), percentiles_m=percentiles)
+    return LengthStats(
+        limb=limb,
+        region=region,
+        frames=n,
+        reconstructed=k,
+        frequency=k / n if n else float("nan"),
+        mean_m=float(mean),
+        std_m=std,
+        cv=std / mean if k > 1 and mean > 0 else float("nan"),
+        percentiles_m=percentiles,
+    )
 
 
-def limb_diagnostics(tracks: TrackFrames, settings: ReconSettings | None = None,
-                     source: str = "final") -> list[WorkerLimbDiagnostics]:
+def limb_diagnostics(
+    tracks: TrackFrames, settings: ReconSettings | None = None, source: str = "final"
+) -> list[WorkerLimbDiagnostics]:
     """Limb-length statistics per worker (see module docstring); source "final" or "raw".
 
     One piece of :class:`LimbStatsAccumulator`: percentiles within 1 mm of the exact values.
@@ -258,8 +284,9 @@ class RegionError:
     rmse_m: float
 
 
-def region_errors(tracks: TrackFrames, truth: dict[int, np.ndarray], settings: ReconSettings | None = None,
-                  source: str = "final") -> dict[str, RegionError]:
+def region_errors(
+    tracks: TrackFrames, truth: dict[int, np.ndarray], settings: ReconSettings | None = None, source: str = "final"
+) -> dict[str, RegionError]:
     """3D error per lens region against ground truth.
 
     truth: {worker number: (n_w, 33, 3) true joints for that worker's rows, in the order of
@@ -287,12 +314,19 @@ def _error_stats(region: str, e: np.ndarray) -> RegionError:
     if not len(v):
         nan = float("nan")
         return RegionError(region, 0, nan, nan, nan, nan)
-    return RegionError(region, len(v), float(v.mean()), float(np.median(v)), float(np.percentile(v, 95)),
-                       float(np.sqrt(np.mean(v * v))))
+    return RegionError(
+        region,
+        len(v),
+        float(v.mean()),
+        float(np.median(v)),
+        float(np.percentile(v, 95)),
+        float(np.sqrt(np.mean(v * v))),
+    )
 
 
-def _frame_matches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray,
-                   max_distance_m: float) -> Iterator[tuple[int, list[tuple[int, int]]]]:
+def _frame_matches(
+    tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray, max_distance_m: float
+) -> Iterator[tuple[int, list[tuple[int, int]]]]:
     """Per frame: LSA of workers to ground-truth people by body-centre distance.
 
     Yields (frame, list of (worker, person)). truth_points: (F, P, 33, 3) at truth_frames (F,).
@@ -320,8 +354,9 @@ def _frame_matches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: 
         yield f, [(int(tracks.worker[rows[a]]), int(b)) for a, b in zip(ri, ci) if np.isfinite(d[a, b])]
 
 
-def match_workers(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray | None = None,
-                  max_distance_m: float = 0.5) -> dict[int, int]:
+def match_workers(
+    tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray | None = None, max_distance_m: float = 0.5
+) -> dict[int, int]:
     """{worker number: ground-truth person index} by majority of per-frame matches."""
     truth_frames = np.arange(len(truth_points)) if truth_frames is None else np.asarray(truth_frames)
     votes: dict[tuple[int, int], int] = {}
@@ -335,8 +370,13 @@ def match_workers(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: n
     return out
 
 
-def identity_switches(tracks: TrackFrames, truth_points: np.ndarray, truth_frames: np.ndarray | None = None,
-                      max_distance_m: float = 0.5, min_frames: int = 1) -> int:
+def identity_switches(
+    tracks: TrackFrames,
+    truth_points: np.ndarray,
+    truth_frames: np.ndarray | None = None,
+    max_distance_m: float = 0.5,
+    min_frames: int = 1,
+) -> int:
     """How many times a ground-truth person's matched worker id changes to a different id
     (frames where the person is not matched do not count). min_frames = 1 is the CLEAR-MOT
     notion of an ID switch (every change counts, also a flicker of one frame when two people
@@ -361,8 +401,9 @@ def identity_switches(tracks: TrackFrames, truth_points: np.ndarray, truth_frame
     return switches
 
 
-def truth_for_workers(tracks: TrackFrames, truth_points: np.ndarray, mapping: dict[int, int],
-                      truth_frames: np.ndarray | None = None) -> dict[int, np.ndarray]:
+def truth_for_workers(
+    tracks: TrackFrames, truth_points: np.ndarray, mapping: dict[int, int], truth_frames: np.ndarray | None = None
+) -> dict[int, np.ndarray]:
     """{worker: (n_w, 33, 3) ground truth of its rows} for the workers in ``mapping``."""
     truth_frames = np.arange(len(truth_points)) if truth_frames is None else np.asarray(truth_frames)
     index = np.full(int(truth_frames.max()) + 1 if len(truth_frames) else 0, -1, np.int64)

@@ -98,8 +98,20 @@ class TrackFrames:
         parts = [p for p in parts if p is not None]
         if not parts:
             return _empty_frames(True)
-        names = ("worker", "frame", "time_s", "points_world", "raw_points_world", "confidence",
-                 "reprojection_error_px", "views", "gap_filled", "gated", "inferred", "std_world")
+        names = (
+            "worker",
+            "frame",
+            "time_s",
+            "points_world",
+            "raw_points_world",
+            "confidence",
+            "reprojection_error_px",
+            "views",
+            "gap_filled",
+            "gated",
+            "inferred",
+            "std_world",
+        )
         kw = {n: np.concatenate([getattr(p, n) for p in parts]) for n in names}
         kw["lens_angle_deg"] = np.concatenate([p.lens_angle_deg for p in parts])
         return cls(smoothed=parts[0].smoothed, **kw)
@@ -115,11 +127,20 @@ class TrackFrames:
 
 def _empty_frames(smoothed: bool) -> TrackFrames:
     J = NUM_JOINTS
-    return TrackFrames(worker=np.zeros(0, np.int64), frame=np.zeros(0, np.int64), time_s=np.zeros(0),
-                       points_world=np.zeros((0, J, 3)), raw_points_world=np.zeros((0, J, 3)),
-                       confidence=np.zeros((0, J)), reprojection_error_px=np.zeros((0, J)),
-                       views=np.zeros((0, J), np.int8), gap_filled=np.zeros((0, J), bool),
-                       gated=np.zeros((0, J), bool), smoothed=smoothed, lens_angle_deg=np.zeros((0, J)))
+    return TrackFrames(
+        worker=np.zeros(0, np.int64),
+        frame=np.zeros(0, np.int64),
+        time_s=np.zeros(0),
+        points_world=np.zeros((0, J, 3)),
+        raw_points_world=np.zeros((0, J, 3)),
+        confidence=np.zeros((0, J)),
+        reprojection_error_px=np.zeros((0, J)),
+        views=np.zeros((0, J), np.int8),
+        gap_filled=np.zeros((0, J), bool),
+        gated=np.zeros((0, J), bool),
+        smoothed=smoothed,
+        lens_angle_deg=np.zeros((0, J)),
+    )
 
 
 class _Rows:
@@ -184,8 +205,14 @@ class ShiftReconstruction:
     (for lens angles; None leaves lens_angle_deg NaN); first_frame: the first frame index.
     """
 
-    def __init__(self, settings: ReconSettings | None = None, fps: float = 12.0, cameras=None,
-                 first_frame: int = 0, block_frames: int = BLOCK_FRAMES) -> None:
+    def __init__(
+        self,
+        settings: ReconSettings | None = None,
+        fps: float = 12.0,
+        cameras=None,
+        first_frame: int = 0,
+        block_frames: int = BLOCK_FRAMES,
+    ) -> None:
         self.settings = settings or ReconSettings()
         self.fps = float(fps)
         self.cameras = tuple(cameras) if cameras is not None else None
@@ -210,7 +237,9 @@ class ShiftReconstruction:
         # restarts left joints without a position (oracle, 30 s, 4 workers: 2.5 % of the
         # joint-frames and up to 10 % of the frames of an angle lost).
         smoother_settings = self.settings.replace(outlier_gate_chi2=0.0) if self.settings.body_model else self.settings
-        self.kalman = KalmanRTS(0, self.fps, smoother_settings, first_frame=first_frame) if self.settings.smoothing else None
+        self.kalman = (
+            KalmanRTS(0, self.fps, smoother_settings, first_frame=first_frame) if self.settings.smoothing else None
+        )
         self.filtered_until = int(first_frame)  # frames before this went into the smoother
         self.block_start = int(first_frame)
         self.hists: dict[int, LimbHistogram] = {}
@@ -270,19 +299,30 @@ class ShiftReconstruction:
         if people is not None and len(people):
             sel = res.track >= 0
             m = int(sel.sum())
-            self.pending_obs.add({
-                "frame": people.frame[sel], "track": res.track[sel],
-                "points": people.points_world[sel], "conf": people.confidence[sel],
-                "err": people.reprojection_error_px[sel], "views": people.views[sel],
-                "var": people.variance_world[sel],
-                "P": people.obs_projection[sel], "px": people.obs_pixels_view[sel],
-                "oc": people.obs_confidence[sel], "ungated": triangulate_observations(people)[sel],
-                "fit": np.full((m, NUM_JOINTS, 3), np.nan), "fit_var": np.full((m, NUM_JOINTS, 3), np.nan),
-                "inferred": np.zeros((m, NUM_JOINTS), bool), "fit_err": np.full((m, NUM_JOINTS), np.nan)})
+            self.pending_obs.add(
+                {
+                    "frame": people.frame[sel],
+                    "track": res.track[sel],
+                    "points": people.points_world[sel],
+                    "conf": people.confidence[sel],
+                    "err": people.reprojection_error_px[sel],
+                    "views": people.views[sel],
+                    "var": people.variance_world[sel],
+                    "P": people.obs_projection[sel],
+                    "px": people.obs_pixels_view[sel],
+                    "oc": people.obs_confidence[sel],
+                    "ungated": triangulate_observations(people)[sel],
+                    "fit": np.full((m, NUM_JOINTS, 3), np.nan),
+                    "fit_var": np.full((m, NUM_JOINTS, 3), np.nan),
+                    "inferred": np.zeros((m, NUM_JOINTS), bool),
+                    "fit_err": np.full((m, NUM_JOINTS), np.nan),
+                }
+            )
         if len(res.centres):
             c = res.centres
-            self.pending_cent.add({"frame": c[:, 0].astype(np.int64), "track": c[:, 1].astype(np.int64),
-                                   "centre": c[:, 2:].copy()})
+            self.pending_cent.add(
+                {"frame": c[:, 0].astype(np.int64), "track": c[:, 1].astype(np.int64), "centre": c[:, 2:].copy()}
+            )
         for pend, dest in ((self.pending_obs, self.obs), (self.pending_cent, self.cent)):
             rows = pend.all()
             if rows is None:
@@ -294,8 +334,9 @@ class ShiftReconstruction:
             keep = mi >= 0
             if "centre" in moved:
                 # Only frames up to the track's last observation belong to it.
-                last = np.array([self.track_last.get(int(t), np.iinfo(np.int64).max) for t in moved["track"]],
-                                dtype=np.int64)
+                last = np.array(
+                    [self.track_last.get(int(t), np.iinfo(np.int64).max) for t in moved["track"]], dtype=np.int64
+                )
                 keep &= moved["frame"] <= last
             batch = {k: v[keep] for k, v in moved.items()}
             batch["identity"] = mi[keep]
@@ -303,8 +344,9 @@ class ShiftReconstruction:
         # Centre records of ended tracks beyond their last observation (already moved earlier).
         rows = self.cent.all()
         if rows is not None and res.ended:
-            last = np.array([self.track_last.get(int(t), np.iinfo(np.int64).max) for t in rows["track"]],
-                            dtype=np.int64)
+            last = np.array(
+                [self.track_last.get(int(t), np.iinfo(np.int64).max) for t in rows["track"]], dtype=np.int64
+            )
             bad = rows["frame"] > last
             if bad.any():
                 self.cent.split(~bad)
@@ -443,21 +485,36 @@ class ShiftReconstruction:
             gated = sm.gated.reshape(len(sm.frame), -1, J, 3)[t, slot].any(axis=-1)
             if self.settings.bone_length_constraint:
                 varj = sm.variance.reshape(len(sm.frame), -1, J, 3)[t, slot].mean(axis=-1)
-                targets = np.stack([self.hists[int(w)].medians() for w in worker]) if n else np.zeros((0, len(LIMB_INDEX)))
+                targets = (
+                    np.stack([self.hists[int(w)].medians() for w in worker]) if n else np.zeros((0, len(LIMB_INDEX)))
+                )
                 pts = constrain_bone_lengths(pts, varj, targets)
         else:
             pts = fit.copy()
             std = np.sqrt(fit_var)
         inferred |= gap
         angle = lens_angles_deg(self.cameras, pts, centre)
-        return TrackFrames(worker=worker, frame=frame, time_s=frame / self.fps, points_world=pts,
-                           raw_points_world=raw, confidence=conf, reprojection_error_px=err, views=views,
-                           gap_filled=gap, gated=gated, smoothed=smoothing, lens_angle_deg=angle,
-                           inferred=inferred & np.isfinite(pts).all(axis=-1), std_world=std)
+        return TrackFrames(
+            worker=worker,
+            frame=frame,
+            time_s=frame / self.fps,
+            points_world=pts,
+            raw_points_world=raw,
+            confidence=conf,
+            reprojection_error_px=err,
+            views=views,
+            gap_filled=gap,
+            gated=gated,
+            smoothed=smoothing,
+            lens_angle_deg=angle,
+            inferred=inferred & np.isfinite(pts).all(axis=-1),
+            std_world=std,
+        )
 
 
-def constrain_bone_lengths(points: np.ndarray, variance: np.ndarray, targets: np.ndarray,
-                           iterations: int = BONE_ITERATIONS) -> np.ndarray:
+def constrain_bone_lengths(
+    points: np.ndarray, variance: np.ndarray, targets: np.ndarray, iterations: int = BONE_ITERATIONS
+) -> np.ndarray:
     """Move joints so that each limb (keypoints.LIMBS) gets its target length.
 
     points: (n, 33, 3); variance: (n, 33) positional variance per joint (a joint moves in

@@ -110,10 +110,18 @@ class People3D:
         return cls(cams, *(np.concatenate([getattr(p, f) for p in parts]) for f in _ROW_FIELDS))
 
     @classmethod
-    def from_points(cls, frame: ArrayLike, time_s: ArrayLike, points_world: ArrayLike, *,
-                    variance_world: ArrayLike | None = None, confidence: ArrayLike | None = None,
-                    reprojection_error_px: ArrayLike | None = None, sigma_m: float = 0.03,
-                    cameras: tuple[str, ...] = ("cam_1", "cam_2")) -> "People3D":
+    def from_points(
+        cls,
+        frame: ArrayLike,
+        time_s: ArrayLike,
+        points_world: ArrayLike,
+        *,
+        variance_world: ArrayLike | None = None,
+        confidence: ArrayLike | None = None,
+        reprojection_error_px: ArrayLike | None = None,
+        sigma_m: float = 0.03,
+        cameras: tuple[str, ...] = ("cam_1", "cam_2"),
+    ) -> "People3D":
         """Rows of already triangulated people (e.g. stored triangulations).
 
         points_world: (M, 33, 3); variance_world: (M, 33, 3) or None for sigma_m^2 everywhere;
@@ -124,22 +132,48 @@ class People3D:
         m = X.shape[0]
         ok = np.asarray(np.isfinite(X).all(axis=-1))  # asarray: an array for numpy's stubs (no copy)
         conf = np.where(ok, 1.0, 0.0) if confidence is None else np.where(ok, confidence, 0.0)
-        err = np.where(ok, 0.0, np.nan) if reprojection_error_px is None else np.where(ok, reprojection_error_px, np.nan)
+        err = (
+            np.where(ok, 0.0, np.nan) if reprojection_error_px is None else np.where(ok, reprojection_error_px, np.nan)
+        )
         var = np.full(X.shape, sigma_m * sigma_m) if variance_world is None else np.asarray(variance_world, np.float64)
         c = len(cameras)
         return cls(
-            cameras=tuple(cameras), frame=frame, time_s=np.asarray(time_s, dtype=np.float64).reshape(-1),
-            n_cameras=np.full(m, 2, np.int8), detection=np.full((m, c), -1, np.int32),
-            points_world=np.where(ok[..., None], X, np.nan), reprojection_error_px=err,
-            views=np.where(ok, 2, 0).astype(np.int8), confidence=conf,
-            rejected=np.zeros((m, c, NUM_JOINTS), bool), variance_world=np.where(ok[..., None], var, np.nan),
+            cameras=tuple(cameras),
+            frame=frame,
+            time_s=np.asarray(time_s, dtype=np.float64).reshape(-1),
+            n_cameras=np.full(m, 2, np.int8),
+            detection=np.full((m, c), -1, np.int32),
+            points_world=np.where(ok[..., None], X, np.nan),
+            reprojection_error_px=err,
+            views=np.where(ok, 2, 0).astype(np.int8),
+            confidence=conf,
+            rejected=np.zeros((m, c, NUM_JOINTS), bool),
+            variance_world=np.where(ok[..., None], var, np.nan),
             centre_world=body_centres(X),
-            ray_origin_world=np.full((m, 3), np.nan), ray_world=np.full((m, 3), np.nan))
+            ray_origin_world=np.full((m, 3), np.nan),
+            ray_world=np.full((m, 3), np.nan),
+        )
 
 
-_ROW_FIELDS = ("frame", "time_s", "n_cameras", "detection", "points_world", "reprojection_error_px", "views",
-               "confidence", "rejected", "variance_world", "centre_world", "ray_origin_world", "ray_world",
-               "obs_projection", "obs_pixels_view", "obs_confidence", "appearance")
+_ROW_FIELDS = (
+    "frame",
+    "time_s",
+    "n_cameras",
+    "detection",
+    "points_world",
+    "reprojection_error_px",
+    "views",
+    "confidence",
+    "rejected",
+    "variance_world",
+    "centre_world",
+    "ray_origin_world",
+    "ray_world",
+    "obs_projection",
+    "obs_pixels_view",
+    "obs_confidence",
+    "appearance",
+)
 
 
 def body_centres(points_world: np.ndarray) -> np.ndarray:

@@ -66,8 +66,10 @@ def worker_summary(shift: ShiftReconstruction) -> dict[str, dict]:
     out = {}
     statures = shift.stature_estimates()
     for name, med in shift.limb_medians().items():
-        out[name] = {"stature_estimate_m": _num(statures.get(name)),
-                     "limb_medians_m": {limb: _num(v) for (limb, _, _), v in zip(LIMBS, med)}}
+        out[name] = {
+            "stature_estimate_m": _num(statures.get(name)),
+            "limb_medians_m": {limb: _num(v) for (limb, _, _), v in zip(LIMBS, med)},
+        }
     return out
 
 
@@ -75,11 +77,18 @@ def _num(v: SupportsFloat | None) -> float | None:
     return None if v is None or not math.isfinite(float(v)) else round(float(v), 6)
 
 
-def reconstruct_session(frames: Iterable[Sequence[Detections2D]], out_path: str | os.PathLike | None, *,
-                        fps: float, cameras: Sequence[Camera] | None = None, settings: ReconSettings | None = None,
-                        chunk_frames: int = 1200, first_frame: int = 0,
-                        progress: ProgressCallback | None = None,
-                        total_frames: int | None = None) -> tuple[SessionSummary, TrackFrames | None]:
+def reconstruct_session(
+    frames: Iterable[Sequence[Detections2D]],
+    out_path: str | os.PathLike | None,
+    *,
+    fps: float,
+    cameras: Sequence[Camera] | None = None,
+    settings: ReconSettings | None = None,
+    chunk_frames: int = 1200,
+    first_frame: int = 0,
+    progress: ProgressCallback | None = None,
+    total_frames: int | None = None,
+) -> tuple[SessionSummary, TrackFrames | None]:
     """Associate, triangulate, track, smooth and write a session.
 
     frames: per frame, one Detections2D per camera (one or more cameras, frame indices increasing; frames
@@ -110,20 +119,30 @@ def reconstruct_session(frames: Iterable[Sequence[Detections2D]], out_path: str 
         sink(shift.finish())
 
     if out_path is None:
+
         def keep(tf: TrackFrames) -> None:
             counts["rows"] += len(tf)
             kept.append(tf)
+
         run(keep)
     else:
         with TracksWriter(out_path, fps=fps, cameras=cam_names, settings=settings.as_dict()) as writer:
+
             def write(tf: TrackFrames) -> None:
                 counts["rows"] += len(tf)
                 writer.write(tf)
+
             run(write)
             writer.set_workers(worker_summary(shift))
     summary = SessionSummary(
-        path=None if out_path is None else Path(out_path), frames=counts["frames"],
-        workers=tuple(shift.limb_medians().keys()), stature_m=shift.stature_estimates(),
-        limb_medians_m={k: v for k, v in shift.limb_medians().items()}, people_pairs=counts["pairs"],
-        people_single_view=counts["single"], rows=counts["rows"], seconds=time.perf_counter() - t0)
+        path=None if out_path is None else Path(out_path),
+        frames=counts["frames"],
+        workers=tuple(shift.limb_medians().keys()),
+        stature_m=shift.stature_estimates(),
+        limb_medians_m={k: v for k, v in shift.limb_medians().items()},
+        people_pairs=counts["pairs"],
+        people_single_view=counts["single"],
+        rows=counts["rows"],
+        seconds=time.perf_counter() - t0,
+    )
     return summary, (TrackFrames.concat(kept) if out_path is None else None)

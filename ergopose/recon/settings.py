@@ -212,8 +212,9 @@ def from_table(table: ReconstructionTable) -> ReconSettings:
     return dataclasses.replace(ReconSettings(), **table.record_values())
 
 
-def from_mapping(values: Mapping[str, Any], source: str | os.PathLike | None = None,
-                 prefix: tuple[str, ...] = ()) -> ReconSettings:
+def from_mapping(
+    values: Mapping[str, Any], source: str | os.PathLike | None = None, prefix: tuple[str, ...] = ()
+) -> ReconSettings:
     """Settings from a mapping of field names to values (as_dict's names; the tracks table stores
     them so); a problem raises one ConfigError naming the key, the value and what is allowed."""
     table = validate(ReconstructionTable, to_table(values), source, prefix)

@@ -64,13 +64,13 @@ def motion_matrices(settings: ReconSettings, fps: float) -> tuple[np.ndarray, np
     dt = 1.0 / fps
     if settings.motion_model == "constant_velocity":
         F = np.array([[1.0, dt], [0.0, 1.0]])
-        Q = Q_discrete_white_noise(2, dt, settings.process_noise_m_s2 ** 2)
-        p0 = np.array([INITIAL_VELOCITY_SIGMA ** 2])
+        Q = Q_discrete_white_noise(2, dt, settings.process_noise_m_s2**2)
+        p0 = np.array([INITIAL_VELOCITY_SIGMA**2])
     else:
         F = np.array([[1.0, dt, 0.5 * dt * dt], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
         sd = settings.process_noise_m_s2 * settings.process_noise_jerk_factor * dt
         Q = Q_discrete_white_noise(3, dt, sd * sd)
-        p0 = np.array([INITIAL_VELOCITY_SIGMA ** 2, INITIAL_ACCELERATION_SIGMA ** 2])
+        p0 = np.array([INITIAL_VELOCITY_SIGMA**2, INITIAL_ACCELERATION_SIGMA**2])
     return F, np.asarray(Q, dtype=np.float64), p0
 
 
@@ -102,8 +102,14 @@ class KalmanRTS:
     results with :meth:`smooth`. New series can be added at any time (:meth:`add_series`).
     """
 
-    def __init__(self, n_series: int, fps: float, settings: ReconSettings | None = None,
-                 first_frame: int = 0, series_per_joint: int = 3) -> None:
+    def __init__(
+        self,
+        n_series: int,
+        fps: float,
+        settings: ReconSettings | None = None,
+        first_frame: int = 0,
+        series_per_joint: int = 3,
+    ) -> None:
         if n_series % series_per_joint:
             raise InputError(f"{n_series} series are not whole joints of {series_per_joint}", field="n_series")
         self.settings = settings or ReconSettings()
@@ -143,11 +149,17 @@ class KalmanRTS:
         self.init = np.concatenate([self.init, np.zeros(k, bool)])
         self.last_meas = np.concatenate([self.last_meas, np.full(k, _NEVER, np.int64)])
         self.run = np.concatenate([self.run, np.zeros(k, np.int64)])
-        self._win = [(np.concatenate([xf, np.full((k, n), np.nan)]),
-                      np.concatenate([Pf, np.full((k, n, n), np.nan)]),
-                      np.concatenate([c, np.zeros(k, bool)]), np.concatenate([a, np.zeros(k, bool)]),
-                      np.concatenate([g, np.zeros(k, bool)]), np.concatenate([pm, np.full(k, _NEVER, np.int64)]))
-                     for xf, Pf, c, a, g, pm in self._win]
+        self._win = [
+            (
+                np.concatenate([xf, np.full((k, n), np.nan)]),
+                np.concatenate([Pf, np.full((k, n, n), np.nan)]),
+                np.concatenate([c, np.zeros(k, bool)]),
+                np.concatenate([a, np.zeros(k, bool)]),
+                np.concatenate([g, np.zeros(k, bool)]),
+                np.concatenate([pm, np.full(k, _NEVER, np.int64)]),
+            )
+            for xf, Pf, c, a, g, pm in self._win
+        ]
         self.S += k
 
     # --- forward ----------------------------------------------------------------------------------
@@ -160,8 +172,7 @@ class KalmanRTS:
         z = np.asarray(z, dtype=np.float64)
         var = np.asarray(var, dtype=np.float64)
         if z.ndim != 2 or z.shape[1] != self.S or var.shape != z.shape:
-            raise InputError(f"expected z and var of shape (T, {self.S}), got {z.shape} and {var.shape}",
-                             field="z")
+            raise InputError(f"expected z and var of shape (T, {self.S}), got {z.shape} and {var.shape}", field="z")
         F, Q = self.F, self.Q
         FT = F.T
         n, spj = self.n, self.spj
@@ -291,8 +302,9 @@ class KalmanRTS:
         return Smoothed(np.arange(stop - T, stop), value, variance, measured, filled, gated)
 
 
-def _rts_step_cv(xf: np.ndarray, Pf: np.ndarray, xs: np.ndarray, Ps: np.ndarray, dt: float,
-                 Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _rts_step_cv(
+    xf: np.ndarray, Pf: np.ndarray, xs: np.ndarray, Ps: np.ndarray, dt: float, Q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """One RTS backward step for 2-state (constant velocity) series, written out per entry.
 
     Returns x_f + C (x_s - F x_f) and P_f + C (P_s - P_pred) C^T with C = P_f F^T P_pred^-1.
@@ -330,8 +342,9 @@ def _rts_step_cv(xf: np.ndarray, Pf: np.ndarray, xs: np.ndarray, Ps: np.ndarray,
     return x, P
 
 
-def smooth_series(z: np.ndarray, var: np.ndarray, fps: float, settings: ReconSettings | None = None,
-                  series_per_joint: int = 3) -> Smoothed:
+def smooth_series(
+    z: np.ndarray, var: np.ndarray, fps: float, settings: ReconSettings | None = None, series_per_joint: int = 3
+) -> Smoothed:
     """Filter and smooth whole series at once (full-segment RTS): z, var (T, S)."""
     z = np.asarray(z, dtype=np.float64)
     if z.ndim != 2:

@@ -61,23 +61,31 @@ FORMAT = "ergopose.tracks"
 FORMAT_VERSION = 2  # 2: inferred, std_x/y/z (the body model); version 1 files read with defaults
 METADATA_KEY = b"ergopose.tracks"
 
-SCHEMA = pa.schema([
-    ("worker", pa.string()),
-    ("frame", pa.int64()),
-    ("time_s", pa.float64()),
-    ("joint", pa.string()),
-    ("x", pa.float32()), ("y", pa.float32()), ("z", pa.float32()),
-    ("confidence", pa.float32()),
-    ("reprojection_error_px", pa.float32()),
-    ("views", pa.int8()),
-    ("smoothed", pa.bool_()),
-    ("gap_filled", pa.bool_()),
-    ("gated", pa.bool_()),
-    ("raw_x", pa.float32()), ("raw_y", pa.float32()), ("raw_z", pa.float32()),
-    ("lens_angle_deg", pa.float32()),
-    ("inferred", pa.bool_()),
-    ("std_x", pa.float32()), ("std_y", pa.float32()), ("std_z", pa.float32()),
-])
+SCHEMA = pa.schema(
+    [
+        ("worker", pa.string()),
+        ("frame", pa.int64()),
+        ("time_s", pa.float64()),
+        ("joint", pa.string()),
+        ("x", pa.float32()),
+        ("y", pa.float32()),
+        ("z", pa.float32()),
+        ("confidence", pa.float32()),
+        ("reprojection_error_px", pa.float32()),
+        ("views", pa.int8()),
+        ("smoothed", pa.bool_()),
+        ("gap_filled", pa.bool_()),
+        ("gated", pa.bool_()),
+        ("raw_x", pa.float32()),
+        ("raw_y", pa.float32()),
+        ("raw_z", pa.float32()),
+        ("lens_angle_deg", pa.float32()),
+        ("inferred", pa.bool_()),
+        ("std_x", pa.float32()),
+        ("std_y", pa.float32()),
+        ("std_z", pa.float32()),
+    ]
+)
 COLUMNS = tuple(SCHEMA.names)
 #: Columns a version 1 table lacks (read as not inferred, unknown deviation).
 _ADDED_IN_V2 = ("inferred", "std_x", "std_y", "std_z")
@@ -88,10 +96,14 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
     n = len(tf)
     J = NUM_JOINTS
     names = np.array([identity_name(w) for w in range(int(tf.worker.max()) + 1)] if n else [], dtype=object)
-    worker = pa.DictionaryArray.from_arrays(pa.array(np.repeat(tf.worker, J).astype(np.int32)),
-                                            pa.array(names, pa.string())) if n else pa.array([], pa.string())
-    joint = pa.DictionaryArray.from_arrays(pa.array(np.tile(np.arange(J, dtype=np.int32), n)),
-                                           pa.array(BLAZEPOSE33, pa.string()))
+    worker = (
+        pa.DictionaryArray.from_arrays(pa.array(np.repeat(tf.worker, J).astype(np.int32)), pa.array(names, pa.string()))
+        if n
+        else pa.array([], pa.string())
+    )
+    joint = pa.DictionaryArray.from_arrays(
+        pa.array(np.tile(np.arange(J, dtype=np.int32), n)), pa.array(BLAZEPOSE33, pa.string())
+    )
     assert tf.std_world is not None and tf.inferred is not None  # TrackFrames.__post_init__ fills them
     P = tf.points_world.reshape(-1, 3).astype(np.float32)
     R = tf.raw_points_world.reshape(-1, 3).astype(np.float32)
@@ -101,17 +113,23 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
         "frame": pa.array(np.repeat(tf.frame, J)),
         "time_s": pa.array(np.repeat(tf.time_s, J)),
         "joint": joint.cast(pa.string()),
-        "x": pa.array(P[:, 0]), "y": pa.array(P[:, 1]), "z": pa.array(P[:, 2]),
+        "x": pa.array(P[:, 0]),
+        "y": pa.array(P[:, 1]),
+        "z": pa.array(P[:, 2]),
         "confidence": pa.array(tf.confidence.reshape(-1).astype(np.float32)),
         "reprojection_error_px": pa.array(tf.reprojection_error_px.reshape(-1).astype(np.float32)),
         "views": pa.array(tf.views.reshape(-1).astype(np.int8)),
         "smoothed": pa.array(np.repeat(np.isfinite(P).all(axis=1) & tf.smoothed, 1)),
         "gap_filled": pa.array(tf.gap_filled.reshape(-1)),
         "gated": pa.array(tf.gated.reshape(-1)),
-        "raw_x": pa.array(R[:, 0]), "raw_y": pa.array(R[:, 1]), "raw_z": pa.array(R[:, 2]),
+        "raw_x": pa.array(R[:, 0]),
+        "raw_y": pa.array(R[:, 1]),
+        "raw_z": pa.array(R[:, 2]),
         "lens_angle_deg": pa.array(tf.lens_angle_deg.reshape(-1).astype(np.float32)),
         "inferred": pa.array(tf.inferred.reshape(-1)),
-        "std_x": pa.array(S[:, 0]), "std_y": pa.array(S[:, 1]), "std_z": pa.array(S[:, 2]),
+        "std_x": pa.array(S[:, 0]),
+        "std_y": pa.array(S[:, 1]),
+        "std_z": pa.array(S[:, 2]),
     }
     return pa.Table.from_pydict(cols, schema=SCHEMA)
 
@@ -126,11 +144,24 @@ class TracksWriter:
     If the block raises, nothing appears under ``path`` (an older file there stays intact).
     """
 
-    def __init__(self, path: str | os.PathLike, *, fps: float, cameras: Sequence[str] = (),
-                 settings: Mapping[str, Any] | None = None, compression: str = "zstd") -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        *,
+        fps: float,
+        cameras: Sequence[str] = (),
+        settings: Mapping[str, Any] | None = None,
+        compression: str = "zstd",
+    ) -> None:
         self.path = Path(path)
-        self.meta = {"format": FORMAT, "version": FORMAT_VERSION, "fps": float(fps), "cameras": list(cameras),
-                     "settings": dict(settings or {}), "workers": {}}
+        self.meta = {
+            "format": FORMAT,
+            "version": FORMAT_VERSION,
+            "fps": float(fps),
+            "cameras": list(cameras),
+            "settings": dict(settings or {}),
+            "workers": {},
+        }
         self.compression = compression
         self.rows = 0
         self._stack: contextlib.ExitStack | None = None
@@ -155,8 +186,9 @@ class TracksWriter:
         """Per-worker summary (e.g. stature estimate, limb medians) stored in the metadata."""
         self.meta["workers"] = {k: dict(v) for k, v in workers.items()}
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> Literal[False]:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> Literal[False]:
         assert self._stack is not None and self._writer is not None
         try:
             if exc_type is None:
@@ -167,9 +199,15 @@ class TracksWriter:
         return False
 
 
-def write_tracks(path: str | os.PathLike, tf: TrackFrames, *, fps: float, cameras: Sequence[str] = (),
-                 settings: Mapping[str, Any] | None = None,
-                 workers: Mapping[str, Mapping[str, Any]] | None = None) -> Path:
+def write_tracks(
+    path: str | os.PathLike,
+    tf: TrackFrames,
+    *,
+    fps: float,
+    cameras: Sequence[str] = (),
+    settings: Mapping[str, Any] | None = None,
+    workers: Mapping[str, Mapping[str, Any]] | None = None,
+) -> Path:
     """Write one TrackFrames as a tracks table (atomically); returns the path."""
     with TracksWriter(path, fps=fps, cameras=cameras, settings=settings) as w:
         w.write(tf)
@@ -215,16 +253,18 @@ def read_metadata(path: str | os.PathLike) -> dict:
         raise InputError("not an ergopose tracks table (no ergopose.tracks metadata)", path=p)
     meta = json.loads(raw)
     if meta.get("format") != FORMAT or int(meta.get("version", 0)) > FORMAT_VERSION:
-        raise InputError(f"unsupported tracks table format {meta.get('format')!r} version {meta.get('version')!r}",
-                         path=p)
+        raise InputError(
+            f"unsupported tracks table format {meta.get('format')!r} version {meta.get('version')!r}", path=p
+        )
     missing = [c for c in COLUMNS if c not in schema.names and c not in _ADDED_IN_V2]
     if missing:
         raise InputError(f"columns missing: {', '.join(missing)}", path=p)
     return meta
 
 
-def read_tracks(path: str | os.PathLike, *, workers: Sequence[str] | None = None,
-                columns: Sequence[str] | None = None) -> TracksTable:
+def read_tracks(
+    path: str | os.PathLike, *, workers: Sequence[str] | None = None, columns: Sequence[str] | None = None
+) -> TracksTable:
     """Read a tracks table (optionally only some workers and/or columns)."""
     meta = read_metadata(path)
     cols = list(COLUMNS) if columns is None else list(columns)
@@ -287,10 +327,22 @@ def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     time_s = np.zeros(n)
     time_s[inv] = df["time_s"].to_numpy(np.float64)
     smoothed = bool(df["smoothed"].any()) if len(df) else True
-    return TrackFrames(worker=uniq % (1 << 20), frame=uniq // (1 << 20), time_s=time_s, points_world=pts,
-                       raw_points_world=raw, confidence=conf, reprojection_error_px=err, views=views,
-                       gap_filled=gap, gated=gated, smoothed=smoothed, lens_angle_deg=ang,
-                       inferred=inferred, std_world=std)
+    return TrackFrames(
+        worker=uniq % (1 << 20),
+        frame=uniq // (1 << 20),
+        time_s=time_s,
+        points_world=pts,
+        raw_points_world=raw,
+        confidence=conf,
+        reprojection_error_px=err,
+        views=views,
+        gap_filled=gap,
+        gated=gated,
+        smoothed=smoothed,
+        lens_angle_deg=ang,
+        inferred=inferred,
+        std_world=std,
+    )
 
 
 def display_names(workers: Sequence[str], names: Mapping[str, str] | None = None) -> dict[str, str]:

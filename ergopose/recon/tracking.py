@@ -281,15 +281,15 @@ class _Track:
     first_pos: np.ndarray
     pos: np.ndarray
     vel: np.ndarray
-    last_frame: int            # frame of the last observation (3D or single view)
-    last_update_frame: int     # frame of the last state update
-    last_3d_frame: int = -1    # frame of the last observation by two or more cameras
+    last_frame: int  # frame of the last observation (3D or single view)
+    last_update_frame: int  # frame of the last state update
+    last_3d_frame: int = -1  # frame of the last observation by two or more cameras
     frames_3d: int = 0
     identity: int | None = None
     hist: LimbHistogram = field(default_factory=LimbHistogram)
     look: Look = field(default_factory=Look)
-    pending_rows: list = field(default_factory=list)   # chunk rows not yet in hist
-    group: int | None = None            # contact group whose decision is pending (provisional identity)
+    pending_rows: list = field(default_factory=list)  # chunk rows not yet in hist
+    group: int | None = None  # contact group whose decision is pending (provisional identity)
     hist_before: LimbHistogram | None = None  # a continuation's limb lengths before the separation
     look_before: Look | None = None  # and its colours
     no_split_with: set = field(default_factory=set)  # identities it was resolved with, still close
@@ -463,8 +463,17 @@ class Tracker:
                         track_of[row] = t.id
                         matched_tracks.add(int(free[a]))
             for row in unmatched3:
-                t = _Track(id=self.next_track, first_frame=f, first_pos=centre[row].copy(), pos=centre[row].copy(),
-                           vel=np.zeros(3), last_frame=f, last_update_frame=f, last_3d_frame=f, frames_3d=1)
+                t = _Track(
+                    id=self.next_track,
+                    first_frame=f,
+                    first_pos=centre[row].copy(),
+                    pos=centre[row].copy(),
+                    vel=np.zeros(3),
+                    last_frame=f,
+                    last_update_frame=f,
+                    last_3d_frame=f,
+                    frames_3d=1,
+                )
                 t.pending_rows.append(row)
                 t.look.add(looks[row])
                 self.next_track += 1
@@ -473,8 +482,11 @@ class Tracker:
             if s.contact_distance_m > 0:
                 self._contacts(f, dt1, ended)
             # Ends, then resolutions (in order of birth).
-            stale = [t for t in self.tracks if f - t.last_frame > (
-                self._coast_frames if t.identity is not None else self._tentative_coast_frames)]
+            stale = [
+                t
+                for t in self.tracks
+                if f - t.last_frame > (self._coast_frames if t.identity is not None else self._tentative_coast_frames)
+            ]
             for t in stale:
                 if not any(e.track == t.id for e in ended):
                     self._end(t, resolved, ended)
@@ -520,8 +532,9 @@ class Tracker:
         for t in others:
             self._end(t, resolved, ended)
         self.tracks = []
-        return TrackingResult(track=np.zeros(0, np.int64), centres=np.zeros((0, 5)), resolved=resolved,
-                              ended=tuple(ended))
+        return TrackingResult(
+            track=np.zeros(0, np.int64), centres=np.zeros((0, 5)), resolved=resolved, ended=tuple(ended)
+        )
 
     # --- pieces -----------------------------------------------------------------------------------
 
@@ -645,11 +658,19 @@ class Tracker:
             reach = s.relink_max_speed_m_s * gap_s + s.track_gate_m
             if np.linalg.norm((t.first_pos - last_pos)[:2]) > reach:
                 continue
-            cands.append((signature_distance(mine, ident.hist.medians()), ident, gap_s,
-                          float(appearance_distance(mine_look, ident.look.mean()))))
+            cands.append(
+                (
+                    signature_distance(mine, ident.hist.medians()),
+                    ident,
+                    gap_s,
+                    float(appearance_distance(mine_look, ident.look.mean())),
+                )
+            )
         choice, someone_new = self._by_colour(cands, colours)
-        valid = sorted([c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
-                       key=lambda c: (c[0], c[1].number))
+        valid = sorted(
+            [c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
+            key=lambda c: (c[0], c[1].number),
+        )
         recent = [c for c in valid if c[2] <= RECENT_GAP_S]
         if choice is not None or someone_new:
             pass  # the clothes decided
@@ -665,8 +686,15 @@ class Tracker:
         if choice is None and cands and s.expected_workers and len(self.identities) >= s.expected_workers:
             # Every worker of the area has an identity: the track is one of those who could have
             # walked here, whatever the (noisy) signatures say.
-            choice = min(cands, key=lambda c: (c[3] if np.isfinite(c[3]) else np.inf,
-                                               c[0] if np.isfinite(c[0]) else np.inf, c[2], c[1].number))[1]
+            choice = min(
+                cands,
+                key=lambda c: (
+                    c[3] if np.isfinite(c[3]) else np.inf,
+                    c[0] if np.isfinite(c[0]) else np.inf,
+                    c[2],
+                    c[1].number,
+                ),
+            )[1]
         if choice is None:
             choice = _Identity(self.next_identity, LimbHistogram(), t.last_frame, t.pos.copy(), None)
             self.identities[choice.number] = choice
@@ -704,7 +732,10 @@ class Tracker:
             if t.no_split_with:
                 near = set()
                 for o in self.tracks:
-                    if o.identity in t.no_split_with and np.linalg.norm((o.pos - t.pos)[:2]) < 1.5 * s.contact_distance_m:
+                    if (
+                        o.identity in t.no_split_with
+                        and np.linalg.norm((o.pos - t.pos)[:2]) < 1.5 * s.contact_distance_m
+                    ):
                         near.add(o.identity)
                 t.no_split_with = near
         # Only tracks seen in this frame: an extrapolated coasting track proves no contact.
@@ -751,10 +782,18 @@ class Tracker:
                 self._flush(t)
                 ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
                 gone.add(t.id)
-                c = _Track(id=self.next_track, first_frame=f + 1, first_pos=t.pos.copy(), pos=t.pos.copy(),
-                           vel=t.vel.copy(), last_frame=t.last_frame, last_update_frame=t.last_update_frame,
-                           last_3d_frame=t.last_3d_frame,
-                           identity=t.identity, group=gid)
+                c = _Track(
+                    id=self.next_track,
+                    first_frame=f + 1,
+                    first_pos=t.pos.copy(),
+                    pos=t.pos.copy(),
+                    vel=t.vel.copy(),
+                    last_frame=t.last_frame,
+                    last_update_frame=t.last_update_frame,
+                    last_3d_frame=t.last_3d_frame,
+                    identity=t.identity,
+                    group=gid,
+                )
                 self.next_track += 1
                 self.identities[t.identity].track = c.id
                 conts.append(c)
@@ -831,8 +870,9 @@ class Tracker:
         if any(m.frames_3d >= GROUP_MAX_WAIT * self._window_frames for m in live):
             return True
         members = g["members"]
-        cost = _group_costs([self._member_medians(m) for m in members],
-                            [self.identities[m.identity].hist.medians() for m in members])
+        cost = _group_costs(
+            [self._member_medians(m) for m in members], [self.identities[m.identity].hist.medians() for m in members]
+        )
         return bool(np.isfinite(cost[[members.index(m) for m in live]]).all(axis=1).all())
 
     def _resolve_group(self, gid: int, resolved: dict) -> None:
@@ -842,10 +882,15 @@ class Tracker:
         g = self.groups.pop(gid)
         members: list[_Track] = g["members"]
         idents = [m.identity for m in members]
-        cost = _group_costs([self._member_medians(m) for m in members],
-                            [self.identities[k].hist.medians() for k in idents])
-        colour = np.array([[float(appearance_distance(self._member_look(m), self.identities[k].look.mean()))
-                            for k in idents] for m in members])
+        cost = _group_costs(
+            [self._member_medians(m) for m in members], [self.identities[k].hist.medians() for k in idents]
+        )
+        colour = np.array(
+            [
+                [float(appearance_distance(self._member_look(m), self.identities[k].look.mean())) for k in idents]
+                for m in members
+            ]
+        )
         margin = s.relink_margin_m
         if np.isfinite(colour).all(axis=1).sum() >= 2:
             # The clothes decide where they are known (limb lengths from a pose network scatter

@@ -29,8 +29,11 @@ from ergopose.recon.settings import ReconSettings
 from ergopose.records import APPEARANCE_DIMS, Detections2D
 
 
-def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: ReconSettings | None = None,
-                       progress: ProgressCallback | None = None) -> People3D:
+def reconstruct_frames(
+    frames: Sequence[Sequence[Detections2D]],
+    settings: ReconSettings | None = None,
+    progress: ProgressCallback | None = None,
+) -> People3D:
     """Associate and triangulate every frame of a run.
 
     frames: for each frame, one Detections2D per camera (one or more cameras), in the same camera
@@ -55,12 +58,13 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
     last = None
     for k, dets in enumerate(frames):
         if tuple(d.camera for d in dets) != cameras:
-            raise InputError(f"frame {dets[0].frame if dets else k}: cameras {[d.camera for d in dets]} "
-                             f"differ from {list(cameras)}", field="frames")
+            raise InputError(
+                f"frame {dets[0].frame if dets else k}: cameras {[d.camera for d in dets]} differ from {list(cameras)}",
+                field="frames",
+            )
         a = dets[0]
         if any(d.frame != a.frame for d in dets):
-            raise InputError(f"the cameras disagree on the frame index ({[d.frame for d in dets]})",
-                             field="frames")
+            raise InputError(f"the cameras disagree on the frame index ({[d.frame for d in dets]})", field="frames")
         if last is not None and a.frame <= last:
             raise InputError(f"frame indices must increase (frame {a.frame} after {last})", field="frames")
         last = a.frame
@@ -75,8 +79,8 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
             w = np.zeros((C, nmax + 1, NUM_JOINTS))
             look = np.full((C, nmax + 1, APPEARANCE_DIMS), np.nan)
             for c, d in enumerate(dets):
-                P[c, :d.count], px[c, :d.count], w[c, :d.count] = d.projection, d.pixels_view, d.confidence
-                look[c, :d.count] = d.appearance
+                P[c, : d.count], px[c, : d.count], w[c, : d.count] = d.projection, d.pixels_view, d.confidence
+                look[c, : d.count] = d.appearance
             cams = np.arange(C)[None, :]
             set_P.append(P[cams, g])
             set_px.append(px[cams, g])
@@ -128,11 +132,25 @@ def reconstruct_frames(frames: Sequence[Sequence[Detections2D]], settings: Recon
         origin[row] = det.centres_world()[i]
         ray[row] = _mean_ray(rays, used)
     return People3D(
-        cameras=cameras, frame=np.array(rows_frame, np.int64), time_s=np.array(rows_time, np.float64),
-        n_cameras=n_cameras, detection=np.array(rows_det, np.int32).reshape(m, C), points_world=points,
-        reprojection_error_px=err, views=views, confidence=conf, rejected=rejected, variance_world=variance,
-        centre_world=body_centres(points), ray_origin_world=origin, ray_world=ray,
-        obs_projection=obs_P, obs_pixels_view=obs_px, obs_confidence=obs_conf, appearance=appearance)
+        cameras=cameras,
+        frame=np.array(rows_frame, np.int64),
+        time_s=np.array(rows_time, np.float64),
+        n_cameras=n_cameras,
+        detection=np.array(rows_det, np.int32).reshape(m, C),
+        points_world=points,
+        reprojection_error_px=err,
+        views=views,
+        confidence=conf,
+        rejected=rejected,
+        variance_world=variance,
+        centre_world=body_centres(points),
+        ray_origin_world=origin,
+        ray_world=ray,
+        obs_projection=obs_P,
+        obs_pixels_view=obs_px,
+        obs_confidence=obs_conf,
+        appearance=appearance,
+    )
 
 
 def _mean_over_cameras(look: np.ndarray) -> np.ndarray:
@@ -156,8 +174,9 @@ def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
     return r / np.linalg.norm(r)
 
 
-def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray,
-                      settings: ReconSettings | None = None) -> tuple[np.ndarray, ...]:
+def triangulate_pairs(
+    projections: np.ndarray, pixels_view: np.ndarray, confidence: np.ndarray, settings: ReconSettings | None = None
+) -> tuple[np.ndarray, ...]:
     """Triangulate associated people (two or more views each), all at once.
 
     projections: (M, V, 3, 4); pixels_view: (M, V, 33, 2); confidence: (M, V, 33). A view the
@@ -177,8 +196,7 @@ def triangulate_pairs(projections: np.ndarray, pixels_view: np.ndarray, confiden
         first = np.argmax(~absent, axis=1)
         stand_in = projections[np.arange(len(projections)), first]
         projections = np.where(absent[..., None, None], stand_in[:, None], projections)
-    tri, rejected = reject_outliers(projections, pixels_view, w, 2,
-                                    threshold_px=settings.reprojection_threshold_px)
+    tri, rejected = reject_outliers(projections, pixels_view, w, 2, threshold_px=settings.reprojection_threshold_px)
     points = tri.points.copy()
     err = tri.reprojection_error_px.copy()
     used = (w > 0) & ~rejected
@@ -203,11 +221,16 @@ def view_focal_px(projections: np.ndarray) -> np.ndarray:
     of M = P[:, :3] scaled so that its last row has unit length (P = K R [I | -c], K[2] = (0, 0, 1))."""
     M = projections[..., :3]
     scale = np.linalg.norm(M[..., 2, :], axis=-1)
-    return np.sqrt(np.abs(np.linalg.det(M))) / scale ** 1.5
+    return np.sqrt(np.abs(np.linalg.det(M))) / scale**1.5
 
 
-def point_variance(projections: np.ndarray, points: np.ndarray, weights: np.ndarray,
-                   reprojection_error_px: np.ndarray, settings: ReconSettings) -> np.ndarray:
+def point_variance(
+    projections: np.ndarray,
+    points: np.ndarray,
+    weights: np.ndarray,
+    reprojection_error_px: np.ndarray,
+    settings: ReconSettings,
+) -> np.ndarray:
     """Variance (m^2) of each coordinate of triangulated points, from the geometry of the rays.
 
     A keypoint seen in view v with confidence w has an angular error of about

@@ -59,8 +59,9 @@ def from_jsonable(tp: Any, data: Any, *, source: str, field: str = "") -> Any:
         names = {f.name for f in dataclasses.fields(tp)}
         unknown = sorted(set(data) - names)
         if unknown:
-            raise InputError(f"unknown field(s) {', '.join(unknown)} in {tp.__name__}", path=source,
-                             field=field or "(top level)")
+            raise InputError(
+                f"unknown field(s) {', '.join(unknown)} in {tp.__name__}", path=source, field=field or "(top level)"
+            )
         kwargs: dict[str, Any] = {}
         for f in dataclasses.fields(tp):
             sub = f"{field}.{f.name}" if field else f.name
@@ -98,7 +99,9 @@ def from_jsonable(tp: Any, data: Any, *, source: str, field: str = "") -> Any:
             return tuple(from_jsonable(args[0], v, source=source, field=f"{field}[{i}]") for i, v in enumerate(data))
         if len(data) != len(args):
             raise bad(f"expected a list of {len(args)} values")
-        return tuple(from_jsonable(a, v, source=source, field=f"{field}[{i}]") for i, (a, v) in enumerate(zip(args, data)))
+        return tuple(
+            from_jsonable(a, v, source=source, field=f"{field}[{i}]") for i, (a, v) in enumerate(zip(args, data))
+        )
     if origin is dict or origin is typing.Mapping or str(origin) == "<class 'collections.abc.Mapping'>":
         _, vt = typing.get_args(tp)
         if not isinstance(data, dict):

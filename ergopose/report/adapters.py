@@ -71,10 +71,18 @@ def file_sha256(path: str | Path) -> str:
 def method_info(method: Method) -> MethodInfo:
     """A scoring method (ergopose.ergonomics.methods.Method) as recorded in a report."""
     return MethodInfo(
-        name=method.name, title=method.title, source=method.source, file=Path(method.path).name,
-        sha256=file_sha256(method.path), score_low=int(method.score_range[0]), score_high=int(method.score_range[1]),
-        action_levels=tuple(ActionLevelInfo(level=int(a.level), low=int(a.low), high=int(a.high), label=a.label,
-                                            wording=a.wording) for a in method.action_levels))
+        name=method.name,
+        title=method.title,
+        source=method.source,
+        file=Path(method.path).name,
+        sha256=file_sha256(method.path),
+        score_low=int(method.score_range[0]),
+        score_high=int(method.score_range[1]),
+        action_levels=tuple(
+            ActionLevelInfo(level=int(a.level), low=int(a.low), high=int(a.high), label=a.label, wording=a.wording)
+            for a in method.action_levels
+        ),
+    )
 
 
 def methods_info(names: Sequence[str] = ("rula", "reba")) -> tuple[MethodInfo, ...]:
@@ -98,15 +106,35 @@ def settings_records(settings: ScoringSettings) -> tuple[Setting, ...]:
     return tuple(Setting(name=k, value=v) for k, v in settings.as_dict().items())
 
 
-def floor_plan_from_boxes(boxes: Iterable[Any], area: Sequence[float] = (-3.0, 3.0, -3.0, 3.0),
-                          cameras: Iterable[tuple[str, float, float]] = (), cell_m: float = 0.25) -> FloorPlan:
+def floor_plan_from_boxes(
+    boxes: Iterable[Any],
+    area: Sequence[float] = (-3.0, 3.0, -3.0, 3.0),
+    cameras: Iterable[tuple[str, float, float]] = (),
+    cell_m: float = 0.25,
+) -> FloorPlan:
     """A floor plan from furniture boxes (objects with name, kind, lo, hi: ergopose.sim.scene.Box),
     the area (x_min, x_max, y_min, y_max) and camera positions (name, x, y)."""
-    items = tuple(FloorItem(name=b.name, kind=FLOOR_KINDS[b.kind], x0=float(b.lo[0]), y0=float(b.lo[1]),
-                            x1=float(b.hi[0]), y1=float(b.hi[1])) for b in boxes if b.kind in FLOOR_KINDS)
-    return FloorPlan(x_min=float(area[0]), x_max=float(area[1]), y_min=float(area[2]), y_max=float(area[3]),
-                     cell_m=cell_m, furniture=items,
-                     cameras=tuple(FloorCamera(name=n, x=float(x), y=float(y)) for n, x, y in cameras))
+    items = tuple(
+        FloorItem(
+            name=b.name,
+            kind=FLOOR_KINDS[b.kind],
+            x0=float(b.lo[0]),
+            y0=float(b.lo[1]),
+            x1=float(b.hi[0]),
+            y1=float(b.hi[1]),
+        )
+        for b in boxes
+        if b.kind in FLOOR_KINDS
+    )
+    return FloorPlan(
+        x_min=float(area[0]),
+        x_max=float(area[1]),
+        y_min=float(area[2]),
+        y_max=float(area[3]),
+        cell_m=cell_m,
+        furniture=items,
+        cameras=tuple(FloorCamera(name=n, x=float(x), y=float(y)) for n, x, y in cameras),
+    )
 
 
 def floor_plan_from_scene(scene: Any, cameras: Iterable[Any] = (), cell_m: float = 0.25) -> FloorPlan:
@@ -122,8 +150,9 @@ def floor_plan_from_scene(scene: Any, cameras: Iterable[Any] = (), cell_m: float
     return floor_plan_from_boxes(scene.boxes, scene.area, cams, cell_m)
 
 
-def load_floor_plan(path: str | os.PathLike, cameras: Iterable[tuple[str, float, float]] = (),
-                    cell_m: float = 0.25) -> FloorPlan:
+def load_floor_plan(
+    path: str | os.PathLike, cameras: Iterable[tuple[str, float, float]] = (), cell_m: float = 0.25
+) -> FloorPlan:
     """The floor plan of a session's floor.toml (docs/session-format.md) with the cameras (name, x, y).
 
     ``area_m = [x_min, x_max, y_min, y_max]`` (metres, optional, default 6 x 6 m around the
@@ -137,10 +166,18 @@ def load_floor_plan(path: str | os.PathLike, cameras: Iterable[tuple[str, float,
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"cannot read the floor plan ({exc})", path=path) from None
     area = data.get("area_m", (-3.0, 3.0, -3.0, 3.0))
-    if not (isinstance(area, (list, tuple)) and len(area) == 4 and all(_is_number(v) for v in area)
-            and area[1] > area[0] and area[3] > area[2]):
-        raise ConfigError(f"expected [x_min, x_max, y_min, y_max] in metres with x_max > x_min and y_max > y_min, "
-                          f"got {area!r}", path=path, field="area_m")
+    if not (
+        isinstance(area, (list, tuple))
+        and len(area) == 4
+        and all(_is_number(v) for v in area)
+        and area[1] > area[0]
+        and area[3] > area[2]
+    ):
+        raise ConfigError(
+            f"expected [x_min, x_max, y_min, y_max] in metres with x_max > x_min and y_max > y_min, got {area!r}",
+            path=path,
+            field="area_m",
+        )
     boxes = data.get("boxes", [])
     if not isinstance(boxes, list):
         raise ConfigError("expected [[boxes]] tables", path=path, field="boxes")
@@ -168,7 +205,7 @@ def _is_number(v: Any) -> bool:
 
 
 def _criteria(text: str) -> dict[int, str]:
-    """"1: a; 2: b" (a method file's criterion) -> {1: "a", 2: "b"}."""
+    """ "1: a; 2: b" (a method file's criterion) -> {1: "a", 2: "b"}."""
     out: dict[int, str] = {}
     for part in text.split(";"):
         head, sep, rest = part.partition(":")
@@ -187,7 +224,7 @@ def body_part_of(column: str) -> tuple[str, str, str]:
     rest = column
     for s in ("left_", "right_"):
         if rest.startswith(s):
-            side, rest = s[:-1], rest[len(s):]
+            side, rest = s[:-1], rest[len(s) :]
     method, _, part = rest.partition("_")
     if part.endswith("_band"):
         part = part[: -len("_band")]
@@ -204,14 +241,25 @@ def band_criteria(method: Method, part: str) -> dict[int, str]:
     return {}
 
 
-_ANGLE_WORDS = {"trunk": "trunk flexion", "head": "head inclination", "upper arm": "upper arm elevation",
-                "trunk side bend or twist": "trunk side bend or twist"}
+_ANGLE_WORDS = {
+    "trunk": "trunk flexion",
+    "head": "head inclination",
+    "upper arm": "upper arm elevation",
+    "trunk side bend or twist": "trunk side bend or twist",
+}
 
 
 def _flag_from_finding(f: Any) -> Any:
     if not f.measured:
-        return StandardFlag(standard=f.standard, body_part=f.body_part, condition="the angles needed were not measured",
-                            verdict="not measured", seconds=0.0, longest_s=float("nan"), note="")
+        return StandardFlag(
+            standard=f.standard,
+            body_part=f.body_part,
+            condition="the angles needed were not measured",
+            verdict="not measured",
+            seconds=0.0,
+            longest_s=float("nan"),
+            note="",
+        )
     zones = list(f.zone_time_s)
     # the worst zone the worker reached (zones are in increasing order of concern)
     reached = [z for z in zones[1:] if f.zone_time_s.get(z, 0.0) > 0] or zones[:1]
@@ -221,19 +269,36 @@ def _flag_from_finding(f: Any) -> Any:
     if f.standard.startswith("ISO"):
         seconds = float(f.static_time_s.get(zone, 0.0))
         longest = float(f.longest_static_hold_s.get(zone, float("nan")))
-        note = (f"held longer than 4 s {f.static_holds.get(zone, 0)} times "
-                f"({seconds:.0f} s in such holds, {f.zone_time_s.get(zone, 0.0):.0f} s in the zone in all)")
+        note = (
+            f"held longer than 4 s {f.static_holds.get(zone, 0)} times "
+            f"({seconds:.0f} s in such holds, {f.zone_time_s.get(zone, 0.0):.0f} s in the zone in all)"
+        )
     else:
         seconds = float(f.zone_time_s.get(zone, 0.0))
         longest = float("nan")
         note = f"{f.entries} movements into the zone, {f.per_minute:.1f} per minute"
     verdict = f.verdict if f.verdict != "time-limited" else "time-limited"
-    return StandardFlag(standard=f.standard, body_part=f.body_part, condition=condition, verdict=verdict,
-                        seconds=seconds, longest_s=longest, note=note)
+    return StandardFlag(
+        standard=f.standard,
+        body_part=f.body_part,
+        condition=condition,
+        verdict=verdict,
+        seconds=seconds,
+        longest_s=longest,
+        note=note,
+    )
 
 
-def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *, frames: Any = None,
-                   timeline: Any = None, joints_at: Any = None, worst_limit: int = 6, holds_limit: int = 12) -> Any:
+def worker_summary(
+    summary: Any,
+    methods: Mapping[str, Method] | None = None,
+    *,
+    frames: Any = None,
+    timeline: Any = None,
+    joints_at: Any = None,
+    worst_limit: int = 6,
+    holds_limit: int = 12,
+) -> Any:
     """A WorkerSummary from ergopose.ergonomics.aggregate.ShiftSummary.
 
     timeline: every frame of the worker (time_s and the level and score columns: the report's
@@ -263,40 +328,89 @@ def worker_summary(summary: Any, methods: Mapping[str, Method] | None = None, *,
                 text = crit.get(v.value, f"score {v.value}")
                 body_parts.append(BandTime(m, words, int(v.value), text, float(v.time_s)))
                 if v.value > lowest and np.isfinite(v.longest_hold_s) and v.longest_hold_s > 0:
-                    holds.append(Hold(words, m, int(v.value), text, float(v.longest_hold_start_s), float(v.longest_hold_s)))
+                    holds.append(
+                        Hold(words, m, int(v.value), text, float(v.longest_hold_start_s), float(v.longest_hold_s))
+                    )
     holds.sort(key=lambda h: -h.duration_s)
     hourly = []
     for h in summary.hourly:
         hm = next((k for k, (_, lc) in LEVEL_COLUMNS.items() if lc == h.column), None)
         if hm is None:
             continue
-        hourly.append(HourLevels(start_s=3600.0 * h.hour, method=hm,
-                                 levels=tuple(LevelTime(hm, int(lv.level), float(h.time_by_value.get(lv.level, 0.0)))
-                                              for lv in methods[hm].action_levels),
-                                 unscored_s=float(h.missing_s), observed_s=float(h.observed_s)))
+        hourly.append(
+            HourLevels(
+                start_s=3600.0 * h.hour,
+                method=hm,
+                levels=tuple(
+                    LevelTime(hm, int(lv.level), float(h.time_by_value.get(lv.level, 0.0)))
+                    for lv in methods[hm].action_levels
+                ),
+                unscored_s=float(h.missing_s),
+                observed_s=float(h.observed_s),
+            )
+        )
     s_limit = 4.0
-    reps = tuple(Repetition(body_part=_angle_body_part(r.angle), angle=r.angle, actions=int(r.actions),
-                            per_minute=float(r.per_minute), max_in_one_minute=int(r.max_in_one_minute),
-                            limit_per_min=s_limit, minutes_over_limit=int(r.minutes_at_or_above_4))
-                 for r in summary.repetitions)
-    worst = worst_periods(timeline if timeline is not None else frames, frames, methods,
-                          float(summary.frame_period_s), joints_at, worst_limit)
+    reps = tuple(
+        Repetition(
+            body_part=_angle_body_part(r.angle),
+            angle=r.angle,
+            actions=int(r.actions),
+            per_minute=float(r.per_minute),
+            max_in_one_minute=int(r.max_in_one_minute),
+            limit_per_min=s_limit,
+            minutes_over_limit=int(r.minutes_at_or_above_4),
+        )
+        for r in summary.repetitions
+    )
+    worst = worst_periods(
+        timeline if timeline is not None else frames,
+        frames,
+        methods,
+        float(summary.frame_period_s),
+        joints_at,
+        worst_limit,
+    )
     flags = tuple(_flag_from_finding(f) for f in summary.exposure)
-    confidence = tuple(ConfidenceTime(level=c.level, seconds=float(c.time_s),
-                                      causes=tuple(CauseSeconds(ca.cause, float(ca.time_s)) for ca in c.causes))
-                       for c in getattr(summary, "confidence", ()))
+    confidence = tuple(
+        ConfidenceTime(
+            level=c.level,
+            seconds=float(c.time_s),
+            causes=tuple(CauseSeconds(ca.cause, float(ca.time_s)) for ca in c.causes),
+        )
+        for c in getattr(summary, "confidence", ())
+    )
     period = float(summary.frame_period_s)
     scored_s = float(getattr(summary, "scored_frames", 0)) * period
     used = tuple(getattr(summary, "from_settings", ()))
-    inputs = tuple(InputQuality(body_part=i.body_part, angles=tuple(i.angles), median_sd_rad=float(i.median_sd_rad),
-                                inferred_s=i.inferred_frames * period, known_s=i.known_frames * period,
-                                from_settings=tuple(SettingsValue(u.input, float(u.value_rad), float(u.time_s), scored_s)
-                                                    for u in used if u.input in i.angles))
-                   for i in getattr(summary, "inputs", ()))
-    return WorkerSummary(worker_id=str(summary.worker), observed_s=float(summary.observed_s), levels=tuple(levels),
-                         unscored_s=unscored, body_parts=tuple(body_parts), holds=tuple(holds[:holds_limit]),
-                         repetitions=reps, hourly=tuple(hourly), worst=worst, flags=flags, confidence=confidence,
-                         inputs=inputs)
+    inputs = tuple(
+        InputQuality(
+            body_part=i.body_part,
+            angles=tuple(i.angles),
+            median_sd_rad=float(i.median_sd_rad),
+            inferred_s=i.inferred_frames * period,
+            known_s=i.known_frames * period,
+            from_settings=tuple(
+                SettingsValue(u.input, float(u.value_rad), float(u.time_s), scored_s)
+                for u in used
+                if u.input in i.angles
+            ),
+        )
+        for i in getattr(summary, "inputs", ())
+    )
+    return WorkerSummary(
+        worker_id=str(summary.worker),
+        observed_s=float(summary.observed_s),
+        levels=tuple(levels),
+        unscored_s=unscored,
+        body_parts=tuple(body_parts),
+        holds=tuple(holds[:holds_limit]),
+        repetitions=reps,
+        hourly=tuple(hourly),
+        worst=worst,
+        flags=flags,
+        confidence=confidence,
+        inputs=inputs,
+    )
 
 
 def _angle_body_part(angle: str) -> str:
@@ -312,8 +426,14 @@ def _column(table: Any, name: str) -> np.ndarray:
     return table[name].to_numpy(dtype=np.float64, na_value=np.nan)
 
 
-def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], frame_period_s: float,
-                  joints_at: Any = None, limit: int = 6) -> tuple:
+def worst_periods(
+    timeline: Any,
+    frames: Any,
+    methods: Mapping[str, Method],
+    frame_period_s: float,
+    joints_at: Any = None,
+    limit: int = 6,
+) -> tuple:
     """The sustained periods of high risk of a worker (ergopose.report.periods) as report records,
     ranked: clock span, time at high risk, scores at the frame drawn and the period's peak, the
     body parts in their high bands (from ``frames``, the scored frames with band columns) and the
@@ -322,8 +442,15 @@ def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], fra
         return ()
     t = timeline["time_s"].to_numpy(dtype=np.float64)
     cols = {c: _column(timeline, c) for c in ("rula_grand", "rula_action_level", "reba_score", "reba_risk_level")}
-    found = periods.worker_periods(t, cols["rula_grand"], cols["rula_action_level"], cols["reba_score"],
-                                   cols["reba_risk_level"], frame_period_s, limit)
+    found = periods.worker_periods(
+        t,
+        cols["rula_grand"],
+        cols["rula_action_level"],
+        cols["reba_score"],
+        cols["reba_risk_level"],
+        frame_period_s,
+        limit,
+    )
     ft = frames["time_s"].to_numpy(dtype=np.float64) if frames is not None and len(frames) else None
     out = []
     for p in found:
@@ -343,22 +470,37 @@ def worst_periods(timeline: Any, frames: Any, methods: Mapping[str, Method], fra
         inputs: tuple[PeriodInput, ...] = ()
         if ft is not None:
             a, b = np.searchsorted(ft, [p.start_s, p.end_s - 0.5 * frame_period_s])
-            rows = frames.iloc[int(a):int(b) + 1] if b >= a else frames.iloc[0:0]
+            rows = frames.iloc[int(a) : int(b) + 1] if b >= a else frames.iloc[0:0]
             rows = rows[np.isin(rows["time_s"].to_numpy(dtype=np.float64), t[sl][high])] if len(rows) else rows
             drivers = _drivers(rows, methods, frame_period_s, p.high_s)
             inputs = period_input_records(periods.period_inputs(rows, frame_period_s))
         joints = joints_at(drawn_s) if joints_at is not None else None
-        reason = ("; ".join(f"{d.body_part} {d.criterion} (band {d.score} of {d.top}) for {_secs(d.seconds)}"
-                            for d in drivers)
-                  or "no single body part in a high band for most of it: the combination of postures")
-        out.append(WorstMoment(
-            start_s=float(p.start_s), end_s=float(p.end_s), peak_s=drawn_s, rula_grand=score("rula_grand"),
-            rula_level=score("rula_action_level"), reba_score=score("reba_score"),
-            reba_level=score("reba_risk_level"), reason=reason,
-            joints_world_m=None if joints is None else tuple((float(q[0]), float(q[1]), float(q[2]))
-                                                              for q in np.asarray(joints)),
-            high_s=float(p.high_s), rula_peak=peak("rula_grand"), reba_peak=peak("reba_score"), drivers=drivers,
-            inputs=inputs))
+        reason = (
+            "; ".join(
+                f"{d.body_part} {d.criterion} (band {d.score} of {d.top}) for {_secs(d.seconds)}" for d in drivers
+            )
+            or "no single body part in a high band for most of it: the combination of postures"
+        )
+        out.append(
+            WorstMoment(
+                start_s=float(p.start_s),
+                end_s=float(p.end_s),
+                peak_s=drawn_s,
+                rula_grand=score("rula_grand"),
+                rula_level=score("rula_action_level"),
+                reba_score=score("reba_score"),
+                reba_level=score("reba_risk_level"),
+                reason=reason,
+                joints_world_m=None
+                if joints is None
+                else tuple((float(q[0]), float(q[1]), float(q[2])) for q in np.asarray(joints)),
+                high_s=float(p.high_s),
+                rula_peak=peak("rula_grand"),
+                reba_peak=peak("reba_score"),
+                drivers=drivers,
+                inputs=inputs,
+            )
+        )
     return tuple(out)
 
 
@@ -383,8 +525,11 @@ def period_input_records(uses: Sequence[periods.InputUse]) -> tuple[PeriodInput,
         if u.source == "task input":
             if u.input == "load":
                 kg, held = u.value
-                value = ", ".join(x for x in ((f"{kg:g} kg" if kg is not None else "kg not given"),
-                                              (f"held {held}" if held else "")) if x)
+                value = ", ".join(
+                    x
+                    for x in ((f"{kg:g} kg" if kg is not None else "kg not given"), (f"held {held}" if held else ""))
+                    if x
+                )
             elif isinstance(u.value, bool):
                 value = "yes" if u.value else "no"
             elif u.input in periods.TASK_INPUTS:
@@ -424,14 +569,20 @@ def _drivers(rows: Any, methods: Mapping[str, Method], frame_period_s: float, hi
             crit = band_criteria(methods["rula"], part).get(band, f"score {band}")
             found.append(Driver("rula", words, band, int(top), crit, secs))
     found.sort(key=lambda d: (-d.score, -d.seconds))  # the band adding most to the score first
-    return tuple(found[:periods.MAX_DRIVERS])
+    return tuple(found[: periods.MAX_DRIVERS])
 
 
 # ------------------------------------------------------------------ reconstruction quality
 
 
-def worker_diagnostics(diag: Any, *, frames_reliable: int, reliable_rule: str, error_3d_m: float = float("nan"),
-                       region_limb: str = "hip_width") -> Any:
+def worker_diagnostics(
+    diag: Any,
+    *,
+    frames_reliable: int,
+    reliable_rule: str,
+    error_3d_m: float = float("nan"),
+    region_limb: str = "hip_width",
+) -> Any:
     """A WorkerDiagnostics from ergopose.recon.diagnostics.WorkerLimbDiagnostics.
 
     frames_reliable / reliable_rule: from :func:`ergopose.report.quality.reliable_frames`.
@@ -443,32 +594,64 @@ def worker_diagnostics(diag: Any, *, frames_reliable: int, reliable_rule: str, e
             r = diag.stats.get((limb, region))
             if r is not None:
                 p = r.percentiles_m
-                stats.append(LimbStats(limb=limb, n=int(r.reconstructed), mean_m=r.mean_m, std_m=r.std_m, p5_m=p[0],
-                                       q1_m=p[1], median_m=p[2], q3_m=p[3], p95_m=p[4], region=region))
-                freq.append(LimbFrequency(limb=limb, region=region, frames=int(r.frames),
-                                          reconstructed=int(r.reconstructed)))
+                stats.append(
+                    LimbStats(
+                        limb=limb,
+                        n=int(r.reconstructed),
+                        mean_m=r.mean_m,
+                        std_m=r.std_m,
+                        p5_m=p[0],
+                        q1_m=p[1],
+                        median_m=p[2],
+                        q3_m=p[3],
+                        p95_m=p[4],
+                        region=region,
+                    )
+                )
+                freq.append(
+                    LimbFrequency(limb=limb, region=region, frames=int(r.frames), reconstructed=int(r.reconstructed))
+                )
     region_frames = {region: int(diag.stats[(region_limb, region)].frames) for region in ("central", "outer", "edge")}
-    return WorkerDiagnostics(worker_id=str(diag.worker), frames_observed=int(diag.frames),
-                             frames_reliable=int(frames_reliable), reliable_rule=reliable_rule,
-                             region_frames=region_frames, limb_lengths=tuple(stats), reconstruction=tuple(freq),
-                             error_3d_m=float(error_3d_m))
+    return WorkerDiagnostics(
+        worker_id=str(diag.worker),
+        frames_observed=int(diag.frames),
+        frames_reliable=int(frames_reliable),
+        reliable_rule=reliable_rule,
+        region_frames=region_frames,
+        limb_lengths=tuple(stats),
+        reconstruction=tuple(freq),
+        error_3d_m=float(error_3d_m),
+    )
 
 
 # ------------------------------------------------------------------------- calibration
 
 
-def calibration_info(path: str | Path, cameras: Sequence[str], *, reprojection_rms_px: float = float("nan"),
-                     check: Any = None) -> Any:
+def calibration_info(
+    path: str | Path, cameras: Sequence[str], *, reprojection_rms_px: float = float("nan"), check: Any = None
+) -> Any:
     """A CalibrationInfo from the calibration file and, when run, its bar check
     (ergopose.calibration.check.CheckReport)."""
     regions: tuple[RegionAccuracy, ...] = ()
     if check is not None:
-        regions = tuple(RegionAccuracy(region=r.region, target_m=float(r.target), measured_m=float(r.mean),
-                                       spread_m=float(r.std) if int(r.n) >= 2 else float("nan"), n=int(r.n),
-                                       angles=f"{r.angle_range_deg[0]:g}-{r.angle_range_deg[1]:g} deg")
-                        for r in check.regions)
-    return CalibrationInfo(file=Path(path).name, sha256=file_sha256(path), cameras=tuple(cameras),
-                           reprojection_rms_px=float(reprojection_rms_px), regions=regions)
+        regions = tuple(
+            RegionAccuracy(
+                region=r.region,
+                target_m=float(r.target),
+                measured_m=float(r.mean),
+                spread_m=float(r.std) if int(r.n) >= 2 else float("nan"),
+                n=int(r.n),
+                angles=f"{r.angle_range_deg[0]:g}-{r.angle_range_deg[1]:g} deg",
+            )
+            for r in check.regions
+        )
+    return CalibrationInfo(
+        file=Path(path).name,
+        sha256=file_sha256(path),
+        cameras=tuple(cameras),
+        reprojection_rms_px=float(reprojection_rms_px),
+        regions=regions,
+    )
 
 
 # ---------------------------------------------------------------------------- session
@@ -488,10 +671,16 @@ FACTOR_USE = {
     "wrist_deviation": "RULA wrist deviation (step 3), REBA wrist deviation (step 9), where the cameras do not see the hand",
 }
 FACTOR_WORDS = {
-    "load_kg": "load", "load_mode": "load held", "shock": "shock or rapid build-up of force", "coupling": "hand coupling",
-    "arm_supported": "arm supported or leaning", "seated": "seated", "legs_supported": "legs and feet supported",
+    "load_kg": "load",
+    "load_mode": "load held",
+    "shock": "shock or rapid build-up of force",
+    "coupling": "hand coupling",
+    "arm_supported": "arm supported or leaning",
+    "seated": "seated",
+    "legs_supported": "legs and feet supported",
     "wrist_twist_end_range": "wrist twisted near the end of its range",
-    "wrist_flexion": "wrist flexion of the task", "wrist_deviation": "wrist deviation of the task",
+    "wrist_flexion": "wrist flexion of the task",
+    "wrist_deviation": "wrist deviation of the task",
 }
 
 
@@ -542,21 +731,34 @@ def worker_assumptions(session: Any, worker: Any | None, settings_name: str = "s
             value, src = v_def, f"{settings_name} [defaults]"
         else:
             value, src = None, "not in the settings"
-        out.append(Assumption(item=FACTOR_WORDS[name], value=_factor_value(name, value), applies_to=FACTOR_USE[name],
-                              source=src))
+        out.append(
+            Assumption(
+                item=FACTOR_WORDS[name], value=_factor_value(name, value), applies_to=FACTOR_USE[name], source=src
+            )
+        )
     periods = [(p, f"{settings_name} [[periods]]") for p in session.periods]
     if worker is not None:
         periods += [(p, f"{settings_name} [[workers.{worker.worker_id}.periods]]") for p in worker.periods]
     for p, src in periods:
         when = f"{_clock(p.start_s, start)} to {_clock(p.end_s, start)}"
         for name, value in p.factors.given().items():
-            out.append(Assumption(item=f"{FACTOR_WORDS[name]}, {when}", value=_factor_value(name, value),
-                                  applies_to=FACTOR_USE[name], source=src))
+            out.append(
+                Assumption(
+                    item=f"{FACTOR_WORDS[name]}, {when}",
+                    value=_factor_value(name, value),
+                    applies_to=FACTOR_USE[name],
+                    source=src,
+                )
+            )
     return tuple(out)
 
 
-def worker_infos(session: Any, worker_ids: Sequence[str], csv_files: Mapping[str, Sequence[tuple[str, str]]] | None = None,
-                 settings_name: str = "settings.toml") -> tuple:
+def worker_infos(
+    session: Any,
+    worker_ids: Sequence[str],
+    csv_files: Mapping[str, Sequence[tuple[str, str]]] | None = None,
+    settings_name: str = "settings.toml",
+) -> tuple:
     """WorkerInfo records for the workers found in a session (ids as in the results), with names
     and assumptions from the session settings (ergopose.session.Session) and their CSV files
     ({id: [(label, path relative to the report folder), ...]})."""
@@ -565,6 +767,12 @@ def worker_infos(session: Any, worker_ids: Sequence[str], csv_files: Mapping[str
     for wid in worker_ids:
         w = named.get(wid)
         files = tuple(DataFile(label, path) for label, path in (csv_files or {}).get(wid, ()))
-        out.append(WorkerInfo(worker_id=wid, name=w.name if w is not None else None,
-                              assumptions=worker_assumptions(session, w, settings_name), csv_files=files))
+        out.append(
+            WorkerInfo(
+                worker_id=wid,
+                name=w.name if w is not None else None,
+                assumptions=worker_assumptions(session, w, settings_name),
+                csv_files=files,
+            )
+        )
     return tuple(out)

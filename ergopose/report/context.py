@@ -27,8 +27,14 @@ METHODS = ("rula", "reba")
 REGIONS = ("all", "central", "outer", "edge")
 #: Verdicts of ISO 11226 / EN 1005-4 flags (ergopose.ergonomics.aggregate), best to worst, then
 #: "not measured" (the angles needed were not available).
-FLAG_VERDICTS = ("acceptable", "conditionally acceptable", "time-limited", "not recommended", "not acceptable",
-                 "not measured")
+FLAG_VERDICTS = (
+    "acceptable",
+    "conditionally acceptable",
+    "time-limited",
+    "not recommended",
+    "not acceptable",
+    "not measured",
+)
 
 
 # ----------------------------------------------------------------------------- session
@@ -636,5 +642,6 @@ def check_worker(info: WorkerInfo, summary: WorkerSummary, diagnostics: WorkerDi
     """The three records of a worker must name the same worker."""
     for what, wid in (("summary", summary.worker_id), ("diagnostics", diagnostics.worker_id)):
         if wid != info.worker_id:
-            raise InputError(f"the {what} is for worker {wid!r}, expected {info.worker_id!r}", path=source,
-                             field="worker_id")
+            raise InputError(
+                f"the {what} is for worker {wid!r}, expected {info.worker_id!r}", path=source, field="worker_id"
+            )

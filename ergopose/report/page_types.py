@@ -17,11 +17,7 @@ from dataclasses import dataclass
 
 from markupsafe import Markup
 
-from ergopose.report.context import (
-    Assumption,
-    MethodInfo,
-    ModelInfo,
-)
+from ergopose.report.context import Assumption, MethodInfo, ModelInfo
 from ergopose.report.quality import Verdict
 
 # ------------------------------------------------------------------------- shared records

@@ -82,9 +82,15 @@ def high_frames(rula_level: np.ndarray, reba_level: np.ndarray) -> np.ndarray:
     return np.isin(r, HIGH_LEVELS["rula"]) | np.isin(b, HIGH_LEVELS["reba"])
 
 
-def sustained_periods(time_s: np.ndarray, high: np.ndarray, frame_period_s: float, *,
-                      min_duration_s: float = MIN_DURATION_S, max_gap_s: float = MAX_GAP_S,
-                      held: np.ndarray | None = None) -> list[Period]:
+def sustained_periods(
+    time_s: np.ndarray,
+    high: np.ndarray,
+    frame_period_s: float,
+    *,
+    min_duration_s: float = MIN_DURATION_S,
+    max_gap_s: float = MAX_GAP_S,
+    held: np.ndarray | None = None,
+) -> list[Period]:
     """Rules 2-5 on a series: time_s ascending (seconds), high (bool per frame), held (an integer
     code per frame whose runs are the postures held, e.g. RULA grand x 16 + REBA score; None:
     every high frame the same). Returns the periods, ranked (rule 4)."""
@@ -108,12 +114,15 @@ def sustained_periods(time_s: np.ndarray, high: np.ndarray, frame_period_s: floa
     order = np.lexsort((start_s[keep], -n_high[keep]))
     first, last, n_high, start_s, end_s = (a[keep][order] for a in (first, last, n_high, start_s, end_s))
     drawn = _drawn_frames(t, high, frame_period_s, held, first, last + 1)
-    return [Period(int(a), int(b) + 1, float(s), float(e), float(n) * frame_period_s, int(d))
-            for a, b, s, e, n, d in zip(first, last, start_s, end_s, n_high, drawn)]
+    return [
+        Period(int(a), int(b) + 1, float(s), float(e), float(n) * frame_period_s, int(d))
+        for a, b, s, e, n, d in zip(first, last, start_s, end_s, n_high, drawn)
+    ]
 
 
-def _drawn_frames(t: np.ndarray, high: np.ndarray, period: float, held: np.ndarray | None, starts: np.ndarray,
-                  stops: np.ndarray) -> np.ndarray:
+def _drawn_frames(
+    t: np.ndarray, high: np.ndarray, period: float, held: np.ndarray | None, starts: np.ndarray, stops: np.ndarray
+) -> np.ndarray:
     """Rule 5 for every period at once: runs of consecutive high frames with one held code (a run
     also ends where frames are more than 1.5 frame periods apart), the longest in each period."""
     n = t.size
@@ -131,8 +140,15 @@ def _drawn_frames(t: np.ndarray, high: np.ndarray, period: float, held: np.ndarr
     return out
 
 
-def worker_periods(time_s: np.ndarray, rula_grand: np.ndarray, rula_level: np.ndarray, reba_score: np.ndarray,
-                   reba_level: np.ndarray, frame_period_s: float, limit: int = MAX_PERIODS) -> list[Period]:
+def worker_periods(
+    time_s: np.ndarray,
+    rula_grand: np.ndarray,
+    rula_level: np.ndarray,
+    reba_score: np.ndarray,
+    reba_level: np.ndarray,
+    frame_period_s: float,
+    limit: int = MAX_PERIODS,
+) -> list[Period]:
     """The ranked sustained periods of one worker's frames (score arrays: float, NaN = not
     scored), at most ``limit`` of them."""
     high = high_frames(rula_level, reba_level)
@@ -206,8 +222,9 @@ def period_inputs(rows: Any, frame_period_s: float) -> tuple[InputUse, ...]:
         if not present.any():
             continue
         counts = table[present].astype(object).value_counts(dropna=False)
-        found = [(tuple(_plain(v) for v in (key if isinstance(key, tuple) else (key,))), int(c))
-                 for key, c in counts.items()]
+        found = [
+            (tuple(_plain(v) for v in (key if isinstance(key, tuple) else (key,))), int(c)) for key, c in counts.items()
+        ]
         for key, count in sorted(found, key=lambda kc: (-kc[1], repr(kc[0]))):
             value: Any = key if name == "load" else key[0] if name == "coupling" else bool(key[0])
             given_rows.append(InputUse(name, "task input", value, count * frame_period_s))
@@ -223,6 +240,20 @@ def _plain(v: Any) -> Any:
     return str(v)
 
 
-__all__ = ["HIGH_LEVELS", "MIN_DURATION_S", "MAX_GAP_S", "MAX_PERIODS", "DRIVER_SHARE", "MAX_DRIVERS", "Period", "high_frames",
-           "sustained_periods", "worker_periods", "TASK_INPUTS", "MEASURED_INPUTS", "INPUT_COLUMNS", "InputUse",
-           "period_inputs"]
+__all__ = [
+    "HIGH_LEVELS",
+    "MIN_DURATION_S",
+    "MAX_GAP_S",
+    "MAX_PERIODS",
+    "DRIVER_SHARE",
+    "MAX_DRIVERS",
+    "Period",
+    "high_frames",
+    "sustained_periods",
+    "worker_periods",
+    "TASK_INPUTS",
+    "MEASURED_INPUTS",
+    "INPUT_COLUMNS",
+    "InputUse",
+    "period_inputs",
+]

@@ -25,8 +25,16 @@ import jinja2
 from ergopose.atomic import readable, write_text
 from ergopose.errors import ErgoposeError
 from ergopose.progress import ProgressCallback, report
-from ergopose.report.pages import (PRINT_FILE, IndexPage, PrintPage, WorkerPage, build_index_page, build_print_page,
-                                   build_worker_page, worker_page_name)
+from ergopose.report.pages import (
+    PRINT_FILE,
+    IndexPage,
+    PrintPage,
+    WorkerPage,
+    build_index_page,
+    build_print_page,
+    build_worker_page,
+    worker_page_name,
+)
 from ergopose.report.results import SessionResults, load_results
 from ergopose.resources import resource_dir
 
@@ -35,12 +43,19 @@ TEMPLATES: dict[type, str] = {IndexPage: "index.html.j2", WorkerPage: "worker.ht
 INDEX_FILE = "index.html"
 
 
-def environment(template_dir: str | os.PathLike | None = None,
-                env_class: type[jinja2.Environment] = jinja2.Environment) -> jinja2.Environment:
+def environment(
+    template_dir: str | os.PathLike | None = None, env_class: type[jinja2.Environment] = jinja2.Environment
+) -> jinja2.Environment:
     """The Jinja2 environment of the reports: autoescape on, undefined names are errors."""
     folder = Path(template_dir) if template_dir is not None else resource_dir("templates")
-    return env_class(loader=jinja2.FileSystemLoader(str(folder)), autoescape=True, undefined=jinja2.StrictUndefined,
-                     trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True)
+    return env_class(
+        loader=jinja2.FileSystemLoader(str(folder)),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
 
 
 def context_variables(context: Any) -> dict[str, Any]:
@@ -67,8 +82,9 @@ class ReportFiles:
     sizes: dict[str, int]
 
 
-def render_pages(results: SessionResults, report_dir: str | os.PathLike | None = None,
-                 progress: ProgressCallback | None = None) -> dict[str, str]:
+def render_pages(
+    results: SessionResults, report_dir: str | os.PathLike | None = None, progress: ProgressCallback | None = None
+) -> dict[str, str]:
     """Every page of a report as {file name: HTML}, nothing written."""
     folder = Path(report_dir) if report_dir is not None else None
     env = environment()
@@ -85,8 +101,9 @@ def render_pages(results: SessionResults, report_dir: str | os.PathLike | None =
     return pages
 
 
-def render_report(report_dir: str | os.PathLike, results: SessionResults | None = None,
-                  progress: ProgressCallback | None = None) -> ReportFiles:
+def render_report(
+    report_dir: str | os.PathLike, results: SessionResults | None = None, progress: ProgressCallback | None = None
+) -> ReportFiles:
     """Render the report of ``report_dir`` from its stored results (read from ``report_dir/results``
     unless given) and write the pages there; return what was written."""
     folder = Path(report_dir)
@@ -98,6 +115,8 @@ def render_report(report_dir: str | os.PathLike, results: SessionResults | None 
         write_text(folder / name, html)
         readable(folder / name)
         sizes[name] = len(html.encode("utf-8"))
-    return ReportFiles(index=folder / INDEX_FILE,
-                       workers=tuple(folder / worker_page_name(w.info.worker_id) for w in results.workers),
-                       sizes=sizes)
+    return ReportFiles(
+        index=folder / INDEX_FILE,
+        workers=tuple(folder / worker_page_name(w.info.worker_id) for w in results.workers),
+        sizes=sizes,
+    )

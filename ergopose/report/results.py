@@ -32,8 +32,7 @@ import pandas as pd
 from ergopose.atomic import atomic_dir, readable
 from ergopose.errors import InputError
 from ergopose.report._codec import from_jsonable, to_jsonable
-from ergopose.report.context import (SessionInfo, WorkerDiagnostics, WorkerResults, WorkerSummary,
-                                     check_worker)
+from ergopose.report.context import SessionInfo, WorkerDiagnostics, WorkerResults, WorkerSummary, check_worker
 
 RESULTS_FORMAT = "ergopose-results/1"
 RESULTS_DIR = "results"
@@ -75,17 +74,40 @@ def results_dir(report_dir: str | os.PathLike) -> Path:
 
 
 def _dump(kind: str, record: Any) -> str:
-    return json.dumps({"format": RESULTS_FORMAT, "kind": kind, "data": to_jsonable(record)}, indent=1,
-                      ensure_ascii=False, allow_nan=False) + "\n"
+    return (
+        json.dumps(
+            {"format": RESULTS_FORMAT, "kind": kind, "data": to_jsonable(record)},
+            indent=1,
+            ensure_ascii=False,
+            allow_nan=False,
+        )
+        + "\n"
+    )
 
 
-def frames_table(time_s: np.ndarray, *, rula_grand: np.ndarray, rula_action_level: np.ndarray,
-                 reba_score: np.ndarray, reba_risk_level: np.ndarray, floor_x_m: np.ndarray,
-                 floor_y_m: np.ndarray, reliable: np.ndarray) -> pd.DataFrame:
+def frames_table(
+    time_s: np.ndarray,
+    *,
+    rula_grand: np.ndarray,
+    rula_action_level: np.ndarray,
+    reba_score: np.ndarray,
+    reba_risk_level: np.ndarray,
+    floor_x_m: np.ndarray,
+    floor_y_m: np.ndarray,
+    reliable: np.ndarray,
+) -> pd.DataFrame:
     """A per-frame table with FRAME_COLUMNS from arrays (scores as floats with NaN = missing, or
     nullable integers); checks lengths and that time ascends."""
-    cols = dict(time_s=time_s, rula_grand=rula_grand, rula_action_level=rula_action_level, reba_score=reba_score,
-                reba_risk_level=reba_risk_level, floor_x_m=floor_x_m, floor_y_m=floor_y_m, reliable=reliable)
+    cols = dict(
+        time_s=time_s,
+        rula_grand=rula_grand,
+        rula_action_level=rula_action_level,
+        reba_score=reba_score,
+        reba_risk_level=reba_risk_level,
+        floor_x_m=floor_x_m,
+        floor_y_m=floor_y_m,
+        reliable=reliable,
+    )
     n = len(time_s)
     data = {}
     for name, values in cols.items():
@@ -103,8 +125,11 @@ def frames_table(time_s: np.ndarray, *, rula_grand: np.ndarray, rula_action_leve
     return frame
 
 
-def save_results(report_dir: str | os.PathLike, session: SessionInfo,
-                 workers: Sequence[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]) -> Path:
+def save_results(
+    report_dir: str | os.PathLike,
+    session: SessionInfo,
+    workers: Sequence[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]],
+) -> Path:
     """Write ``<report_dir>/results`` (replacing an earlier one only when complete); return it.
 
     workers: per worker of ``session.workers`` (same order): summary, diagnostics and per-frame
@@ -128,8 +153,9 @@ def save_results(report_dir: str | os.PathLike, session: SessionInfo,
     return final
 
 
-def session_results(session: SessionInfo,
-                    workers: Sequence[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]) -> SessionResults:
+def session_results(
+    session: SessionInfo, workers: Sequence[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]]
+) -> SessionResults:
     """The results :func:`save_results` stores, as :func:`load_results` would read them back, built
     in memory: the records pass through the same JSON conversion (numpy scalars become Python
     numbers, tuples stay tuples), the per-frame tables keep FRAME_COLUMNS with nullable-integer
@@ -159,14 +185,14 @@ def _load_json(path: Path, kind: str, tp: type) -> Any:
     try:
         raw = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise InputError("missing from the stored results; run 'ergopose assess' on the session again",
-                         path=path) from None
+        raise InputError(
+            "missing from the stored results; run 'ergopose assess' on the session again", path=path
+        ) from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"cannot read the stored results ({exc})", path=path) from None
     if not isinstance(raw, dict) or raw.get("format") != RESULTS_FORMAT:
         got = raw.get("format") if isinstance(raw, dict) else None
-        raise InputError(f"not ergopose results of format {RESULTS_FORMAT} (found {got!r})", path=path,
-                         field="format")
+        raise InputError(f"not ergopose results of format {RESULTS_FORMAT} (found {got!r})", path=path, field="format")
     if raw.get("kind") != kind:
         raise InputError(f"expected kind {kind!r}, found {raw.get('kind')!r}", path=path, field="kind")
     return from_jsonable(tp, raw.get("data"), source=str(path))
@@ -202,8 +228,11 @@ def load_results(report_dir: str | os.PathLike) -> SessionResults:
     base = Path(report_dir)
     rdir = base if (base / SESSION_FILE).is_file() else results_dir(base)
     if not (rdir / SESSION_FILE).is_file():
-        raise InputError(f"no stored results here (expected {RESULTS_DIR}/{SESSION_FILE}); "
-                         "run 'ergopose assess' on the session first", path=base)
+        raise InputError(
+            f"no stored results here (expected {RESULTS_DIR}/{SESSION_FILE}); "
+            "run 'ergopose assess' on the session first",
+            path=base,
+        )
     session = _load_json(rdir / SESSION_FILE, "session", SessionInfo)
     workers = []
     for info in session.workers:
@@ -222,7 +251,14 @@ def session_from_mapping(data: Mapping[str, Any], source: str = "session") -> Se
 
 
 __all__ = [
-    "RESULTS_FORMAT", "FRAME_COLUMNS", "SessionResults", "save_results", "session_results", "load_results",
+    "RESULTS_FORMAT",
+    "FRAME_COLUMNS",
+    "SessionResults",
+    "save_results",
+    "session_results",
+    "load_results",
     "load_frames",
-    "frames_table", "results_dir", "session_from_mapping",
+    "frames_table",
+    "results_dir",
+    "session_from_mapping",
 ]

@@ -82,9 +82,13 @@ def session_header(s: SessionInfo) -> SessionHeader:
     else:
         when = "Clock time not recorded: times are given from the start of the recording (h:mm:ss)."
     return SessionHeader(
-        title=s.title or s.session_id, session_id=s.session_id, site=s.site, when=when,
+        title=s.title or s.session_id,
+        session_id=s.session_id,
+        site=s.site,
+        when=when,
         duration=f"{fmt_duration(s.duration_s)} ({s.frames:,} frames at {s.fps:g} frames per second)",
-        generated=f"Results written {s.created} by ergopose {s.ergopose_version}.")
+        generated=f"Results written {s.created} by ergopose {s.ergopose_version}.",
+    )
 
 
 def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
@@ -94,17 +98,30 @@ def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
     rows = []
     for r in cal.regions:
         spread = f" ± {100 * r.spread_m:.1f} cm" if r.n >= 2 and math.isfinite(r.spread_m) else ""
-        err = (f"{100 * (r.measured_m - r.target_m) / r.target_m:+.1f} %"
-               if math.isfinite(r.measured_m) and r.target_m > 0 else "n/a")
+        err = (
+            f"{100 * (r.measured_m - r.target_m) / r.target_m:+.1f} %"
+            if math.isfinite(r.measured_m) and r.target_m > 0
+            else "n/a"
+        )
         region = REGION_NAMES.get(r.region, r.region) + (f" ({r.angles})" if r.angles else "")
-        rows.append(CalibrationRow(region=region, target=f"{r.target_m:.3f} m",
-                                   measured=f"{r.measured_m:.3f} m{spread} ({_count(r.n, 'measurement')})",
-                                   error=err))
-    rms = (f" The calibration's reprojection error is {cal.reprojection_rms_px:.2f} pixels (RMS)."
-           if math.isfinite(cal.reprojection_rms_px) else "")
+        rows.append(
+            CalibrationRow(
+                region=region,
+                target=f"{r.target_m:.3f} m",
+                measured=f"{r.measured_m:.3f} m{spread} ({_count(r.n, 'measurement')})",
+                error=err,
+            )
+        )
+    rms = (
+        f" The calibration's reprojection error is {cal.reprojection_rms_px:.2f} pixels (RMS)."
+        if math.isfinite(cal.reprojection_rms_px)
+        else ""
+    )
     if rows:
-        note = ("A reference bar of known length was measured in 3D in each lens region (the paper's check); "
-                "the error is measured minus true length." + rms)
+        note = (
+            "A reference bar of known length was measured in 3D in each lens region (the paper's check); "
+            "the error is measured minus true length." + rms
+        )
     else:
         note = "The calibration was not checked with a reference bar of known length." + rms
     return tuple(rows), note
@@ -112,8 +129,7 @@ def calibration_rows(s: SessionInfo) -> tuple[tuple[CalibrationRow, ...], str]:
 
 def methods_section(s: SessionInfo) -> MethodsSection:
     n_cams = len(s.calibration.cameras) if s.calibration is not None else 0
-    filmed = (f"{n_cams} calibrated camera{'s' if n_cams != 1 else ''} filmed" if n_cams
-              else "Calibrated cameras filmed")
+    filmed = f"{n_cams} calibrated camera{'s' if n_cams != 1 else ''} filmed" if n_cams else "Calibrated cameras filmed"
     measured = (
         f"{filmed} the work area; each worker's 33 body landmarks were found in upright virtual views of "
         "every camera and reconstructed in 3D (metres), then tracked and smoothed.",
@@ -124,17 +140,25 @@ def methods_section(s: SessionInfo) -> MethodsSection:
         "Loads, hand coupling and supports cannot be seen by the cameras: they are the assumptions listed for "
         "each worker.",
     )
-    settings = tuple(SettingRow(name=st.name, value=_fmt_setting(st.value),
-                                meaning=SETTING_MEANINGS.get(st.name, "see docs/scoring.md"))
-                     for st in s.settings)
+    settings = tuple(
+        SettingRow(
+            name=st.name, value=_fmt_setting(st.value), meaning=SETTING_MEANINGS.get(st.name, "see docs/scoring.md")
+        )
+        for st in s.settings
+    )
     cal = s.calibration
     if cal is None:
         cal_text = "No calibration information was stored."
     else:
-        cal_text = (f"Calibration file {cal.file} (SHA-256 {cal.sha256}) with cameras "
-                    f"{', '.join(cal.cameras)}.")
-    return MethodsSection(measured=measured, methods=s.methods, settings=settings, models=s.models,
-                          version=s.ergopose_version, calibration=cal_text)
+        cal_text = f"Calibration file {cal.file} (SHA-256 {cal.sha256}) with cameras {', '.join(cal.cameras)}."
+    return MethodsSection(
+        measured=measured,
+        methods=s.methods,
+        settings=settings,
+        models=s.models,
+        version=s.ergopose_version,
+        calibration=cal_text,
+    )
 
 
 def _count(n: int, what: str) -> str:
@@ -180,20 +204,37 @@ def headline(summary: WorkerSummary, method: MethodInfo) -> MethodHeadline:
     rows = []
     for lv in method.action_levels:
         t = secs.get(lv.level, 0.0)
-        rows.append(LevelRow(key=f"{method.name}-{lv.level}", level=lv.level, label=lv.label, wording=lv.wording,
-                             scores=f"{lv.low}" if lv.low == lv.high else f"{lv.low}-{lv.high}",
-                             time=fmt_duration(t), percent=fmt_percent(t, total), colour=colours[lv.level]))
+        rows.append(
+            LevelRow(
+                key=f"{method.name}-{lv.level}",
+                level=lv.level,
+                label=lv.label,
+                wording=lv.wording,
+                scores=f"{lv.low}" if lv.low == lv.high else f"{lv.low}-{lv.high}",
+                time=fmt_duration(t),
+                percent=fmt_percent(t, total),
+                colour=colours[lv.level],
+            )
+        )
     unscored = summary.unscored_s.get(method.name, 0.0)
     high = [lv for lv in method.action_levels if lv.level in HIGH_LEVELS[method.name]]
     risk = high_risk(method.name, total, secs, unscored)  # the terminal's and session_summary.csv's figures
     names = " or ".join(lv.label for lv in high)
-    key = (f"{format_percent(risk.pct_of_tracked)} of the tracked time ({fmt_duration(risk.high_s)}) at "
-           f"{METHOD_TITLES[method.name]} level {names}, {format_percent(risk.pct_of_scored)} of the scored time "
-           f"({fmt_duration(risk.scored_s)} scored, {fmt_duration(risk.unscored_s)} not scored): {high[0].wording}."
-           if high else "")
-    return MethodHeadline(method=METHOD_TITLES[method.name], title=method.title, levels=tuple(rows),
-                          unscored_time=fmt_duration(unscored), unscored_percent=fmt_percent(unscored, total),
-                          key_fact=key)
+    key = (
+        f"{format_percent(risk.pct_of_tracked)} of the tracked time ({fmt_duration(risk.high_s)}) at "
+        f"{METHOD_TITLES[method.name]} level {names}, {format_percent(risk.pct_of_scored)} of the scored time "
+        f"({fmt_duration(risk.scored_s)} scored, {fmt_duration(risk.unscored_s)} not scored): {high[0].wording}."
+        if high
+        else ""
+    )
+    return MethodHeadline(
+        method=METHOD_TITLES[method.name],
+        title=method.title,
+        levels=tuple(rows),
+        unscored_time=fmt_duration(unscored),
+        unscored_percent=fmt_percent(unscored, total),
+        key_fact=key,
+    )
 
 
 def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], str]:
@@ -201,19 +242,30 @@ def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], 
     total = summary.observed_s
     rows = []
     for c in summary.confidence:
-        causes = "; ".join(f"{ca.cause} {fmt_duration(ca.seconds)} ({fmt_percent(ca.seconds, total)})"
-                           for ca in c.causes)
-        rows.append(ConfidenceRow(key=c.level, level=CONFIDENCE_WORDS.get(c.level, c.level),
-                                  time=fmt_duration(c.seconds), percent=fmt_percent(c.seconds, total),
-                                  causes=causes or "-"))
+        causes = "; ".join(
+            f"{ca.cause} {fmt_duration(ca.seconds)} ({fmt_percent(ca.seconds, total)})" for ca in c.causes
+        )
+        rows.append(
+            ConfidenceRow(
+                key=c.level,
+                level=CONFIDENCE_WORDS.get(c.level, c.level),
+                time=fmt_duration(c.seconds),
+                percent=fmt_percent(c.seconds, total),
+                causes=causes or "-",
+            )
+        )
     if not rows:
-        return (), ("How sure each frame's scores are was not recorded with these results (written before "
-                    "ergopose measured it): shares below are of the tracked time, scored or not.")
-    note = ("Shares are of the tracked time. A frame is scored with confidence when both its RULA and its REBA "
-            "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
-            "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
-            "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
-            "uncertain for the score.")
+        return (), (
+            "How sure each frame's scores are was not recorded with these results (written before "
+            "ergopose measured it): shares below are of the tracked time, scored or not."
+        )
+    note = (
+        "Shares are of the tracked time. A frame is scored with confidence when both its RULA and its REBA "
+        "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
+        "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
+        "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
+        "uncertain for the score."
+    )
     return tuple(rows), note
 
 
@@ -225,28 +277,41 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
         share = 100.0 * i.inferred_s / i.known_s if i.known_s > 0 else float("nan")
         uncertain = math.isfinite(sd) and sd >= UNCERTAIN_SD_DEG
         inferred = math.isfinite(share) and share >= MOSTLY_INFERRED_PCT
-        verdict = ", ".join(w for w, on in (("mostly inferred", inferred), ("uncertain", uncertain)) if on) or "measured"
-        rows.append(InputRow(body_part=i.body_part, median_sd=f"{sd:.1f}°" if math.isfinite(sd) else "n/a",
-                             inferred=fmt_percent(i.inferred_s, i.known_s), verdict=verdict,
-                             concern=verdict != "measured",
-                             task_input=TASK_INPUTS.get(i.body_part, "none: measured only"),
-                             from_settings=_settings_words(i.from_settings)))
+        verdict = (
+            ", ".join(w for w, on in (("mostly inferred", inferred), ("uncertain", uncertain)) if on) or "measured"
+        )
+        rows.append(
+            InputRow(
+                body_part=i.body_part,
+                median_sd=f"{sd:.1f}°" if math.isfinite(sd) else "n/a",
+                inferred=fmt_percent(i.inferred_s, i.known_s),
+                verdict=verdict,
+                concern=verdict != "measured",
+                task_input=TASK_INPUTS.get(i.body_part, "none: measured only"),
+                from_settings=_settings_words(i.from_settings),
+            )
+        )
     if not rows:
         return (), ""
     weak = [r.body_part for r in rows if r.concern]
-    lead = (f"The scores of {', '.join(weak)} rest on inputs that were mostly inferred or uncertain: read those "
-            "body parts' bands and the scores they feed with care. " if weak else
-            "Every body part's inputs were mostly seen and measured with a small spread. ")
-    note = (lead + f"Median SD: the median over the shift of the standard deviation of the body part's angles "
-            f"(the largest of them in each frame); 'uncertain' from {UNCERTAIN_SD_DEG:g}° (posture bands are "
-            f"10-25° wide). Inferred: share of the tracked time in which its joints were placed by the body model, "
-            f"not seen by two cameras; 'mostly inferred' from {MOSTLY_INFERRED_PCT:g} %. Where the cameras cannot "
-            "settle an input, the session's settings.toml can give it as a task input (the keys in the column "
-            "'Task input in settings'; [defaults], [workers.ID] or [[periods]], docs/session-format.md). The wrist "
-            "angles given there (wrist_flexion_deg, wrist_deviation_deg) replace the measurement only in frames "
-            "where the angle could not be measured or the hand points were all placed by the body model; the last "
-            "column gives each value used and its share of the scored time, and the frames CSV names them per "
-            "frame (inputs_from_settings). The neck, trunk, arm and knee angles can only be measured.")
+    lead = (
+        f"The scores of {', '.join(weak)} rest on inputs that were mostly inferred or uncertain: read those "
+        "body parts' bands and the scores they feed with care. "
+        if weak
+        else "Every body part's inputs were mostly seen and measured with a small spread. "
+    )
+    note = (
+        lead + f"Median SD: the median over the shift of the standard deviation of the body part's angles "
+        f"(the largest of them in each frame); 'uncertain' from {UNCERTAIN_SD_DEG:g}° (posture bands are "
+        f"10-25° wide). Inferred: share of the tracked time in which its joints were placed by the body model, "
+        f"not seen by two cameras; 'mostly inferred' from {MOSTLY_INFERRED_PCT:g} %. Where the cameras cannot "
+        "settle an input, the session's settings.toml can give it as a task input (the keys in the column "
+        "'Task input in settings'; [defaults], [workers.ID] or [[periods]], docs/session-format.md). The wrist "
+        "angles given there (wrist_flexion_deg, wrist_deviation_deg) replace the measurement only in frames "
+        "where the angle could not be measured or the hand points were all placed by the body model; the last "
+        "column gives each value used and its share of the scored time, and the frames CSV names them per "
+        "frame (inputs_from_settings). The neck, trunk, arm and knee angles can only be measured."
+    )
     return tuple(rows), note
 
 
@@ -256,7 +321,9 @@ def _settings_words(values: Sequence) -> str:
     parts = []
     for v in values:
         angle = "flexion" if v.input.endswith("wrist_flexion") else "deviation"
-        parts.append(f"{angle} {math.degrees(v.value_rad):g}° in {fmt_percent(v.seconds, v.scored_s)} of the scored time")
+        parts.append(
+            f"{angle} {math.degrees(v.value_rad):g}° in {fmt_percent(v.seconds, v.scored_s)} of the scored time"
+        )
     return "; ".join(parts) or "none"
 
 
@@ -268,8 +335,14 @@ def level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, 
     for lv in method.action_levels:
         t = secs.get(lv.level, 0.0)
         short = lv.label if method.name == "rula" else str(lv.level)
-        segs.append(svg.Segment(t, colours[lv.level], short,
-                                f"{METHOD_TITLES[method.name]} level {lv.level} ({lv.label}): {fmt_duration(t)}"))
+        segs.append(
+            svg.Segment(
+                t,
+                colours[lv.level],
+                short,
+                f"{METHOD_TITLES[method.name]} level {lv.level} ({lv.label}): {fmt_duration(t)}",
+            )
+        )
     segs.append(svg.Segment(unscored, None, "", f"not scored: {fmt_duration(unscored)}"))
     return tuple(segs)
 
@@ -277,16 +350,28 @@ def level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, 
 def headline_figure(summary: WorkerSummary, session: SessionInfo, who: str) -> Figure:
     rows = []
     for m in session.methods:
-        rows.append(svg.StackRow(METHOD_TITLES[m.name], level_segments(level_seconds(summary, m.name),
-                                                                       summary.unscored_s.get(m.name, 0.0), m)))
-    fig = svg.stacked_bars(rows, title=f"Share of the tracked time at each action level, {who}",
-                           desc="Stacked bars, one per method; each segment is an action level, labelled with its "
-                                "name or number; hatched grey is time not scored. The table beside gives the numbers.",
-                           id_prefix="fig-headline", total=summary.observed_s, label_width=70,
-                           axis_label="share of the tracked time (%)")
-    return Figure(id="fig-headline", svg=fig,
-                  caption="Share of the tracked time at each action level (RULA AL1-AL4, REBA 0-4; hatched = not "
-                          "scored). Exact numbers are in the tables.")
+        rows.append(
+            svg.StackRow(
+                METHOD_TITLES[m.name],
+                level_segments(level_seconds(summary, m.name), summary.unscored_s.get(m.name, 0.0), m),
+            )
+        )
+    fig = svg.stacked_bars(
+        rows,
+        title=f"Share of the tracked time at each action level, {who}",
+        desc="Stacked bars, one per method; each segment is an action level, labelled with its "
+        "name or number; hatched grey is time not scored. The table beside gives the numbers.",
+        id_prefix="fig-headline",
+        total=summary.observed_s,
+        label_width=70,
+        axis_label="share of the tracked time (%)",
+    )
+    return Figure(
+        id="fig-headline",
+        svg=fig,
+        caption="Share of the tracked time at each action level (RULA AL1-AL4, REBA 0-4; hatched = not "
+        "scored). Exact numbers are in the tables.",
+    )
 
 
 def choose_bin(duration_s: float) -> float:
@@ -296,8 +381,9 @@ def choose_bin(duration_s: float) -> float:
     return float(BIN_CHOICES_S[-1])
 
 
-def binned_scores(time_s: np.ndarray, scores: pd.Series, duration_s: float, bin_s: float,
-                  max_score: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def binned_scores(
+    time_s: np.ndarray, scores: pd.Series, duration_s: float, bin_s: float, max_score: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per time bin: starts (s), worst score and (lower) median score (NaN where no score).
 
     Vectorised with one bincount over (bin, score): memory is bins x scores, not frames.
@@ -331,7 +417,9 @@ def _time_ticks(duration_s: float, clock: Clock) -> list[tuple[float, str]]:
     return [(t, clock(t, seconds=step < 60)) for t in ticks if 0 <= t <= duration_s]
 
 
-def timeline_figures(frames: pd.DataFrame, session: SessionInfo, who: str, clock: Clock) -> tuple[tuple[Figure, ...], str]:
+def timeline_figures(
+    frames: pd.DataFrame, session: SessionInfo, who: str, clock: Clock
+) -> tuple[tuple[Figure, ...], str]:
     bin_s = choose_bin(session.duration_s)
     t = frames["time_s"].to_numpy(dtype=np.float64)
     figs = []
@@ -339,29 +427,59 @@ def timeline_figures(frames: pd.DataFrame, session: SessionInfo, who: str, clock
         meth = session.method(m)
         starts, worst, med = binned_scores(t, frames[col], session.duration_s, bin_s, meth.score_high)
         colours = level_colours(meth)
-        bands = [svg.Band(lv.low - 0.5, lv.high + 0.5, colours[lv.level],
-                          f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}") for lv in meth.action_levels]
+        bands = [
+            svg.Band(
+                lv.low - 0.5,
+                lv.high + 0.5,
+                colours[lv.level],
+                f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}",
+            )
+            for lv in meth.action_levels
+        ]
         fig = svg.score_timeline(
-            starts, bin_s, worst, med, bands, y_min=meth.score_low - 0.5, y_max=meth.score_high + 0.5,
+            starts,
+            bin_s,
+            worst,
+            med,
+            bands,
+            y_min=meth.score_low - 0.5,
+            y_max=meth.score_high + 0.5,
             x_ticks=_time_ticks(session.duration_s, clock),
             title=f"{METHOD_TITLES[m]} score over the shift, {who}",
             desc=f"For each {fmt_duration(bin_s)} of the shift, a bar up to the worst {METHOD_TITLES[m]} score in it, "
-                 "coloured by its action level, and a black step line at the median score; the action levels are "
-                 "named at the right. Hatched marks under the axis: not tracked or not scored.",
-            id_prefix=f"fig-timeline-{m}", y_label=f"{METHOD_TITLES[m]} score")
-        figs.append(Figure(id=f"fig-timeline-{m}", svg=fig,
-                           caption=f"{METHOD_TITLES[m]} over the shift: bars = worst score in each {fmt_duration(bin_s)} "
-                                   "(colour and height = action level), black line = median score."))
-    note = (f"Each point of the timelines summarises {fmt_duration(bin_s)} of the shift ({len(starts)} periods); "
-            "all other numbers on this page come from every frame.")
+            "coloured by its action level, and a black step line at the median score; the action levels are "
+            "named at the right. Hatched marks under the axis: not tracked or not scored.",
+            id_prefix=f"fig-timeline-{m}",
+            y_label=f"{METHOD_TITLES[m]} score",
+        )
+        figs.append(
+            Figure(
+                id=f"fig-timeline-{m}",
+                svg=fig,
+                caption=f"{METHOD_TITLES[m]} over the shift: bars = worst score in each {fmt_duration(bin_s)} "
+                "(colour and height = action level), black line = median score.",
+            )
+        )
+    note = (
+        f"Each point of the timelines summarises {fmt_duration(bin_s)} of the shift ({len(starts)} periods); "
+        "all other numbers on this page come from every frame."
+    )
     return tuple(figs), note
 
 
 def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, ...], tuple[BandRow, ...]]:
     total = summary.observed_s
-    rows = tuple(BandRow(method=METHOD_TITLES.get(b.method, b.method), body_part=b.body_part, score=b.score,
-                         criterion=b.criterion, time=fmt_duration(b.seconds), percent=fmt_percent(b.seconds, total))
-                 for b in summary.body_parts)
+    rows = tuple(
+        BandRow(
+            method=METHOD_TITLES.get(b.method, b.method),
+            body_part=b.body_part,
+            score=b.score,
+            criterion=b.criterion,
+            time=fmt_duration(b.seconds),
+            percent=fmt_percent(b.seconds, total),
+        )
+        for b in summary.body_parts
+    )
     figs = []
     for m in ("rula", "reba"):
         parts: dict[str, list] = {}
@@ -373,24 +491,42 @@ def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, .
         stack = []
         for part, bands in parts.items():
             bands = sorted(bands, key=lambda b: b.score)
-            segs = [svg.Segment(b.seconds, band_colour(b.score), str(b.score),
-                                f"{part}, score {b.score} ({b.criterion}): {fmt_duration(b.seconds)}") for b in bands]
+            segs = [
+                svg.Segment(
+                    b.seconds,
+                    band_colour(b.score),
+                    str(b.score),
+                    f"{part}, score {b.score} ({b.criterion}): {fmt_duration(b.seconds)}",
+                )
+                for b in bands
+            ]
             rest = max(total - sum(b.seconds for b in bands), 0.0)
             segs.append(svg.Segment(rest, None, "", f"{part} not measured: {fmt_duration(rest)}"))
             stack.append(svg.StackRow(part, tuple(segs)))
-        fig = svg.stacked_bars(stack, title=f"Time per posture band of each body part ({METHOD_TITLES[m]}), {who}",
-                               desc="One bar per body part; each segment is a posture band, labelled with its band "
-                                    "score (1 = best). Hatched grey: the angle was not measured. Numbers in the table.",
-                               id_prefix=f"fig-parts-{m}", total=total if total > 0 else None,
-                               axis_label="share of the tracked time (%)", hatch_label="angle not measured")
-        figs.append(Figure(id=f"fig-parts-{m}", svg=fig,
-                           caption=f"{METHOD_TITLES[m]} posture bands per body part (number = band score, higher is "
-                                   "worse), as a share of the tracked time."))
+        fig = svg.stacked_bars(
+            stack,
+            title=f"Time per posture band of each body part ({METHOD_TITLES[m]}), {who}",
+            desc="One bar per body part; each segment is a posture band, labelled with its band "
+            "score (1 = best). Hatched grey: the angle was not measured. Numbers in the table.",
+            id_prefix=f"fig-parts-{m}",
+            total=total if total > 0 else None,
+            axis_label="share of the tracked time (%)",
+            hatch_label="angle not measured",
+        )
+        figs.append(
+            Figure(
+                id=f"fig-parts-{m}",
+                svg=fig,
+                caption=f"{METHOD_TITLES[m]} posture bands per body part (number = band score, higher is "
+                "worse), as a share of the tracked time.",
+            )
+        )
     return tuple(figs), rows
 
 
-def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock,
-                  limit: int = MAX_PERIODS, prefix: str = "") -> tuple[MomentCard, ...]:
+def worst_moments(
+    summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock, limit: int = MAX_PERIODS, prefix: str = ""
+) -> tuple[MomentCard, ...]:
     """The sustained periods of high risk of a worker as cards (ranked as stored); prefix: of the
     figures' ids (unique when several workers share a page)."""
     cards = []
@@ -411,28 +547,60 @@ def worst_moments(summary: WorkerSummary, session: SessionInfo, who: str, clock:
             joints = np.full((33, 3), np.nan)
         else:
             joints = np.asarray(w.joints_world_m, dtype=np.float64)
-        fig = svg.skeleton_views(joints, title=f"Posture of {who} at {clock(w.peak_s)}",
-                                 desc=f"Front and side view of the 3D skeleton at {clock(w.peak_s)}: {w.reason}. "
-                                      "Left limbs solid blue, right limbs dashed red; L and R mark the wrists.",
-                                 id_prefix=f"{prefix}fig-moment-{k}")
+        fig = svg.skeleton_views(
+            joints,
+            title=f"Posture of {who} at {clock(w.peak_s)}",
+            desc=f"Front and side view of the 3D skeleton at {clock(w.peak_s)}: {w.reason}. "
+            "Left limbs solid blue, right limbs dashed red; L and R mark the wrists.",
+            id_prefix=f"{prefix}fig-moment-{k}",
+        )
         length = w.end_s - w.start_s
-        high = (f"{fmt_duration(w.high_s)} ({fmt_percent(w.high_s, length)})" if math.isfinite(w.high_s)
-                else "not recorded")
-        drivers = tuple(DriverRow(body_part=d.body_part, band=f"{d.score} of {d.top}", criterion=d.criterion,
-                                  time=fmt_duration(d.seconds), percent=fmt_percent(d.seconds, w.high_s))
-                        for d in w.drivers)
+        high = (
+            f"{fmt_duration(w.high_s)} ({fmt_percent(w.high_s, length)})" if math.isfinite(w.high_s) else "not recorded"
+        )
+        drivers = tuple(
+            DriverRow(
+                body_part=d.body_part,
+                band=f"{d.score} of {d.top}",
+                criterion=d.criterion,
+                time=fmt_duration(d.seconds),
+                percent=fmt_percent(d.seconds, w.high_s),
+            )
+            for d in w.drivers
+        )
         base = w.high_s if math.isfinite(w.high_s) else length
-        inputs = tuple(PeriodInputRow(input=i.input, source=i.source, value=i.value,
-                                      time=f"{fmt_duration(i.seconds)} ({fmt_percent(i.seconds, base)})", use=i.use)
-                       for i in w.inputs)
-        cards.append(MomentCard(
-            rank=k, start=clock(w.start_s), end=clock(w.end_s), duration=fmt_duration(length), high_time=high,
-            when=clock(w.peak_s), rula=words(w.rula_grand, w.rula_level, w.rula_peak, rula),
-            reba=words(w.reba_score, w.reba_level, w.reba_peak, reba), drivers=drivers, reason=w.reason,
-            task_inputs=task_inputs_line(w.inputs, base), inputs=inputs,
-            figure=Figure(id=f"{prefix}fig-moment-{k}", svg=fig,
-                          caption=f"Period {k} at {clock(w.peak_s)}: front view (worker's right on the left) and side "
-                                  "view (seen from the worker's right). No video images are kept.")))
+        inputs = tuple(
+            PeriodInputRow(
+                input=i.input,
+                source=i.source,
+                value=i.value,
+                time=f"{fmt_duration(i.seconds)} ({fmt_percent(i.seconds, base)})",
+                use=i.use,
+            )
+            for i in w.inputs
+        )
+        cards.append(
+            MomentCard(
+                rank=k,
+                start=clock(w.start_s),
+                end=clock(w.end_s),
+                duration=fmt_duration(length),
+                high_time=high,
+                when=clock(w.peak_s),
+                rula=words(w.rula_grand, w.rula_level, w.rula_peak, rula),
+                reba=words(w.reba_score, w.reba_level, w.reba_peak, reba),
+                drivers=drivers,
+                reason=w.reason,
+                task_inputs=task_inputs_line(w.inputs, base),
+                inputs=inputs,
+                figure=Figure(
+                    id=f"{prefix}fig-moment-{k}",
+                    svg=fig,
+                    caption=f"Period {k} at {clock(w.peak_s)}: front view (worker's right on the left) and side "
+                    "view (seen from the worker's right). No video images are kept.",
+                ),
+            )
+        )
     return tuple(cards)
 
 
@@ -457,12 +625,16 @@ def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIO
     drove most of them (summed over the periods), in a sentence."""
     frames: pd.DataFrame = res.frames
     shown = res.summary.worst[:limit]
-    high = periods.high_frames(frames["rula_action_level"].to_numpy(dtype=np.float64, na_value=np.nan),
-                               frames["reba_risk_level"].to_numpy(dtype=np.float64, na_value=np.nan))
+    high = periods.high_frames(
+        frames["rula_action_level"].to_numpy(dtype=np.float64, na_value=np.nan),
+        frames["reba_risk_level"].to_numpy(dtype=np.float64, na_value=np.nan),
+    )
     high_s = float(high.sum()) / session.fps
     if not shown:
-        return (f"No sustained period of high risk: {fmt_duration(high_s)} at high risk in all, in stretches "
-                f"shorter than {periods.MIN_DURATION_S:g} s.")
+        return (
+            f"No sustained period of high risk: {fmt_duration(high_s)} at high risk in all, in stretches "
+            f"shorter than {periods.MIN_DURATION_S:g} s."
+        )
     if not all(math.isfinite(w.high_s) for w in shown):
         return f"{len(shown)} periods of high risk (results written before sustained periods were found)."
     in_periods = sum(w.high_s for w in shown)
@@ -471,31 +643,41 @@ def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIO
         for d in w.drivers:
             parts.setdefault((d.body_part, d.criterion, d.score, d.top), []).append(d.seconds)
     ranked = sorted(parts.items(), key=lambda kv: (-sum(kv[1]), kv[0]))[:3]
-    drivers = "; ".join(f"{bp} {crit} (band {sc} of {top}) for {fmt_duration(sum(v))} in {len(v)} of them"
-                        for (bp, crit, sc, top), v in ranked)
+    drivers = "; ".join(
+        f"{bp} {crit} (band {sc} of {top}) for {fmt_duration(sum(v))} in {len(v)} of them"
+        for (bp, crit, sc, top), v in ranked
+    )
     n = len(shown)
-    return (f"The {n} sustained period{'s' if n != 1 else ''} shown hold {fmt_duration(in_periods)} of the worker's "
-            f"{fmt_duration(high_s)} at high risk ({fmt_percent(in_periods, high_s)})."
-            + (f" Body parts in a high band in them: {drivers}." if drivers else ""))
+    return (
+        f"The {n} sustained period{'s' if n != 1 else ''} shown hold {fmt_duration(in_periods)} of the worker's "
+        f"{fmt_duration(high_s)} at high risk ({fmt_percent(in_periods, high_s)})."
+        + (f" Body parts in a high band in them: {drivers}." if drivers else "")
+    )
 
 
 def worst_note(session: SessionInfo) -> str:
     """The rule of the sustained periods, in words."""
     rula, reba = session.method("rula"), session.method("reba")
-    hi = {m.name: " or ".join(lv.label for lv in m.action_levels if lv.level in periods.HIGH_LEVELS[m.name])
-          for m in (rula, reba)}
-    return (f"A sustained period of high risk is a stretch of frames at RULA {hi['rula']} or REBA {hi['reba']}, "
-            f"joined across gaps of at most {periods.MAX_GAP_S:g} s (lower scores, not scored or not tracked), "
-            f"lasting at least {periods.MIN_DURATION_S:g} s from its first to its last high-risk frame: one-frame "
-            f"spikes are left out. Periods are ranked by their time at high risk; at most {periods.MAX_PERIODS} are "
-            "shown. Each is drawn at the middle of the posture (the RULA and REBA scores) held longest in it. Body "
-            f"parts: those in one of their two highest RULA posture bands for at least "
-            f"{100 * DRIVER_SHARE:.0f} % of the period's high-risk time (band 3 of 4 = the third of four bands).")
+    hi = {
+        m.name: " or ".join(lv.label for lv in m.action_levels if lv.level in periods.HIGH_LEVELS[m.name])
+        for m in (rula, reba)
+    }
+    return (
+        f"A sustained period of high risk is a stretch of frames at RULA {hi['rula']} or REBA {hi['reba']}, "
+        f"joined across gaps of at most {periods.MAX_GAP_S:g} s (lower scores, not scored or not tracked), "
+        f"lasting at least {periods.MIN_DURATION_S:g} s from its first to its last high-risk frame: one-frame "
+        f"spikes are left out. Periods are ranked by their time at high risk; at most {periods.MAX_PERIODS} are "
+        "shown. Each is drawn at the middle of the posture (the RULA and REBA scores) held longest in it. Body "
+        f"parts: those in one of their two highest RULA posture bands for at least "
+        f"{100 * DRIVER_SHARE:.0f} % of the period's high-risk time (band 3 of 4 = the third of four bands)."
+    )
 
 
 #: Risk categories of the timelines (high, medium, low), per method: the levels in each.
-RISK_LEVELS = {"rula": {"high": (3, 4), "medium": (2,), "low": (1,)},
-               "reba": {"high": (3, 4), "medium": (2,), "low": (0, 1)}}
+RISK_LEVELS = {
+    "rula": {"high": (3, 4), "medium": (2,), "low": (1,)},
+    "reba": {"high": (3, 4), "medium": (2,), "low": (0, 1)},
+}
 RISK_ORDER = ("high", "medium", "low")
 NOT_SCORED = len(RISK_ORDER)
 
@@ -536,46 +718,84 @@ def risk_legend(session: SessionInfo) -> tuple[str, ...]:
     return (*out, "not scored", "not tracked")
 
 
-def risk_figure(rows: Sequence[tuple[str, pd.DataFrame, str | None]], session: SessionInfo, clock: Clock, *,
-                fig_id: str, title: str, marks: Sequence[tuple[float, float, str]] = (),
-                label_width: float = 60) -> Figure:
+def risk_figure(
+    rows: Sequence[tuple[str, pd.DataFrame, str | None]],
+    session: SessionInfo,
+    clock: Clock,
+    *,
+    fig_id: str,
+    title: str,
+    marks: Sequence[tuple[float, float, str]] = (),
+    label_width: float = 60,
+) -> Figure:
     """The shift by time of day: a strip per (label, frames, method or None for either)."""
     bin_s = choose_bin(session.duration_s)
-    strips = [svg.StripRow(label, risk_shares(f["time_s"].to_numpy(dtype=np.float64), risk_codes(f, m),
-                                              session.duration_s, bin_s, session.fps))
-              for label, f, m in rows]
+    strips = [
+        svg.StripRow(
+            label,
+            risk_shares(
+                f["time_s"].to_numpy(dtype=np.float64), risk_codes(f, m), session.duration_s, bin_s, session.fps
+            ),
+        )
+        for label, f, m in rows
+    ]
     legend = risk_legend(session)
-    fig = svg.risk_strips(strips, bin_s, x_ticks=_time_ticks(session.duration_s, clock), title=title,
-                          desc=f"Time runs left to right ({'clock time' if clock.known else 'time from the start'}); "
-                               f"each {fmt_duration(bin_s)} column is split by the share of it at "
-                               + "; ".join(legend) + ". Numbered brackets mark the sustained periods of high risk.",
-                          id_prefix=fig_id, legend=legend, marks=marks, label_width=label_width)
-    return Figure(id=fig_id, svg=fig,
-                  caption=f"The shift by time of day, in {fmt_duration(bin_s)} columns: red = high, yellow = medium, "
-                          "green = low risk, hatched = tracked but not scored, white = not tracked"
-                          + ("; numbered brackets = the sustained periods of high risk." if marks else "."))
+    fig = svg.risk_strips(
+        strips,
+        bin_s,
+        x_ticks=_time_ticks(session.duration_s, clock),
+        title=title,
+        desc=f"Time runs left to right ({'clock time' if clock.known else 'time from the start'}); "
+        f"each {fmt_duration(bin_s)} column is split by the share of it at "
+        + "; ".join(legend)
+        + ". Numbered brackets mark the sustained periods of high risk.",
+        id_prefix=fig_id,
+        legend=legend,
+        marks=marks,
+        label_width=label_width,
+    )
+    return Figure(
+        id=fig_id,
+        svg=fig,
+        caption=f"The shift by time of day, in {fmt_duration(bin_s)} columns: red = high, yellow = medium, "
+        "green = low risk, hatched = tracked but not scored, white = not tracked"
+        + ("; numbered brackets = the sustained periods of high risk." if marks else "."),
+    )
 
 
 def glossary(session: SessionInfo) -> tuple[Term, ...]:
     """Every abbreviation and coded word the pages use, with its meaning."""
     rula, reba = session.method("rula"), session.method("reba")
-    terms = [Term("RULA", f"{rula.title}: final (grand) score {rula.score_low}-{rula.score_high}"),
-             Term("REBA", f"{reba.title}: final score {reba.score_low}-{reba.score_high}")]
-    terms += [Term(f"RULA {lv.label}", f"action level {lv.level}, scores {lv.low}-{lv.high}: {lv.wording}")
-              for lv in rula.action_levels]
-    terms += [Term(f"REBA {lv.level} {lv.label}", f"risk level {lv.level}, scores {lv.low}-{lv.high}: {lv.wording}")
-              for lv in reba.action_levels]
+    terms = [
+        Term("RULA", f"{rula.title}: final (grand) score {rula.score_low}-{rula.score_high}"),
+        Term("REBA", f"{reba.title}: final score {reba.score_low}-{reba.score_high}"),
+    ]
+    terms += [
+        Term(f"RULA {lv.label}", f"action level {lv.level}, scores {lv.low}-{lv.high}: {lv.wording}")
+        for lv in rula.action_levels
+    ]
+    terms += [
+        Term(f"REBA {lv.level} {lv.label}", f"risk level {lv.level}, scores {lv.low}-{lv.high}: {lv.wording}")
+        for lv in reba.action_levels
+    ]
     terms += [
         Term("high, medium, low", "; ".join(risk_legend(session)[:3])),
-        Term("not scored", "the worker was tracked but a score could not be given (joints the score needs were "
-                           "missing or too uncertain)"),
+        Term(
+            "not scored",
+            "the worker was tracked but a score could not be given (joints the score needs were "
+            "missing or too uncertain)",
+        ),
         Term("not tracked", "the worker was not found in the frames (out of view, or away)"),
-        Term("band", "the posture band of a body part on the RULA/REBA worksheet (1 = best); '3 of 4' = the "
-                     "third of its four bands"),
+        Term(
+            "band",
+            "the posture band of a body part on the RULA/REBA worksheet (1 = best); '3 of 4' = the "
+            "third of its four bands",
+        ),
         Term("n/a", "not applicable: nothing to take a share of (no time of that kind)"),
         Term("SD", "standard deviation"),
-        Term("ISO 11226, EN 1005-4", "standards for static working postures and for postures and movements at "
-                                     "machinery"),
+        Term(
+            "ISO 11226, EN 1005-4", "standards for static working postures and for postures and movements at machinery"
+        ),
         Term("°, deg", "degrees of angle"),
     ]
     return tuple(terms)
@@ -587,11 +807,12 @@ PRINT_PERIODS = 6
 
 
 def print_link() -> Link:
-    return Link(href=PRINT_FILE, text="Print version (one summary page, then at most two pages per worker)",
-                note="")
+    return Link(href=PRINT_FILE, text="Print version (one summary page, then at most two pages per worker)", note="")
 
 
-def hourly_section(summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock) -> tuple[tuple[Figure, ...], tuple[HourTable, ...]]:
+def hourly_section(
+    summary: WorkerSummary, session: SessionInfo, who: str, clock: Clock
+) -> tuple[tuple[Figure, ...], tuple[HourTable, ...]]:
     figs, tables = [], []
     for m in ("rula", "reba"):
         meth = session.method(m)
@@ -602,20 +823,36 @@ def hourly_section(summary: WorkerSummary, session: SessionInfo, who: str, clock
         for h in hours:
             secs = {lt.level: lt.seconds for lt in h.levels}
             label = f"{clock(max(h.start_s, 0.0), seconds=False)}"
-            segs = tuple(svg.Segment(s.value / 60.0, s.colour, s.short, s.long)
-                         for s in level_segments(secs, h.unscored_s, meth))
+            segs = tuple(
+                svg.Segment(s.value / 60.0, s.colour, s.short, s.long) for s in level_segments(secs, h.unscored_s, meth)
+            )
             cols.append(svg.StackColumn(label, segs))
             end = min(h.start_s + 3600.0, session.duration_s)
-            rows.append(HourRow(hour=f"{clock(max(h.start_s, 0.0), seconds=False)}-{clock(end, seconds=False)}",
-                                tracked=fmt_duration(h.observed_s),
-                                cells=tuple(_hour_cell(secs.get(lv.level, 0.0)) for lv in meth.action_levels)
-                                + (_hour_cell(h.unscored_s),)))
-        fig = svg.stacked_columns(cols, title=f"{METHOD_TITLES[m]} action levels per hour, {who}",
-                                  desc="One column per hour; segments are minutes at each action level (labelled), "
-                                       "hatched grey is time not scored. The table below gives the minutes.",
-                                  id_prefix=f"fig-hourly-{m}", y_max=60, y_label="minutes", y_ticks=(0, 15, 30, 45, 60))
-        figs.append(Figure(id=f"fig-hourly-{m}", svg=fig,
-                           caption=f"Minutes per hour at each {METHOD_TITLES[m]} action level (hatched = not scored)."))
+            rows.append(
+                HourRow(
+                    hour=f"{clock(max(h.start_s, 0.0), seconds=False)}-{clock(end, seconds=False)}",
+                    tracked=fmt_duration(h.observed_s),
+                    cells=tuple(_hour_cell(secs.get(lv.level, 0.0)) for lv in meth.action_levels)
+                    + (_hour_cell(h.unscored_s),),
+                )
+            )
+        fig = svg.stacked_columns(
+            cols,
+            title=f"{METHOD_TITLES[m]} action levels per hour, {who}",
+            desc="One column per hour; segments are minutes at each action level (labelled), "
+            "hatched grey is time not scored. The table below gives the minutes.",
+            id_prefix=f"fig-hourly-{m}",
+            y_max=60,
+            y_label="minutes",
+            y_ticks=(0, 15, 30, 45, 60),
+        )
+        figs.append(
+            Figure(
+                id=f"fig-hourly-{m}",
+                svg=fig,
+                caption=f"Minutes per hour at each {METHOD_TITLES[m]} action level (hatched = not scored).",
+            )
+        )
         columns = tuple(f"{lv.label}" if m == "rula" else f"{lv.level} {lv.label}" for lv in meth.action_levels)
         tables.append(HourTable(method=METHOD_TITLES[m], columns=columns + ("not scored",), rows=tuple(rows)))
     return tuple(figs), tuple(tables)
@@ -647,49 +884,85 @@ def floor_section(frames: pd.DataFrame, session: SessionInfo, who: str) -> tuple
         names = " or ".join(x.label for x in meth.action_levels if x.level in HIGH_LEVELS[m])
         secs = grid * dt
         unit, scale = ("minutes", 60.0) if secs.size and float(secs.max()) >= 120.0 else ("seconds", 1.0)
-        fig = svg.heat_map(secs / scale, (fp.x_min, fp.x_max, fp.y_min, fp.y_max),
-                           title=f"Where {who} worked at {METHOD_TITLES[m]} level {names}",
-                           desc=f"Floor plan of the {fp.x_max - fp.x_min:g} x {fp.y_max - fp.y_min:g} m area seen from "
-                                f"above, in {fp.cell_m:g} m squares; darker squares = more {unit} at {METHOD_TITLES[m]} "
-                                f"level {names} (legend at the right); light grey = present but not at that level; "
-                                "blue outlines = furniture, diamonds = cameras.",
-                           id_prefix=f"fig-floor-{m}", unit=unit, outlines=outlines, markers=markers,
-                           presence=presence)
-        figs.append(Figure(id=f"fig-floor-{m}", svg=fig,
-                           caption=f"{unit.capitalize()} at {METHOD_TITLES[m]} level {names} per {fp.cell_m:g} m square of floor "
-                                   "(seen from above; position = middle of the hips)."))
+        fig = svg.heat_map(
+            secs / scale,
+            (fp.x_min, fp.x_max, fp.y_min, fp.y_max),
+            title=f"Where {who} worked at {METHOD_TITLES[m]} level {names}",
+            desc=f"Floor plan of the {fp.x_max - fp.x_min:g} x {fp.y_max - fp.y_min:g} m area seen from "
+            f"above, in {fp.cell_m:g} m squares; darker squares = more {unit} at {METHOD_TITLES[m]} "
+            f"level {names} (legend at the right); light grey = present but not at that level; "
+            "blue outlines = furniture, diamonds = cameras.",
+            id_prefix=f"fig-floor-{m}",
+            unit=unit,
+            outlines=outlines,
+            markers=markers,
+            presence=presence,
+        )
+        figs.append(
+            Figure(
+                id=f"fig-floor-{m}",
+                svg=fig,
+                caption=f"{unit.capitalize()} at {METHOD_TITLES[m]} level {names} per {fp.cell_m:g} m square of floor "
+                "(seen from above; position = middle of the hips).",
+            )
+        )
     located = float(ok.sum()) * dt
-    note = (f"The worker's floor position was known for {fmt_duration(located)} of the tracked time. "
-            + ("Furniture outlines come from the session's floor plan." if fp.furniture else
-               "No furniture layout was given for this session."))
+    note = f"The worker's floor position was known for {fmt_duration(located)} of the tracked time. " + (
+        "Furniture outlines come from the session's floor plan."
+        if fp.furniture
+        else "No furniture layout was given for this session."
+    )
     return tuple(figs), note
 
 
 def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> QualitySection:
     d = res.diagnostics
     verdict = quality_verdict(d, session.calibration)
-    reliable = (f"The skeleton was reliable for {fmt_percent(d.frames_reliable, d.frames_observed)} of the tracked "
-                f"time ({fmt_duration(d.frames_reliable / session.fps)} of {fmt_duration(d.frames_observed / session.fps)}"
-                f"), that is {fmt_percent(d.frames_reliable, session.frames)} of the whole session. Rule: "
-                f"{d.reliable_rule}.")
+    reliable = (
+        f"The skeleton was reliable for {fmt_percent(d.frames_reliable, d.frames_observed)} of the tracked "
+        f"time ({fmt_duration(d.frames_reliable / session.fps)} of {fmt_duration(d.frames_observed / session.fps)}"
+        f"), that is {fmt_percent(d.frames_reliable, session.frames)} of the whole session. Rule: "
+        f"{d.reliable_rule}."
+    )
     order = [name for name, _, _ in LIMBS]
-    stats = sorted((s for s in d.limb_lengths if s.region == "all"),
-                   key=lambda s: order.index(s.limb) if s.limb in order else len(order))
+    stats = sorted(
+        (s for s in d.limb_lengths if s.region == "all"),
+        key=lambda s: order.index(s.limb) if s.limb in order else len(order),
+    )
     by_region = {(s.limb, s.region): s for s in d.limb_lengths}
     region_spread = tuple(
-        RegionSpreadRow(limb=s.limb.replace("_", " "),
-                        cells=tuple(_spread(by_region.get((s.limb, reg))) for reg in ("central", "outer", "edge")))
-        for s in stats)
-    boxes = [svg.BoxRow(s.limb.replace("_", " "), 100 * s.p5_m, 100 * s.q1_m, 100 * s.median_m, 100 * s.q3_m,
-                        100 * s.p95_m, s.n) for s in stats]
-    limb_fig = svg.box_plots(boxes, title=f"3D limb lengths over the shift, {who}",
-                             desc="Box plots per limb: box = middle half of the measured lengths, thick line = median, "
-                                  "whiskers = 5th to 95th percentile, in centimetres. A real limb does not change "
-                                  "length, so a wide box means noisy measurement. Numbers in the table below.",
-                             id_prefix="fig-limbs", unit="length (cm)")
-    rows = tuple(LimbRow(limb=s.limb.replace("_", " "), n=f"{s.n:,}", median=_cm(s.median_m),
-                         iqr=f"{_cm(s.q1_m)} to {_cm(s.q3_m)}", whiskers=f"{_cm(s.p5_m)} to {_cm(s.p95_m)}",
-                         mean_sd=f"{_cm(s.mean_m)} ± {_cm(s.std_m)}" if s.n >= 2 else _cm(s.mean_m)) for s in stats)
+        RegionSpreadRow(
+            limb=s.limb.replace("_", " "),
+            cells=tuple(_spread(by_region.get((s.limb, reg))) for reg in ("central", "outer", "edge")),
+        )
+        for s in stats
+    )
+    boxes = [
+        svg.BoxRow(
+            s.limb.replace("_", " "), 100 * s.p5_m, 100 * s.q1_m, 100 * s.median_m, 100 * s.q3_m, 100 * s.p95_m, s.n
+        )
+        for s in stats
+    ]
+    limb_fig = svg.box_plots(
+        boxes,
+        title=f"3D limb lengths over the shift, {who}",
+        desc="Box plots per limb: box = middle half of the measured lengths, thick line = median, "
+        "whiskers = 5th to 95th percentile, in centimetres. A real limb does not change "
+        "length, so a wide box means noisy measurement. Numbers in the table below.",
+        id_prefix="fig-limbs",
+        unit="length (cm)",
+    )
+    rows = tuple(
+        LimbRow(
+            limb=s.limb.replace("_", " "),
+            n=f"{s.n:,}",
+            median=_cm(s.median_m),
+            iqr=f"{_cm(s.q1_m)} to {_cm(s.q3_m)}",
+            whiskers=f"{_cm(s.p5_m)} to {_cm(s.p95_m)}",
+            mean_sd=f"{_cm(s.mean_m)} ± {_cm(s.std_m)}" if s.n >= 2 else _cm(s.mean_m),
+        )
+        for s in stats
+    )
     # reconstruction frequency: one panel per region
     freq = {(r.limb, r.region): r for r in d.reconstruction}
     limbs = [n for n in order if any((n, reg) in freq for reg in ("all", "central", "outer", "edge"))]
@@ -700,34 +973,61 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
             r = freq.get((limb, reg))
             vals.append(100.0 * r.reconstructed / r.frames if r is not None and r.frames > 0 else float("nan"))
         panels.append((REGION_NAMES[reg], vals))
-    freq_fig = svg.bar_panels([n.replace("_", " ") for n in limbs], panels,
-                              title=f"Reconstruction frequency per limb and lens region, {who}",
-                              desc="Per limb, the percentage of tracked frames in which the limb was reconstructed in "
-                                   "3D: whole field of view, then the central, outer and edge regions of the lenses. "
-                                   "Each bar is labelled with its percentage; 'no data' = never in that region.",
-                              id_prefix="fig-frequency")
+    freq_fig = svg.bar_panels(
+        [n.replace("_", " ") for n in limbs],
+        panels,
+        title=f"Reconstruction frequency per limb and lens region, {who}",
+        desc="Per limb, the percentage of tracked frames in which the limb was reconstructed in "
+        "3D: whole field of view, then the central, outer and edge regions of the lenses. "
+        "Each bar is labelled with its percentage; 'no data' = never in that region.",
+        id_prefix="fig-frequency",
+    )
     total_frames = sum(d.region_frames.values())
     regions = []
     for reg in ("central", "outer", "edge"):
         nfr = d.region_frames.get(reg, 0)
         fr = [freq[(limb, reg)] for limb in SCORED_LIMBS if (limb, reg) in freq and freq[(limb, reg)].frames > 0]
-        rec = (f"{100 * float(np.median([r.reconstructed / r.frames for r in fr])):.1f} %" if fr else "n/a")
-        regions.append(RegionRow(region=REGION_NAMES[reg], time=fmt_duration(nfr / session.fps),
-                                 percent=fmt_percent(nfr, total_frames), reconstruction=rec))
+        rec = f"{100 * float(np.median([r.reconstructed / r.frames for r in fr])):.1f} %" if fr else "n/a"
+        regions.append(
+            RegionRow(
+                region=REGION_NAMES[reg],
+                time=fmt_duration(nfr / session.fps),
+                percent=fmt_percent(nfr, total_frames),
+                reconstruction=rec,
+            )
+        )
     cal_rows, cal_note = calibration_rows(session)
     inputs, inputs_note = input_rows(res.summary)
-    err = (f"Against ground truth, the median 3D joint error was {100 * d.error_3d_m:.1f} cm."
-           if math.isfinite(d.error_3d_m) else "")
+    err = (
+        f"Against ground truth, the median 3D joint error was {100 * d.error_3d_m:.1f} cm."
+        if math.isfinite(d.error_3d_m)
+        else ""
+    )
     return QualitySection(
-        verdict=verdict, verdict_label=RATING_LABELS[verdict.rating], reliable=reliable,
-        limb_figure=Figure(id="fig-limbs", svg=limb_fig,
-                           caption="Limb lengths (cm): box = middle half, line = median, whiskers = 5th-95th percentile."),
+        verdict=verdict,
+        verdict_label=RATING_LABELS[verdict.rating],
+        reliable=reliable,
+        limb_figure=Figure(
+            id="fig-limbs",
+            svg=limb_fig,
+            caption="Limb lengths (cm): box = middle half, line = median, whiskers = 5th-95th percentile.",
+        ),
         limb_rows=rows,
-        frequency_figure=Figure(id="fig-frequency", svg=freq_fig,
-                                caption="Share of tracked frames (%) in which each limb was reconstructed, overall and "
-                                        "per lens region (central, outer, edge)."),
-        region_spread=region_spread, regions=tuple(regions), calibration_rows=cal_rows, calibration_note=cal_note,
-        error_3d=err, video=skipped_sentence(session), inputs=inputs, inputs_note=inputs_note)
+        frequency_figure=Figure(
+            id="fig-frequency",
+            svg=freq_fig,
+            caption="Share of tracked frames (%) in which each limb was reconstructed, overall and "
+            "per lens region (central, outer, edge).",
+        ),
+        region_spread=region_spread,
+        regions=tuple(regions),
+        calibration_rows=cal_rows,
+        calibration_note=cal_note,
+        error_3d=err,
+        video=skipped_sentence(session),
+        inputs=inputs,
+        inputs_note=inputs_note,
+    )
 
 
 def skipped_sentence(session: SessionInfo) -> str:
@@ -736,13 +1036,18 @@ def skipped_sentence(session: SessionInfo) -> str:
         return "Every frame of every camera's video was read."
     parts = []
     for r in session.skipped_frames:
-        spans = ", ".join(_clock_s(a) if b - a < 0.5 / session.fps else f"{_clock_s(a)} to {_clock_s(b)}"
-                          for a, b in r.spans_s)
+        spans = ", ".join(
+            _clock_s(a) if b - a < 0.5 / session.fps else f"{_clock_s(a)} to {_clock_s(b)}" for a, b in r.spans_s
+        )
         more = " and later" if len(r.spans_s) >= MAX_SKIPPED_SPANS else ""
-        parts.append(f"{r.camera}: {r.frames:,} frame{'s' if r.frames != 1 else ''} "
-                     f"({fmt_percent(r.frames, session.frames)} of the session) at {spans}{more}")
-    return ("Some video frames could not be read and were skipped; in them nobody was measured from that "
-            "camera (the skipped-frames CSV file lists every one). " + "; ".join(parts) + ".")
+        parts.append(
+            f"{r.camera}: {r.frames:,} frame{'s' if r.frames != 1 else ''} "
+            f"({fmt_percent(r.frames, session.frames)} of the session) at {spans}{more}"
+        )
+    return (
+        "Some video frames could not be read and were skipped; in them nobody was measured from that "
+        "camera (the skipped-frames CSV file lists every one). " + "; ".join(parts) + "."
+    )
 
 
 def _clock_s(seconds: float) -> str:

@@ -62,7 +62,7 @@ def relative_luminance(colour: str) -> float:
     c = colour.lstrip("#")
     if len(c) != 6:
         raise ValueError(f"expected #rrggbb, got {colour!r}")
-    rgb = [int(c[i:i + 2], 16) / 255.0 for i in (0, 2, 4)]
+    rgb = [int(c[i : i + 2], 16) / 255.0 for i in (0, 2, 4)]
     lin = [v / 12.92 if v <= 0.03928 else ((v + 0.055) / 1.055) ** 2.4 for v in rgb]
     return 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
 
@@ -84,20 +84,25 @@ def _text_width(text: str, size: float) -> float:
     return 0.6 * size * len(text)
 
 
-def _svg(width: float, height: float, title: str, desc: str, id_prefix: str, body: Iterable[str],
-         css_class: str = "fig") -> Markup:
+def _svg(
+    width: float, height: float, title: str, desc: str, id_prefix: str, body: Iterable[str], css_class: str = "fig"
+) -> Markup:
     tid, did = f"{id_prefix}-title", f"{id_prefix}-desc"
-    head = (f'<svg xmlns="http://www.w3.org/2000/svg" class="{_e(css_class)}" viewBox="0 0 {_n(width)} {_n(height)}" '
-            f'width="{_n(width)}" height="{_n(height)}" role="img" aria-labelledby="{_e(tid)} {_e(did)}" '
-            f'font-family="{_e(FONT)}" font-size="12" fill="{TEXT}">'
-            f'<title id="{_e(tid)}">{_e(title)}</title><desc id="{_e(did)}">{_e(desc)}</desc>')
+    head = (
+        f'<svg xmlns="http://www.w3.org/2000/svg" class="{_e(css_class)}" viewBox="0 0 {_n(width)} {_n(height)}" '
+        f'width="{_n(width)}" height="{_n(height)}" role="img" aria-labelledby="{_e(tid)} {_e(did)}" '
+        f'font-family="{_e(FONT)}" font-size="12" fill="{TEXT}">'
+        f'<title id="{_e(tid)}">{_e(title)}</title><desc id="{_e(did)}">{_e(desc)}</desc>'
+    )
     return Markup(head + "".join(body) + "</svg>")
 
 
 def _hatch(id_prefix: str) -> str:
-    return (f'<defs><pattern id="{_e(id_prefix)}-hatch" width="6" height="6" patternUnits="userSpaceOnUse" '
-            f'patternTransform="rotate(45)"><rect width="6" height="6" fill="{UNSCORED_FILL}"/>'
-            f'<line x1="0" y1="0" x2="0" y2="6" stroke="#9a9a9a" stroke-width="1.5"/></pattern></defs>')
+    return (
+        f'<defs><pattern id="{_e(id_prefix)}-hatch" width="6" height="6" patternUnits="userSpaceOnUse" '
+        f'patternTransform="rotate(45)"><rect width="6" height="6" fill="{UNSCORED_FILL}"/>'
+        f'<line x1="0" y1="0" x2="0" y2="6" stroke="#9a9a9a" stroke-width="1.5"/></pattern></defs>'
+    )
 
 
 def _fill(colour: str | None, id_prefix: str) -> str:
@@ -133,17 +138,29 @@ class StackRow:
 
 def _hatch_legend(x: float, y: float, label: str, id_prefix: str) -> str:
     """A legend entry for the hatched fill: swatch and label, baseline at y."""
-    return (f'<rect x="{_n(x)}" y="{_n(y - 10)}" width="12" height="12" fill="url(#{_e(id_prefix)}-hatch)" '
-            f'stroke="{MUTED}" stroke-width="0.5"/><text x="{_n(x + 17)}" y="{_n(y)}" font-size="11">{_e(label)}</text>')
+    return (
+        f'<rect x="{_n(x)}" y="{_n(y - 10)}" width="12" height="12" fill="url(#{_e(id_prefix)}-hatch)" '
+        f'stroke="{MUTED}" stroke-width="0.5"/><text x="{_n(x + 17)}" y="{_n(y)}" font-size="11">{_e(label)}</text>'
+    )
 
 
 def _has_hatch(groups: Iterable[Sequence[Segment]]) -> bool:
     return any(seg.colour is None and seg.value > 0 for segs in groups for seg in segs)
 
 
-def stacked_bars(rows: Sequence[StackRow], *, title: str, desc: str, id_prefix: str, total: float | None = None,
-                 width: float = 720, label_width: float = 170, bar_height: float = 26,
-                 axis_label: str = "share of observed time (%)", hatch_label: str = "not scored") -> Markup:
+def stacked_bars(
+    rows: Sequence[StackRow],
+    *,
+    title: str,
+    desc: str,
+    id_prefix: str,
+    total: float | None = None,
+    width: float = 720,
+    label_width: float = 170,
+    bar_height: float = 26,
+    axis_label: str = "share of observed time (%)",
+    hatch_label: str = "not scored",
+) -> Markup:
     """Horizontal stacked bars, one per row, scaled to ``total`` (default: each row's own sum = 100 %).
     Row labels are shortened to fit (the full label is their tooltip); when a hatched segment is
     drawn, a legend under the axis names it (``hatch_label``)."""
@@ -159,24 +176,32 @@ def stacked_bars(rows: Sequence[StackRow], *, title: str, desc: str, id_prefix: 
         x = x0 + plot_w * k / 4
         out.append(f'<line x1="{_n(x)}" y1="{top - 2}" x2="{_n(x)}" y2="{_n(height - 28)}" stroke="{GRID}"/>')
         out.append(f'<text x="{_n(x)}" y="{_n(height - 14)}" text-anchor="middle" fill="{MUTED}">{25 * k}</text>')
-    out.append(f'<text x="{_n(x0 + plot_w / 2)}" y="{_n(height - 1)}" text-anchor="middle" fill="{MUTED}">'
-               f'{_e(axis_label)}</text>')
+    out.append(
+        f'<text x="{_n(x0 + plot_w / 2)}" y="{_n(height - 1)}" text-anchor="middle" fill="{MUTED}">'
+        f"{_e(axis_label)}</text>"
+    )
     for i, row in enumerate(rows):
         y = top + i * (bar_height + 8)
-        out.append(f'<text x="{_n(label_width - 8)}" y="{_n(y + bar_height / 2 + 4)}" text-anchor="end">'
-                   f'<title>{_e(row.label)}</title>{_e(fit_label(row.label, label_width - 12, 12))}</text>')
+        out.append(
+            f'<text x="{_n(label_width - 8)}" y="{_n(y + bar_height / 2 + 4)}" text-anchor="end">'
+            f"<title>{_e(row.label)}</title>{_e(fit_label(row.label, label_width - 12, 12))}</text>"
+        )
         denom = total if total is not None else sum(max(s.value, 0.0) for s in row.segments)
         x = x0
         for seg in row.segments:
             if denom <= 0 or seg.value <= 0:
                 continue
             w = plot_w * seg.value / denom
-            out.append(f'<rect x="{_n(x)}" y="{_n(y)}" width="{_n(max(w, 0.5))}" height="{_n(bar_height)}" '
-                       f'fill="{_fill(seg.colour, id_prefix)}" stroke="#ffffff" stroke-width="0.5">'
-                       f'<title>{_e(seg.long)}</title></rect>')
+            out.append(
+                f'<rect x="{_n(x)}" y="{_n(y)}" width="{_n(max(w, 0.5))}" height="{_n(bar_height)}" '
+                f'fill="{_fill(seg.colour, id_prefix)}" stroke="#ffffff" stroke-width="0.5">'
+                f"<title>{_e(seg.long)}</title></rect>"
+            )
             if seg.short and _text_width(seg.short, 11) + 6 <= w:
-                out.append(f'<text x="{_n(x + w / 2)}" y="{_n(y + bar_height / 2 + 4)}" text-anchor="middle" '
-                           f'font-size="11" fill="{_label_fill(seg.colour)}">{_e(seg.short)}</text>')
+                out.append(
+                    f'<text x="{_n(x + w / 2)}" y="{_n(y + bar_height / 2 + 4)}" text-anchor="middle" '
+                    f'font-size="11" fill="{_label_fill(seg.colour)}">{_e(seg.short)}</text>'
+                )
             x += w
     return _svg(width, height + (20 if hatched else 0), title, desc, id_prefix, out)
 
@@ -189,9 +214,19 @@ class StackColumn:
     segments: tuple[Segment, ...]
 
 
-def stacked_columns(columns: Sequence[StackColumn], *, title: str, desc: str, id_prefix: str, y_max: float,
-                    y_label: str, y_ticks: Sequence[float], width: float = 720, height: float = 260,
-                    hatch_label: str = "not scored") -> Markup:
+def stacked_columns(
+    columns: Sequence[StackColumn],
+    *,
+    title: str,
+    desc: str,
+    id_prefix: str,
+    y_max: float,
+    y_label: str,
+    y_ticks: Sequence[float],
+    width: float = 720,
+    height: float = 260,
+    hatch_label: str = "not scored",
+) -> Markup:
     """Vertical stacked columns on a common axis 0..y_max (e.g. minutes of each hour); a legend
     names the hatched fill when it is drawn."""
     left, right, top, bottom = 46, 8, 10, 40
@@ -206,10 +241,14 @@ def stacked_columns(columns: Sequence[StackColumn], *, title: str, desc: str, id
         return top + plot_h * (1 - v / y_max)
 
     for t in y_ticks:
-        out.append(f'<line x1="{left}" y1="{_n(ypix(t))}" x2="{_n(width - right)}" y2="{_n(ypix(t))}" stroke="{GRID}"/>')
+        out.append(
+            f'<line x1="{left}" y1="{_n(ypix(t))}" x2="{_n(width - right)}" y2="{_n(ypix(t))}" stroke="{GRID}"/>'
+        )
         out.append(f'<text x="{left - 6}" y="{_n(ypix(t) + 4)}" text-anchor="end" fill="{MUTED}">{_e(_tick(t))}</text>')
-    out.append(f'<text transform="translate(12 {_n(top + plot_h / 2)}) rotate(-90)" text-anchor="middle" '
-               f'fill="{MUTED}">{_e(y_label)}</text>')
+    out.append(
+        f'<text transform="translate(12 {_n(top + plot_h / 2)}) rotate(-90)" text-anchor="middle" '
+        f'fill="{MUTED}">{_e(y_label)}</text>'
+    )
     every = max(1, math.ceil(n / max(1, plot_w // 44)))
     for i, col in enumerate(columns):
         cx = left + slot * (i + 0.5)
@@ -218,16 +257,22 @@ def stacked_columns(columns: Sequence[StackColumn], *, title: str, desc: str, id
             if seg.value <= 0:
                 continue
             h = plot_h * seg.value / y_max
-            out.append(f'<rect x="{_n(cx - col_w / 2)}" y="{_n(y - h)}" width="{_n(col_w)}" height="{_n(max(h, 0.5))}" '
-                       f'fill="{_fill(seg.colour, id_prefix)}" stroke="#ffffff" stroke-width="0.5">'
-                       f'<title>{_e(col.label)}: {_e(seg.long)}</title></rect>')
+            out.append(
+                f'<rect x="{_n(cx - col_w / 2)}" y="{_n(y - h)}" width="{_n(col_w)}" height="{_n(max(h, 0.5))}" '
+                f'fill="{_fill(seg.colour, id_prefix)}" stroke="#ffffff" stroke-width="0.5">'
+                f"<title>{_e(col.label)}: {_e(seg.long)}</title></rect>"
+            )
             if seg.short and h >= 14 and _text_width(seg.short, 10) + 4 <= col_w:
-                out.append(f'<text x="{_n(cx)}" y="{_n(y - h / 2 + 4)}" text-anchor="middle" font-size="10" '
-                           f'fill="{_label_fill(seg.colour)}">{_e(seg.short)}</text>')
+                out.append(
+                    f'<text x="{_n(cx)}" y="{_n(y - h / 2 + 4)}" text-anchor="middle" font-size="10" '
+                    f'fill="{_label_fill(seg.colour)}">{_e(seg.short)}</text>'
+                )
             y -= h
         if i % every == 0:
-            out.append(f'<text x="{_n(cx)}" y="{_n(height - bottom + 16)}" text-anchor="middle" fill="{MUTED}">'
-                       f'{_e(col.label)}</text>')
+            out.append(
+                f'<text x="{_n(cx)}" y="{_n(height - bottom + 16)}" text-anchor="middle" fill="{MUTED}">'
+                f"{_e(col.label)}</text>"
+            )
     if hatched:
         out.append(_hatch_legend(left, height + 10, hatch_label, id_prefix))
     return _svg(width, height + (18 if hatched else 0), title, desc, id_prefix, out)
@@ -250,9 +295,23 @@ class Band:
     label: str
 
 
-def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median: np.ndarray, bands: Sequence[Band], *,
-                   y_min: float, y_max: float, x_ticks: Sequence[tuple[float, str]], title: str, desc: str,
-                   id_prefix: str, y_label: str, width: float = 960, height: float = 250) -> Markup:
+def score_timeline(
+    starts_s: np.ndarray,
+    bin_s: float,
+    worst: np.ndarray,
+    median: np.ndarray,
+    bands: Sequence[Band],
+    *,
+    y_min: float,
+    y_max: float,
+    x_ticks: Sequence[tuple[float, str]],
+    title: str,
+    desc: str,
+    id_prefix: str,
+    y_label: str,
+    width: float = 960,
+    height: float = 250,
+) -> Markup:
     """Ordinal scores per time bin: a bar per bin up to its worst score, coloured by the action level
     band the score falls in (height and band label carry the level as well), with the median score
     of each bin as a black step line, over light bands of the action levels (named at the right).
@@ -278,27 +337,41 @@ def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median
     out = [_hatch(id_prefix)]
     for b in bands:
         ya, yb = float(ypix(b.hi)), float(ypix(b.lo))
-        out.append(f'<rect x="{left}" y="{_n(ya)}" width="{_n(plot_w)}" height="{_n(yb - ya)}" fill="{_e(b.colour)}" '
-                   f'fill-opacity="0.22"/>')
+        out.append(
+            f'<rect x="{left}" y="{_n(ya)}" width="{_n(plot_w)}" height="{_n(yb - ya)}" fill="{_e(b.colour)}" '
+            f'fill-opacity="0.22"/>'
+        )
         out.append(f'<line x1="{left}" y1="{_n(ya)}" x2="{_n(left + plot_w + 4)}" y2="{_n(ya)}" stroke="{GRID}"/>')
-        out.append(f'<rect x="{_n(left + plot_w + 6)}" y="{_n((ya + yb) / 2 - 5)}" width="10" height="10" '
-                   f'fill="{_e(b.colour)}" stroke="{MUTED}" stroke-width="0.5"/>')
-        out.append(f'<text x="{_n(left + plot_w + 20)}" y="{_n((ya + yb) / 2 + 4)}" font-size="11">{_e(b.label)}</text>')
+        out.append(
+            f'<rect x="{_n(left + plot_w + 6)}" y="{_n((ya + yb) / 2 - 5)}" width="10" height="10" '
+            f'fill="{_e(b.colour)}" stroke="{MUTED}" stroke-width="0.5"/>'
+        )
+        out.append(
+            f'<text x="{_n(left + plot_w + 20)}" y="{_n((ya + yb) / 2 + 4)}" font-size="11">{_e(b.label)}</text>'
+        )
     lo_i, hi_i = int(math.ceil(y_min)), int(math.floor(y_max))
     every = 1 if hi_i - lo_i <= 8 else 2
     for v in range(lo_i, hi_i + 1):
         if (v - lo_i) % every:
             continue
-        out.append(f'<text x="{left - 6}" y="{_n(float(ypix(v)) + 4)}" text-anchor="end" fill="{MUTED}" '
-                   f'font-size="11">{v}</text>')
+        out.append(
+            f'<text x="{left - 6}" y="{_n(float(ypix(v)) + 4)}" text-anchor="end" fill="{MUTED}" '
+            f'font-size="11">{v}</text>'
+        )
     for t, label in x_ticks:
         x = float(xpix(t))
-        out.append(f'<line x1="{_n(x)}" y1="{_n(top + plot_h)}" x2="{_n(x)}" y2="{_n(top + plot_h + 14)}" '
-                   f'stroke="{MUTED}" stroke-width="0.75"/>')
-        out.append(f'<text x="{_n(x)}" y="{_n(top + plot_h + 28)}" text-anchor="middle" fill="{MUTED}" '
-                   f'font-size="11">{_e(label)}</text>')
-    out.append(f'<text transform="translate(11 {_n(top + plot_h / 2)}) rotate(-90)" text-anchor="middle" '
-               f'fill="{MUTED}" font-size="11">{_e(y_label)}</text>')
+        out.append(
+            f'<line x1="{_n(x)}" y1="{_n(top + plot_h)}" x2="{_n(x)}" y2="{_n(top + plot_h + 14)}" '
+            f'stroke="{MUTED}" stroke-width="0.75"/>'
+        )
+        out.append(
+            f'<text x="{_n(x)}" y="{_n(top + plot_h + 28)}" text-anchor="middle" fill="{MUTED}" '
+            f'font-size="11">{_e(label)}</text>'
+        )
+    out.append(
+        f'<text transform="translate(11 {_n(top + plot_h / 2)}) rotate(-90)" text-anchor="middle" '
+        f'fill="{MUTED}" font-size="11">{_e(y_label)}</text>'
+    )
     # worst-score bars: one path per band colour (small files)
     x_a = xpix(starts_s)
     x_b = xpix(starts_s + bin_s)
@@ -308,15 +381,21 @@ def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median
         if sel.size == 0:
             continue
         ys = ypix(worst[sel])
-        d = "".join(f"M{_n(float(x_a[i]))} {_n(base)}V{_n(float(y))}H{_n(float(x_b[i]))}V{_n(base)}Z"
-                    for i, y in zip(sel.tolist(), ys.tolist()))
-        out.append(f'<path d="{d}" fill="{_e(b.colour)}" stroke="none"><title>worst score in {_e(b.label)}</title></path>')
+        d = "".join(
+            f"M{_n(float(x_a[i]))} {_n(base)}V{_n(float(y))}H{_n(float(x_b[i]))}V{_n(base)}Z"
+            for i, y in zip(sel.tolist(), ys.tolist())
+        )
+        out.append(
+            f'<path d="{d}" fill="{_e(b.colour)}" stroke="none"><title>worst score in {_e(b.label)}</title></path>'
+        )
     # not-measured bins: a hatched strip under the plot
     for a, z in _runs(np.isnan(worst)):
         xa, xb = float(xpix(starts_s[a])), float(xpix(starts_s[z - 1] + bin_s))
-        out.append(f'<rect x="{_n(xa)}" y="{_n(top + plot_h + 2)}" width="{_n(max(xb - xa, 0.8))}" height="9" '
-                   f'fill="url(#{_e(id_prefix)}-hatch)" stroke="{MUTED}" stroke-width="0.3"><title>not tracked or '
-                   f'not scored</title></rect>')
+        out.append(
+            f'<rect x="{_n(xa)}" y="{_n(top + plot_h + 2)}" width="{_n(max(xb - xa, 0.8))}" height="9" '
+            f'fill="url(#{_e(id_prefix)}-hatch)" stroke="{MUTED}" stroke-width="0.3"><title>not tracked or '
+            f"not scored</title></rect>"
+        )
     out.append(f'<rect x="{left}" y="{top}" width="{_n(plot_w)}" height="{_n(plot_h)}" fill="none" stroke="{MUTED}"/>')
     for a, z in _runs(np.isfinite(median)):
         xs = xpix(np.concatenate([starts_s[a:z], [starts_s[z - 1] + bin_s]]))
@@ -327,8 +406,10 @@ def score_timeline(starts_s: np.ndarray, bin_s: float, worst: np.ndarray, median
             if k + 1 < z - a and ys[k + 1] != ys[k]:
                 pts.append(f"V{_n(float(ys[k + 1]))}")
         d = "".join(pts)
-        out.append(f'<path d="{d}" fill="none" stroke="#ffffff" stroke-width="3.2" stroke-opacity="0.8"/>'
-                   f'<path d="{d}" fill="none" stroke="{TEXT}" stroke-width="1.4"><title>median score</title></path>')
+        out.append(
+            f'<path d="{d}" fill="none" stroke="#ffffff" stroke-width="3.2" stroke-opacity="0.8"/>'
+            f'<path d="{d}" fill="none" stroke="{TEXT}" stroke-width="1.4"><title>median score</title></path>'
+        )
     return _svg(width, height, title, desc, id_prefix, out)
 
 
@@ -355,9 +436,19 @@ class BoxRow:
     n: int
 
 
-def box_plots(rows: Sequence[BoxRow], *, title: str, desc: str, id_prefix: str, unit: str,
-              x_min: float | None = None, x_max: float | None = None, width: float = 720,
-              label_width: float = 150, row_height: float = 22) -> Markup:
+def box_plots(
+    rows: Sequence[BoxRow],
+    *,
+    title: str,
+    desc: str,
+    id_prefix: str,
+    unit: str,
+    x_min: float | None = None,
+    x_max: float | None = None,
+    width: float = 720,
+    label_width: float = 150,
+    row_height: float = 22,
+) -> Markup:
     """Horizontal box plots on one axis (rows with n = 0 get a 'no data' note)."""
     finite = [v for r in rows if r.n > 0 for v in (r.whisker_lo, r.whisker_hi) if math.isfinite(v)]
     lo = x_min if x_min is not None else (min(finite) if finite else 0.0)
@@ -377,32 +468,44 @@ def box_plots(rows: Sequence[BoxRow], *, title: str, desc: str, id_prefix: str, 
     t = lo
     while t <= hi + step * 1e-6:
         x = xpix(t)
-        out.append(f'<line x1="{_n(x)}" y1="{top}" x2="{_n(x)}" y2="{_n(height - 34)}" stroke="{GRID}" stroke-width="0.75"/>')
-        out.append(f'<text x="{_n(x)}" y="{_n(height - 20)}" text-anchor="middle" fill="{MUTED}" font-size="11">'
-                   f'{_e(f"{t:g}")}</text>')
+        out.append(
+            f'<line x1="{_n(x)}" y1="{top}" x2="{_n(x)}" y2="{_n(height - 34)}" stroke="{GRID}" stroke-width="0.75"/>'
+        )
+        out.append(
+            f'<text x="{_n(x)}" y="{_n(height - 20)}" text-anchor="middle" fill="{MUTED}" font-size="11">'
+            f"{_e(f'{t:g}')}</text>"
+        )
         t += step
-    out.append(f'<text x="{_n(label_width + plot_w / 2)}" y="{_n(height - 4)}" text-anchor="middle" fill="{MUTED}" '
-               f'font-size="11">{_e(unit)}</text>')
+    out.append(
+        f'<text x="{_n(label_width + plot_w / 2)}" y="{_n(height - 4)}" text-anchor="middle" fill="{MUTED}" '
+        f'font-size="11">{_e(unit)}</text>'
+    )
     for i, r in enumerate(rows):
         y = top + i * row_height
         cy = y + row_height / 2
-        out.append(f'<text x="{_n(label_width - 8)}" y="{_n(cy + 4)}" text-anchor="end" font-size="11">{_e(r.label)}</text>')
+        out.append(
+            f'<text x="{_n(label_width - 8)}" y="{_n(cy + 4)}" text-anchor="end" font-size="11">{_e(r.label)}</text>'
+        )
         vals = (r.whisker_lo, r.q1, r.median, r.q3, r.whisker_hi)
         if r.n <= 0 or not all(math.isfinite(v) for v in vals):
             out.append(f'<text x="{_n(label_width + 4)}" y="{_n(cy + 4)}" fill="{MUTED}" font-size="11">no data</text>')
             continue
         wl, q1, md, q3, wh = (xpix(min(max(v, lo), hi)) for v in vals)
-        tip = (f"{r.label}: median {r.median:.3g}, quartiles {r.q1:.3g} to {r.q3:.3g}, whiskers {r.whisker_lo:.3g} "
-               f"to {r.whisker_hi:.3g} {unit}, n = {r.n}")
-        out.append(f'<g><title>{_e(tip)}</title>'
-                   f'<line x1="{_n(wl)}" y1="{_n(cy)}" x2="{_n(q1)}" y2="{_n(cy)}" stroke="{TEXT}"/>'
-                   f'<line x1="{_n(q3)}" y1="{_n(cy)}" x2="{_n(wh)}" y2="{_n(cy)}" stroke="{TEXT}"/>'
-                   f'<line x1="{_n(wl)}" y1="{_n(cy - 5)}" x2="{_n(wl)}" y2="{_n(cy + 5)}" stroke="{TEXT}"/>'
-                   f'<line x1="{_n(wh)}" y1="{_n(cy - 5)}" x2="{_n(wh)}" y2="{_n(cy + 5)}" stroke="{TEXT}"/>'
-                   f'<rect x="{_n(q1)}" y="{_n(cy - 7)}" width="{_n(max(q3 - q1, 1))}" height="14" fill="#9ecae1" '
-                   f'stroke="{TEXT}"/>'
-                   f'<line x1="{_n(md)}" y1="{_n(cy - 7)}" x2="{_n(md)}" y2="{_n(cy + 7)}" stroke="{TEXT}" '
-                   f'stroke-width="2.5"/></g>')
+        tip = (
+            f"{r.label}: median {r.median:.3g}, quartiles {r.q1:.3g} to {r.q3:.3g}, whiskers {r.whisker_lo:.3g} "
+            f"to {r.whisker_hi:.3g} {unit}, n = {r.n}"
+        )
+        out.append(
+            f"<g><title>{_e(tip)}</title>"
+            f'<line x1="{_n(wl)}" y1="{_n(cy)}" x2="{_n(q1)}" y2="{_n(cy)}" stroke="{TEXT}"/>'
+            f'<line x1="{_n(q3)}" y1="{_n(cy)}" x2="{_n(wh)}" y2="{_n(cy)}" stroke="{TEXT}"/>'
+            f'<line x1="{_n(wl)}" y1="{_n(cy - 5)}" x2="{_n(wl)}" y2="{_n(cy + 5)}" stroke="{TEXT}"/>'
+            f'<line x1="{_n(wh)}" y1="{_n(cy - 5)}" x2="{_n(wh)}" y2="{_n(cy + 5)}" stroke="{TEXT}"/>'
+            f'<rect x="{_n(q1)}" y="{_n(cy - 7)}" width="{_n(max(q3 - q1, 1))}" height="14" fill="#9ecae1" '
+            f'stroke="{TEXT}"/>'
+            f'<line x1="{_n(md)}" y1="{_n(cy - 7)}" x2="{_n(md)}" y2="{_n(cy + 7)}" stroke="{TEXT}" '
+            f'stroke-width="2.5"/></g>'
+        )
     return _svg(width, height, title, desc, id_prefix, out)
 
 
@@ -419,9 +522,20 @@ def _nice_step(raw: float) -> float:
 # ------------------------------------------------------------------------- bar panels
 
 
-def bar_panels(labels: Sequence[str], panels: Sequence[tuple[str, Sequence[float]]], *, title: str, desc: str,
-               id_prefix: str, max_value: float = 100.0, unit: str = "%", width: float = 720,
-               label_width: float = 150, row_height: float = 20, colour: str = "#4a7fb0") -> Markup:
+def bar_panels(
+    labels: Sequence[str],
+    panels: Sequence[tuple[str, Sequence[float]]],
+    *,
+    title: str,
+    desc: str,
+    id_prefix: str,
+    max_value: float = 100.0,
+    unit: str = "%",
+    width: float = 720,
+    label_width: float = 150,
+    row_height: float = 20,
+    colour: str = "#4a7fb0",
+) -> Markup:
     """Horizontal bars, one row per label, in side-by-side panels sharing the labels.
 
     panels: (panel title, one value per label; NaN = no data). Each bar carries its value as text.
@@ -437,18 +551,24 @@ def bar_panels(labels: Sequence[str], panels: Sequence[tuple[str, Sequence[float
         out.append(f'<text x="{_n(label_width - 8)}" y="{_n(y)}" text-anchor="end" font-size="11">{_e(lab)}</text>')
     for p, (ptitle, values) in enumerate(panels):
         x0 = label_width + p * (pw + gap)
-        out.append(f'<text x="{_n(x0 + pw / 2)}" y="14" text-anchor="middle" font-weight="bold" font-size="11">'
-                   f'{_e(ptitle)}</text>')
+        out.append(
+            f'<text x="{_n(x0 + pw / 2)}" y="14" text-anchor="middle" font-weight="bold" font-size="11">'
+            f"{_e(ptitle)}</text>"
+        )
         out.append(f'<line x1="{_n(x0)}" y1="{top - 2}" x2="{_n(x0)}" y2="{_n(height - 8)}" stroke="{MUTED}"/>')
         for i, v in enumerate(values):
             y = top + i * row_height
             if not math.isfinite(v):
-                out.append(f'<text x="{_n(x0 + 4)}" y="{_n(y + row_height / 2 + 4)}" fill="{MUTED}" font-size="10">'
-                           f'no data</text>')
+                out.append(
+                    f'<text x="{_n(x0 + 4)}" y="{_n(y + row_height / 2 + 4)}" fill="{MUTED}" font-size="10">'
+                    f"no data</text>"
+                )
                 continue
             w = (pw - 40) * min(max(v / max_value, 0.0), 1.0)
-            out.append(f'<rect x="{_n(x0)}" y="{_n(y + 3)}" width="{_n(max(w, 0.5))}" height="{_n(row_height - 6)}" '
-                       f'fill="{_e(colour)}"><title>{_e(labels[i])}, {_e(ptitle)}: {v:.1f} {_e(unit)}</title></rect>')
+            out.append(
+                f'<rect x="{_n(x0)}" y="{_n(y + 3)}" width="{_n(max(w, 0.5))}" height="{_n(row_height - 6)}" '
+                f'fill="{_e(colour)}"><title>{_e(labels[i])}, {_e(ptitle)}: {v:.1f} {_e(unit)}</title></rect>'
+            )
             out.append(f'<text x="{_n(x0 + w + 3)}" y="{_n(y + row_height / 2 + 4)}" font-size="10">{v:.0f}</text>')
     return _svg(width, height, title, desc, id_prefix, out)
 
@@ -486,9 +606,19 @@ class Marker:
     y: float
 
 
-def heat_map(grid: np.ndarray, extent: tuple[float, float, float, float], *, title: str, desc: str, id_prefix: str,
-             unit: str, outlines: Sequence[Outline] = (), markers: Sequence[Marker] = (),
-             presence: np.ndarray | None = None, size: float = 340) -> Markup:
+def heat_map(
+    grid: np.ndarray,
+    extent: tuple[float, float, float, float],
+    *,
+    title: str,
+    desc: str,
+    id_prefix: str,
+    unit: str,
+    outlines: Sequence[Outline] = (),
+    markers: Sequence[Marker] = (),
+    presence: np.ndarray | None = None,
+    size: float = 340,
+) -> Markup:
     """A floor heat map: grid[iy, ix] is a value per cell (0 = none) over extent (x0, x1, y0, y1).
 
     World x runs to the right, world y upwards. Cells with presence > 0 but no value are drawn
@@ -518,36 +648,52 @@ def heat_map(grid: np.ndarray, extent: tuple[float, float, float, float], *, tit
         pres = np.asarray(presence, dtype=np.float64)
         iy, ix = np.nonzero((pres > 0) & ~(grid > 0))
         for a, b in zip(iy.tolist(), ix.tolist()):
-            out.append(f'<rect x="{_n(px(x0 + b * cw))}" y="{_n(py(y0 + (a + 1) * ch))}" width="{_n(cw * sx)}" '
-                       f'height="{_n(ch * sy)}" fill="{PRESENT_FILL}"/>')
+            out.append(
+                f'<rect x="{_n(px(x0 + b * cw))}" y="{_n(py(y0 + (a + 1) * ch))}" width="{_n(cw * sx)}" '
+                f'height="{_n(ch * sy)}" fill="{PRESENT_FILL}"/>'
+            )
     if vmax > 0:
         iy, ix = np.nonzero(grid > 0)
         vals = grid[iy, ix]
         k = np.minimum((vals / vmax * steps).astype(int), steps - 1)
         for a, b, kk, v in zip(iy.tolist(), ix.tolist(), k.tolist(), vals.tolist()):
-            out.append(f'<rect x="{_n(px(x0 + b * cw))}" y="{_n(py(y0 + (a + 1) * ch))}" width="{_n(cw * sx)}" '
-                       f'height="{_n(ch * sy)}" fill="{HEAT_COLOURS[kk]}"><title>{v:.1f} {_e(unit)}</title></rect>')
+            out.append(
+                f'<rect x="{_n(px(x0 + b * cw))}" y="{_n(py(y0 + (a + 1) * ch))}" width="{_n(cw * sx)}" '
+                f'height="{_n(ch * sy)}" fill="{HEAT_COLOURS[kk]}"><title>{v:.1f} {_e(unit)}</title></rect>'
+            )
     for o in outlines:
         xa, xb = sorted((px(o.x0), px(o.x1)))
         ya, yb = sorted((py(o.y0), py(o.y1)))
-        out.append(f'<rect x="{_n(xa)}" y="{_n(ya)}" width="{_n(xb - xa)}" height="{_n(yb - ya)}" fill="none" '
-                   f'stroke="#2b4c7e" stroke-width="1.5"><title>{_e(o.name)}</title></rect>')
+        out.append(
+            f'<rect x="{_n(xa)}" y="{_n(ya)}" width="{_n(xb - xa)}" height="{_n(yb - ya)}" fill="none" '
+            f'stroke="#2b4c7e" stroke-width="1.5"><title>{_e(o.name)}</title></rect>'
+        )
         if o.label and _text_width(o.label, 9) + 4 <= xb - xa and yb - ya >= 12:
-            out.append(f'<text x="{_n((xa + xb) / 2)}" y="{_n((ya + yb) / 2 + 3)}" text-anchor="middle" font-size="9" '
-                       f'fill="#2b4c7e">{_e(o.label)}</text>')
+            out.append(
+                f'<text x="{_n((xa + xb) / 2)}" y="{_n((ya + yb) / 2 + 3)}" text-anchor="middle" font-size="9" '
+                f'fill="#2b4c7e">{_e(o.label)}</text>'
+            )
     for m in markers:
         cx, cy = px(m.x), py(m.y)
-        out.append(f'<g><title>{_e(m.name)}</title><path d="M{_n(cx - 5)} {_n(cy)}L{_n(cx)} {_n(cy - 5)}'
-                   f'L{_n(cx + 5)} {_n(cy)}L{_n(cx)} {_n(cy + 5)}Z" fill="#2b4c7e"/>'
-                   f'<text x="{_n(cx + 7)}" y="{_n(cy - 6)}" font-size="10" fill="#2b4c7e">{_e(m.name)}</text></g>')
+        out.append(
+            f'<g><title>{_e(m.name)}</title><path d="M{_n(cx - 5)} {_n(cy)}L{_n(cx)} {_n(cy - 5)}'
+            f'L{_n(cx + 5)} {_n(cy)}L{_n(cx)} {_n(cy + 5)}Z" fill="#2b4c7e"/>'
+            f'<text x="{_n(cx + 7)}" y="{_n(cy - 6)}" font-size="10" fill="#2b4c7e">{_e(m.name)}</text></g>'
+        )
     # axes in metres
     for v in range(math.ceil(x0), math.floor(x1) + 1):
-        out.append(f'<text x="{_n(px(v))}" y="{_n(pad_t + size + 14)}" text-anchor="middle" font-size="10" '
-                   f'fill="{MUTED}">{v}</text>')
+        out.append(
+            f'<text x="{_n(px(v))}" y="{_n(pad_t + size + 14)}" text-anchor="middle" font-size="10" '
+            f'fill="{MUTED}">{v}</text>'
+        )
     for v in range(math.ceil(y0), math.floor(y1) + 1):
-        out.append(f'<text x="{pad_l - 4}" y="{_n(py(v) + 3)}" text-anchor="end" font-size="10" fill="{MUTED}">{v}</text>')
-    out.append(f'<text x="{_n(pad_l + size / 2)}" y="{_n(height - 2)}" text-anchor="middle" font-size="10" '
-               f'fill="{MUTED}">x (m)</text>')
+        out.append(
+            f'<text x="{pad_l - 4}" y="{_n(py(v) + 3)}" text-anchor="end" font-size="10" fill="{MUTED}">{v}</text>'
+        )
+    out.append(
+        f'<text x="{_n(pad_l + size / 2)}" y="{_n(height - 2)}" text-anchor="middle" font-size="10" '
+        f'fill="{MUTED}">x (m)</text>'
+    )
     # legend
     lx = pad_l + size + 16
     out.append(f'<text x="{_n(lx)}" y="{pad_t + 10}" font-size="11" font-weight="bold">{_e(unit)}</text>')
@@ -555,19 +701,24 @@ def heat_map(grid: np.ndarray, extent: tuple[float, float, float, float], *, tit
         for k in range(steps):
             y = pad_t + 18 + k * 20
             out.append(f'<rect x="{_n(lx)}" y="{y}" width="16" height="16" fill="{HEAT_COLOURS[k]}" stroke="{GRID}"/>')
-            out.append(f'<text x="{_n(lx + 22)}" y="{y + 12}" font-size="10">{_e(_range_label(edges[k], edges[k + 1]))}'
-                       f'</text>')
+            out.append(
+                f'<text x="{_n(lx + 22)}" y="{y + 12}" font-size="10">{_e(_range_label(edges[k], edges[k + 1]))}</text>'
+            )
         y = pad_t + 18 + steps * 20
     else:
         out.append(f'<text x="{_n(lx)}" y="{pad_t + 30}" font-size="10">none</text>')
         y = pad_t + 40
     if presence is not None:
-        out.append(f'<rect x="{_n(lx)}" y="{y}" width="16" height="16" fill="{PRESENT_FILL}" stroke="{GRID}"/>'
-                   f'<text x="{_n(lx + 22)}" y="{y + 12}" font-size="10">present, 0</text>')
+        out.append(
+            f'<rect x="{_n(lx)}" y="{y}" width="16" height="16" fill="{PRESENT_FILL}" stroke="{GRID}"/>'
+            f'<text x="{_n(lx + 22)}" y="{y + 12}" font-size="10">present, 0</text>'
+        )
         y += 20
     if outlines:
-        out.append(f'<rect x="{_n(lx)}" y="{y}" width="16" height="16" fill="none" stroke="#2b4c7e" stroke-width="1.5"/>'
-                   f'<text x="{_n(lx + 22)}" y="{y + 12}" font-size="10">furniture</text>')
+        out.append(
+            f'<rect x="{_n(lx)}" y="{y}" width="16" height="16" fill="none" stroke="#2b4c7e" stroke-width="1.5"/>'
+            f'<text x="{_n(lx + 22)}" y="{y + 12}" font-size="10">furniture</text>'
+        )
     return _svg(width, height, title, desc, id_prefix, out)
 
 
@@ -581,6 +732,7 @@ def _range_label(a: float, b: float) -> str:
 
     def f(v: float) -> str:
         return f"{v:.{decimals}f}"
+
     return f"up to {f(b)}" if a <= 0 else f"{f(a)} to {f(b)}"
 
 
@@ -611,8 +763,9 @@ def body_axes(joints_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     return None
 
 
-def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix: str, panel: float = 170,
-                   min_height_m: float = 1.9) -> Markup:
+def skeleton_views(
+    joints_world: np.ndarray, *, title: str, desc: str, id_prefix: str, panel: float = 170, min_height_m: float = 1.9
+) -> Markup:
     """Front and side projections of a 33-joint skeleton (metres, world frame, NaN = missing joint).
 
     Front view: seen from in front of the worker (the worker's right side on the viewer's left).
@@ -628,8 +781,10 @@ def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix
     height = panel_h + 30
     out = []
     if proj is None:
-        out.append(f'<text x="{_n(width / 2)}" y="{_n(height / 2)}" text-anchor="middle" fill="{MUTED}">'
-                   f'skeleton not available</text>')
+        out.append(
+            f'<text x="{_n(width / 2)}" y="{_n(height / 2)}" text-anchor="middle" fill="{MUTED}">'
+            f"skeleton not available</text>"
+        )
         return _svg(width, height, title, desc, id_prefix, out, css_class="fig skeleton")
     front, side, zs = proj
     views = (("front view", front), ("side view (from the right)", side))
@@ -648,13 +803,18 @@ def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix
         def P(h: float, z: float) -> tuple[float, float]:
             return cx + (h - mid) * scale, floor_y - z * scale
 
-        out.append(f'<clipPath id="{_e(clip)}"><rect x="{_n(x_left)}" y="4" width="{_n(panel)}" '
-                   f'height="{_n(panel_h)}"/></clipPath>')
-        out.append(f'<rect x="{_n(x_left)}" y="4" width="{_n(panel)}" height="{_n(panel_h)}" fill="#f7f7f7" '
-                   f'stroke="{GRID}"/>')
+        out.append(
+            f'<clipPath id="{_e(clip)}"><rect x="{_n(x_left)}" y="4" width="{_n(panel)}" '
+            f'height="{_n(panel_h)}"/></clipPath>'
+        )
+        out.append(
+            f'<rect x="{_n(x_left)}" y="4" width="{_n(panel)}" height="{_n(panel_h)}" fill="#f7f7f7" stroke="{GRID}"/>'
+        )
         out.append(f'<g clip-path="url(#{_e(clip)})">')
-        out.append(f'<line x1="{_n(x_left)}" y1="{_n(floor_y)}" x2="{_n(x_left + panel)}" y2="{_n(floor_y)}" '
-                   f'stroke="{MUTED}" stroke-width="1.5"/>')
+        out.append(
+            f'<line x1="{_n(x_left)}" y1="{_n(floor_y)}" x2="{_n(x_left + panel)}" y2="{_n(floor_y)}" '
+            f'stroke="{MUTED}" stroke-width="1.5"/>'
+        )
         for limb, a, b in LIMBS:
             ia, ib = JOINT_INDEX[a], JOINT_INDEX[b]
             if not (known[ia] and known[ib]):
@@ -666,24 +826,32 @@ def skeleton_views(joints_world: np.ndarray, *, title: str, desc: str, id_prefix
                 colour, style = "#2166ac", ""
             else:
                 colour, style = TEXT, ""
-            out.append(f'<line x1="{_n(xa)}" y1="{_n(ya)}" x2="{_n(xb)}" y2="{_n(yb)}" stroke="{colour}" '
-                       f'stroke-width="3" stroke-linecap="round"{style}/>')
+            out.append(
+                f'<line x1="{_n(xa)}" y1="{_n(ya)}" x2="{_n(xb)}" y2="{_n(yb)}" stroke="{colour}" '
+                f'stroke-width="3" stroke-linecap="round"{style}/>'
+            )
         ls, rs, nose = JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"], JOINT_INDEX["nose"]
         if known[ls] and known[rs] and known[nose]:
             xa, ya = P((hs[ls] + hs[rs]) / 2, (zs[ls] + zs[rs]) / 2)
             xb, yb = P(hs[nose], zs[nose])
-            out.append(f'<line x1="{_n(xa)}" y1="{_n(ya)}" x2="{_n(xb)}" y2="{_n(yb)}" stroke="{TEXT}" '
-                       f'stroke-width="3" stroke-linecap="round"/>')
-            out.append(f'<circle cx="{_n(xb)}" cy="{_n(yb)}" r="{_n(0.09 * scale)}" fill="none" stroke="{TEXT}" '
-                       f'stroke-width="2"/>')
+            out.append(
+                f'<line x1="{_n(xa)}" y1="{_n(ya)}" x2="{_n(xb)}" y2="{_n(yb)}" stroke="{TEXT}" '
+                f'stroke-width="3" stroke-linecap="round"/>'
+            )
+            out.append(
+                f'<circle cx="{_n(xb)}" cy="{_n(yb)}" r="{_n(0.09 * scale)}" fill="none" stroke="{TEXT}" '
+                f'stroke-width="2"/>'
+            )
         for wrist, letter in (("left_wrist", "L"), ("right_wrist", "R")):
             i = JOINT_INDEX[wrist]
             if known[i]:
                 x, y = P(hs[i], zs[i])
                 out.append(f'<text x="{_n(x + 5)}" y="{_n(y + 4)}" font-size="11" font-weight="bold">{letter}</text>')
         out.append("</g>")
-        out.append(f'<text x="{_n(cx)}" y="{_n(height - 8)}" text-anchor="middle" font-size="11" fill="{MUTED}">'
-                   f'{_e(name)}</text>')
+        out.append(
+            f'<text x="{_n(cx)}" y="{_n(height - 8)}" text-anchor="middle" font-size="11" fill="{MUTED}">'
+            f"{_e(name)}</text>"
+        )
     return _svg(width, height, title, desc, id_prefix, out, css_class="fig skeleton")
 
 
@@ -711,9 +879,21 @@ def fit_label(text: str, width_px: float, size: float = 11) -> str:
     return text if len(text) <= room else text[: room - 1].rstrip() + "…"
 
 
-def risk_strips(rows: Sequence[StripRow], bin_s: float, *, x_ticks: Sequence[tuple[float, str]], title: str,
-                desc: str, id_prefix: str, legend: Sequence[str], marks: Sequence[tuple[float, float, str]] = (),
-                width: float = 960, label_width: float = 150, strip_h: float = 16, gap: float = 5) -> Markup:
+def risk_strips(
+    rows: Sequence[StripRow],
+    bin_s: float,
+    *,
+    x_ticks: Sequence[tuple[float, str]],
+    title: str,
+    desc: str,
+    id_prefix: str,
+    legend: Sequence[str],
+    marks: Sequence[tuple[float, float, str]] = (),
+    width: float = 960,
+    label_width: float = 150,
+    strip_h: float = 16,
+    gap: float = 5,
+) -> Markup:
     """A timeline of the shift per row: each time bin a column split by the share of it at high,
     medium and low risk and not scored (hatched); white = not tracked. marks: (start_s, end_s,
     label) brackets above the strips (e.g. the numbered sustained periods). legend: the text of
@@ -747,33 +927,48 @@ def risk_strips(rows: Sequence[StripRow], bin_s: float, *, x_ticks: Sequence[tup
             ys = y0 + strip_h * (sh[:, :c].sum(axis=1) if c else np.zeros(sh.shape[0]))
             hs = strip_h * sh[:, c]
             k = np.flatnonzero(hs > 0)
-            parts += [f"M{x} {y}h{bws}v{h}h-{bws}Z" for x, y, h in
-                      zip(_ns(label_width + k * bw), _ns(ys[k]), _ns(hs[k]))]
+            parts += [
+                f"M{x} {y}h{bws}v{h}h-{bws}Z" for x, y, h in zip(_ns(label_width + k * bw), _ns(ys[k]), _ns(hs[k]))
+            ]
         if parts:
-            out.append(f'<path d="{"".join(parts)}" fill="{_fill(colour, id_prefix)}" stroke="none">'
-                       f'<title>{_e(name)}</title></path>')
+            out.append(
+                f'<path d="{"".join(parts)}" fill="{_fill(colour, id_prefix)}" stroke="none">'
+                f"<title>{_e(name)}</title></path>"
+            )
     for i, r in enumerate(rows):
         y0 = top + i * (strip_h + gap)
-        out.append(f'<rect x="{_n(label_width)}" y="{_n(y0)}" width="{_n(plot_w)}" height="{_n(strip_h)}" fill="none" '
-                   f'stroke="{MUTED}" stroke-width="0.5"/>')
-        out.append(f'<text x="{_n(label_width - 6)}" y="{_n(y0 + strip_h / 2 + 4)}" text-anchor="end" font-size="11">'
-                   f'<title>{_e(r.label)}</title>{_e(fit_label(r.label, label_width - 10))}</text>')
+        out.append(
+            f'<rect x="{_n(label_width)}" y="{_n(y0)}" width="{_n(plot_w)}" height="{_n(strip_h)}" fill="none" '
+            f'stroke="{MUTED}" stroke-width="0.5"/>'
+        )
+        out.append(
+            f'<text x="{_n(label_width - 6)}" y="{_n(y0 + strip_h / 2 + 4)}" text-anchor="end" font-size="11">'
+            f"<title>{_e(r.label)}</title>{_e(fit_label(r.label, label_width - 10))}</text>"
+        )
     for a, b, label in marks:
         xa, xb = xpix(a), max(xpix(b), xpix(a) + 2)
-        out.append(f'<path d="M{_n(xa)} {_n(top - 2)}V{_n(top - 7)}H{_n(xb)}V{_n(top - 2)}" fill="none" '
-                   f'stroke="{TEXT}" stroke-width="1.2"/>')
-        out.append(f'<text x="{_n((xa + xb) / 2)}" y="{_n(top - 9)}" text-anchor="middle" font-size="10" '
-                   f'font-weight="bold">{_e(label)}</text>')
+        out.append(
+            f'<path d="M{_n(xa)} {_n(top - 2)}V{_n(top - 7)}H{_n(xb)}V{_n(top - 2)}" fill="none" '
+            f'stroke="{TEXT}" stroke-width="1.2"/>'
+        )
+        out.append(
+            f'<text x="{_n((xa + xb) / 2)}" y="{_n(top - 9)}" text-anchor="middle" font-size="10" '
+            f'font-weight="bold">{_e(label)}</text>'
+        )
     for t, label in x_ticks:
         x = xpix(t)
         out.append(f'<line x1="{_n(x)}" y1="{_n(axis_y)}" x2="{_n(x)}" y2="{_n(axis_y + 6)}" stroke="{MUTED}"/>')
-        out.append(f'<text x="{_n(x)}" y="{_n(axis_y + 18)}" text-anchor="middle" font-size="11" fill="{MUTED}">'
-                   f'{_e(label)}</text>')
+        out.append(
+            f'<text x="{_n(x)}" y="{_n(axis_y + 18)}" text-anchor="middle" font-size="11" fill="{MUTED}">'
+            f"{_e(label)}</text>"
+        )
     x = label_width
     fills = [c for _, c in RISK_FILLS] + ["#ffffff"]
     for text, colour in zip(legend, fills):
-        out.append(f'<rect x="{_n(x)}" y="{_n(legend_y - 9)}" width="11" height="11" fill="{_fill(colour, id_prefix)}" '
-                   f'stroke="{MUTED}" stroke-width="0.5"/>')
+        out.append(
+            f'<rect x="{_n(x)}" y="{_n(legend_y - 9)}" width="11" height="11" fill="{_fill(colour, id_prefix)}" '
+            f'stroke="{MUTED}" stroke-width="0.5"/>'
+        )
         out.append(f'<text x="{_n(x + 15)}" y="{_n(legend_y)}" font-size="11">{_e(text)}</text>')
         x += 15 + _text_width(text, 11) + 12
     return _svg(max(width, x), height, title, desc, id_prefix, out, css_class="fig strips")

@@ -12,9 +12,7 @@ from urllib.parse import quote
 from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
 from ergopose.ergonomics.shares import format_percent, percent
 from ergopose.report import svg
-from ergopose.report.context import (
-    MethodInfo,
-)
+from ergopose.report.context import MethodInfo
 
 # ------------------------------------------------------------------------------- formatting
 
@@ -33,7 +31,11 @@ BIN_CHOICES_S = (1, 2, 5, 10, 15, 30, 60, 120, 300, 600, 900, 1800, 3600)
 MAX_BINS = 480
 RATING_LABELS = {"good": "High confidence", "fair": "Moderate confidence", "poor": "Low confidence"}
 #: The confidence levels of the tracked time in words (terminal summary and report).
-CONFIDENCE_WORDS = {"confident": "scored with confidence", "low": "scored with low confidence", "unscored": "not scored"}
+CONFIDENCE_WORDS = {
+    "confident": "scored with confidence",
+    "low": "scored with low confidence",
+    "unscored": "not scored",
+}
 #: An input is "uncertain" when the median standard deviation of its angles over the shift is at
 #: least this (degrees): RULA/REBA posture bands are 10-25 degrees wide (neck 10-20, wrist 15,
 #: trunk and upper arm 20 or more), so such an angle often falls in a neighbouring band.
@@ -44,7 +46,8 @@ MOSTLY_INFERRED_PCT = 50.0
 #: Settings keys (docs/session-format.md, task factors) that give a body part's input instead of
 #: the cameras; body parts not listed can only be measured.
 TASK_INPUTS = {
-    "left upper arm": "arm_supported", "right upper arm": "arm_supported",
+    "left upper arm": "arm_supported",
+    "right upper arm": "arm_supported",
     "left wrist": "wrist_flexion_deg, wrist_deviation_deg (where the hand is not seen); wrist_twist_end_range",
     "right wrist": "wrist_flexion_deg, wrist_deviation_deg (where the hand is not seen); wrist_twist_end_range",
     "legs": "seated, legs_supported",

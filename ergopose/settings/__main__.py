@@ -18,7 +18,9 @@ def main(argv: list[str]) -> int:
     check = "--check" in argv
     args = [a for a in argv if a != "--check"]
     if any(a.startswith("-") for a in args) or len(args) > 1:
-        sys.stderr.write(f"ergopose.settings: unknown arguments {args!r}; usage: python -m ergopose.settings [--check] [FILE]\n")
+        sys.stderr.write(
+            f"ergopose.settings: unknown arguments {args!r}; usage: python -m ergopose.settings [--check] [FILE]\n"
+        )
         return 2
     path = Path(args[0]) if args else DOCS
     text = settings_markdown()

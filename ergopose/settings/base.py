@@ -35,9 +35,18 @@ class Table(BaseModel):
 T = TypeVar("T", bound=Table)
 
 #: The unit a key's name ends with, as the messages and the docs say it.
-UNITS = (("_deg_s", "degrees per second"), ("_deg", "degrees"), ("_m_per_s", "metres per second"),
-         ("_m_s2", "metres per second squared"), ("_m_s", "metres per second"), ("_m", "metres"),
-         ("_s", "seconds"), ("_kg", "kilograms"), ("_px", "pixels"), ("_per_min", "per minute"))
+UNITS = (
+    ("_deg_s", "degrees per second"),
+    ("_deg", "degrees"),
+    ("_m_per_s", "metres per second"),
+    ("_m_s2", "metres per second squared"),
+    ("_m_s", "metres per second"),
+    ("_m", "metres"),
+    ("_s", "seconds"),
+    ("_kg", "kilograms"),
+    ("_px", "pixels"),
+    ("_per_min", "per minute"),
+)
 
 
 def unit_of(name: str) -> str | None:
@@ -170,8 +179,9 @@ def _message(model: type[Table], err: Mapping[str, Any]) -> tuple[tuple[Any, ...
     return loc, f"expected {what}, got {err['input']!r}"
 
 
-def config_error(model: type[Table], exc: ValidationError, path: str | os.PathLike | None,
-                 prefix: Sequence[Any] = ()) -> ConfigError:
+def config_error(
+    model: type[Table], exc: ValidationError, path: str | os.PathLike | None, prefix: Sequence[Any] = ()
+) -> ConfigError:
     """ONE ConfigError for a ValidationError: the file, the key path, the value and what is allowed
     (and how many more problems the file has)."""
     # an unknown key first: a misspelt key is the likeliest cause of the other problems

@@ -25,8 +25,10 @@ TEMPLATE_HOWTO = """\
 # A key written as a comment ('# key = value') is not set: it shows the default, or an example
 # where there is no default. Remove the leading '# ' (of the [table] line too) to set it.
 """
-TEMPLATE_HEADER = ("# ergopose session settings (docs/session-format.md explains the file, docs/settings.md lists "
-                   "every key).\n" + TEMPLATE_HOWTO)
+TEMPLATE_HEADER = (
+    "# ergopose session settings (docs/session-format.md explains the file, docs/settings.md lists "
+    "every key).\n" + TEMPLATE_HOWTO
+)
 
 #: Example values of the keys the template must set.
 EXAMPLE_REQUIRED: dict[str, Any] = {
@@ -93,15 +95,19 @@ def _explain(name: str, info: FieldInfo, factor: bool) -> str:
     if info.is_required():
         note = "required"
     elif info.default is None:
-        note = "optional, not given: unknown (the value shown is an example)" if factor else (
-            "optional (the value shown is an example)")
+        note = (
+            "optional, not given: unknown (the value shown is an example)"
+            if factor
+            else ("optional (the value shown is an example)")
+        )
     else:
         note = f"default {_kv('x', _toml_value(info.default))[4:]}"
     return f"#   {info.description}; {what}; {note}"
 
 
-def _table_lines(cls: type[Table], data: dict[str, Any] | None, header: str, active: bool,
-                 explain: bool = True) -> list[str]:
+def _table_lines(
+    cls: type[Table], data: dict[str, Any] | None, header: str, active: bool, explain: bool = True
+) -> list[str]:
     """One table: a header line, then each key's explanation (``explain``: the first of a list of
     tables only) and the key (set when ``data`` gives it, else commented), then its sub-tables."""
     c = "" if active else "# "
@@ -190,13 +196,17 @@ def _rows(cls: type[Table], path: str) -> Iterable[str]:
         if _inherits_factors(cls) and name in TaskFactorsTable.model_fields:
             continue
         if kind != "value":
-            what = {"table": f"table `[{path}{name}]`", "tables": f"tables `[[{path}{name}]]`",
-                    "named": f"tables `[{path}{name}.<id>]`"}[kind]
+            what = {
+                "table": f"table `[{path}{name}]`",
+                "tables": f"tables `[[{path}{name}]]`",
+                "named": f"tables `[{path}{name}.<id>]`",
+            }[kind]
             yield f"| `{name}` | {what} | {_default_cell(info, False)} | {info.description} |"
             continue
         text = allowed(info.annotation, info, name).replace("|", "\\|")
-        yield (f"| `{name}` | {text} | {_default_cell(info, name in TaskFactorsTable.model_fields)} | "
-               f"{info.description} |")
+        yield (
+            f"| `{name}` | {text} | {_default_cell(info, name in TaskFactorsTable.model_fields)} | {info.description} |"
+        )
     if _inherits_factors(cls):
         yield "| any task factor | as in `[defaults]` | not given: unknown | the factors of this window or worker |"
 

@@ -40,8 +40,9 @@ def _iso(value: Any) -> Any:
 
 def _version(value: int) -> int:
     if value not in SUPPORTED_VERSIONS:
-        raise ValueError(f"unsupported format version {value!r} (this ergopose reads "
-                         f"{', '.join(map(str, SUPPORTED_VERSIONS))})")
+        raise ValueError(
+            f"unsupported format version {value!r} (this ergopose reads {', '.join(map(str, SUPPORTED_VERSIONS))})"
+        )
     return value
 
 
@@ -49,23 +50,30 @@ class CameraTable(Table):
     """One camera of the session and its video."""
 
     name: Text = Field(description="a camera of the calibration file", examples=["cam_1"])
-    video: Text = Field(description="its video: a file relative to the session folder, or an fsspec URL (docs/cluster.md)",
-                       examples=["cam_1.mp4"])
+    video: Text = Field(
+        description="its video: a file relative to the session folder, or an fsspec URL (docs/cluster.md)",
+        examples=["cam_1.mp4"],
+    )
 
 
 class IdentificationTable(Table):
     """How tracked people are matched to the workers that give a stature (docs/session-format.md)."""
 
     by_stature: bool = Field(False, description="name tracked people by their measured stature")
-    stature_tolerance_m: float = Field(0.05, gt=0, description="largest difference of given and measured stature for a match")
-    stature_margin_m: float = Field(0.02, gt=0, description="the best matching must beat every other by this much in total")
+    stature_tolerance_m: float = Field(
+        0.05, gt=0, description="largest difference of given and measured stature for a match"
+    )
+    stature_margin_m: float = Field(
+        0.02, gt=0, description="the best matching must beat every other by this much in total"
+    )
 
 
 class CalibrationCheckTable(Table):
     """A reference bar measured by the cameras (ergopose calibrate check; docs/calibration.md)."""
 
-    observations: Text = Field(description="CSV of the bar ends' pixels, relative to the session folder",
-                               examples=["reference_bars.csv"])
+    observations: Text = Field(
+        description="CSV of the bar ends' pixels, relative to the session folder", examples=["reference_bars.csv"]
+    )
     length_m: float = Field(gt=0, description="the bar's true length", examples=[1.5])
 
 
@@ -75,25 +83,32 @@ class SettingsFile(Table):
     format_version: int = Field(description="version of this format; this ergopose reads 1", examples=[FORMAT_VERSION])
     recorded_at: Annotated[dt.datetime, BeforeValidator(_iso)] = Field(
         description="date and time of the first frame (a time-zone offset, or local time)",
-        examples=[dt.datetime(2024, 3, 4, 8, 0, tzinfo=dt.timezone(dt.timedelta(hours=1)))])
-    fps: float | None = Field(None, gt=0, description="frames per second; default: the videos' rate (must agree within 1 %)",
-                              examples=[12.0])
+        examples=[dt.datetime(2024, 3, 4, 8, 0, tzinfo=dt.timezone(dt.timedelta(hours=1)))],
+    )
+    fps: float | None = Field(
+        None, gt=0, description="frames per second; default: the videos' rate (must agree within 1 %)", examples=[12.0]
+    )
     description: Text | None = Field(None, description="free text for the reports", examples=["Line 3, early shift"])
     calibration: Text = Field(CALIBRATION_FILE, description="the calibration file in the session folder")
     cameras: list[CameraTable] = Field(
-        min_length=1, description="one table per camera; the order is the order ergopose uses everywhere",
-        json_schema_extra={"allowed": "at least one [[cameras]] table (name and video)"})
-    defaults: TaskFactorsTable = Field(default_factory=TaskFactorsTable,
-                                       description="task factors for every worker, whole session")
+        min_length=1,
+        description="one table per camera; the order is the order ergopose uses everywhere",
+        json_schema_extra={"allowed": "at least one [[cameras]] table (name and video)"},
+    )
+    defaults: TaskFactorsTable = Field(
+        default_factory=TaskFactorsTable, description="task factors for every worker, whole session"
+    )
     periods: list[PeriodTable] = Field(default_factory=list, description="time windows with task factors for everyone")
     workers: dict[str, WorkerTable] = Field(default_factory=dict, description="one table per worker id")
-    identification: IdentificationTable = Field(default_factory=IdentificationTable,
-                                                description="matching tracked people to workers by stature")
+    identification: IdentificationTable = Field(
+        default_factory=IdentificationTable, description="matching tracked people to workers by stature"
+    )
     calibration_check: CalibrationCheckTable | None = Field(None, description="a reference bar for the accuracy check")
     scoring: ScoringTable = Field(default_factory=ScoringTable, description="scoring settings (docs/scoring.md)")
     pose: PoseTable = Field(default_factory=PoseTable, description="the 2D pose stage (docs/pose-in-fisheye.md)")
-    reconstruction: ReconstructionTable = Field(default_factory=ReconstructionTable,
-                                                description="the 3D reconstruction (docs/reconstruction.md)")
+    reconstruction: ReconstructionTable = Field(
+        default_factory=ReconstructionTable, description="the 3D reconstruction (docs/reconstruction.md)"
+    )
 
     @field_validator("format_version")
     @classmethod

@@ -24,9 +24,11 @@ class ScoringTable(Table):
     """Every open choice of the scoring, with the default ergopose uses."""
 
     rula_open_boundary: Boundary = Field(
-        "higher", description="RULA: which band an angle exactly on a band edge falls in")
+        "higher", description="RULA: which band an angle exactly on a band edge falls in"
+    )
     reba_open_boundary: Boundary = Field(
-        "lower", description="REBA: which band an angle exactly on a band edge falls in")
+        "lower", description="REBA: which band an angle exactly on a band edge falls in"
+    )
 
     wrist_neutral_deg: float = _deg(5.0, "RULA wrist within +- this is neutral")
     trunk_upright_deg: float = _deg(5.0, "trunk within +- this is upright (RULA and REBA)")
@@ -42,21 +44,32 @@ class ScoringTable(Table):
     across_midline_m: float = Field(0.05, ge=0, description="wrist this far beyond the body's midline works across it")
     out_to_side_m: float = Field(0.35, ge=0, description="wrist this far out on its own side works out to the side")
 
-    rula_static_hold_s: float = Field(60.0, gt=0, description="RULA: a posture held longer is static (600 = the '> 10 min' variant)")
+    rula_static_hold_s: float = Field(
+        60.0, gt=0, description="RULA: a posture held longer is static (600 = the '> 10 min' variant)"
+    )
     reba_static_hold_s: float = Field(60.0, gt=0, description="REBA: a posture held longer is static")
     static_includes_neutral: bool = Field(False, description="a hold in the lowest-scoring band counts as static too")
-    repetition_amplitude_deg: float = Field(15.0, gt=0, description="smallest rise and fall of an angle that counts as an action")
-    repetition_window_s: float = Field(60.0, gt=0, description="actions are counted in a window this long around each frame")
-    rula_repetitions_per_min: float = Field(4.0, gt=0, description="RULA: repeated at this many actions per minute or more")
+    repetition_amplitude_deg: float = Field(
+        15.0, gt=0, description="smallest rise and fall of an angle that counts as an action"
+    )
+    repetition_window_s: float = Field(
+        60.0, gt=0, description="actions are counted in a window this long around each frame"
+    )
+    rula_repetitions_per_min: float = Field(
+        4.0, gt=0, description="RULA: repeated at this many actions per minute or more"
+    )
     reba_repetitions_per_min: float = Field(4.0, gt=0, description="REBA: repeated above this many actions per minute")
     rapid_change_deg: float = Field(30.0, gt=0, description="REBA rapid change: an angle spans more than this ...")
     rapid_change_window_s: float = Field(1.0, gt=0, description="... within this many seconds")
     max_gap_s: float = Field(1.0, gt=0, description="frames further apart break a hold (tracking lost)")
 
     rula_lower_arm_adjust: Variant = Field(
-        "single", description="RULA lower arm: one +1 for across the midline or out to the side, or one for each")
+        "single", description="RULA lower arm: one +1 for across the midline or out to the side, or one for each"
+    )
     reba_twist_side_adjust: Variant = Field(
-        "single", description="REBA neck/trunk: one +1 for twisted or side-bent, or one for each")
+        "single", description="REBA neck/trunk: one +1 for twisted or side-bent, or one for each"
+    )
 
     unknown_flags: Literal["absent", "missing"] = Field(
-        "absent", description="an unknown yes/no input adds nothing (a lower bound) or makes the step score missing")
+        "absent", description="an unknown yes/no input adds nothing (a lower bound) or makes the step score missing"
+    )

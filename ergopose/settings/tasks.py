@@ -18,8 +18,7 @@ ANGLE_FACTOR_RANGE_DEG = (-90.0, 90.0)
 #: Plausible adult statures (metres) for a worker's given stature.
 STATURE_RANGE_M = (1.2, 2.3)
 
-TIME_ALLOWED = ("seconds from the start (a number), a clock time (10:15:00) or a date-time "
-                "(2024-03-04T10:15:00+01:00)")
+TIME_ALLOWED = "seconds from the start (a number), a clock time (10:15:00) or a date-time (2024-03-04T10:15:00+01:00)"
 
 
 def _nonempty(value: str) -> str:
@@ -54,22 +53,30 @@ class TaskFactorsTable(Table):
 
     load_kg: float | None = Field(None, ge=0, description="load or force handled", examples=[0.0])
     load_mode: Literal["intermittent", "static", "repeated"] | None = Field(
-        None, description="how the load is handled (RULA force/load): intermittent, static (held) or repeated",
-        examples=["intermittent"])
+        None,
+        description="how the load is handled (RULA force/load): intermittent, static (held) or repeated",
+        examples=["intermittent"],
+    )
     coupling: Literal["good", "fair", "poor", "unacceptable"] | None = Field(
-        None, description="the hand hold (REBA coupling)", examples=["good"])
+        None, description="the hand hold (REBA coupling)", examples=["good"]
+    )
     shock: bool | None = Field(None, description="shock or rapid build-up of force (REBA)", examples=[False])
-    arm_supported: bool | None = Field(None, description="upper arm supported or person leaning (RULA)",
-                                       examples=[False])
+    arm_supported: bool | None = Field(
+        None, description="upper arm supported or person leaning (RULA)", examples=[False]
+    )
     seated: bool | None = Field(None, description="the worker sits (RULA and REBA legs)", examples=[False])
-    legs_supported: bool | None = Field(None, description="legs and feet supported and balanced (RULA)",
-                                        examples=[True])
-    wrist_twist_end_range: bool | None = Field(None, description="wrist twisted near the end of its range (RULA)",
-                                               examples=[False])
+    legs_supported: bool | None = Field(
+        None, description="legs and feet supported and balanced (RULA)", examples=[True]
+    )
+    wrist_twist_end_range: bool | None = Field(
+        None, description="wrist twisted near the end of its range (RULA)", examples=[False]
+    )
     wrist_flexion_deg: float | None = _angle(
-        "the task's wrist posture where the hand is not seen: + flexion (toward the palm), - extension")
+        "the task's wrist posture where the hand is not seen: + flexion (toward the palm), - extension"
+    )
     wrist_deviation_deg: float | None = _angle(
-        "the task's wrist deviation where the hand is not seen: + radial (toward the thumb), - ulnar")
+        "the task's wrist deviation where the hand is not seen: + radial (toward the thumb), - ulnar"
+    )
 
 
 #: The task factors' keys in settings.toml.
@@ -79,10 +86,12 @@ FACTOR_KEYS = tuple(TaskFactorsTable.model_fields)
 class PeriodTable(TaskFactorsTable):
     """A time window [start, end) with task factors."""
 
-    start: TimeValue = Field(description="where the window starts (inside it)", examples=[0.0],
-                             json_schema_extra={"allowed": TIME_ALLOWED})
-    end: TimeValue = Field(description="where the window ends (outside it)", examples=[600.0],
-                           json_schema_extra={"allowed": TIME_ALLOWED})
+    start: TimeValue = Field(
+        description="where the window starts (inside it)", examples=[0.0], json_schema_extra={"allowed": TIME_ALLOWED}
+    )
+    end: TimeValue = Field(
+        description="where the window ends (outside it)", examples=[600.0], json_schema_extra={"allowed": TIME_ALLOWED}
+    )
 
     @model_validator(mode="after")
     def _some_factor(self) -> "PeriodTable":
@@ -94,9 +103,14 @@ class PeriodTable(TaskFactorsTable):
 class WorkerTable(TaskFactorsTable):
     """One worker: name, stature, own task factors and own periods."""
 
-    name: Text | None = Field(None, description="name or pseudonym shown in the reports instead of the id",
-                              examples=["Worker A"])
-    stature_m: float | None = Field(None, ge=STATURE_RANGE_M[0], le=STATURE_RANGE_M[1],
-                                    description="body height, to recognise the worker by stature ([identification])",
-                                    examples=[1.75])
+    name: Text | None = Field(
+        None, description="name or pseudonym shown in the reports instead of the id", examples=["Worker A"]
+    )
+    stature_m: float | None = Field(
+        None,
+        ge=STATURE_RANGE_M[0],
+        le=STATURE_RANGE_M[1],
+        description="body height, to recognise the worker by stature ([identification])",
+        examples=[1.75],
+    )
     periods: list[PeriodTable] = Field(default_factory=list, description="time windows for this worker only")

@@ -31,10 +31,12 @@ def _hall_boxes() -> list[Box]:
     wall = (188, 196, 200)
     t = 0.2
     h = HALL_HALF
-    return [Box("wall_n", "wall", (-h - t, h, 0.0), (h + t, h + t, HALL_HEIGHT), wall),
-            Box("wall_s", "wall", (-h - t, -h - t, 0.0), (h + t, -h, HALL_HEIGHT), wall),
-            Box("wall_e", "wall", (h, -h, 0.0), (h + t, h, HALL_HEIGHT), wall),
-            Box("wall_w", "wall", (-h - t, -h, 0.0), (-h, h, HALL_HEIGHT), wall)]
+    return [
+        Box("wall_n", "wall", (-h - t, h, 0.0), (h + t, h + t, HALL_HEIGHT), wall),
+        Box("wall_s", "wall", (-h - t, -h - t, 0.0), (h + t, -h, HALL_HEIGHT), wall),
+        Box("wall_e", "wall", (h, -h, 0.0), (h + t, h, HALL_HEIGHT), wall),
+        Box("wall_w", "wall", (-h - t, -h, 0.0), (-h, h, HALL_HEIGHT), wall),
+    ]
 
 
 def _bilinear_wrap(tex: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -42,8 +44,8 @@ def _bilinear_wrap(tex: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     h, w = tex.shape
     u0 = np.floor(u)
     v0 = np.floor(v)
-    fu = (u - u0)
-    fv = (v - v0)
+    fu = u - u0
+    fv = v - v0
     i0 = u0.astype(np.int64) % w
     j0 = v0.astype(np.int64) % h
     i1 = (i0 + 1) % w
@@ -66,8 +68,10 @@ def _floor_colour(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     out = np.stack([grey + 4.0, grey + 2.0, grey - 2.0], axis=-1)
     joint = (np.abs(x - np.round(x)) < 0.006) | (np.abs(y - np.round(y)) < 0.006)
     out[joint] *= 0.7
-    border = ((np.abs(np.abs(x) - 3.0) < 0.05) & (np.abs(y) < 3.05)) | ((np.abs(np.abs(y) - 3.0) < 0.05) & (np.abs(x) < 3.05))
-    stripe = (np.floor((x + y) / 0.2) % 2 == 0)
+    border = ((np.abs(np.abs(x) - 3.0) < 0.05) & (np.abs(y) < 3.05)) | (
+        (np.abs(np.abs(y) - 3.0) < 0.05) & (np.abs(x) < 3.05)
+    )
+    stripe = np.floor((x + y) / 0.2) % 2 == 0
     out[border & stripe] = (20.0, 190.0, 230.0)
     out[border & ~stripe] = (30.0, 30.0, 30.0)
     return out
@@ -85,8 +89,9 @@ def _box_surface_colour(kind: str, base: np.ndarray, p: np.ndarray, normal_axis:
         goods = side & ~board
         cell = np.floor(z / 0.45) * 7 + np.floor((p[:, 0] + p[:, 1]) / 0.3)
         pick = (np.abs(np.sin(cell * 12.9898)) * 43758.5453) % 1.0
-        palette = np.array([[70, 120, 170], [90, 140, 190], [150, 110, 60], [60, 160, 200], [120, 120, 120]],
-                           np.float32)
+        palette = np.array(
+            [[70, 120, 170], [90, 140, 190], [150, 110, 60], [60, 160, 200], [120, 120, 120]], np.float32
+        )
         shade = 0.75 + 0.35 * ((pick * 7.0) % 1.0)
         col[goods] = palette[(pick[goods] * len(palette)).astype(int) % len(palette)] * shade[goods, None]
     elif kind == "carton":
@@ -112,11 +117,14 @@ class StaticScene:
     @classmethod
     def from_scene(cls, scene: Scene) -> "StaticScene":
         boxes = tuple(scene.boxes) + tuple(_hall_boxes())
-        return cls(boxes=boxes, box_lo=np.array([b.lo for b in boxes], np.float32),
-                   box_hi=np.array([b.hi for b in boxes], np.float32),
-                   bar_a=np.array([b.end_a for b in scene.bars], np.float32).reshape(-1, 3),
-                   bar_b=np.array([b.end_b for b in scene.bars], np.float32).reshape(-1, 3),
-                   bar_radius=np.array([b.radius for b in scene.bars], np.float32))
+        return cls(
+            boxes=boxes,
+            box_lo=np.array([b.lo for b in boxes], np.float32),
+            box_hi=np.array([b.hi for b in boxes], np.float32),
+            bar_a=np.array([b.end_a for b in scene.bars], np.float32).reshape(-1, 3),
+            bar_b=np.array([b.end_b for b in scene.bars], np.float32).reshape(-1, 3),
+            bar_radius=np.array([b.radius for b in scene.bars], np.float32),
+        )
 
     def hit(self, origin: np.ndarray, d: np.ndarray, camera: Camera | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(t, what) for unit rays d (..., 3): distance of the first hit and what was hit:
@@ -174,8 +182,9 @@ def lambert_shade(normal: np.ndarray) -> np.ndarray:
     return AMBIENT + DIFFUSE * np.clip(dot(normal, LIGHT_WORLD.astype(np.float32)), 0.0, 1.0)
 
 
-def render_background(camera: Camera, static: StaticScene, rays: np.ndarray,
-                      valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def render_background(
+    camera: Camera, static: StaticScene, rays: np.ndarray, valid: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """(image uint8 (H, W, 3), depth float32 (H, W)) of the empty scene; depth inf outside the lens."""
     o = camera.position_world.astype(np.float32)
     t, what = static.hit(o, rays, camera)
@@ -214,8 +223,9 @@ def render_background(camera: Camera, static: StaticScene, rays: np.ndarray,
         length = float(np.linalg.norm(ab))
         along = s * length
         stripes = np.where(np.floor(along / 0.1) % 2 == 0, 0, 1)
-        col = np.where(stripes[:, None] == 0, np.array([20, 200, 235], dtype=np.float32),
-                       np.array([25, 25, 25], dtype=np.float32))
+        col = np.where(
+            stripes[:, None] == 0, np.array([20, 200, 235], dtype=np.float32), np.array([25, 25, 25], dtype=np.float32)
+        )
         caps = (along < 0.05) | (along > length - 0.05)
         col[caps] = (30, 30, 220)
         colour[sel] = col

@@ -36,7 +36,11 @@ CAPSULE_PARTS: tuple[tuple[str, str, float, str], ...] = (
 CAPSULE_NAMES = tuple(p[0] for p in CAPSULE_PARTS)
 #: Ellipsoid parts: name, colour slot (geometry in :func:`body_primitives`).
 ELLIPSOID_PARTS: tuple[tuple[str, str], ...] = (
-    ("chest", "shirt"), ("abdomen", "shirt"), ("pelvis", "trousers"), ("head", "skin"), ("nose", "skin"),
+    ("chest", "shirt"),
+    ("abdomen", "shirt"),
+    ("pelvis", "trousers"),
+    ("head", "skin"),
+    ("nose", "skin"),
 )
 ELLIPSOID_NAMES = tuple(p[0] for p in ELLIPSOID_PARTS)
 N_CAPSULES = len(CAPSULE_PARTS)
@@ -149,11 +153,14 @@ def body_primitives(worker: WorkerMotion) -> BodyPrimitives:
     ends = {
         "neck": (mid_sh, chin),
         "shoulders": (ls, rs),
-        "left_upper_arm": (ls, p[:, J["left_elbow"]]), "right_upper_arm": (rs, p[:, J["right_elbow"]]),
+        "left_upper_arm": (ls, p[:, J["left_elbow"]]),
+        "right_upper_arm": (rs, p[:, J["right_elbow"]]),
         "left_forearm": (p[:, J["left_elbow"]], p[:, J["left_wrist"]]),
         "right_forearm": (p[:, J["right_elbow"]], p[:, J["right_wrist"]]),
-        "left_hand": (p[:, J["left_wrist"]], hand_tip("left")), "right_hand": (p[:, J["right_wrist"]], hand_tip("right")),
-        "left_thigh": (lh, p[:, J["left_knee"]]), "right_thigh": (rh, p[:, J["right_knee"]]),
+        "left_hand": (p[:, J["left_wrist"]], hand_tip("left")),
+        "right_hand": (p[:, J["right_wrist"]], hand_tip("right")),
+        "left_thigh": (lh, p[:, J["left_knee"]]),
+        "right_thigh": (rh, p[:, J["right_knee"]]),
         "left_shank": (p[:, J["left_knee"]], p[:, J["left_ankle"]]),
         "right_shank": (p[:, J["right_knee"]], p[:, J["right_ankle"]]),
     }
@@ -174,21 +181,27 @@ def body_primitives(worker: WorkerMotion) -> BodyPrimitives:
     pelvis[:, 0, 0], pelvis[:, 1, 0] = c, s
     pelvis[:, 0, 1], pelvis[:, 1, 1] = -s, c
     pelvis[:, 2, 2] = 1.0
-    centres = np.stack([
-        mid_sh - up * (0.105 * h),
-        mid_hip + up * (0.1 * h),
-        mid_hip + np.array([0.0, 0.0, 0.01 * h]),
-        neck_base + np.einsum("fij,j->fi", head, np.array(HEAD_CENTRE) * hh),
-        p[:, J["nose"]] - head[:, :, 0] * (0.6 * NOSE_RADIUS * hh),
-    ], axis=1)
+    centres = np.stack(
+        [
+            mid_sh - up * (0.105 * h),
+            mid_hip + up * (0.1 * h),
+            mid_hip + np.array([0.0, 0.0, 0.01 * h]),
+            neck_base + np.einsum("fij,j->fi", head, np.array(HEAD_CENTRE) * hh),
+            p[:, J["nose"]] - head[:, :, 0] * (0.6 * NOSE_RADIUS * hh),
+        ],
+        axis=1,
+    )
     axes = np.stack([trunk, trunk, pelvis, head, head], axis=1)
-    radii = np.array([
-        (0.062 * h, 0.098 * h, 0.12 * h),
-        (0.058 * h, 0.086 * h, 0.1 * h),
-        (0.06 * h, 0.1 * h, 0.066 * h),
-        tuple(r * hh for r in HEAD_RADII),
-        (NOSE_RADIUS * hh,) * 3,
-    ], dtype=np.float32)
+    radii = np.array(
+        [
+            (0.062 * h, 0.098 * h, 0.12 * h),
+            (0.058 * h, 0.086 * h, 0.1 * h),
+            (0.06 * h, 0.1 * h, 0.066 * h),
+            tuple(r * hh for r in HEAD_RADII),
+            (NOSE_RADIUS * hh,) * 3,
+        ],
+        dtype=np.float32,
+    )
 
     # Carton between the hands, level, facing where the pelvis faces.
     lw, rw = p[:, J["left_wrist"]], p[:, J["right_wrist"]]
@@ -216,11 +229,18 @@ def body_primitives(worker: WorkerMotion) -> BodyPrimitives:
 
     f32 = np.float32
     return BodyPrimitives(
-        capsule_a=cap_a.astype(f32), capsule_b=cap_b.astype(f32), capsule_radius=radius,
-        ellipsoid_centre=centres.astype(f32), ellipsoid_axes=axes.astype(f32), ellipsoid_radii=radii,
-        carton_centre=carton_centre.astype(f32), carton_axes=carton_axes.astype(f32),
-        carton_half=carton_half.astype(f32), carrying=np.asarray(worker.carrying, bool),
-        colours=np.array(colours, dtype=f32), hair=np.array(look.hair, dtype=f32),
+        capsule_a=cap_a.astype(f32),
+        capsule_b=cap_b.astype(f32),
+        capsule_radius=radius,
+        ellipsoid_centre=centres.astype(f32),
+        ellipsoid_axes=axes.astype(f32),
+        ellipsoid_radii=radii,
+        carton_centre=carton_centre.astype(f32),
+        carton_axes=carton_axes.astype(f32),
+        carton_half=carton_half.astype(f32),
+        carrying=np.asarray(worker.carrying, bool),
+        colours=np.array(colours, dtype=f32),
+        hair=np.array(look.hair, dtype=f32),
         eye_dirs=np.stack([face_dir(["left_eye"]), face_dir(["right_eye"])]).astype(f32),
         mouth_dir=face_dir(["mouth_left", "mouth_right"]).astype(f32),
     )

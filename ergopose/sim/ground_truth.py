@@ -99,7 +99,7 @@ class GroundTruth:
         joints), and the box u_min, v_min, u_max, v_max (fisheye pixels) of the joints in the image."""
         f, c, w = self.visibility.shape[:3]
         hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
-        theta = self.theta[..., hips].astype(np.float64).mean(axis=-1)            # (F, C, W)
+        theta = self.theta[..., hips].astype(np.float64).mean(axis=-1)  # (F, C, W)
         region = lens_region(theta)
         names = np.array([r[0] for r in LENS_REGIONS_DEG] + [""], dtype=object)
         inside = self.visibility != 4
@@ -110,30 +110,47 @@ class GroundTruth:
                 lo = np.nanmin(px, axis=3)
                 hi = np.nanmax(px, axis=3)
         ff, cc, ww = np.meshgrid(np.arange(f), np.arange(c), np.arange(w), indexing="ij")
-        return pd.DataFrame({
-            "frame": ff.ravel(), "time_s": self.times_s[ff.ravel()],
-            "camera": pd.array(np.array(self.camera_names, dtype=object)[cc.ravel()], dtype="string"),
-            "worker": pd.array(np.array(self.worker_ids, dtype=object)[ww.ravel()], dtype="string"),
-            "task": pd.array(np.array(self.task_names, dtype=object)[self.task[ff.ravel(), ww.ravel()]], dtype="string"),
-            "theta_deg": np.degrees(theta).ravel(),
-            "region": pd.array(names[region.ravel()], dtype="string"),
-            "n_visible": (self.visibility == 0).sum(axis=-1).ravel(),
-            "n_in_image": inside.sum(axis=-1).ravel(),
-            "u_min": lo[..., 0].ravel(), "v_min": lo[..., 1].ravel(),
-            "u_max": hi[..., 0].ravel(), "v_max": hi[..., 1].ravel(),
-        })
+        return pd.DataFrame(
+            {
+                "frame": ff.ravel(),
+                "time_s": self.times_s[ff.ravel()],
+                "camera": pd.array(np.array(self.camera_names, dtype=object)[cc.ravel()], dtype="string"),
+                "worker": pd.array(np.array(self.worker_ids, dtype=object)[ww.ravel()], dtype="string"),
+                "task": pd.array(
+                    np.array(self.task_names, dtype=object)[self.task[ff.ravel(), ww.ravel()]], dtype="string"
+                ),
+                "theta_deg": np.degrees(theta).ravel(),
+                "region": pd.array(names[region.ravel()], dtype="string"),
+                "n_visible": (self.visibility == 0).sum(axis=-1).ravel(),
+                "n_in_image": inside.sum(axis=-1).ravel(),
+                "u_min": lo[..., 0].ravel(),
+                "v_min": lo[..., 1].ravel(),
+                "u_max": hi[..., 0].ravel(),
+                "v_max": hi[..., 1].ravel(),
+            }
+        )
 
     def reference_bars(self) -> list[dict[str, Any]]:
         """The reference bars: name, end_a, end_b (world, metres), length_m, per-camera angles."""
         return list(self.scene.get("reference_bars", []))
 
 
-def write_ground_truth(folder: Path, *, scene_info: dict[str, Any], motion, camera_names: Sequence[str],
-                       pixels: np.ndarray, theta: np.ndarray, visibility: np.ndarray) -> None:
+def write_ground_truth(
+    folder: Path,
+    *,
+    scene_info: dict[str, Any],
+    motion,
+    camera_names: Sequence[str],
+    pixels: np.ndarray,
+    theta: np.ndarray,
+    visibility: np.ndarray,
+) -> None:
     """Write scene.toml, joints.npz and postures.parquet into ``folder`` (which must exist)."""
     folder = Path(folder)
-    header = ("# Ground truth of a SIMULATED ergopose session (ergopose simulate); "
-              "docs/session-format.md describes every field.\n")
+    header = (
+        "# Ground truth of a SIMULATED ergopose session (ergopose simulate); "
+        "docs/session-format.md describes every field.\n"
+    )
     (folder / SCENE_FILE).write_text(header + tomli_w.dumps(_plain(scene_info)), encoding="utf-8")
     arrays = {
         "joints_world": motion.joints_world.astype(np.float64),
@@ -155,10 +172,15 @@ def write_ground_truth(folder: Path, *, scene_info: dict[str, Any], motion, came
     for w in motion.workers:
         a = w.angles()
         root = np.asarray(w.posture.root_position)
-        table = {"frame": np.arange(motion.n_frames, dtype=np.int64), "time_s": motion.times_s,
-                 "worker": np.full(motion.n_frames, w.worker_id, dtype=object),
-                 "task": np.array(TASKS, dtype=object)[w.task],
-                 "root_x": root[:, 0], "root_y": root[:, 1], "root_z": root[:, 2]}
+        table = {
+            "frame": np.arange(motion.n_frames, dtype=np.int64),
+            "time_s": motion.times_s,
+            "worker": np.full(motion.n_frames, w.worker_id, dtype=object),
+            "task": np.array(TASKS, dtype=object)[w.task],
+            "root_x": root[:, 0],
+            "root_y": root[:, 1],
+            "root_z": root[:, 2],
+        }
         table.update({k: np.asarray(v, np.float64) for k, v in a.items()})
         rows.append(pd.DataFrame(table))
     frame = pd.concat(rows, ignore_index=True)
@@ -186,8 +208,7 @@ def load_ground_truth(path: str | os.PathLike) -> GroundTruth:
     folder = p / "ground_truth" if (p / "ground_truth").is_dir() else p
     for name in (SCENE_FILE, JOINTS_FILE, POSTURES_FILE):
         if not (folder / name).is_file():
-            raise InputError(f"no ground truth here: {name} is missing (only simulated sessions have one)",
-                             path=folder)
+            raise InputError(f"no ground truth here: {name} is missing (only simulated sessions have one)", path=folder)
     try:
         scene = tomllib.loads((folder / SCENE_FILE).read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as exc:
@@ -201,18 +222,45 @@ def load_ground_truth(path: str | os.PathLike) -> GroundTruth:
         postures = pd.read_parquet(folder / POSTURES_FILE)
     except Exception as exc:  # pyarrow raises its own types for damaged files
         raise InputError(f"cannot read the postures ({exc})", path=folder / POSTURES_FILE) from None
-    needed = ("joints_world", "pixels", "theta", "visibility", "task", "planted", "carrying", "times_s",
-              "worker_ids", "camera_names", "task_names")
+    needed = (
+        "joints_world",
+        "pixels",
+        "theta",
+        "visibility",
+        "task",
+        "planted",
+        "carrying",
+        "times_s",
+        "worker_ids",
+        "camera_names",
+        "task_names",
+    )
     missing = [k for k in needed if k not in data]
     if missing:
         raise InputError(f"missing arrays {', '.join(missing)}", path=folder / JOINTS_FILE)
     j = data["joints_world"]
     if j.ndim != 4 or j.shape[2:] != (NUM_JOINTS, 3):
-        raise InputError(f"joints_world has shape {j.shape}, expected (F, W, {NUM_JOINTS}, 3)", path=folder / JOINTS_FILE)
+        raise InputError(
+            f"joints_world has shape {j.shape}, expected (F, W, {NUM_JOINTS}, 3)", path=folder / JOINTS_FILE
+        )
     times = data["times_s"]
-    fps = float(scene.get("session", {}).get("fps", 0.0)) or (1.0 / float(np.diff(times[:2])[0]) if len(times) > 1 else math.nan)
-    return GroundTruth(path=folder, fps=fps, worker_ids=tuple(str(x) for x in data["worker_ids"]),
-                       camera_names=tuple(str(x) for x in data["camera_names"]), joints_world=j,
-                       pixels=data["pixels"], theta=data["theta"], visibility=data["visibility"], task=data["task"],
-                       task_names=tuple(str(x) for x in data["task_names"]), planted=data["planted"],
-                       carrying=data["carrying"], times_s=times, postures=postures, scene=scene)
+    fps = float(scene.get("session", {}).get("fps", 0.0)) or (
+        1.0 / float(np.diff(times[:2])[0]) if len(times) > 1 else math.nan
+    )
+    return GroundTruth(
+        path=folder,
+        fps=fps,
+        worker_ids=tuple(str(x) for x in data["worker_ids"]),
+        camera_names=tuple(str(x) for x in data["camera_names"]),
+        joints_world=j,
+        pixels=data["pixels"],
+        theta=data["theta"],
+        visibility=data["visibility"],
+        task=data["task"],
+        task_names=tuple(str(x) for x in data["task_names"]),
+        planted=data["planted"],
+        carrying=data["carrying"],
+        times_s=times,
+        postures=postures,
+        scene=scene,
+    )

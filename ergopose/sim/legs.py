@@ -16,8 +16,14 @@ MAX_LEG_STRETCH = 0.998
 # --- leg inverse kinematics -------------------------------------------------------------------------
 
 
-def leg_ik(m: BodyMeasurements, root: np.ndarray, heading: np.ndarray, ankle_world: np.ndarray,
-           side: str, foot_pitch: np.ndarray | float = 0.0) -> dict[str, np.ndarray]:
+def leg_ik(
+    m: BodyMeasurements,
+    root: np.ndarray,
+    heading: np.ndarray,
+    ankle_world: np.ndarray,
+    side: str,
+    foot_pitch: np.ndarray | float = 0.0,
+) -> dict[str, np.ndarray]:
     """Hip flexion, hip abduction, knee flexion and ankle flexion that put the ankle at ``ankle_world``.
 
     root (F, 3) mid-hip point, heading (F,), ankle_world (F, 3). The ankle angle keeps the sole
@@ -44,5 +50,9 @@ def leg_ik(m: BodyMeasurements, root: np.ndarray, heading: np.ndarray, ankle_wor
     hip_flex = (hip_flex + np.pi) % (2 * np.pi) - np.pi
     beta = np.arctan2(np.sin(hip_flex), np.cos(hip_flex) * np.cos(ab_signed))
     ankle = knee - beta + foot_pitch
-    return {f"{side}_hip_flexion": hip_flex, f"{side}_hip_abduction": sigma * ab_signed,
-            f"{side}_knee_flexion": knee, f"{side}_ankle_flexion": ankle}
+    return {
+        f"{side}_hip_flexion": hip_flex,
+        f"{side}_hip_abduction": sigma * ab_signed,
+        f"{side}_knee_flexion": knee,
+        f"{side}_ankle_flexion": ankle,
+    }

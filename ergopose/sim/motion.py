@@ -53,8 +53,7 @@ from ergopose.sim.workforce import FactorPeriod, Motion, WorkerMotion, make_work
 # --- the shift -----------------------------------------------------------------------------------------
 
 #: Jobs and their weights: a job is one or two tasks at stations.
-JOBS = (("lift_and_place", 0.32), ("reach_overhead", 0.14), ("pick_twist", 0.16), ("assembly", 0.24),
-        ("rest", 0.14))
+JOBS = (("lift_and_place", 0.32), ("reach_overhead", 0.14), ("pick_twist", 0.16), ("assembly", 0.24), ("rest", 0.14))
 
 
 class _Reservations:
@@ -117,8 +116,16 @@ def _walk_time(path: np.ndarray, speed: float) -> float:
     return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) / speed + 2.5
 
 
-def _go(tr: TimelineBuilder, station: Station, grid: WalkGrid, reservations: _Reservations, tracks: list[TimelineBuilder],
-        stations: dict[str, Station], carrying: bool, t_hold: float) -> None:
+def _go(
+    tr: TimelineBuilder,
+    station: Station,
+    grid: WalkGrid,
+    reservations: _Reservations,
+    tracks: list[TimelineBuilder],
+    stations: dict[str, Station],
+    carrying: bool,
+    t_hold: float,
+) -> None:
     """Walk to ``station`` avoiding stations other workers occupy meanwhile (and where they stand now)."""
     start = tr.root_xy.copy()
     goal = np.array(station.position, float)
@@ -127,14 +134,19 @@ def _go(tr: TimelineBuilder, station: Station, grid: WalkGrid, reservations: _Re
     for other in tracks:
         if other is not tr:
             circles.append((float(other.root_xy[0]), float(other.root_xy[1]), 0.55))
-    circles = [c for c in circles if math.hypot(c[0] - start[0], c[1] - start[1]) > c[2] + 0.05
-               and math.hypot(c[0] - goal[0], c[1] - goal[1]) > c[2] + 0.05]
+    circles = [
+        c
+        for c in circles
+        if math.hypot(c[0] - start[0], c[1] - start[1]) > c[2] + 0.05
+        and math.hypot(c[0] - goal[0], c[1] - goal[1]) > c[2] + 0.05
+    ]
     path = plan_path(grid, start, goal, circles)
     tr.walk(path, station.heading, carrying)
 
 
-def _pick_station(tr: TimelineBuilder, task: str, scene: Scene, reservations: _Reservations, grid: WalkGrid,
-                  hold_s: float) -> Station | None:
+def _pick_station(
+    tr: TimelineBuilder, task: str, scene: Scene, reservations: _Reservations, grid: WalkGrid, hold_s: float
+) -> Station | None:
     candidates = [s for s in scene.stations if task in s.tasks]
     free = []
     for s in candidates:
@@ -146,8 +158,14 @@ def _pick_station(tr: TimelineBuilder, task: str, scene: Scene, reservations: _R
     return free[int(tr.rng.integers(len(free)))]
 
 
-def _next_job(tr: TimelineBuilder, scene: Scene, stations: dict[str, Station], grid: WalkGrid,
-              reservations: _Reservations, tracks: list[TimelineBuilder]) -> None:
+def _next_job(
+    tr: TimelineBuilder,
+    scene: Scene,
+    stations: dict[str, Station],
+    grid: WalkGrid,
+    reservations: _Reservations,
+    tracks: list[TimelineBuilder],
+) -> None:
     names = [j for j, _ in JOBS]
     weights = np.array([w for _, w in JOBS])
     job = names[int(tr.rng.choice(len(names), p=weights / weights.sum()))]
@@ -249,5 +267,12 @@ def _finish(tr: TimelineBuilder, n_frames: int) -> WorkerMotion:
         if err > 1e-6:
             raise AssertionError(f"leg IK missed the {side} ankle by {err:.3g} m")
     periods = tuple(p for p in sorted(tr.periods, key=lambda p: p.start_s) if p.start_s < n_frames / tr.fps)
-    return WorkerMotion(spec=tr.spec, posture=posture, joints_world=joints, task=task, planted=planted,
-                        carrying=carrying, periods=periods)
+    return WorkerMotion(
+        spec=tr.spec,
+        posture=posture,
+        joints_world=joints,
+        task=task,
+        planted=planted,
+        carrying=carrying,
+        periods=periods,
+    )

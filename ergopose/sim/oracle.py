@@ -58,17 +58,27 @@ class OracleObservations:
 
     def to_frame(self):
         """A long pandas DataFrame: source, frame, time_s, camera, worker, joint, x, y, confidence, visible."""
-        f, c, w, j = np.meshgrid(np.arange(len(self.frames)), np.arange(len(self.camera_names)),
-                                 np.arange(len(self.worker_ids)), np.arange(NUM_JOINTS), indexing="ij")
-        return pd.DataFrame({
-            "source": pd.array([self.source] * f.size, dtype="string"),
-            "frame": self.frames[f.ravel()], "time_s": self.times_s[f.ravel()],
-            "camera": pd.array(np.array(self.camera_names, dtype=object)[c.ravel()], dtype="string"),
-            "worker": pd.array(np.array(self.worker_ids, dtype=object)[w.ravel()], dtype="string"),
-            "joint": pd.array(np.array(BLAZEPOSE33, dtype=object)[j.ravel()], dtype="string"),
-            "x": self.pixels_fisheye[..., 0].ravel(), "y": self.pixels_fisheye[..., 1].ravel(),
-            "confidence": self.confidence.ravel(), "visible": self.visibility.ravel(),
-        })
+        f, c, w, j = np.meshgrid(
+            np.arange(len(self.frames)),
+            np.arange(len(self.camera_names)),
+            np.arange(len(self.worker_ids)),
+            np.arange(NUM_JOINTS),
+            indexing="ij",
+        )
+        return pd.DataFrame(
+            {
+                "source": pd.array([self.source] * f.size, dtype="string"),
+                "frame": self.frames[f.ravel()],
+                "time_s": self.times_s[f.ravel()],
+                "camera": pd.array(np.array(self.camera_names, dtype=object)[c.ravel()], dtype="string"),
+                "worker": pd.array(np.array(self.worker_ids, dtype=object)[w.ravel()], dtype="string"),
+                "joint": pd.array(np.array(BLAZEPOSE33, dtype=object)[j.ravel()], dtype="string"),
+                "x": self.pixels_fisheye[..., 0].ravel(),
+                "y": self.pixels_fisheye[..., 1].ravel(),
+                "confidence": self.confidence.ravel(),
+                "visible": self.visibility.ravel(),
+            }
+        )
 
 
 @dataclass(frozen=True)
@@ -108,7 +118,7 @@ class OracleSource:
         index = np.arange(gt.n_frames)
         if frames is not None:
             index = index[frames] if isinstance(frames, slice) else np.asarray(frames, dtype=np.int64)
-        truth = gt.pixels[index].astype(np.float64)                    # (F, C, W, 33, 2)
+        truth = gt.pixels[index].astype(np.float64)  # (F, C, W, 33, 2)
         codes = gt.visibility[index]
         f, c, w = truth.shape[:3]
         noise = np.empty_like(truth)
@@ -133,6 +143,13 @@ class OracleSource:
             keep &= ~hidden
         pixels[~keep] = np.nan
         confidence[~keep] = 0.0
-        return OracleObservations(pixels_fisheye=pixels, confidence=confidence, visibility=visible,
-                                  detected=detected, frames=index, times_s=gt.times_s[index],
-                                  worker_ids=gt.worker_ids, camera_names=gt.camera_names)
+        return OracleObservations(
+            pixels_fisheye=pixels,
+            confidence=confidence,
+            visibility=visible,
+            detected=detected,
+            frames=index,
+            times_s=gt.times_s[index],
+            worker_ids=gt.worker_ids,
+            camera_names=gt.camera_names,
+        )

@@ -59,8 +59,9 @@ def _box_distance(x, y, bx0, by0, bx1, by1):
     return np.hypot(dx, dy)
 
 
-def plan_path(grid: WalkGrid, start: np.ndarray, goal: np.ndarray,
-              circles: Sequence[tuple[float, float, float]] = ()) -> np.ndarray:
+def plan_path(
+    grid: WalkGrid, start: np.ndarray, goal: np.ndarray, circles: Sequence[tuple[float, float, float]] = ()
+) -> np.ndarray:
     """Waypoints (n, 2) from start to goal around the furniture (and the given circles (x, y, r)).
 
     A* over the 8-connected grid, then shortened: from each waypoint, jump to the farthest later
@@ -74,8 +75,16 @@ def plan_path(grid: WalkGrid, start: np.ndarray, goal: np.ndarray,
     s, g = grid.cell(start), grid.cell(goal)
     blocked[s] = False
     blocked[g] = False
-    steps = [(1, 0, 1.0), (-1, 0, 1.0), (0, 1, 1.0), (0, -1, 1.0),
-             (1, 1, math.sqrt(2)), (1, -1, math.sqrt(2)), (-1, 1, math.sqrt(2)), (-1, -1, math.sqrt(2))]
+    steps = [
+        (1, 0, 1.0),
+        (-1, 0, 1.0),
+        (0, 1, 1.0),
+        (0, -1, 1.0),
+        (1, 1, math.sqrt(2)),
+        (1, -1, math.sqrt(2)),
+        (-1, 1, math.sqrt(2)),
+        (-1, -1, math.sqrt(2)),
+    ]
     came: dict[tuple[int, int], tuple[int, int]] = {}
     cost = {s: 0.0}
     heap = [(0.0, 0, s)]
@@ -147,7 +156,7 @@ def rounded_curve(points: np.ndarray, radius: float = 0.6, spacing: float = 0.02
         n = max(2, int(math.ceil(np.linalg.norm(p_in - start) / spacing)) + 1)
         pieces.append(start + (p_in - start) * np.linspace(0.0, 1.0, n)[1:, None])
         t = np.linspace(0.0, 1.0, 25)[1:, None]
-        pieces.append((1 - t) ** 2 * p_in + 2 * (1 - t) * t * c + t ** 2 * p_out)
+        pieces.append((1 - t) ** 2 * p_in + 2 * (1 - t) * t * c + t**2 * p_out)
         start = p_out
     end = points[-1]
     n = max(2, int(math.ceil(np.linalg.norm(end - start) / spacing)) + 1)

@@ -48,8 +48,9 @@ def ray_capsule(origin: np.ndarray, d: np.ndarray, a: np.ndarray, b: np.ndarray,
         return np.minimum(t_cyl, np.where((h2 > 0) & (t2 > 0), t2, np.inf))
 
 
-def ray_ellipsoid(origin: np.ndarray, d: np.ndarray, centre: np.ndarray, axes: np.ndarray,
-                  radii: np.ndarray) -> np.ndarray:
+def ray_ellipsoid(
+    origin: np.ndarray, d: np.ndarray, centre: np.ndarray, axes: np.ndarray, radii: np.ndarray
+) -> np.ndarray:
     """First-hit distance of unit rays with ellipsoids (centre (..., 3), axes (..., 3, 3) columns,
     radii (..., 3)); inf = miss."""
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -78,8 +79,7 @@ def ray_box(origin: np.ndarray, d: np.ndarray, centre: np.ndarray, axes: np.ndar
         return np.where((t_near <= t_far) & (t_near > 0), t_near, np.inf)
 
 
-def ray_aabb_planar(origin: np.ndarray, inv: Sequence[np.ndarray],
-                    lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def ray_aabb_planar(origin: np.ndarray, inv: Sequence[np.ndarray], lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """First-hit distance of rays given by their inverse direction components (planes of any
     shape; inv: the three components) with an axis-aligned box [lo, hi]; inf = miss."""
     with np.errstate(invalid="ignore", over="ignore"):

@@ -81,6 +81,7 @@ class RenderOptions:
 
 def _quiet(fn):
     """Run a ray kernel with NaN/inf arithmetic silent (NaN marks a miss, by design)."""
+
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -165,18 +166,26 @@ class CameraRenderer:
         centres, radii = [], []
         for body in self.bodies:
             r = body.capsule_radius
-            centres += [body.capsule_a[frame], body.capsule_b[frame], body.ellipsoid_centre[frame],
-                        body.carton_centre[frame][None, :]]
-            radii += [r, r, body.ellipsoid_radii.max(axis=1),
-                      np.array([np.linalg.norm(body.carton_half[frame])], np.float32)]
+            centres += [
+                body.capsule_a[frame],
+                body.capsule_b[frame],
+                body.ellipsoid_centre[frame],
+                body.carton_centre[frame][None, :],
+            ]
+            radii += [
+                r,
+                r,
+                body.ellipsoid_radii.max(axis=1),
+                np.array([np.linalg.norm(body.carton_half[frame])], np.float32),
+            ]
         box = self._boxes(np.concatenate(centres), np.concatenate(radii))
         per = 2 * N_CAPSULES + N_ELLIPSOIDS + 1
         out = []
         for w in range(len(self.bodies)):
-            b = box[w * per:(w + 1) * per]
-            ba, bb = b[:N_CAPSULES], b[N_CAPSULES:2 * N_CAPSULES]
+            b = box[w * per : (w + 1) * per]
+            ba, bb = b[:N_CAPSULES], b[N_CAPSULES : 2 * N_CAPSULES]
             caps = np.concatenate([np.minimum(ba[:, :2], bb[:, :2]), np.maximum(ba[:, 2:], bb[:, 2:])], axis=1)
-            out.append(np.concatenate([caps, b[2 * N_CAPSULES:]]))
+            out.append(np.concatenate([caps, b[2 * N_CAPSULES :]]))
         return out
 
     # batched intersections: every pixel of every primitive's box in one array -------------
@@ -196,8 +205,7 @@ class CameraRenderer:
         return row * w_img + col, prim
 
     @_quiet
-    def _capsules(self, flat: np.ndarray, prim: np.ndarray, a: np.ndarray, b: np.ndarray,
-                  r: np.ndarray) -> np.ndarray:
+    def _capsules(self, flat: np.ndarray, prim: np.ndarray, a: np.ndarray, b: np.ndarray, r: np.ndarray) -> np.ndarray:
         """Hit distances (N,) of pixel rays with capsules a, b (P, 3), r (P,) by primitive row; NaN = miss."""
         o = self.origin
         ba = (b - a).astype(np.float64)
@@ -207,8 +215,9 @@ class CameraRenderer:
         baoa = np.einsum("ij,ij->i", ba, oa)
         oaoa = np.einsum("ij,ij->i", oa, oa)
         r2 = r.astype(np.float64) ** 2
-        consts = np.stack([baba, baoa, baba * oaoa - baoa * baoa - r2 * baba, oaoa - r2,
-                           np.einsum("ij,ij->i", ob, ob) - r2], axis=1).astype(np.float32)[prim]
+        consts = np.stack(
+            [baba, baoa, baba * oaoa - baoa * baoa - r2 * baba, oaoa - r2, np.einsum("ij,ij->i", ob, ob) - r2], axis=1
+        ).astype(np.float32)[prim]
         vec = np.concatenate([ba, oa], axis=1).astype(np.float32)[prim]
         rx, ry, rz = self.rx_flat[flat], self.ry_flat[flat], self.rz_flat[flat]
         bard = rx * vec[:, 0] + ry * vec[:, 1] + rz * vec[:, 2]
@@ -225,18 +234,38 @@ class CameraRenderer:
         return np.fmin(np.fmin(t, t1), t2)
 
     @_quiet
-    def _ellipsoids(self, flat: np.ndarray, prim: np.ndarray, centre: np.ndarray, axes: np.ndarray,
-                    radii: np.ndarray) -> np.ndarray:
+    def _ellipsoids(
+        self, flat: np.ndarray, prim: np.ndarray, centre: np.ndarray, axes: np.ndarray, radii: np.ndarray
+    ) -> np.ndarray:
         """Hit distances (N,) of pixel rays with ellipsoids (P, ...) by primitive row; NaN = miss."""
-        m = axes.astype(np.float64) / radii.astype(np.float64)[:, None, :]      # columns axis_i / r_i
-        q = np.einsum("pik,pjk->pij", m, m)                                        # d'.d' = d^T q d
+        m = axes.astype(np.float64) / radii.astype(np.float64)[:, None, :]  # columns axis_i / r_i
+        q = np.einsum("pik,pjk->pij", m, m)  # d'.d' = d^T q d
         o_l = np.einsum("pji,pj->pi", m, self.origin - centre)
-        wv = np.einsum("pij,pj->pi", m, o_l)                                       # o'.d' = d . wv
+        wv = np.einsum("pij,pj->pi", m, o_l)  # o'.d' = d . wv
         c = np.einsum("pi,pi->p", o_l, o_l) - 1.0
-        coef = np.stack([q[:, 0, 0], q[:, 1, 1], q[:, 2, 2], 2 * q[:, 0, 1], 2 * q[:, 0, 2], 2 * q[:, 1, 2],
-                         wv[:, 0], wv[:, 1], wv[:, 2], c], axis=1).astype(np.float32)[prim]
-        qa = (self.xx_flat[flat] * coef[:, 0] + self.yy_flat[flat] * coef[:, 1] + self.zz_flat[flat] * coef[:, 2]
-              + self.xy_flat[flat] * coef[:, 3] + self.xz_flat[flat] * coef[:, 4] + self.yz_flat[flat] * coef[:, 5])
+        coef = np.stack(
+            [
+                q[:, 0, 0],
+                q[:, 1, 1],
+                q[:, 2, 2],
+                2 * q[:, 0, 1],
+                2 * q[:, 0, 2],
+                2 * q[:, 1, 2],
+                wv[:, 0],
+                wv[:, 1],
+                wv[:, 2],
+                c,
+            ],
+            axis=1,
+        ).astype(np.float32)[prim]
+        qa = (
+            self.xx_flat[flat] * coef[:, 0]
+            + self.yy_flat[flat] * coef[:, 1]
+            + self.zz_flat[flat] * coef[:, 2]
+            + self.xy_flat[flat] * coef[:, 3]
+            + self.xz_flat[flat] * coef[:, 4]
+            + self.yz_flat[flat] * coef[:, 5]
+        )
         qb = self.rx_flat[flat] * coef[:, 6] + self.ry_flat[flat] * coef[:, 7] + self.rz_flat[flat] * coef[:, 8]
         return (-qb - np.sqrt(qb * qb - qa * coef[:, 9])) / qa
 
@@ -270,8 +299,9 @@ class CameraRenderer:
             for w in range(len(self.bodies)):
                 sel = worker == w
                 if sel.any():
-                    colours[sel] = self._shade_body(frame, w, gid[sel] - w * N_PRIMITIVES, t[sel],
-                                                    self.rays_flat[pix[sel]])
+                    colours[sel] = self._shade_body(
+                        frame, w, gid[sel] - w * N_PRIMITIVES, t[sel], self.rays_flat[pix[sel]]
+                    )
             self._composite(img, pix, colours, boxes)
         return self._noise_add(img)
 
@@ -296,30 +326,37 @@ class CameraRenderer:
             # capsules of all workers in one batch, then ellipsoids, then carried cartons
             cap_boxes = np.concatenate([b[:N_CAPSULES] for b in boxes])
             flat_c, prim_c = self._pixels_of_boxes(cap_boxes)
-            t_c = self._capsules(flat_c, prim_c,
-                                 np.concatenate([body.capsule_a[frame] for body in self.bodies]),
-                                 np.concatenate([body.capsule_b[frame] for body in self.bodies]),
-                                 np.concatenate([body.capsule_radius for body in self.bodies]))
+            t_c = self._capsules(
+                flat_c,
+                prim_c,
+                np.concatenate([body.capsule_a[frame] for body in self.bodies]),
+                np.concatenate([body.capsule_b[frame] for body in self.bodies]),
+                np.concatenate([body.capsule_radius for body in self.bodies]),
+            )
             gid_c = (prim_c // N_CAPSULES) * N_PRIMITIVES + prim_c % N_CAPSULES
             ell_boxes = np.concatenate([b[N_CAPSULES:CARTON] for b in boxes])
             flat_e, prim_e = self._pixels_of_boxes(ell_boxes)
-            t_e = self._ellipsoids(flat_e, prim_e,
-                                   np.concatenate([body.ellipsoid_centre[frame] for body in self.bodies]),
-                                   np.concatenate([body.ellipsoid_axes[frame] for body in self.bodies]),
-                                   np.concatenate([body.ellipsoid_radii for body in self.bodies]))
+            t_e = self._ellipsoids(
+                flat_e,
+                prim_e,
+                np.concatenate([body.ellipsoid_centre[frame] for body in self.bodies]),
+                np.concatenate([body.ellipsoid_axes[frame] for body in self.bodies]),
+                np.concatenate([body.ellipsoid_radii for body in self.bodies]),
+            )
             gid_e = (prim_e // N_ELLIPSOIDS) * N_PRIMITIVES + N_CAPSULES + prim_e % N_ELLIPSOIDS
             flats, ts, gids = [flat_c, flat_e], [t_c, t_e], [gid_c, gid_e]
             for w, body in enumerate(self.bodies):
                 if body.carrying[frame]:
-                    f_b, _ = self._pixels_of_boxes(boxes[w][CARTON:CARTON + 1])
+                    f_b, _ = self._pixels_of_boxes(boxes[w][CARTON : CARTON + 1])
                     flats.append(f_b)
-                    ts.append(self._obb(f_b, body.carton_centre[frame], body.carton_axes[frame],
-                                        body.carton_half[frame]))
+                    ts.append(
+                        self._obb(f_b, body.carton_centre[frame], body.carton_axes[frame], body.carton_half[frame])
+                    )
                     gids.append(np.full(len(f_b), w * N_PRIMITIVES + CARTON))
             flat = np.concatenate(flats)
             t = np.concatenate(ts)
             gid = np.concatenate(gids).astype(np.int16)
-            hit = t < self.bg_depth_flat[flat]           # NaN (miss) compares False
+            hit = t < self.bg_depth_flat[flat]  # NaN (miss) compares False
             flat, t, gid = flat[hit], t[hit], gid[hit]
         # z-buffer: the nearest surface per pixel (sort by pixel, then distance; keep the first)
         order = np.lexsort((t, flat))
@@ -354,7 +391,7 @@ class CameraRenderer:
             blurred = self._blur(sharp[a0:a1, b0:b1])
             i0, i1 = max(0, r0 - margin), min(h, r1 + margin)
             j0, j1 = max(0, c0 - margin), min(w, c1 + margin)
-            img[i0:i1, j0:j1] = blurred[i0 - a0:i1 - a0, j0 - b0:j1 - b0]
+            img[i0:i1, j0:j1] = blurred[i0 - a0 : i1 - a0, j0 - b0 : j1 - b0]
 
     def _set_gain(self, frame: int) -> None:
         """Slow brightness drift; the background is rescaled only when the quantised gain changes."""
@@ -451,9 +488,15 @@ def open_writer(path: Path, fps: float, width: int, height: int) -> cv2.VideoWri
     return writer
 
 
-def render_video(camera: Camera, scene: Scene, bodies: list[BodyPrimitives], path: str | Path, fps: float,
-                 options: RenderOptions = RenderOptions(),
-                 on_frame: Callable[[int], None] | None = None) -> Path:
+def render_video(
+    camera: Camera,
+    scene: Scene,
+    bodies: list[BodyPrimitives],
+    path: str | Path,
+    fps: float,
+    options: RenderOptions = RenderOptions(),
+    on_frame: Callable[[int], None] | None = None,
+) -> Path:
     """Render every frame of one camera into an mp4v video at ``path`` (written atomically)."""
     n_frames = bodies[0].n_frames if bodies else 0
     renderer = CameraRenderer(camera, scene, bodies, options)
@@ -469,9 +512,27 @@ def render_video(camera: Camera, scene: Scene, bodies: list[BodyPrimitives], pat
             writer.release()
     return path
 
+
 __all__ = [
-    "RenderOptions", "BodyPrimitives", "body_primitives", "all_body_primitives", "CameraRenderer",
-    "render_video", "render_background", "pixel_rays", "joint_visibility", "StaticScene", "VISIBILITY_CODES",
-    "VISIBLE", "SELF_OCCLUDED", "OCCLUDED_BY_WORKER", "OCCLUDED_BY_SCENE", "OUTSIDE_IMAGE", "PRIMITIVE_NAMES",
-    "ray_capsule", "ray_ellipsoid", "ray_box", "head_axes",
+    "RenderOptions",
+    "BodyPrimitives",
+    "body_primitives",
+    "all_body_primitives",
+    "CameraRenderer",
+    "render_video",
+    "render_background",
+    "pixel_rays",
+    "joint_visibility",
+    "StaticScene",
+    "VISIBILITY_CODES",
+    "VISIBLE",
+    "SELF_OCCLUDED",
+    "OCCLUDED_BY_WORKER",
+    "OCCLUDED_BY_SCENE",
+    "OUTSIDE_IMAGE",
+    "PRIMITIVE_NAMES",
+    "ray_capsule",
+    "ray_ellipsoid",
+    "ray_box",
+    "head_axes",
 ]

@@ -71,8 +71,13 @@ class Box:
     colour: tuple[int, int, int]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "kind": self.kind, "lo": list(self.lo), "hi": list(self.hi),
-                "colour_bgr": list(self.colour)}
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "lo": list(self.lo),
+            "hi": list(self.hi),
+            "colour_bgr": list(self.colour),
+        }
 
 
 @dataclass(frozen=True)
@@ -95,9 +100,14 @@ class ReferenceBar:
         return float(np.linalg.norm(np.subtract(self.end_b, self.end_a)))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "end_a": list(self.end_a), "end_b": list(self.end_b),
-                "length_m": round(self.length, 9), "radius_m": self.radius,
-                "intended_region": self.intended_region}
+        return {
+            "name": self.name,
+            "end_a": list(self.end_a),
+            "end_b": list(self.end_b),
+            "length_m": round(self.length, 9),
+            "radius_m": self.radius,
+            "intended_region": self.intended_region,
+        }
 
 
 @dataclass(frozen=True)
@@ -116,8 +126,13 @@ class Station:
     work_height: float
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "position": list(self.position), "heading_deg": round(math.degrees(self.heading), 6),
-                "tasks": list(self.tasks), "work_height_m": self.work_height}
+        return {
+            "name": self.name,
+            "position": list(self.position),
+            "heading_deg": round(math.degrees(self.heading), 6),
+            "tasks": list(self.tasks),
+            "work_height_m": self.work_height,
+        }
 
 
 @dataclass(frozen=True)
@@ -143,9 +158,12 @@ class Scene:
         raise KeyError(f"no station {name!r}")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"area_m": list(self.area), "boxes": [b.to_dict() for b in self.boxes],
-                "reference_bars": [b.to_dict() for b in self.bars],
-                "stations": [s.to_dict() for s in self.stations]}
+        return {
+            "area_m": list(self.area),
+            "boxes": [b.to_dict() for b in self.boxes],
+            "reference_bars": [b.to_dict() for b in self.bars],
+            "stations": [s.to_dict() for s in self.stations],
+        }
 
 
 def _table(name: str, x0: float, y0: float, x1: float, y1: float, height: float = 0.9) -> list[Box]:
@@ -187,8 +205,10 @@ def default_scene() -> Scene:
         ReferenceBar("bar_outer", (0.6, 2.4, 0.02), (2.1, 2.4, 0.02), "outer"),
         ReferenceBar("bar_edge", (-2.9, -2.95, 1.7), (-1.4, -2.95, 1.7), "edge"),
     )
-    boxes += [Box("bar_edge_bracket_1", "post", (-2.9, -3.0, 0.0), (-2.84, -2.94, 1.68), (60, 60, 60)),
-              Box("bar_edge_bracket_2", "post", (-1.46, -3.0, 0.0), (-1.4, -2.94, 1.68), (60, 60, 60))]
+    boxes += [
+        Box("bar_edge_bracket_1", "post", (-2.9, -3.0, 0.0), (-2.84, -2.94, 1.68), (60, 60, 60)),
+        Box("bar_edge_bracket_2", "post", (-1.46, -3.0, 0.0), (-1.4, -2.94, 1.68), (60, 60, 60)),
+    ]
     north, east, south, west = math.pi / 2, 0.0, -math.pi / 2, math.pi
     shelf_tasks = ("place_shelf", "reach_overhead", "pick_twist")
     stations = (
@@ -236,8 +256,16 @@ def rig_lens(width: int, height: int, index: int = 0) -> KannalaBrandt:
     f_scale, aspect, dx, dy = RIG_INTRINSIC_SPREAD[index]
     scale = min(width, height) / 768.0
     f = (min(width, height) / 2.0 - 2.0 - 2.0 * scale) / rd * f_scale
-    return KannalaBrandt(fx=f, fy=f * aspect, cx=(width - 1) / 2.0 + dx * scale, cy=(height - 1) / 2.0 + dy * scale,
-                         k1=k1, k2=k2, k3=k3, k4=k4)
+    return KannalaBrandt(
+        fx=f,
+        fy=f * aspect,
+        cx=(width - 1) / 2.0 + dx * scale,
+        cy=(height - 1) / 2.0 + dy * scale,
+        k1=k1,
+        k2=k2,
+        k3=k3,
+        k4=k4,
+    )
 
 
 def _rig_rotation(yaw_deg: float, tilt_x_deg: float, tilt_y_deg: float) -> np.ndarray:
@@ -253,9 +281,15 @@ def rig_cameras(width: int = DEFAULT_SIZE[0], height: int = DEFAULT_SIZE[1]) -> 
     """The two ceiling cameras (cam_1, cam_2) at the given image size, each with its image circle
     (where IMAGE_CIRCLE_THETA lands; the simulator leaves the pixels beyond it dark)."""
     first, second = (
-        Camera(name=name, lens=lens, width=width, height=height,
-               rotation_world_from_cam=_rig_rotation(*orient), position_world=np.array(pos),
-               image_circle=_image_circle(lens))
+        Camera(
+            name=name,
+            lens=lens,
+            width=width,
+            height=height,
+            rotation_world_from_cam=_rig_rotation(*orient),
+            position_world=np.array(pos),
+            image_circle=_image_circle(lens),
+        )
         for k, (name, pos, orient) in enumerate(zip(CAMERA_NAMES, RIG_POSITIONS, RIG_ORIENTATIONS_DEG))
         for lens in (rig_lens(width, height, k),)
     )

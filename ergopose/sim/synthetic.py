@@ -38,8 +38,9 @@ LENS_COEFFICIENTS = (0.0034823894, 0.0007150348, -0.0020532361, 0.0002029367)
 PAPER_SIZE = (2592, 1944)
 
 
-def rig(width: int = PAPER_SIZE[0], height: int = PAPER_SIZE[1], baseline_m: float = 1.5,
-        height_m: float = 3.0) -> tuple[Camera, Camera]:
+def rig(
+    width: int = PAPER_SIZE[0], height: int = PAPER_SIZE[1], baseline_m: float = 1.5, height_m: float = 3.0
+) -> tuple[Camera, Camera]:
     """Two ceiling cameras looking straight down at (+-baseline/2, 0, height), the second turned
     by 180 degrees; 95 degrees off-axis lands on the short side of the image."""
     k1, k2, k3, k4 = LENS_COEFFICIENTS
@@ -48,8 +49,10 @@ def rig(width: int = PAPER_SIZE[0], height: int = PAPER_SIZE[1], baseline_m: flo
     f = (min(width, height) / 2.0 - 2.0) / rd
     lens = KannalaBrandt(fx=f, fy=f, cx=(width - 1) / 2.0, cy=(height - 1) / 2.0, k1=k1, k2=k2, k3=k3, k4=k4)
     half = baseline_m / 2.0
-    return (ceiling_camera("cam_1", lens, width, height, (-half, 0.0, height_m), yaw=0.0),
-            ceiling_camera("cam_2", lens, width, height, (half, 0.0, height_m), yaw=math.pi))
+    return (
+        ceiling_camera("cam_1", lens, width, height, (-half, 0.0, height_m), yaw=0.0),
+        ceiling_camera("cam_2", lens, width, height, (half, 0.0, height_m), yaw=math.pi),
+    )
 
 
 @dataclass(frozen=True)
@@ -143,8 +146,7 @@ def _smooth(x: np.ndarray, width: int) -> np.ndarray:
     return (c[width:] - c[:-width]) / width
 
 
-def walk_workers(scripts: list[WorkerScript], n_frames: int, fps: float = 12.0,
-                 start_frame: int = 0) -> np.ndarray:
+def walk_workers(scripts: list[WorkerScript], n_frames: int, fps: float = 12.0, start_frame: int = 0) -> np.ndarray:
     """Ground-truth joints (F, P, 33, 3) of the scripted workers at frames start_frame ... + n_frames.
 
     Walking: hips and knees swing with the gait (stride 1.4 m), arms swing opposite.
@@ -167,7 +169,7 @@ def walk_workers(scripts: list[WorkerScript], n_frames: int, fps: float = 12.0,
         gait = gait[pad:-pad]
         work = 1.0 - walk
         ph = s.work_phase
-        cyc = 0.5 - 0.5 * np.cos(2 * math.pi * t / 4.0 + ph)       # 4 s work cycle
+        cyc = 0.5 - 0.5 * np.cos(2 * math.pi * t / 4.0 + ph)  # 4 s work cycle
         cyc2 = 0.5 - 0.5 * np.cos(2 * math.pi * t / 2.5 + 1.3 * ph)  # 2.5 s
         sw = np.sin(gait)
         hip_l = walk * 0.35 * sw
@@ -208,9 +210,20 @@ def project_all(cameras, points_world: np.ndarray) -> np.ndarray:
     return np.stack(px, axis=1)
 
 
-def observe(cameras, points_world: np.ndarray, *, noise_px: float = 2.0, dropout: float = 0.02,
-            visible: np.ndarray | None = None, seed: int = 0, fps: float = 12.0, start_frame: int = 0,
-            confidence: float = 0.9, shuffle: bool = True, view_size: tuple[int, int] = (256, 256)):
+def observe(
+    cameras,
+    points_world: np.ndarray,
+    *,
+    noise_px: float = 2.0,
+    dropout: float = 0.02,
+    visible: np.ndarray | None = None,
+    seed: int = 0,
+    fps: float = 12.0,
+    start_frame: int = 0,
+    confidence: float = 0.9,
+    shuffle: bool = True,
+    view_size: tuple[int, int] = (256, 256),
+):
     """2D observations of ground-truth people as the 2D pose stage would hand them over.
 
     points_world: (F, P, 33, 3). visible: (F, C, P) bool, False where person P is hidden from
@@ -265,8 +278,9 @@ def frames_from_oracle(observations, cameras, *, view_size: tuple[int, int] = (2
             px = observations.pixels_fisheye[k, c]
             conf = observations.confidence[k, c].astype(np.float64)
             people = np.flatnonzero(observations.detected[k, c] & (conf > 0).any(axis=-1))
-            det = detections_from_fisheye(cam, int(frame), float(observations.times_s[k]), px[people], conf[people],
-                                          view_size=view_size)
+            det = detections_from_fisheye(
+                cam, int(frame), float(observations.times_s[k]), px[people], conf[people], view_size=view_size
+            )
             dets.append(det)
             orders.append(people)
         frames.append(tuple(dets))
@@ -274,8 +288,15 @@ def frames_from_oracle(observations, cameras, *, view_size: tuple[int, int] = (2
     return frames, order
 
 
-def simulated_ground_truth(n_workers: int, seconds: float, *, fps: float = 12.0, seed: int = 0,
-                           size: tuple[int, int] = PAPER_SIZE, cameras=None):
+def simulated_ground_truth(
+    n_workers: int,
+    seconds: float,
+    *,
+    fps: float = 12.0,
+    seed: int = 0,
+    size: tuple[int, int] = PAPER_SIZE,
+    cameras=None,
+):
     """A simulated session's ground truth built in memory, without rendering video.
 
     The simulator's room, rig (at ``size``), scripted workers and per-joint visibility (ray casts
@@ -291,19 +312,32 @@ def simulated_ground_truth(n_workers: int, seconds: float, *, fps: float = 12.0,
     joints = motion.joints_world
     nf, nw = joints.shape[:2]
     gt = GroundTruth(
-        path=None, fps=fps, worker_ids=motion.worker_ids, camera_names=tuple(c.name for c in cameras),
-        joints_world=joints, pixels=np.stack([p[0] for p in per_camera], axis=1),
-        theta=np.stack([p[1] for p in per_camera], axis=1), visibility=np.stack([p[2] for p in per_camera], axis=1),
-        task=np.zeros((nf, nw), np.int8), task_names=tuple(TASKS), planted=np.zeros((nf, nw, 2), bool),
-        carrying=np.zeros((nf, nw), bool), times_s=motion.times_s, postures=None,
-        scene={"workers": [{"id": w.worker_id, "stature_m": w.spec.measurements.stature} for w in motion.workers]})
+        path=None,
+        fps=fps,
+        worker_ids=motion.worker_ids,
+        camera_names=tuple(c.name for c in cameras),
+        joints_world=joints,
+        pixels=np.stack([p[0] for p in per_camera], axis=1),
+        theta=np.stack([p[1] for p in per_camera], axis=1),
+        visibility=np.stack([p[2] for p in per_camera], axis=1),
+        task=np.zeros((nf, nw), np.int8),
+        task_names=tuple(TASKS),
+        planted=np.zeros((nf, nw, 2), bool),
+        carrying=np.zeros((nf, nw), bool),
+        times_s=motion.times_s,
+        postures=None,
+        scene={"workers": [{"id": w.worker_id, "stature_m": w.spec.measurements.stature} for w in motion.workers]},
+    )
     return gt, cameras
 
 
-def extra_ceiling_cameras(size: tuple[int, int] = PAPER_SIZE, positions=((0.0, 1.6, 2.95), (0.0, -1.6, 3.02)),
-                          names=("cam_3", "cam_4")) -> tuple[Camera, ...]:
+def extra_ceiling_cameras(
+    size: tuple[int, int] = PAPER_SIZE, positions=((0.0, 1.6, 2.95), (0.0, -1.6, 3.02)), names=("cam_3", "cam_4")
+) -> tuple[Camera, ...]:
     """More ceiling fisheye cameras for multi-camera tests: the simulator rig's lens model
     (camera 1's intrinsics) looking straight down from ``positions``, turned by 90 and 270 degrees
     so that their baselines with the rig's cameras run in other directions."""
-    return tuple(ceiling_camera(name, rig_lens(*size, 0), size[0], size[1], pos, yaw=math.pi / 2 + k * math.pi)
-                 for k, (name, pos) in enumerate(zip(names, positions)))
+    return tuple(
+        ceiling_camera(name, rig_lens(*size, 0), size[0], size[1], pos, yaw=math.pi / 2 + k * math.pi)
+        for k, (name, pos) in enumerate(zip(names, positions))
+    )

@@ -18,17 +18,38 @@ from ergopose.sim.paths import rounded_curve
 from ergopose.sim.scene import Station
 from ergopose.sim.workforce import TASK_INDEX, FactorPeriod, WorkerSpec
 
-LEG_FIELDS = tuple(f"{s}_{n}" for s in ("left", "right")
-                   for n in ("hip_flexion", "hip_abduction", "knee_flexion", "ankle_flexion"))
+LEG_FIELDS = tuple(
+    f"{s}_{n}" for s in ("left", "right") for n in ("hip_flexion", "hip_abduction", "knee_flexion", "ankle_flexion")
+)
 UPPER_FIELDS = tuple(f for f in ANGLE_FIELDS if f not in LEG_FIELDS)
-_BILATERAL = ("shoulder_elevation", "upper_arm_flexion", "upper_arm_abduction", "upper_arm_rotation",
-              "elbow_flexion", "forearm_rotation", "wrist_flexion", "wrist_deviation")
+_BILATERAL = (
+    "shoulder_elevation",
+    "upper_arm_flexion",
+    "upper_arm_abduction",
+    "upper_arm_rotation",
+    "elbow_flexion",
+    "forearm_rotation",
+    "wrist_flexion",
+    "wrist_deviation",
+)
 
 #: Upper-body key postures (degrees). Bilateral names apply to both sides.
-NEUTRAL_DEG = {"trunk_flexion": 2.0, "neck_flexion": 6.0, "upper_arm_flexion": 2.0, "upper_arm_abduction": 9.0,
-               "upper_arm_rotation": 5.0, "elbow_flexion": 14.0}
-CARRY_DEG = {"trunk_flexion": -2.0, "neck_flexion": 10.0, "upper_arm_flexion": 22.0, "upper_arm_abduction": 14.0,
-             "upper_arm_rotation": 14.0, "elbow_flexion": 88.0}
+NEUTRAL_DEG = {
+    "trunk_flexion": 2.0,
+    "neck_flexion": 6.0,
+    "upper_arm_flexion": 2.0,
+    "upper_arm_abduction": 9.0,
+    "upper_arm_rotation": 5.0,
+    "elbow_flexion": 14.0,
+}
+CARRY_DEG = {
+    "trunk_flexion": -2.0,
+    "neck_flexion": 10.0,
+    "upper_arm_flexion": 22.0,
+    "upper_arm_abduction": 14.0,
+    "upper_arm_rotation": 14.0,
+    "elbow_flexion": 88.0,
+}
 
 
 #: Lateral offset of each ankle from the pelvis centre when standing, beyond half the hip width.
@@ -96,15 +117,15 @@ CARRY = _full_pose(CARRY_DEG)
 class _Chunk:
     f0: int
     f1: int
-    root_xy: np.ndarray      # (n, 2)
-    root_dz: np.ndarray      # (n,) planned height offset from the neutral height
-    heading: np.ndarray      # (n,)
+    root_xy: np.ndarray  # (n, 2)
+    root_dz: np.ndarray  # (n,) planned height offset from the neutral height
+    heading: np.ndarray  # (n,)
     upper: dict[str, np.ndarray]
-    ankles: np.ndarray       # (n, 2, 3)
-    planted: np.ndarray      # (n, 2)
-    task: np.ndarray         # (n,)
-    carrying: np.ndarray     # (n,)
-    pitch: np.ndarray | None = None   # (n, 2) foot pitch in swing (toes up positive); None = level
+    ankles: np.ndarray  # (n, 2, 3)
+    planted: np.ndarray  # (n, 2)
+    task: np.ndarray  # (n,)
+    carrying: np.ndarray  # (n,)
+    pitch: np.ndarray | None = None  # (n, 2) foot pitch in swing (toes up positive); None = level
 
 
 class TimelineBuilder:
@@ -126,7 +147,7 @@ class TimelineBuilder:
         self.upper = dict(NEUTRAL)
         lateral = STANCE_EXTRA_WIDTH
         leg = self.m.thigh_length + self.m.shank_length
-        self.neutral_z = self.m.ankle_height + math.sqrt((MAX_LEG_STRETCH * leg) ** 2 - lateral ** 2) - 1e-4
+        self.neutral_z = self.m.ankle_height + math.sqrt((MAX_LEG_STRETCH * leg) ** 2 - lateral**2) - 1e-4
 
     def _neutral_ankles(self, root_xy: np.ndarray, heading: float) -> np.ndarray:
         r = _rot2(heading)
@@ -144,8 +165,13 @@ class TimelineBuilder:
 
     # --- stationary tasks ---
 
-    def pose_task(self, task: str, keys: list[tuple[float, dict[str, float]]], carrying=None,
-                  period: tuple[float, float, float, str, str] | None = None) -> None:
+    def pose_task(
+        self,
+        task: str,
+        keys: list[tuple[float, dict[str, float]]],
+        carrying=None,
+        period: tuple[float, float, float, str, str] | None = None,
+    ) -> None:
         """Key postures [(time_s, changes)] from the current posture; feet stay planted.
 
         carrying: None (no carton) or (t_on, t_off) local times holding a carton.
@@ -172,10 +198,17 @@ class TimelineBuilder:
         r = _rot2(self.heading)
         offsets = np.stack([cols["dx"], cols["dy"]], axis=1) @ r.T
         chunk = _Chunk(
-            f0, f1, root_xy=self.root_xy[None, :] + offsets, root_dz=cols["dz"], heading=np.full(n, self.heading),
-            upper={k: cols[k] for k in UPPER_FIELDS}, ankles=np.broadcast_to(self.ankles, (n, 2, 3)).copy(),
-            planted=np.ones((n, 2), bool), task=np.full(n, TASK_INDEX[task], np.int8),
-            carrying=np.zeros(n, bool) if carrying is None else (local >= carrying[0]) & (local < carrying[1]))
+            f0,
+            f1,
+            root_xy=self.root_xy[None, :] + offsets,
+            root_dz=cols["dz"],
+            heading=np.full(n, self.heading),
+            upper={k: cols[k] for k in UPPER_FIELDS},
+            ankles=np.broadcast_to(self.ankles, (n, 2, 3)).copy(),
+            planted=np.ones((n, 2), bool),
+            task=np.full(n, TASK_INDEX[task], np.int8),
+            carrying=np.zeros(n, bool) if carrying is None else (local >= carrying[0]) & (local < carrying[1]),
+        )
         self.chunks.append(chunk)
         if period is not None:
             t0, t1, kg, mode, coupling = period
@@ -215,9 +248,19 @@ class TimelineBuilder:
                 h1 = heading + delta * min(j, k) / k
                 sigma = 1.0 if side == 0 else -1.0
                 to = root + _rot2(h1) @ np.array([0.0, sigma * self.half_stance])
-                steps.append({"side": side, "to": to, "h0": h0, "h1": h1, "root1": root.copy(),
-                              "dur": 0.45 * t_step + 0.12, "lift": 0.04, "pitch": math.radians(8.0),
-                              "task": turn_task})
+                steps.append(
+                    {
+                        "side": side,
+                        "to": to,
+                        "h0": h0,
+                        "h1": h1,
+                        "root1": root.copy(),
+                        "dur": 0.45 * t_step + 0.12,
+                        "lift": 0.04,
+                        "pitch": math.radians(8.0),
+                        "task": turn_task,
+                    }
+                )
                 feet[side] = to
                 last_side = side
                 side = 1 - side
@@ -262,9 +305,21 @@ class TimelineBuilder:
                 along[side] = a
                 h1 = heading + _wrap(math.atan2(u[1], u[0]) - heading)
                 arc = min(0.5 * (along[0] + along[1]), dist) if k <= n_steps else dist
-                steps.append({"side": side, "to": to, "h0": heading, "h1": h1, "root1": at(arc)[0],
-                              "run": (run_id, curve, cum), "arc1": arc,
-                              "dur": t_step, "lift": 0.07, "pitch": math.radians(25.0), "task": task})
+                steps.append(
+                    {
+                        "side": side,
+                        "to": to,
+                        "h0": heading,
+                        "h1": h1,
+                        "root1": at(arc)[0],
+                        "run": (run_id, curve, cum),
+                        "arc1": arc,
+                        "dur": t_step,
+                        "lift": 0.07,
+                        "pitch": math.radians(25.0),
+                        "task": task,
+                    }
+                )
                 heading = h1
                 feet[side] = to
                 last_side = side
@@ -297,7 +352,7 @@ class TimelineBuilder:
             m = k
             while m < len(steps) and steps[m].get("run") is not None and steps[m]["run"][0] == run[0]:
                 m += 1
-            key_t = np.concatenate([[starts[k]], starts[k + 1:m + 1]])
+            key_t = np.concatenate([[starts[k]], starts[k + 1 : m + 1]])
             key_a = np.array([0.0] + [steps[i]["arc1"] for i in range(k, m)])
             sel = (which_step >= k) & (which_step < m)
             arc = PchipInterpolator(key_t, key_a)(local[sel])
@@ -350,7 +405,19 @@ class TimelineBuilder:
         # walking lowers the pelvis a little (the knees stay bent); eased in and out of standing
         drop = WALK_PELVIS_DROP * self.m.stature / 1.75
         ease = min_jerk(local / 0.6) * min_jerk((total - local) / 0.6)
-        self.chunks.append(_Chunk(f0, f1, root_xy=root_xy, root_dz=-drop * ease, heading=heading, upper=upper,
-                                  ankles=ankles, planted=planted, task=task, carrying=np.full(n, carrying),
-                                  pitch=pitch))
+        self.chunks.append(
+            _Chunk(
+                f0,
+                f1,
+                root_xy=root_xy,
+                root_dz=-drop * ease,
+                heading=heading,
+                upper=upper,
+                ankles=ankles,
+                planted=planted,
+                task=task,
+                carrying=np.full(n, carrying),
+                pitch=pitch,
+            )
+        )
         self.t += total

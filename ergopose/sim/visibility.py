@@ -53,20 +53,23 @@ OTHER_TOLERANCE = 0.01
 
 def _primitive_distances(o: np.ndarray, d: np.ndarray, body: BodyPrimitives, frames: slice) -> np.ndarray:
     """Hit distances (f, R, N_PRIMITIVES) of rays d (f, R, 3) with one worker's primitives."""
-    a = body.capsule_a[frames][:, None]          # (f, 1, C, 3)
+    a = body.capsule_a[frames][:, None]  # (f, 1, C, 3)
     b = body.capsule_b[frames][:, None]
     dd = d[:, :, None, :]
     t_cap = ray_capsule(o, dd, a, b, body.capsule_radius)
-    t_ell = ray_ellipsoid(o, dd, body.ellipsoid_centre[frames][:, None], body.ellipsoid_axes[frames][:, None],
-                          body.ellipsoid_radii)
-    t_box = ray_box(o, d, body.carton_centre[frames][:, None], body.carton_axes[frames][:, None],
-                    body.carton_half[frames][:, None])
+    t_ell = ray_ellipsoid(
+        o, dd, body.ellipsoid_centre[frames][:, None], body.ellipsoid_axes[frames][:, None], body.ellipsoid_radii
+    )
+    t_box = ray_box(
+        o, d, body.carton_centre[frames][:, None], body.carton_axes[frames][:, None], body.carton_half[frames][:, None]
+    )
     t_box = np.where(body.carrying[frames][:, None], t_box, np.inf)
     return np.concatenate([t_cap, t_ell, t_box[..., None]], axis=-1)
 
 
-def joint_visibility(camera: Camera, scene: Scene, motion: Motion, bodies: list[BodyPrimitives],
-                     chunk: int = 64) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def joint_visibility(
+    camera: Camera, scene: Scene, motion: Motion, bodies: list[BodyPrimitives], chunk: int = 64
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ground truth per frame and worker of one camera: (pixels (F, W, 33, 2) float32 fisheye
     pixels (NaN where the lens cannot image the joint), theta (F, W, 33) float32 radians from the
     lens axis, visibility (F, W, 33) int8 codes of :data:`VISIBILITY_CODES`).
@@ -88,7 +91,7 @@ def joint_visibility(camera: Camera, scene: Scene, motion: Motion, bodies: list[
     for f0 in range(0, nf, chunk):
         f1 = min(nf, f0 + chunk)
         sl = slice(f0, f1)
-        rel = joints[sl] - o                                  # (f, W, 33, 3)
+        rel = joints[sl] - o  # (f, W, 33, 3)
         dist = np.linalg.norm(rel, axis=-1)
         d = (rel / dist[..., None]).reshape(f1 - f0, nw * NUM_JOINTS, 3).astype(np.float32)
         dist = dist.reshape(f1 - f0, nw * NUM_JOINTS).astype(np.float32)
@@ -99,7 +102,7 @@ def joint_visibility(camera: Camera, scene: Scene, motion: Motion, bodies: list[
         owner = np.repeat(np.arange(nw), NUM_JOINTS)
         joint_of_ray = np.tile(np.arange(NUM_JOINTS), nw)
         for w, body in enumerate(bodies):
-            t = _primitive_distances(o.astype(np.float32), d, body, sl)   # (f, R, P)
+            t = _primitive_distances(o.astype(np.float32), d, body, sl)  # (f, R, P)
             own = owner == w
             tol = np.where(own[:, None], HOST_TOLERANCE[joint_of_ray], OTHER_TOLERANCE)  # (R, P)
             hit = t < (dist[..., None] - tol[None])

@@ -16,20 +16,40 @@ from ergopose.errors import ConfigError
 
 #: Task labels (per frame per worker); the ground truth stores the index into this tuple.
 TASKS: tuple[str, ...] = (
-    "rest", "walk", "turn", "carry", "lift_stoop", "lift_squat", "place_shelf", "reach_overhead",
-    "pick_twist", "assembly",
+    "rest",
+    "walk",
+    "turn",
+    "carry",
+    "lift_stoop",
+    "lift_squat",
+    "place_shelf",
+    "reach_overhead",
+    "pick_twist",
+    "assembly",
 )
 TASK_INDEX = {name: i for i, name in enumerate(TASKS)}
 
 #: Plausible joint ranges (degrees) every simulated frame stays within (tests check it).
 #: ergopose's own envelope around typical active ranges of motion, not a published table.
 JOINT_LIMITS_DEG: dict[str, tuple[float, float]] = {
-    "trunk_flexion": (-30, 110), "trunk_side_bend": (-40, 40), "trunk_twist": (-50, 50),
-    "neck_flexion": (-60, 60), "neck_side_bend": (-40, 40), "neck_twist": (-70, 70),
-    "shoulder_elevation": (-10, 30), "upper_arm_flexion": (-60, 180), "upper_arm_abduction": (-20, 180),
-    "upper_arm_rotation": (-90, 90), "elbow_flexion": (0, 150), "forearm_rotation": (-90, 90),
-    "wrist_flexion": (-70, 80), "wrist_deviation": (-25, 35), "hip_flexion": (-30, 130),
-    "hip_abduction": (-30, 45), "knee_flexion": (0, 150), "ankle_flexion": (-50, 45),
+    "trunk_flexion": (-30, 110),
+    "trunk_side_bend": (-40, 40),
+    "trunk_twist": (-50, 50),
+    "neck_flexion": (-60, 60),
+    "neck_side_bend": (-40, 40),
+    "neck_twist": (-70, 70),
+    "shoulder_elevation": (-10, 30),
+    "upper_arm_flexion": (-60, 180),
+    "upper_arm_abduction": (-20, 180),
+    "upper_arm_rotation": (-90, 90),
+    "elbow_flexion": (0, 150),
+    "forearm_rotation": (-90, 90),
+    "wrist_flexion": (-70, 80),
+    "wrist_deviation": (-25, 35),
+    "hip_flexion": (-30, 130),
+    "hip_abduction": (-30, 45),
+    "knee_flexion": (0, 150),
+    "ankle_flexion": (-50, 45),
 }
 
 
@@ -131,8 +151,16 @@ class Motion:
 
 _SKINS = ((120, 160, 220), (95, 140, 200), (70, 110, 160), (150, 180, 230), (50, 80, 125), (110, 150, 205))
 _HAIRS = ((30, 30, 35), (40, 60, 90), (25, 25, 25), (90, 140, 190), (120, 120, 125), (20, 40, 70))
-_SHIRTS = ((40, 40, 200), (200, 120, 30), (40, 160, 60), (30, 170, 230), (150, 60, 140), (200, 200, 200),
-           (60, 60, 60), (180, 140, 90))
+_SHIRTS = (
+    (40, 40, 200),
+    (200, 120, 30),
+    (40, 160, 60),
+    (30, 170, 230),
+    (150, 60, 140),
+    (200, 200, 200),
+    (60, 60, 60),
+    (180, 140, 90),
+)
 _TROUSERS = ((90, 60, 30), (50, 50, 50), (110, 100, 90), (40, 60, 90), (30, 30, 30))
 _SHOES = ((20, 20, 20), (60, 60, 60), (30, 40, 70), (200, 200, 200))
 
@@ -149,9 +177,13 @@ def make_workers(n_workers: int, rng: np.random.Generator) -> tuple[WorkerSpec, 
     out = []
     for k in range(n_workers):
         m = BodyMeasurements.from_stature(round(float(statures[k]), 4))
-        look = Appearance(skin=_SKINS[rng.integers(len(_SKINS))], hair=_HAIRS[rng.integers(len(_HAIRS))],
-                          shirt=_SHIRTS[shirts[k]], trousers=_TROUSERS[rng.integers(len(_TROUSERS))],
-                          shoes=_SHOES[rng.integers(len(_SHOES))])
+        look = Appearance(
+            skin=_SKINS[rng.integers(len(_SKINS))],
+            hair=_HAIRS[rng.integers(len(_HAIRS))],
+            shirt=_SHIRTS[shirts[k]],
+            trousers=_TROUSERS[rng.integers(len(_TROUSERS))],
+            shoes=_SHOES[rng.integers(len(_SHOES))],
+        )
         speed = round(float(rng.uniform(0.95, 1.2)) * m.stature / 1.75, 4)
         out.append(WorkerSpec(worker_id=f"w{k + 1}", measurements=m, appearance=look, walk_speed=speed))
     return tuple(out)

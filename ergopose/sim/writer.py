@@ -90,8 +90,9 @@ class SimulationConfig:
             raise ConfigError(f"{self.minutes} minutes at {self.fps:g} fps is fewer than 2 frames", field="minutes")
 
 
-def simulate_session(out: str | os.PathLike, config: SimulationConfig = SimulationConfig(),
-                     progress: ProgressCallback | None = None) -> Path:
+def simulate_session(
+    out: str | os.PathLike, config: SimulationConfig = SimulationConfig(), progress: ProgressCallback | None = None
+) -> Path:
     """Write a simulated session with ground truth to ``out`` (replaced if it exists); return its path."""
     config.check()
     out = Path(out)
@@ -102,8 +103,11 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
     bodies = all_body_primitives(motion)
     report(progress, "motion", 1, 1, unit="step")
     with atomic_dir(out) as tmp:
-        save_calibration(tmp / "calibration.toml", cameras,
-                         description=f"SIMULATED rig of ergopose simulate (seed {config.seed}): exact values")
+        save_calibration(
+            tmp / "calibration.toml",
+            cameras,
+            description=f"SIMULATED rig of ergopose simulate (seed {config.seed}): exact values",
+        )
         videos = [f"{c.name}.mp4" for c in cameras]
         bars = write_bar_observations_for(tmp / BARS_FILE, scene, cameras, config.seed)
         (tmp / "settings.toml").write_text(_settings_text(config, motion, cameras, videos, bars), encoding="utf-8")
@@ -115,8 +119,15 @@ def simulate_session(out: str | os.PathLike, config: SimulationConfig = Simulati
         pixels = np.stack([p[0] for p in per_camera], axis=1)
         theta = np.stack([p[1] for p in per_camera], axis=1)
         vis = np.stack([p[2] for p in per_camera], axis=1)
-        write_ground_truth(gt, scene_info=_scene_info(config, scene, cameras, motion), motion=motion,
-                           camera_names=[c.name for c in cameras], pixels=pixels, theta=theta, visibility=vis)
+        write_ground_truth(
+            gt,
+            scene_info=_scene_info(config, scene, cameras, motion),
+            motion=motion,
+            camera_names=[c.name for c in cameras],
+            pixels=pixels,
+            theta=theta,
+            visibility=vis,
+        )
         report(progress, "ground truth", 1, 1, unit="file")
     return out
 
@@ -144,31 +155,51 @@ def write_bar_observations_for(path: Path, scene, cameras, seed: int) -> float |
     return float(bars[0].length)
 
 
-def _settings_text(config: SimulationConfig, motion: Motion, cameras, videos: list[str],
-                   bar_length: float | None = None) -> str:
+def _settings_text(
+    config: SimulationConfig, motion: Motion, cameras, videos: list[str], bar_length: float | None = None
+) -> str:
     workers = []
     for w in motion.workers:
-        periods = tuple(SessionPeriod(start_s=p.start_s, end_s=p.end_s,
-                                      factors=TaskFactors(load_kg=p.load_kg, load_mode=p.load_mode,
-                                                          coupling=p.coupling))
-                        for p in _merge_periods(w.periods))
+        periods = tuple(
+            SessionPeriod(
+                start_s=p.start_s,
+                end_s=p.end_s,
+                factors=TaskFactors(load_kg=p.load_kg, load_mode=p.load_mode, coupling=p.coupling),
+            )
+            for p in _merge_periods(w.periods)
+        )
         # The stature as a safety engineer would note it (to the centimetre): it lets ergopose tell
         # which tracked person is which worker.
-        workers.append(WorkerInfo(worker_id=w.worker_id, name=f"Simulated worker {w.worker_id[1:]}",
-                                  factors=TaskFactors(), periods=periods,
-                                  stature_m=round(float(w.spec.stature), 2)))
-    header = ("# A SIMULATED session written by 'ergopose simulate' (docs/simulator.md); the format is in\n"
-              "# docs/session-format.md. The workers' load periods are the simulation's ground truth; the number\n"
-              "# of workers in the area ([reconstruction] expected_workers) is what a safety engineer would know.\n")
+        workers.append(
+            WorkerInfo(
+                worker_id=w.worker_id,
+                name=f"Simulated worker {w.worker_id[1:]}",
+                factors=TaskFactors(),
+                periods=periods,
+                stature_m=round(float(w.spec.stature), 2),
+            )
+        )
+    header = (
+        "# A SIMULATED session written by 'ergopose simulate' (docs/simulator.md); the format is in\n"
+        "# docs/session-format.md. The workers' load periods are the simulation's ground truth; the number\n"
+        "# of workers in the area ([reconstruction] expected_workers) is what a safety engineer would know.\n"
+    )
     return settings_to_toml(
-        recorded_at=config.start, fps=config.fps, cameras=[(c.name, v) for c, v in zip(cameras, videos)],
-        description=(f"Simulated workplace: {config.workers} worker(s), {config.minutes:g} min, seed {config.seed}, "
-                     f"{config.size[0]} x {config.size[1]} px at {config.fps:g} fps"),
-        defaults=TaskFactors(load_kg=0.0, load_mode="intermittent", coupling="good", shock=False,
-                             arm_supported=False, seated=False),
-        workers=workers, header=header,
+        recorded_at=config.start,
+        fps=config.fps,
+        cameras=[(c.name, v) for c, v in zip(cameras, videos)],
+        description=(
+            f"Simulated workplace: {config.workers} worker(s), {config.minutes:g} min, seed {config.seed}, "
+            f"{config.size[0]} x {config.size[1]} px at {config.fps:g} fps"
+        ),
+        defaults=TaskFactors(
+            load_kg=0.0, load_mode="intermittent", coupling="good", shock=False, arm_supported=False, seated=False
+        ),
+        workers=workers,
+        header=header,
         calibration_check=(BARS_FILE, bar_length) if bar_length is not None else None,
-        reconstruction={"expected_workers": int(config.workers)})
+        reconstruction={"expected_workers": int(config.workers)},
+    )
 
 
 def _merge_periods(periods) -> list:
@@ -194,11 +225,17 @@ def floor_plan_text(scene: Scene) -> str:
 
 
 def _floor_plan_toml(area: list, boxes: list[dict[str, Any]]) -> str:
-    plan = {"area_m": [float(v) for v in area],
-            "boxes": [{"name": b["name"], "kind": b["kind"], "lo": [float(v) for v in b["lo"]],
-                       "hi": [float(v) for v in b["hi"]]} for b in boxes]}
-    return ("# The monitored area and its furniture (world metres), for the report's floor map.\n"
-            "# Written by ergopose simulate from its scene.\n" + tomli_w.dumps(plan))
+    plan = {
+        "area_m": [float(v) for v in area],
+        "boxes": [
+            {"name": b["name"], "kind": b["kind"], "lo": [float(v) for v in b["lo"]], "hi": [float(v) for v in b["hi"]]}
+            for b in boxes
+        ],
+    }
+    return (
+        "# The monitored area and its furniture (world metres), for the report's floor map.\n"
+        "# Written by ergopose simulate from its scene.\n" + tomli_w.dumps(plan)
+    )
 
 
 def add_floor_plan(session_dir: str | os.PathLike) -> bool:
@@ -228,19 +265,34 @@ def _scene_info(config: SimulationConfig, scene: Scene, cameras, motion: Motion)
     workers = []
     for w in motion.workers:
         m = w.spec.measurements
-        workers.append({"id": w.worker_id, "stature_m": m.stature, "walk_speed_m_s": w.spec.walk_speed,
-                        "measurements_m": {k: float(v) for k, v in vars(m).items()},
-                        "colours_bgr": w.spec.appearance.to_dict()})
+        workers.append(
+            {
+                "id": w.worker_id,
+                "stature_m": m.stature,
+                "walk_speed_m_s": w.spec.walk_speed,
+                "measurements_m": {k: float(v) for k, v in vars(m).items()},
+                "colours_bgr": w.spec.appearance.to_dict(),
+            }
+        )
     info = scene.to_dict()
     info["reference_bars"] = bars
     return {
         "ground_truth_version": GROUND_TRUTH_VERSION,
         "simulated": True,
         "generator": {"program": "ergopose simulate", "ergopose_version": __version__, "seed": config.seed},
-        "session": {"workers": config.workers, "minutes": config.minutes, "fps": config.fps,
-                    "frames": motion.n_frames, "width": config.size[0], "height": config.size[1]},
-        "render": {"noise_sigma": config.render.noise_sigma, "blur_sigma": config.render.blur_sigma,
-                   "brightness_drift": config.render.brightness_drift},
+        "session": {
+            "workers": config.workers,
+            "minutes": config.minutes,
+            "fps": config.fps,
+            "frames": motion.n_frames,
+            "width": config.size[0],
+            "height": config.size[1],
+        },
+        "render": {
+            "noise_sigma": config.render.noise_sigma,
+            "blur_sigma": config.render.blur_sigma,
+            "brightness_drift": config.render.brightness_drift,
+        },
         "task_names": list(TASKS),
         "visibility_codes": list(VISIBILITY_CODES),
         "lens_regions": [{"name": n, "theta_min_deg": lo, "theta_max_deg": hi} for n, lo, hi in LENS_REGIONS_DEG],
@@ -255,8 +307,9 @@ def _scene_info(config: SimulationConfig, scene: Scene, cameras, motion: Motion)
 def _camera_options(config: SimulationConfig, index: int) -> RenderOptions:
     seed = int(np.random.SeedSequence([config.seed, index]).generate_state(1)[0])
     r = config.render
-    return RenderOptions(noise_sigma=r.noise_sigma, blur_sigma=r.blur_sigma, brightness_drift=r.brightness_drift,
-                         seed=seed)
+    return RenderOptions(
+        noise_sigma=r.noise_sigma, blur_sigma=r.blur_sigma, brightness_drift=r.brightness_drift, seed=seed
+    )
 
 
 def _render_one(camera, scene, motion, bodies, path, fps, options, on_frame):
@@ -267,6 +320,7 @@ def _render_one(camera, scene, motion, bodies, path, fps, options, on_frame):
 
 def _child(index, camera, scene, motion, bodies, path, fps, options, messages) -> None:
     try:
+
         def on_frame(done: int) -> None:
             if done % 12 == 0 or done == motion.n_frames:
                 messages.put(("progress", index, done))
@@ -277,9 +331,16 @@ def _child(index, camera, scene, motion, bodies, path, fps, options, messages) -
         messages.put(("error", index, traceback.format_exc()))
 
 
-def render_cameras(folder: Path, scene: Scene, cameras, motion: Motion, bodies: list[BodyPrimitives],
-                   videos: list[str], config: SimulationConfig,
-                   progress: ProgressCallback | None = None) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+def render_cameras(
+    folder: Path,
+    scene: Scene,
+    cameras,
+    motion: Motion,
+    bodies: list[BodyPrimitives],
+    videos: list[str],
+    config: SimulationConfig,
+    progress: ProgressCallback | None = None,
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Render every camera's video into ``folder``; per camera (pixels, theta, visibility)."""
     n = motion.n_frames
     total = n * len(cameras)
@@ -296,8 +357,11 @@ def render_cameras(folder: Path, scene: Scene, cameras, motion: Motion, bodies: 
                 if done % 12 == 0 or done == n:
                     report(progress, "render", base + done, total, unit="frame")
 
-            out.append(_render_one(cam, scene, motion, bodies, folder / videos[i], config.fps,
-                                   _camera_options(config, i), on_frame))
+            out.append(
+                _render_one(
+                    cam, scene, motion, bodies, folder / videos[i], config.fps, _camera_options(config, i), on_frame
+                )
+            )
         return out
     ctx = multiprocessing.get_context("spawn")
     messages = ctx.Queue()
@@ -309,8 +373,21 @@ def render_cameras(folder: Path, scene: Scene, cameras, motion: Motion, bodies: 
         while pending or running:
             while pending and len(running) < processes:
                 i = pending.pop(0)
-                proc = ctx.Process(target=_child, args=(i, cameras[i], scene, motion, bodies, folder / videos[i],
-                                                       config.fps, _camera_options(config, i), messages), daemon=True)
+                proc = ctx.Process(
+                    target=_child,
+                    args=(
+                        i,
+                        cameras[i],
+                        scene,
+                        motion,
+                        bodies,
+                        folder / videos[i],
+                        config.fps,
+                        _camera_options(config, i),
+                        messages,
+                    ),
+                    daemon=True,
+                )
                 proc.start()
                 running[i] = proc
             try:
@@ -318,7 +395,9 @@ def render_cameras(folder: Path, scene: Scene, cameras, motion: Motion, bodies: 
             except queue.Empty:
                 for i, proc in list(running.items()):
                     if not proc.is_alive() and i not in results:
-                        raise RuntimeError(f"the render process of {cameras[i].name} died (exit code {proc.exitcode})") from None
+                        raise RuntimeError(
+                            f"the render process of {cameras[i].name} died (exit code {proc.exitcode})"
+                        ) from None
                 continue
             if kind == "progress":
                 done[i] = payload

@@ -87,8 +87,23 @@ def intrinsic_board_poses(rng: np.random.Generator) -> list[tuple[np.ndarray, np
     from ergopose.calibration._so3 import rotation_matrices
 
     poses = []
-    layout = [(0, 0), (20, 30), (20, 210), (40, 0), (40, 120), (40, 240), (60, 60), (60, 180), (60, 300),
-              (75, 0), (75, 90), (75, 180), (75, 270), (85, 45), (85, 225)]
+    layout = [
+        (0, 0),
+        (20, 30),
+        (20, 210),
+        (40, 0),
+        (40, 120),
+        (40, 240),
+        (60, 60),
+        (60, 180),
+        (60, 300),
+        (75, 0),
+        (75, 90),
+        (75, 180),
+        (75, 270),
+        (85, 45),
+        (85, 225),
+    ]
     for th_deg, ph_deg in layout:
         th, ph = np.radians(th_deg), np.radians(ph_deg)
         tilt = rng.uniform(-0.4, 0.4, 2)

@@ -33,19 +33,23 @@ def test_checkerboard_object_points():
 
 def test_board_file(tmp_path):
     f = tmp_path / "board.toml"
-    f.write_text('[board]\nkind = "charuco"\ncols = 7\nrows = 5\nsquare = 0.04\nmarker = 0.03\n'
-                 'dictionary = "DICT_5X5_100"\n')
+    f.write_text(
+        '[board]\nkind = "charuco"\ncols = 7\nrows = 5\nsquare = 0.04\nmarker = 0.03\ndictionary = "DICT_5X5_100"\n'
+    )
     assert parse_board(str(f)) == Board("charuco", 7, 5, 0.04, 0.03, "DICT_5X5_100")
     f.write_text('[board]\nkind = "checkerboard"\ncols = 9\n')
     with pytest.raises(ConfigError, match="missing field 'rows'"):
         load_board_file(f)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(kind="circles", cols=4, rows=4, square=0.1), "unknown board kind"),
-    (dict(kind="checkerboard", cols=1, rows=4, square=0.1), "at least 2 x 2"),
-    (dict(kind="checkerboard", cols=4, rows=4, square=-1.0), "positive"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(kind="circles", cols=4, rows=4, square=0.1), "unknown board kind"),
+        (dict(kind="checkerboard", cols=1, rows=4, square=0.1), "at least 2 x 2"),
+        (dict(kind="checkerboard", cols=4, rows=4, square=-1.0), "positive"),
+    ],
+)
 def test_invalid_boards(kwargs, match):
     with pytest.raises(ConfigError, match=match):
         Board(**kwargs)

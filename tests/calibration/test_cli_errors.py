@@ -47,16 +47,29 @@ def test_no_board_in_any_image(tmp_path, capsys):
     folder.mkdir()
     for i in range(3):
         cv2.imwrite(str(folder / f"b{i}.png"), np.full((400, 400), 128, np.uint8))
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(folder), "--board", BOARD,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        ["calibrate", "intrinsics", "--images", str(folder), "--board", BOARD, "--out", str(tmp_path / "c.toml")],
+    )
     assert "was not found in any of 3 image(s)" in err and "b0.png" in err and "INNER corners" in err
     assert not (tmp_path / "c.toml").exists()
 
 
 def test_too_few_images(tmp_path, capsys, rng):
     _board_images(tmp_path / "few", 3, 30, 0, rng)
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "few"), "--board", BOARD,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "intrinsics",
+            "--images",
+            str(tmp_path / "few"),
+            "--board",
+            BOARD,
+            "--out",
+            str(tmp_path / "c.toml"),
+        ],
+    )
     assert "only 3 usable board image(s), at least 8 are needed" in err
     assert "take more images" in err
 
@@ -64,41 +77,99 @@ def test_too_few_images(tmp_path, capsys, rng):
 @pytest.mark.slow
 def test_boards_all_in_one_corner_fail_the_coverage_check(tmp_path, capsys, rng):
     _board_images(tmp_path / "corner", 9, 55, 225, rng)
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "corner"), "--board", BOARD,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "intrinsics",
+            "--images",
+            str(tmp_path / "corner"),
+            "--board",
+            BOARD,
+            "--out",
+            str(tmp_path / "c.toml"),
+        ],
+    )
     assert "poor coverage" in err and "near the image edges and corners" in err
 
 
 def test_unreadable_image_is_named(tmp_path, capsys, rng):
     _board_images(tmp_path / "imgs", 2, 30, 0, rng)
     (tmp_path / "imgs" / "broken.png").write_bytes(b"this is not a png")
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "imgs"), "--board", BOARD,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "intrinsics",
+            "--images",
+            str(tmp_path / "imgs"),
+            "--board",
+            BOARD,
+            "--out",
+            str(tmp_path / "c.toml"),
+        ],
+    )
     assert "broken.png" in err and "cannot read this image" in err
 
 
 def test_image_folder_missing_or_empty(tmp_path, capsys):
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "nope"), "--board", BOARD,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "intrinsics",
+            "--images",
+            str(tmp_path / "nope"),
+            "--board",
+            BOARD,
+            "--out",
+            str(tmp_path / "c.toml"),
+        ],
+    )
     assert "nope" in err and "image folder not found" in err
     (tmp_path / "empty").mkdir()
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "empty"), "--board", BOARD,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "intrinsics",
+            "--images",
+            str(tmp_path / "empty"),
+            "--board",
+            BOARD,
+            "--out",
+            str(tmp_path / "c.toml"),
+        ],
+    )
     assert "no images" in err
 
 
-@pytest.mark.parametrize("spec, expected", [
-    ("checkerboard:9x6", "checkerboard:COLSxROWS:SQUARE"),
-    ("checkerboard:9by6:0.02", "COLSxROWS"),
-    ("checkerboard:9x6:big", "square size"),
-    ("charuco:7x5:0.04:0.05:DICT_5X5_100", "marker size"),
-    ("charuco:7x5:0.04:0.03:DICT_NOPE", "unknown ArUco dictionary"),
-    ("board.toml", "board file not found"),
-])
+@pytest.mark.parametrize(
+    "spec, expected",
+    [
+        ("checkerboard:9x6", "checkerboard:COLSxROWS:SQUARE"),
+        ("checkerboard:9by6:0.02", "COLSxROWS"),
+        ("checkerboard:9x6:big", "square size"),
+        ("charuco:7x5:0.04:0.05:DICT_5X5_100", "marker size"),
+        ("charuco:7x5:0.04:0.03:DICT_NOPE", "unknown ArUco dictionary"),
+        ("board.toml", "board file not found"),
+    ],
+)
 def test_bad_board_spec(tmp_path, capsys, spec, expected):
     (tmp_path / "imgs").mkdir()
-    err = _error(capsys, ["calibrate", "intrinsics", "--images", str(tmp_path / "imgs"), "--board", spec,
-                          "--out", str(tmp_path / "c.toml")])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "intrinsics",
+            "--images",
+            str(tmp_path / "imgs"),
+            "--board",
+            spec,
+            "--out",
+            str(tmp_path / "c.toml"),
+        ],
+    )
     assert expected in err
 
 
@@ -108,24 +179,68 @@ def test_extrinsics_errors(tmp_path, capsys, sim_room):
     save_calibration(calib, sim_room.cameras)
     err = _error(capsys, ["calibrate", "extrinsics", "--calibration", str(calib)])
     assert "give either --board-image" in err
-    err = _error(capsys, ["calibrate", "extrinsics", "--calibration", str(calib), "--board", sim_room.floor_board,
-                          "--board-image", f"cam_x={sim_room.floor_images['cam_a']}"])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "extrinsics",
+            "--calibration",
+            str(calib),
+            "--board",
+            sim_room.floor_board,
+            "--board-image",
+            f"cam_x={sim_room.floor_images['cam_a']}",
+        ],
+    )
     assert "unknown camera 'cam_x'" in err
     blank = tmp_path / "blank.png"
     cv2.imwrite(str(blank), np.full((800, 800), 128, np.uint8))
-    err = _error(capsys, ["calibrate", "extrinsics", "--calibration", str(calib), "--board", sim_room.floor_board,
-                          "--board-image", f"cam_a={blank}"])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "extrinsics",
+            "--calibration",
+            str(calib),
+            "--board",
+            sim_room.floor_board,
+            "--board-image",
+            f"cam_a={blank}",
+        ],
+    )
     assert "blank.png" in err and "was not found" in err
     world = tmp_path / "world.csv"
     world.write_text("point,x,y,z\np1,0,0,0\np2,1,0,0\np3,0,1,0\n")
     pixels = tmp_path / "pixels.csv"
     pixels.write_text("camera,point,u,v\ncam_a,p1,400,400\ncam_a,p2,500,400\ncam_a,p3,400,500\n")
-    err = _error(capsys, ["calibrate", "extrinsics", "--calibration", str(calib), "--points-world", str(world),
-                          "--points-pixels", str(pixels)])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "extrinsics",
+            "--calibration",
+            str(calib),
+            "--points-world",
+            str(world),
+            "--points-pixels",
+            str(pixels),
+        ],
+    )
     assert "only 3 point(s)" in err and "pixels.csv" in err
     pixels.write_text("camera,point,u,v\ncam_a,p9,400,400\n")
-    err = _error(capsys, ["calibrate", "extrinsics", "--calibration", str(calib), "--points-world", str(world),
-                          "--points-pixels", str(pixels)])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "extrinsics",
+            "--calibration",
+            str(calib),
+            "--points-world",
+            str(world),
+            "--points-pixels",
+            str(pixels),
+        ],
+    )
     assert "line 2: point 'p9' is not in world.csv" in err
 
 
@@ -135,18 +250,34 @@ def test_check_errors(tmp_path, capsys, sim_room):
     save_calibration(calib, sim_room.cameras)
     obs = tmp_path / "bar.csv"
     obs.write_text("measurement,camera,end,u,v\n1,cam_a,a,400,400\n1,cam_q,b,410,400\n")
-    err = _error(capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs),
-                          "--length", "1.5"])
+    err = _error(
+        capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs), "--length", "1.5"]
+    )
     assert "line 3: unknown camera 'cam_q'" in err
     obs.write_text("measurement,camera,end,u,v\n1,cam_a,a,400,400\n1,cam_a,b,410,400\n1,cam_b,a,400,400\n")
-    err = _error(capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs),
-                          "--length", "1.5"])
+    err = _error(
+        capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs), "--length", "1.5"]
+    )
     assert "each bar end needs pixels from at least two cameras" in err
     obs.write_text("measurement,camera,u,v\n")
-    err = _error(capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs),
-                          "--length", "1.5"])
+    err = _error(
+        capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs), "--length", "1.5"]
+    )
     assert "missing column(s) end" in err
-    err = _error(capsys, ["calibrate", "check", "--calibration", str(calib), "--observations", str(obs),
-                          "--length", "1.5", "--rings", "70"])
+    err = _error(
+        capsys,
+        [
+            "calibrate",
+            "check",
+            "--calibration",
+            str(calib),
+            "--observations",
+            str(obs),
+            "--length",
+            "1.5",
+            "--rings",
+            "70",
+        ],
+    )
     assert "--rings" in err
     shutil.rmtree(tmp_path)

@@ -7,8 +7,13 @@ import pytest
 
 from ergopose.calibration._so3 import rotation_matrices
 from ergopose.calibration.boards import parse_board
-from ergopose.calibration.check import (angles_from_axis, measure_bar, read_bar_observations, region_of,
-                                        write_bar_observations)
+from ergopose.calibration.check import (
+    angles_from_axis,
+    measure_bar,
+    read_bar_observations,
+    region_of,
+    write_bar_observations,
+)
 from ergopose.calibration.extrinsics import floor_board_points, residuals_mm, solve_pose
 from ergopose.calibration.simulate import board_pose_in_camera, floor_board_transform
 from ergopose.errors import InputError
@@ -87,8 +92,9 @@ def test_bar_measured_exactly_through_exact_cameras(rng):
 
 
 def test_region_bounds():
-    np.testing.assert_array_equal(region_of(np.radians([0, 39.9, 40.0, 69.9, 70, 95]), np.radians([40, 70])),
-                                  [0, 0, 1, 1, 2, 2])
+    np.testing.assert_array_equal(
+        region_of(np.radians([0, 39.9, 40.0, 69.9, 70, 95]), np.radians([40, 70])), [0, 0, 1, 1, 2, 2]
+    )
 
 
 def test_observation_csv_round_trip(tmp_path, rng):

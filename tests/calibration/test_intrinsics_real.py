@@ -28,9 +28,13 @@ REF_K1 = np.array([[561.195925927249, 0, 621.282400272412], [0, 562.849402029712
 REF_K2 = np.array([[560.395452535348, 0, 678.971652040359], [0, 561.90171021422, 380.401340535339], [0, 0, 1]])
 REF_D1 = np.array([-7.44253716539556e-05, -0.00702662033932424, 0.00737569823650885, -0.00342230256441771])
 REF_D2 = np.array([-0.0130785435677431, 0.0284434505383497, -0.0360333869900506, 0.0144724062347222])
-REF_R = np.array([[0.9975587205950972, 0.06953016383322372, 0.006492709911733523],
-                  [-0.06956823121068059, 0.9975601387249519, 0.005833595226966235],
-                  [-0.006071257768382089, -0.006271040135405457, 0.9999619062167968]])
+REF_R = np.array(
+    [
+        [0.9975587205950972, 0.06953016383322372, 0.006492709911733523],
+        [-0.06956823121068059, 0.9975601387249519, 0.005833595226966235],
+        [-0.006071257768382089, -0.006271040135405457, 0.9999619062167968],
+    ]
+)
 REF_T = np.array([-0.099402724724121, 0.00270812139265413, 0.00129330292472699])
 
 
@@ -48,8 +52,11 @@ def test_left_intrinsics_match_opencv_reference(jy):
     assert res.rms == pytest.approx(REF_RMS, abs=1e-6)
     assert round(res.rms, 4) == 0.2638
     assert isinstance(res.lens, KannalaBrandt)
-    np.testing.assert_allclose([res.lens.fx, res.lens.fy, res.lens.cx, res.lens.cy],
-                               [REF_K[0, 0], REF_K[1, 1], REF_K[0, 2], REF_K[1, 2]], atol=1e-4)
+    np.testing.assert_allclose(
+        [res.lens.fx, res.lens.fy, res.lens.cx, res.lens.cy],
+        [REF_K[0, 0], REF_K[1, 1], REF_K[0, 2], REF_K[1, 2]],
+        atol=1e-4,
+    )
 
 
 def test_our_lens_model_reprojects_with_the_same_rms(jy):
@@ -109,8 +116,10 @@ def test_ill_conditioned_view_is_dropped_and_fit_retried(jy, monkeypatch):
         calls.append(len(obj))
         if len(calls) == 1:
             assert kwargs["flags"] & cv2.fisheye.CALIB_CHECK_COND
-            raise cv2.error("OpenCV(4.14.0) fisheye.cpp:1449: error: (-3:Internal error) CALIB_CHECK_COND - "
-                            "Ill-conditioned matrix for input array 7 in function 'CalibrateExtrinsics'")
+            raise cv2.error(
+                "OpenCV(4.14.0) fisheye.cpp:1449: error: (-3:Internal error) CALIB_CHECK_COND - "
+                "Ill-conditioned matrix for input array 7 in function 'CalibrateExtrinsics'"
+            )
         return real(obj, img, *args, **kwargs)
 
     monkeypatch.setattr(cv2.fisheye, "calibrate", flaky)
@@ -154,7 +163,8 @@ def test_degenerate_view_is_dropped_before_opencv_sees_it(jy):
     dets[5] = replace(dets[5], pixels=p[:1] + np.random.default_rng(0).normal(0, 1e-3, p.shape))
     res = intr.calibrate_intrinsics(dets, jy.board, jy.size)
     assert [(d.source, d.reason, d.code) for d in res.dropped] == [
-        ("left image_5", "corners on top of each other", "degenerate")]
+        ("left image_5", "corners on top of each other", "degenerate")
+    ]
     clean = intr.calibrate_intrinsics(jy.left[:5] + jy.left[6:], jy.board, jy.size)
     np.testing.assert_allclose(res.camera_matrix, clean.camera_matrix, atol=1e-9)
 
@@ -167,8 +177,10 @@ def test_unnamed_opencv_failure_finds_the_view(jy, monkeypatch):
 
     def picky(obj, img, *args, **kwargs):
         if any(np.array_equal(i.reshape(-1, 2), poisoned) for i in img):
-            raise cv2.error("OpenCV(4.14.0) fisheye.cpp:1452: error: (-215:Assertion failed) fabs(norm_u1) > 0 "
-                            "in function 'InitExtrinsics'")
+            raise cv2.error(
+                "OpenCV(4.14.0) fisheye.cpp:1452: error: (-215:Assertion failed) fabs(norm_u1) > 0 "
+                "in function 'InitExtrinsics'"
+            )
         return real(obj, img, *args, **kwargs)
 
     monkeypatch.setattr(cv2.fisheye, "calibrate", picky)
@@ -202,6 +214,8 @@ def test_double_sphere_refinement_on_real_corners(jy):
     assert res.kb_rms == pytest.approx(REF_RMS, abs=1e-6)
     assert res.rms < res.kb_rms + 0.005
     obj = jy.board.object_points()
-    sq = [np.sum((res.lens.project(obj @ R.T + t) - d.pixels) ** 2, axis=-1)
-          for d, R, t in zip(jy.left, res.rotations_cam_from_board, res.translations_cam)]
+    sq = [
+        np.sum((res.lens.project(obj @ R.T + t) - d.pixels) ** 2, axis=-1)
+        for d, R, t in zip(jy.left, res.rotations_cam_from_board, res.translations_cam)
+    ]
     assert float(np.sqrt(np.mean(np.concatenate(sq)))) == pytest.approx(res.rms, abs=1e-9)

@@ -36,13 +36,32 @@ def calibrated(sim_room, tmp_path_factory):
     for cam in sim_room.cameras:
         text = io.StringIO()
         with contextlib.redirect_stdout(text):
-            code = cli.main(["calibrate", "intrinsics", "--images", str(sim_room.intrinsic_dirs[cam.name]),
-                             "--board", sim_room.intrinsic_board, "--camera", cam.name, "--out", str(out)])
+            code = cli.main(
+                [
+                    "calibrate",
+                    "intrinsics",
+                    "--images",
+                    str(sim_room.intrinsic_dirs[cam.name]),
+                    "--board",
+                    sim_room.intrinsic_board,
+                    "--camera",
+                    cam.name,
+                    "--out",
+                    str(out),
+                ]
+            )
         assert code == 0
         logs[cam.name] = text.getvalue()
     intrinsics_only = load_calibration(out)
-    args = ["calibrate", "extrinsics", "--calibration", str(out), "--board", sim_room.floor_board,
-            f"--board-origin={sim_room.floor_origin[0]},{sim_room.floor_origin[1]}"]
+    args = [
+        "calibrate",
+        "extrinsics",
+        "--calibration",
+        str(out),
+        "--board",
+        sim_room.floor_board,
+        f"--board-origin={sim_room.floor_origin[0]},{sim_room.floor_origin[1]}",
+    ]
     for cam in sim_room.cameras:
         args += ["--board-image", f"{cam.name}={sim_room.floor_images[cam.name]}"]
     assert cli.main(args) == 0
@@ -65,8 +84,23 @@ def test_intrinsics_recover_the_true_lenses(sim_room, calibrated):
 def test_intrinsics_report_lists_used_and_left_out_images(sim_room, tmp_path, capsys):
     out = tmp_path / "one.toml"
     cam = sim_room.cameras[0]
-    assert cli.main(["calibrate", "intrinsics", "--images", str(sim_room.intrinsic_dirs[cam.name]),
-                     "--board", sim_room.intrinsic_board, "--camera", cam.name, "--out", str(out)]) == 0
+    assert (
+        cli.main(
+            [
+                "calibrate",
+                "intrinsics",
+                "--images",
+                str(sim_room.intrinsic_dirs[cam.name]),
+                "--board",
+                sim_room.intrinsic_board,
+                "--camera",
+                cam.name,
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "RMS reprojection error:" in text
     # two edge views are cut by the image border: reported, not silently skipped
@@ -86,11 +120,13 @@ def test_extrinsics_recover_the_true_poses(sim_room, calibrated):
 
 def _bars(rng: np.random.Generator, n: int) -> np.ndarray:
     """(M, 2, 3) ends of a 1.5 m bar held anywhere in the 6 x 6 m room, 0.05-2.8 m high."""
-    centre = np.concatenate([
-        np.stack([rng.uniform(-2.7, 2.7, n), rng.uniform(-2.7, 2.7, n), rng.uniform(0.3, 2.4, n)], -1),
-        # more bars under the rig, where the central region (< 30 deg from both axes) is
-        np.stack([rng.uniform(-0.6, 0.6, n), rng.uniform(-0.6, 0.6, n), rng.uniform(0.2, 1.0, n)], -1),
-    ])
+    centre = np.concatenate(
+        [
+            np.stack([rng.uniform(-2.7, 2.7, n), rng.uniform(-2.7, 2.7, n), rng.uniform(0.3, 2.4, n)], -1),
+            # more bars under the rig, where the central region (< 30 deg from both axes) is
+            np.stack([rng.uniform(-0.6, 0.6, n), rng.uniform(-0.6, 0.6, n), rng.uniform(0.2, 1.0, n)], -1),
+        ]
+    )
     m = len(centre)
     az, el = rng.uniform(0, np.pi, m), rng.uniform(-0.3, 0.3, m)
     d = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
@@ -108,8 +144,23 @@ def test_bar_is_measured_within_half_a_percent_in_every_region(sim_room, calibra
     names = [c.name for c in sim_room.cameras]
     obs = write_bar_observations(tmp_path / "bar.csv", names, pixels)
 
-    assert cli.main(["calibrate", "check", "--calibration", str(out), "--observations", str(obs),
-                     "--length", "1.5", "--out", str(tmp_path / "lengths.csv")]) == 0
+    assert (
+        cli.main(
+            [
+                "calibrate",
+                "check",
+                "--calibration",
+                str(out),
+                "--observations",
+                str(obs),
+                "--length",
+                "1.5",
+                "--out",
+                str(tmp_path / "lengths.csv"),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     for region in ("central", "outer", "edge"):
         assert region in text
@@ -149,8 +200,23 @@ def test_extrinsics_from_measured_floor_points(sim_room, calibrated, tmp_path, c
 
     save_calibration(intrinsics_file, intrinsics_only)
     result = tmp_path / "posed.toml"
-    assert cli.main(["calibrate", "extrinsics", "--calibration", str(intrinsics_file), "--points-world", str(world),
-                     "--points-pixels", str(pixels), "--out", str(result)]) == 0
+    assert (
+        cli.main(
+            [
+                "calibrate",
+                "extrinsics",
+                "--calibration",
+                str(intrinsics_file),
+                "--points-world",
+                str(world),
+                "--points-pixels",
+                str(pixels),
+                "--out",
+                str(result),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "residual px" in text and "residual mm" in text and "p63" in text
     for true, cam in zip(sim_room.cameras, load_calibration(result)):
@@ -163,9 +229,25 @@ def test_extrinsics_from_measured_floor_points(sim_room, calibrated, tmp_path, c
 def test_double_sphere_model(sim_room, tmp_path, capsys):
     cam = sim_room.cameras[1]
     out = tmp_path / "ds.toml"
-    assert cli.main(["calibrate", "intrinsics", "--images", str(sim_room.intrinsic_dirs[cam.name]), "--board",
-                     sim_room.intrinsic_board, "--camera", cam.name, "--model", "double_sphere",
-                     "--out", str(out)]) == 0
+    assert (
+        cli.main(
+            [
+                "calibrate",
+                "intrinsics",
+                "--images",
+                str(sim_room.intrinsic_dirs[cam.name]),
+                "--board",
+                sim_room.intrinsic_board,
+                "--camera",
+                cam.name,
+                "--model",
+                "double_sphere",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert "Double Sphere RMS" in capsys.readouterr().out
     ds = load_calibration(out)[0]
     assert ds.lens.kind == "double_sphere"

@@ -19,8 +19,14 @@ JY_D = np.array([-0.0014613319981768, -0.00329861110580401, 0.00605760088590183,
 def test_show_prints_one_line_per_camera_in_file_order(tmp_path, capsys):
     cameras = [
         ceiling_camera("cam_2", Equidistant(300.0, 300.0, 599.5, 599.5), 1200, 1200, [0.0, 0.0, 3.0]),
-        Camera("cam_10", Rectilinear.from_fov(640, 480, np.radians(90)), 640, 480,
-               look_at_rotation([1.0, 0.0, -1.0]), [-1.5, 2.0, 2.5]),
+        Camera(
+            "cam_10",
+            Rectilinear.from_fov(640, 480, np.radians(90)),
+            640,
+            480,
+            look_at_rotation([1.0, 0.0, -1.0]),
+            [-1.5, 2.0, 2.5],
+        ),
     ]
     path = save_calibration(tmp_path / "calibration.toml", cameras)
     assert cli.main(["camera", "show", str(path)]) == 0
@@ -63,8 +69,26 @@ def test_import_opencv_builds_a_file_that_projects_like_cv2(tmp_path, capsys, rn
     expected, _ = cv2.fisheye.projectPoints(points.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), JY_K, JY_D)
     np.testing.assert_allclose(camera.project_world(points), expected[:, 0], atol=1e-6)
     # A second camera is appended (order kept), on the ceiling, with the size given explicitly.
-    assert cli.main(["camera", "import-opencv", "--K-D", str(kd), "--name", "cam_0", "--size", "1280x800",
-                     "--position=-1.5,0.5,3", "--yaw", "90", "--out", str(out)]) == 0
+    assert (
+        cli.main(
+            [
+                "camera",
+                "import-opencv",
+                "--K-D",
+                str(kd),
+                "--name",
+                "cam_0",
+                "--size",
+                "1280x800",
+                "--position=-1.5,0.5,3",
+                "--yaw",
+                "90",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     cameras = load_calibration(out)
     assert [c.name for c in cameras] == ["cam_1", "cam_0"]
     np.testing.assert_array_equal(cameras[1].position_world, [-1.5, 0.5, 3.0])

@@ -81,11 +81,14 @@ def test_guess_with_another_lens_model_and_from_a_video(tmp_path, capsys):
     assert math.degrees(camera.field_of_view()[0]) == pytest.approx(190.0, abs=0.5)
 
 
-@pytest.mark.parametrize("fov, message", [
-    ("99", "between 100 and 280 degrees, got 99"),
-    ("281", "between 100 and 280 degrees, got 281"),
-    ("nan", "between 100 and 280 degrees"),
-])
+@pytest.mark.parametrize(
+    "fov, message",
+    [
+        ("99", "between 100 and 280 degrees, got 99"),
+        ("281", "between 100 and 280 degrees, got 281"),
+        ("nan", "between 100 and 280 degrees"),
+    ],
+)
 def test_guess_refuses_a_field_of_view_out_of_range(equidistant_180, tmp_path, capsys, fov, message):
     path, _ = equidistant_180
     out = tmp_path / "x.toml"
@@ -96,8 +99,12 @@ def test_guess_refuses_a_field_of_view_out_of_range(equidistant_180, tmp_path, c
 
 def test_guess_refuses_what_an_orthographic_lens_cannot_span(equidistant_180, tmp_path, capsys):
     path, _ = equidistant_180
-    assert cli.main(["camera", "guess", str(path), "--fov", "200", "--lens", "orthographic",
-                     "--out", str(tmp_path / "x.toml")]) == 2
+    assert (
+        cli.main(
+            ["camera", "guess", str(path), "--fov", "200", "--lens", "orthographic", "--out", str(tmp_path / "x.toml")]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "orthographic lens spans at most 180 degrees" in err
 
@@ -153,8 +160,15 @@ def test_show_gives_180_degrees_for_a_simulated_180_degree_lens(tmp_path, capsys
     f = 190.0 / rd
     lens = KannalaBrandt(f, f, 239.5, 199.5, *k)
     camera = ceiling_camera("sim180", lens, 480, 400, [0.0, 0.0, 3.0])
-    circled = Camera("sim180c", lens, 480, 400, camera.rotation_world_from_cam, camera.position_world,
-                     image_circle=(239.5, 199.5, rd * f))
+    circled = Camera(
+        "sim180c",
+        lens,
+        480,
+        400,
+        camera.rotation_world_from_cam,
+        camera.position_world,
+        image_circle=(239.5, 199.5, rd * f),
+    )
     h, v = _show_fov(tmp_path, capsys, circled)
     assert h == pytest.approx(180.0, abs=0.5) and v == pytest.approx(180.0, abs=0.5)
     assert _show_fov(tmp_path, capsys, camera)[0] > 200.0  # without the circle: the model to the frame's edge
@@ -178,7 +192,8 @@ def test_show_of_the_real_calibrations(tmp_path, capsys, shared_data):
 
     jy = KannalaBrandt.from_opencv(
         np.array([[558.478087865323, 0, 620.458515360843], [0, 560.506767351568, 381.939424848348], [0, 0, 1]]),
-        np.array([-0.0014613319981768, -0.00329861110580401, 0.00605760088590183, -0.00374209380722371]))
+        np.array([-0.0014613319981768, -0.00329861110580401, 0.00605760088590183, -0.00374209380722371]),
+    )
     h, v = _show_fov(tmp_path, capsys, ceiling_camera("jy_left", jy, 1280, 800, [0.0, 0.0, 3.0]))
     rays = jy.unproject(np.array([[-0.5, jy.cy], [1279.5, jy.cy]]))
     expected = math.degrees(sum(math.atan2(math.hypot(r[0], r[1]), r[2]) for r in rays))

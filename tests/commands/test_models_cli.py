@@ -80,7 +80,7 @@ def test_user_onnx_cards_are_listed_and_verified(tmp_path, capsys):
     digest = hashlib.sha256(model.read_bytes()).hexdigest()
     (folder / "mine.toml").write_text(
         f'name = "mine"\nfile = "mine.onnx"\nsha256 = "{digest}"\nlicence = "MIT"\nsource = "my lab"\n'
-        '[input]\nwidth = 192\nheight = 256\nmean = [0, 0, 0]\nstd = [1, 1, 1]\n'
+        "[input]\nwidth = 192\nheight = 256\nmean = [0, 0, 0]\nstd = [1, 1, 1]\n"
         '[output]\ntype = "simcc"\nkeypoints = "coco17"\n',
         encoding="utf-8",
     )

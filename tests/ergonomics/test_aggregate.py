@@ -8,8 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ergopose.ergonomics.aggregate import (ShiftAccumulator, aggregate_session, aggregate_shift,
-                                           nominal_frame_period)
+from ergopose.ergonomics.aggregate import ShiftAccumulator, aggregate_session, aggregate_shift, nominal_frame_period
 from ergopose.errors import InputError
 
 FPS = 12
@@ -29,16 +28,16 @@ def _shift() -> pd.DataFrame:
     parts = [
         _segment(0, 30, rula_action_level=1, rula_grand=2),
         _segment(30, 90, rula_action_level=3, rula_grand=5),
-        _segment(120, 6, rula_action_level=np.nan, rula_grand=np.nan),   # not scored
+        _segment(120, 6, rula_action_level=np.nan, rula_grand=np.nan),  # not scored
         _segment(126, 24, rula_action_level=3, rula_grand=5),
         # no frames from 150 to 160 s (tracking lost)
         _segment(160, 60, rula_action_level=4, rula_grand=7),
-        _segment(220, 3480, rula_action_level=2, rula_grand=3),          # across the first hour
+        _segment(220, 3480, rula_action_level=2, rula_grand=3),  # across the first hour
     ]
     frame = pd.concat(parts, ignore_index=True)
-    frame.loc[frame.index[400], "rula_grand"] = 6                       # one frame of 6 inside the 90 s hold
+    frame.loc[frame.index[400], "rula_grand"] = 6  # one frame of 6 inside the 90 s hold
     frame["rep_left_wrist_flexion"] = 0.0
-    events = 0.5 + 10.0 * np.arange(60)                                 # an action every 10 s for 10 minutes
+    events = 0.5 + 10.0 * np.arange(60)  # an action every 10 s for 10 minutes
     frame.loc[np.searchsorted(frame["time_s"].to_numpy(), events), "rep_left_wrist_flexion"] = 1.0
     for c in frame.columns:
         if c.startswith("rula_"):
@@ -67,17 +66,16 @@ def test_time_per_level_and_percent():
 
 def test_longest_holds():
     d = aggregate_shift(_shift()).distributions["rula_action_level"]
-    assert d.at(3).holds == 2                                   # broken by the unscored frames
+    assert d.at(3).holds == 2  # broken by the unscored frames
     assert d.at(3).longest_hold_s == pytest.approx(90.0) and d.at(3).longest_hold_start_s == pytest.approx(30.0)
     assert d.at(4).longest_hold_s == pytest.approx(60.0) and d.at(4).longest_hold_start_s == pytest.approx(160.0)
     assert d.at(2).longest_hold_s == pytest.approx(3480.0)
     g = aggregate_shift(_shift()).distributions["rula_grand"]
-    assert g.at(5).holds == 3                                   # the single 6 splits the first hold
+    assert g.at(5).holds == 3  # the single 6 splits the first hold
 
 
 def test_a_gap_in_the_frames_ends_a_hold():
-    frame = pd.concat([_segment(0, 30, rula_action_level=3), _segment(32, 30, rula_action_level=3)],
-                      ignore_index=True)
+    frame = pd.concat([_segment(0, 30, rula_action_level=3), _segment(32, 30, rula_action_level=3)], ignore_index=True)
     d = aggregate_shift(frame).distributions["rula_action_level"]
     assert d.at(3).holds == 2 and d.at(3).longest_hold_s == pytest.approx(30.0)
     from ergopose.ergonomics.settings import ScoringSettings
@@ -100,8 +98,13 @@ def test_hourly_breakdown():
 def test_worst_episodes_with_timestamps():
     eps = aggregate_shift(_shift()).episodes["rula_action_level"]
     got = [(e.level, round(e.start_s, 6), round(e.end_s, 6), round(e.duration_s, 6), e.peak_score) for e in eps]
-    assert got == [(4, 160.0, 220.0, 60.0, 7), (3, 30.0, 120.0, 90.0, 6), (3, 126.0, 150.0, 24.0, 5),
-                   (2, 220.0, 3700.0, 3480.0, 3), (1, 0.0, 30.0, 30.0, 2)]
+    assert got == [
+        (4, 160.0, 220.0, 60.0, 7),
+        (3, 30.0, 120.0, 90.0, 6),
+        (3, 126.0, 150.0, 24.0, 5),
+        (2, 220.0, 3700.0, 3480.0, 3),
+        (1, 0.0, 30.0, 30.0, 2),
+    ]
 
 
 def test_repetitions_per_minute():
@@ -143,9 +146,16 @@ def test_nominal_frame_period():
 
 
 def _angles(seconds: float, **deg) -> pd.DataFrame:
-    base = {"trunk_flexion": 10.0, "neck_flexion": 10.0, "trunk_twist": 0.0, "trunk_side_bend": 0.0,
-            "left_upper_arm_elevation": 10.0, "right_upper_arm_elevation": 10.0,
-            "left_shoulder_raised": 0.0, "right_shoulder_raised": 0.0}
+    base = {
+        "trunk_flexion": 10.0,
+        "neck_flexion": 10.0,
+        "trunk_twist": 0.0,
+        "trunk_side_bend": 0.0,
+        "left_upper_arm_elevation": 10.0,
+        "right_upper_arm_elevation": 10.0,
+        "left_shoulder_raised": 0.0,
+        "right_shoulder_raised": 0.0,
+    }
     t = np.arange(int(seconds * FPS)) / FPS
     frame = {"time_s": t}
     for k, v in {**base, **deg}.items():
@@ -159,7 +169,7 @@ def _verdicts(frame: pd.DataFrame) -> dict[str, str]:
 
 
 def test_iso_11226_static_holds():
-    bump = lambda lo, hi, v, rest: (lambda t: np.where((t >= lo) & (t < hi), v, rest))  # noqa: E731
+    bump = lambda lo, hi, v, rest: lambda t: np.where((t >= lo) & (t < hi), v, rest)  # noqa: E731
     v = _verdicts(_angles(600))
     assert v["ISO 11226|trunk"] == "acceptable" and v["ISO 11226|neck"] == "acceptable"
     assert v["ISO 11226|left upper arm"] == "acceptable" and v["ISO 11226|left shoulder"] == "acceptable"
@@ -167,8 +177,8 @@ def test_iso_11226_static_holds():
     assert _verdicts(_angles(600, trunk_flexion=bump(100, 103, 70, 10)))["ISO 11226|trunk"] == "acceptable"  # 3 s
     assert _verdicts(_angles(600, trunk_flexion=bump(100, 110, 30, 10)))["ISO 11226|trunk"] == "time-limited"
     head = _verdicts(_angles(600, trunk_flexion=bump(100, 105, 30, 10), neck_flexion=bump(100, 105, 60, 10)))
-    assert head["ISO 11226|head"] == "not recommended"                 # 30 + 60 = 90 > 85
-    assert head["ISO 11226|neck"] == "not recommended"                 # neck flexion 60 > 25
+    assert head["ISO 11226|head"] == "not recommended"  # 30 + 60 = 90 > 85
+    assert head["ISO 11226|neck"] == "not recommended"  # neck flexion 60 > 25
     assert _verdicts(_angles(600, neck_flexion=bump(100, 105, -10, 10)))["ISO 11226|neck"] == "not recommended"
     arm = _verdicts(_angles(600, left_upper_arm_elevation=bump(100, 105, 70, 10)))
     assert arm["ISO 11226|left upper arm"] == "not recommended" and arm["ISO 11226|right upper arm"] == "acceptable"
@@ -182,13 +192,21 @@ def test_en_1005_4_movement_frequency():
         return lambda t: np.where((t % (60.0 / per_minute)) < length_s, value, rest)
 
     v = _verdicts(_angles(600, left_upper_arm_elevation=excursions(3, 30)))
-    assert v["EN 1005-4|left upper arm"] == "conditionally acceptable"   # 3 movements/min into 20-60
-    assert v["ISO 11226|left upper arm"] == "acceptable"                 # 2 s: never static
-    f = next(x for x in aggregate_shift(_angles(600, left_upper_arm_elevation=excursions(3, 30))).exposure
-             if x.standard == "EN 1005-4" and x.body_part == "left upper arm")
+    assert v["EN 1005-4|left upper arm"] == "conditionally acceptable"  # 3 movements/min into 20-60
+    assert v["ISO 11226|left upper arm"] == "acceptable"  # 2 s: never static
+    f = next(
+        x
+        for x in aggregate_shift(_angles(600, left_upper_arm_elevation=excursions(3, 30))).exposure
+        if x.standard == "EN 1005-4" and x.body_part == "left upper arm"
+    )
     assert f.entries == 30 and f.per_minute == pytest.approx(3.0)
-    assert _verdicts(_angles(600, left_upper_arm_elevation=excursions(1, 30)))["EN 1005-4|left upper arm"] == "acceptable"
-    assert _verdicts(_angles(600, left_upper_arm_elevation=excursions(1, 70)))["EN 1005-4|left upper arm"] == "not acceptable"
+    assert (
+        _verdicts(_angles(600, left_upper_arm_elevation=excursions(1, 30)))["EN 1005-4|left upper arm"] == "acceptable"
+    )
+    assert (
+        _verdicts(_angles(600, left_upper_arm_elevation=excursions(1, 70)))["EN 1005-4|left upper arm"]
+        == "not acceptable"
+    )
     t1 = _verdicts(_angles(600, trunk_twist=excursions(1, 15, rest=0)))["EN 1005-4|trunk side bend or twist"]
     t3 = _verdicts(_angles(600, trunk_side_bend=excursions(3, -15, rest=0)))["EN 1005-4|trunk side bend or twist"]
     assert (t1, t3) == ("conditionally acceptable", "not acceptable")
@@ -202,7 +220,7 @@ def test_exposure_not_measured_without_angles():
 
 def test_upper_arm_elevation_falls_back_to_flexion_and_abduction():
     frame = _angles(600).drop(columns=["left_upper_arm_elevation", "right_upper_arm_elevation"])
-    frame["upper_arm_flexion"] = np.deg2rad(10.0)     # unprefixed: both sides
+    frame["upper_arm_flexion"] = np.deg2rad(10.0)  # unprefixed: both sides
     frame["upper_arm_abduction"] = np.deg2rad(np.where((frame["time_s"] >= 100) & (frame["time_s"] < 106), 70, 5))
     v = _verdicts(frame)
     assert v["ISO 11226|left upper arm"] == v["ISO 11226|right upper arm"] == "not recommended"

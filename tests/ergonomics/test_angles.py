@@ -35,16 +35,39 @@ SIDES = ("left", "right")
 #: over these ranges, all angles varied at once. Upper-arm abduction stops short of 90 deg, where the
 #: flexion plane is undefined; upper-arm rotation is only defined with a bent elbow.
 RANGES_DEG = {
-    "trunk_flexion": (-30, 110), "trunk_side_bend": (-30, 30), "trunk_twist": (-45, 45),
-    "neck_flexion": (-45, 60), "neck_side_bend": (-35, 35), "neck_twist": (-70, 70),
-    "upper_arm_flexion": (-60, 180), "upper_arm_abduction": (-30, 80), "upper_arm_rotation": (-80, 80),
-    "elbow_flexion": (0, 150), "forearm_rotation": (-90, 90), "wrist_flexion": (-70, 70),
-    "wrist_deviation": (-25, 35), "shoulder_elevation": (-10, 30),
-    "hip_flexion": (-20, 120), "hip_abduction": (-20, 45), "knee_flexion": (0, 150), "ankle_flexion": (-30, 30),
+    "trunk_flexion": (-30, 110),
+    "trunk_side_bend": (-30, 30),
+    "trunk_twist": (-45, 45),
+    "neck_flexion": (-45, 60),
+    "neck_side_bend": (-35, 35),
+    "neck_twist": (-70, 70),
+    "upper_arm_flexion": (-60, 180),
+    "upper_arm_abduction": (-30, 80),
+    "upper_arm_rotation": (-80, 80),
+    "elbow_flexion": (0, 150),
+    "forearm_rotation": (-90, 90),
+    "wrist_flexion": (-70, 70),
+    "wrist_deviation": (-25, 35),
+    "shoulder_elevation": (-10, 30),
+    "hip_flexion": (-20, 120),
+    "hip_abduction": (-20, 45),
+    "knee_flexion": (0, 150),
+    "ankle_flexion": (-30, 30),
 }
-PER_SIDE = ("upper_arm_flexion", "upper_arm_abduction", "upper_arm_rotation", "elbow_flexion", "forearm_rotation",
-            "wrist_flexion", "wrist_deviation", "shoulder_elevation", "hip_flexion", "hip_abduction",
-            "knee_flexion", "ankle_flexion")
+PER_SIDE = (
+    "upper_arm_flexion",
+    "upper_arm_abduction",
+    "upper_arm_rotation",
+    "elbow_flexion",
+    "forearm_rotation",
+    "wrist_flexion",
+    "wrist_deviation",
+    "shoulder_elevation",
+    "hip_flexion",
+    "hip_abduction",
+    "knee_flexion",
+    "ankle_flexion",
+)
 NOT_MEASURED = ("forearm_rotation", "ankle_flexion")  # posable, but not part of the posture table
 
 
@@ -80,7 +103,7 @@ def test_recovers_every_posed_angle(rng, stature):
     for name in RANGES_DEG:
         if name in NOT_MEASURED:
             continue
-        for full in ([f"{s}_{name}" for s in SIDES] if name in PER_SIDE else [name]):
+        for full in [f"{s}_{name}" for s in SIDES] if name in PER_SIDE else [name]:
             true = getattr(posture, full)
             got = getattr(result, full)
             if name == "upper_arm_rotation":
@@ -94,8 +117,9 @@ def test_recovers_every_posed_angle(rng, stature):
     assert checked == 3 + 3 + 2 * 10
     # Upper-arm flexion is reported in [-90, 180] deg: overhead stays flexion, never "-179".
     for s in SIDES:
-        np.testing.assert_allclose(getattr(result, f"{s}_upper_arm_flexion"), getattr(posture, f"{s}_upper_arm_flexion"),
-                                   atol=D(0.5))
+        np.testing.assert_allclose(
+            getattr(result, f"{s}_upper_arm_flexion"), getattr(posture, f"{s}_upper_arm_flexion"), atol=D(0.5)
+        )
 
 
 def test_shoulder_reference_defaults_to_the_sequence_median(rng):
@@ -168,9 +192,21 @@ def get_point(pts, name):
 
 def test_upright_stick_figure_reads_neutral():
     row = measure(stick_figure())
-    for name in ("trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "neck_side_bend", "neck_twist",
-                 "left_upper_arm_flexion", "right_upper_arm_abduction", "left_elbow_flexion", "right_wrist_flexion",
-                 "left_wrist_deviation", "left_knee_flexion", "right_hip_flexion"):
+    for name in (
+        "trunk_flexion",
+        "trunk_side_bend",
+        "trunk_twist",
+        "neck_flexion",
+        "neck_side_bend",
+        "neck_twist",
+        "left_upper_arm_flexion",
+        "right_upper_arm_abduction",
+        "left_elbow_flexion",
+        "right_wrist_flexion",
+        "left_wrist_deviation",
+        "left_knee_flexion",
+        "right_hip_flexion",
+    ):
         assert deg(row, name) == pytest.approx(0.0, abs=1e-9), name
     assert row["legs_supported"] == 1.0 and row["one_leg_stance"] == 0.0 and row["seated"] == 0.0
     assert np.isnan(row["walking"]) and "time_s" not in row
@@ -406,23 +442,44 @@ def test_upper_arm_rotation_needs_a_bent_elbow():
 
 # ---------------------------------------------------------------- missing joints, degenerate geometry
 
-ARM_TRUNK_FRAME = ["upper_arm_flexion", "upper_arm_abduction", "upper_arm_elevation", "upper_arm_rotation",
-                   "wrist_lateral_m"]
+ARM_TRUNK_FRAME = [
+    "upper_arm_flexion",
+    "upper_arm_abduction",
+    "upper_arm_elevation",
+    "upper_arm_rotation",
+    "wrist_lateral_m",
+]
 STANCE = ["legs_supported", "one_leg_stance", "seated"]
 TRUNK_NECK = ["trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "neck_side_bend", "neck_twist"]
 BOTH = lambda names: [f"{s}_{n}" for s in SIDES for n in names]  # noqa: E731
 
 NAN_CASES = {
-    "left_elbow": ["left_upper_arm_flexion", "left_upper_arm_abduction", "left_upper_arm_elevation",
-                   "left_upper_arm_rotation", "left_elbow_flexion", "left_wrist_flexion", "left_wrist_deviation"],
-    "right_wrist": ["right_elbow_flexion", "right_upper_arm_rotation", "right_wrist_flexion", "right_wrist_deviation",
-                    "right_wrist_lateral_m"],
+    "left_elbow": [
+        "left_upper_arm_flexion",
+        "left_upper_arm_abduction",
+        "left_upper_arm_elevation",
+        "left_upper_arm_rotation",
+        "left_elbow_flexion",
+        "left_wrist_flexion",
+        "left_wrist_deviation",
+    ],
+    "right_wrist": [
+        "right_elbow_flexion",
+        "right_upper_arm_rotation",
+        "right_wrist_flexion",
+        "right_wrist_deviation",
+        "right_wrist_lateral_m",
+    ],
     "left_index": ["left_wrist_flexion", "left_wrist_deviation"],
     "nose": ["neck_flexion", "neck_side_bend", "neck_twist"],
     "right_ear": ["neck_flexion", "neck_side_bend", "neck_twist"],
     "left_shoulder": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation"]) + ["left_elbow_flexion"],
-    "right_hip": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation"])
-    + BOTH(["hip_flexion", "hip_abduction"]) + ["right_knee_flexion"] + STANCE,
+    "right_hip": TRUNK_NECK
+    + BOTH(ARM_TRUNK_FRAME)
+    + BOTH(["shoulder_elevation"])
+    + BOTH(["hip_flexion", "hip_abduction"])
+    + ["right_knee_flexion"]
+    + STANCE,
     "left_knee": ["left_hip_flexion", "left_hip_abduction", "left_knee_flexion"],
 }
 
@@ -497,9 +554,20 @@ def constant(n, **angles_deg):
 
 def test_standing_still():
     n = 36
-    r = sequence(Posture(root_position=np.tile([1.0, 2.0, 0.0], (n, 1)), heading=np.full(n, 2.0),
-                         **constant(n, trunk_flexion=25, left_upper_arm_flexion=60)))
-    for flag, value in [("walking", 0), ("seated", 0), ("one_leg_stance", 0), ("legs_supported", 1), ("feet_on_floor", 2)]:
+    r = sequence(
+        Posture(
+            root_position=np.tile([1.0, 2.0, 0.0], (n, 1)),
+            heading=np.full(n, 2.0),
+            **constant(n, trunk_flexion=25, left_upper_arm_flexion=60),
+        )
+    )
+    for flag, value in [
+        ("walking", 0),
+        ("seated", 0),
+        ("one_leg_stance", 0),
+        ("legs_supported", 1),
+        ("feet_on_floor", 2),
+    ]:
         np.testing.assert_array_equal(getattr(r, flag), value, err_msg=flag)
 
 
@@ -510,8 +578,14 @@ def walking_posture(n, speed, heading=D(30)):
     knee_l = D(45) * np.clip(np.sin(phase + 1.2), 0, None)
     knee_r = D(45) * np.clip(np.sin(phase + 1.2 + np.pi), 0, None)
     root = np.c_[speed * t * math.cos(heading), speed * t * math.sin(heading), np.zeros(n)]
-    return Posture(root_position=root, heading=np.full(n, heading), left_hip_flexion=hip_l, right_hip_flexion=-hip_l,
-                   left_knee_flexion=knee_l, right_knee_flexion=knee_r)
+    return Posture(
+        root_position=root,
+        heading=np.full(n, heading),
+        left_hip_flexion=hip_l,
+        right_hip_flexion=-hip_l,
+        left_knee_flexion=knee_l,
+        right_knee_flexion=knee_r,
+    )
 
 
 def test_walking_and_shuffling():
@@ -555,8 +629,9 @@ def test_a_small_lift_counts_as_off_the_floor():
     n = 12
     m = BodyMeasurements.from_stature(1.75)
     hip, knee = np.full(n, D(28)), np.full(n, D(56))
-    posture = place_on_floor(m, Posture(right_hip_flexion=hip, right_knee_flexion=knee,
-                                        right_ankle_flexion=flat_foot_ankle(hip, knee)))
+    posture = place_on_floor(
+        m, Posture(right_hip_flexion=hip, right_knee_flexion=knee, right_ankle_flexion=flat_foot_ankle(hip, knee))
+    )
     pts = pose_skeleton(m, posture)
     lift = np.fmin(pts[:, JOINT_INDEX["right_heel"], 2], pts[:, JOINT_INDEX["right_foot_index"], 2])
     assert np.all((lift > 0.08) & (lift < 0.11))
@@ -573,7 +648,13 @@ def test_sitting_on_a_chair_and_on_a_high_stool():
     n = 24
     legs = constant(n, left_hip_flexion=90, right_hip_flexion=90, left_knee_flexion=90, right_knee_flexion=90)
     r = sequence(Posture(**legs))
-    for flag, value in [("seated", 1), ("legs_supported", 1), ("one_leg_stance", 0), ("walking", 0), ("feet_on_floor", 2)]:
+    for flag, value in [
+        ("seated", 1),
+        ("legs_supported", 1),
+        ("one_leg_stance", 0),
+        ("walking", 0),
+        ("feet_on_floor", 2),
+    ]:
         np.testing.assert_array_equal(getattr(r, flag), value, err_msg=flag)
     m = BodyMeasurements.from_stature(1.75)
     chair = place_on_floor(m, Posture(**legs))
@@ -591,9 +672,17 @@ def test_sitting_on_a_chair_and_on_a_high_stool():
 def test_deep_squat_is_not_seated():
     n = 12
     hip, knee = np.full(n, D(120)), np.full(n, D(140))
-    r = sequence(Posture(trunk_flexion=np.full(n, D(40)), left_hip_flexion=hip, right_hip_flexion=hip,
-                         left_knee_flexion=knee, right_knee_flexion=knee,
-                         left_ankle_flexion=flat_foot_ankle(hip, knee), right_ankle_flexion=flat_foot_ankle(hip, knee)))
+    r = sequence(
+        Posture(
+            trunk_flexion=np.full(n, D(40)),
+            left_hip_flexion=hip,
+            right_hip_flexion=hip,
+            left_knee_flexion=knee,
+            right_knee_flexion=knee,
+            left_ankle_flexion=flat_foot_ankle(hip, knee),
+            right_ankle_flexion=flat_foot_ankle(hip, knee),
+        )
+    )
     np.testing.assert_array_equal(r.seated, 0.0)
     np.testing.assert_array_equal(r.feet_on_floor, 2.0)
 
@@ -617,8 +706,16 @@ def load_pose2sim_trial(shared_data):
     names = [n for n in lines[3].split("\t")[2:] if n]
     data = np.loadtxt(path, skiprows=5)
     xyz = data[:, 2:].reshape(len(data), -1, 3)[:, :, [2, 0, 1]]  # TRC axes = world[:, [1, 2, 0]] (SOURCE.md)
-    mapping = {"Hip": "hip", "Knee": "knee", "Ankle": "ankle", "BigToe": "foot_index", "Heel": "heel",
-               "Shoulder": "shoulder", "Elbow": "elbow", "Wrist": "wrist"}
+    mapping = {
+        "Hip": "hip",
+        "Knee": "knee",
+        "Ankle": "ankle",
+        "BigToe": "foot_index",
+        "Heel": "heel",
+        "Shoulder": "shoulder",
+        "Elbow": "elbow",
+        "Wrist": "wrist",
+    }
     pts = np.full((len(data), 33, 3), np.nan)
     for prefix, side in (("L", "left"), ("R", "right")):
         for trc, ours in mapping.items():

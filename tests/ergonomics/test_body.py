@@ -110,16 +110,26 @@ def test_bone_lengths_and_rigid_parts_do_not_depend_on_posture(rng):
         return np.linalg.norm(P(points, a) - P(points, b), axis=-1)
 
     for side in ("left", "right"):
-        for a, b, length in [("shoulder", "elbow", m.upper_arm_length), ("elbow", "wrist", m.forearm_length),
-                             ("hip", "knee", m.thigh_length), ("knee", "ankle", m.shank_length)]:
+        for a, b, length in [
+            ("shoulder", "elbow", m.upper_arm_length),
+            ("elbow", "wrist", m.forearm_length),
+            ("hip", "knee", m.thigh_length),
+            ("knee", "ankle", m.shank_length),
+        ]:
             np.testing.assert_allclose(dist(pts, f"{side}_{a}", f"{side}_{b}"), length, rtol=1e-12)
-        for a, b in [("wrist", "index"), ("wrist", "pinky"), ("index", "thumb"), ("ankle", "heel"),
-                     ("heel", "foot_index")]:
-            np.testing.assert_allclose(dist(pts, f"{side}_{a}", f"{side}_{b}"),
-                                       dist(neutral, f"{side}_{a}", f"{side}_{b}"), rtol=1e-12)
+        for a, b in [
+            ("wrist", "index"),
+            ("wrist", "pinky"),
+            ("index", "thumb"),
+            ("ankle", "heel"),
+            ("heel", "foot_index"),
+        ]:
+            np.testing.assert_allclose(
+                dist(pts, f"{side}_{a}", f"{side}_{b}"), dist(neutral, f"{side}_{a}", f"{side}_{b}"), rtol=1e-12
+            )
     face = list(FACE_POINTS_IN_HEAD)
     for i, a in enumerate(face):
-        for b in face[i + 1:]:
+        for b in face[i + 1 :]:
             np.testing.assert_allclose(dist(pts, a, b), dist(neutral, a, b), rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(dist(pts, "left_hip", "right_hip"), m.hip_width, rtol=1e-12)
 
@@ -143,15 +153,22 @@ def test_segment_orientations_match_scipy_composition(rng):
     neck_base = root + trunk.apply([0, 0, m.trunk_length])
     head = trunk * _scipy("YXZ", [g("neck_flexion"), g("neck_side_bend"), g("neck_twist")])
     for name in ("nose", "left_ear", "right_eye_outer", "mouth_left"):
-        np.testing.assert_allclose(P(pts, name), neck_base + head.apply(np.array(FACE_POINTS_IN_HEAD[name]) * m.head_height),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            P(pts, name), neck_base + head.apply(np.array(FACE_POINTS_IN_HEAD[name]) * m.head_height), atol=1e-12
+        )
     w = m.shoulder_width / 2
     for side, s in (("left", 1.0), ("right", -1.0)):
         elev = g(f"{side}_shoulder_elevation")
         shoulder = neck_base + trunk.apply(np.stack([np.zeros(n), np.full(n, s * w), w * np.tan(elev)], -1))
         np.testing.assert_allclose(P(pts, f"{side}_shoulder"), shoulder, atol=1e-12)
-        arm = trunk * _scipy("YXZ", [-g(f"{side}_upper_arm_flexion"), s * g(f"{side}_upper_arm_abduction"),
-                                     -s * g(f"{side}_upper_arm_rotation")])
+        arm = trunk * _scipy(
+            "YXZ",
+            [
+                -g(f"{side}_upper_arm_flexion"),
+                s * g(f"{side}_upper_arm_abduction"),
+                -s * g(f"{side}_upper_arm_rotation"),
+            ],
+        )
         elbow = shoulder + arm.apply([0, 0, -m.upper_arm_length])
         np.testing.assert_allclose(P(pts, f"{side}_elbow"), elbow, atol=1e-12)
         forearm = arm * _scipy("YZ", [-g(f"{side}_elbow_flexion"), -s * g(f"{side}_forearm_rotation")])
@@ -159,8 +176,9 @@ def test_segment_orientations_match_scipy_composition(rng):
         np.testing.assert_allclose(P(pts, f"{side}_wrist"), wrist, atol=1e-12)
         hand = forearm * _scipy("YX", [-g(f"{side}_wrist_deviation"), -s * g(f"{side}_wrist_flexion")])
         x, y, z = body.HAND_POINTS_IN_HAND["index"]
-        np.testing.assert_allclose(P(pts, f"{side}_index"), wrist + hand.apply(np.array([x, s * y, z]) * m.hand_length),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            P(pts, f"{side}_index"), wrist + hand.apply(np.array([x, s * y, z]) * m.hand_length), atol=1e-12
+        )
         hip = root + world.apply([0, s * m.hip_width / 2, 0])
         thigh = world * _scipy("YX", [-g(f"{side}_hip_flexion"), s * g(f"{side}_hip_abduction")])
         knee = hip + thigh.apply([0, 0, -m.thigh_length])
@@ -262,6 +280,7 @@ def test_place_on_floor_puts_the_lowest_foot_point_at_zero(rng):
 def test_flat_foot_ankle_keeps_the_sole_level(rng):
     m = BodyMeasurements.from_stature(1.75)
     hip, knee = rng.uniform(-0.3, 2.0, 50), rng.uniform(0, 2.4, 50)
-    pts = pose_skeleton(m, Posture(left_hip_flexion=hip, left_knee_flexion=knee,
-                                   left_ankle_flexion=flat_foot_ankle(hip, knee)))
+    pts = pose_skeleton(
+        m, Posture(left_hip_flexion=hip, left_knee_flexion=knee, left_ankle_flexion=flat_foot_ankle(hip, knee))
+    )
     np.testing.assert_allclose(P(pts, "left_heel")[:, 2], P(pts, "left_foot_index")[:, 2], atol=1e-12)

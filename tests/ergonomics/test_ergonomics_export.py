@@ -10,9 +10,15 @@ import pandas as pd
 import pytest
 
 from ergopose.ergonomics.aggregate import aggregate_shift
-from ergopose.ergonomics.export import (WORKER_SUMMARY_COLUMNS, session_summary_table, write_scores_csv,
-                                        write_session_summary_csv, write_worker_frames_csv,
-                                        write_worker_steps_csv, write_worker_summary_csv)
+from ergopose.ergonomics.export import (
+    WORKER_SUMMARY_COLUMNS,
+    session_summary_table,
+    write_scores_csv,
+    write_session_summary_csv,
+    write_worker_frames_csv,
+    write_worker_steps_csv,
+    write_worker_summary_csv,
+)
 from ergopose.ergonomics.scoring import reba_columns, rula_columns, score_posture
 
 REPO = Path(__file__).resolve().parents[2]
@@ -22,8 +28,12 @@ DOC = REPO / "docs" / "csv-columns.md"
 def _frames(seconds: float = 130.0) -> pd.DataFrame:
     t = np.arange(int(seconds * 12)) / 12.0
     deg = {
-        "trunk_flexion": 25 + 10 * np.sin(t / 5), "neck_flexion": 15.0 + 0 * t, "upper_arm_flexion": 50 + 30 * np.sin(t),
-        "elbow_flexion": 90.0 + 0 * t, "wrist_flexion": 10.0 + 0 * t, "knee_flexion": 5.0 + 0 * t,
+        "trunk_flexion": 25 + 10 * np.sin(t / 5),
+        "neck_flexion": 15.0 + 0 * t,
+        "upper_arm_flexion": 50 + 30 * np.sin(t),
+        "elbow_flexion": 90.0 + 0 * t,
+        "wrist_flexion": 10.0 + 0 * t,
+        "knee_flexion": 5.0 + 0 * t,
         "trunk_twist": 12.0 + 0 * t,
     }
     frame = pd.DataFrame({k: np.deg2rad(v) for k, v in deg.items()})
@@ -47,7 +57,7 @@ def test_worker_steps_csv_in_degrees_with_every_score(tmp_path):
     assert pd.isna(back.loc[5, "rula_grand"]) and pd.isna(back.loc[5, "trunk_flexion"])
     assert back["rula_grand"].dropna().eq(back["rula_grand"].dropna().round()).all()
     assert any(c.startswith("rep_") for c in back.columns)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["w7.csv"]   # no temporary file left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w7.csv"]  # no temporary file left
 
 
 def test_scores_csv_has_only_identity_time_and_scores(tmp_path):
@@ -83,7 +93,8 @@ def test_worker_and_session_summaries(tmp_path):
     assert session["worker"].tolist() == ["w7", "w7"]
     level_pct = [c for c in session.columns if c.startswith("rula_level") and c.endswith("_pct_of_tracked")]
     assert session.loc[0, level_pct].sum() + session.loc[0, "rula_unscored_pct_of_tracked"] == pytest.approx(
-        100.0, abs=0.05)
+        100.0, abs=0.05
+    )
     of_scored = [c for c in session.columns if c.startswith("rula_level") and c.endswith("_pct_of_scored")]
     assert session.loc[0, of_scored].sum() == pytest.approx(100.0, abs=0.05)
     assert session.loc[0, "tracked_s"] == pytest.approx(130.0)
@@ -107,6 +118,6 @@ def test_every_exported_column_is_documented():
     pats = _documented_names()
     frames = _frames()
     summary = aggregate_shift(frames, "w7")
-    columns = (list(frames.columns) + list(WORKER_SUMMARY_COLUMNS) + list(session_summary_table([summary]).columns))
+    columns = list(frames.columns) + list(WORKER_SUMMARY_COLUMNS) + list(session_summary_table([summary]).columns)
     undocumented = sorted({c for c in columns if not any(p.match(c) for p in pats)})
     assert not undocumented, f"add to docs/csv-columns.md: {undocumented}"

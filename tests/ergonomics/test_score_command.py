@@ -38,7 +38,7 @@ def test_good_file_rula(tmp_path, capsys):
     assert table.loc[0, "left_rula_score_c"] == 7
     assert table.loc[0, "rula_grand"] == 7 and table.loc[0, "rula_action_level"] == 4
     assert table.loc[1, "rula_grand"] == 1
-    assert table.loc[2, "left_rula_upper_arm_band"] == 2     # exactly 20 degrees: RULA's upper band
+    assert table.loc[2, "left_rula_upper_arm_band"] == 2  # exactly 20 degrees: RULA's upper band
     assert pd.isna(table.loc[3, "left_rula_upper_arm"]) and pd.isna(table.loc[3, "rula_grand"])
     assert "4 rows scored" in capsys.readouterr().out
 
@@ -53,7 +53,7 @@ def test_good_file_reba_and_settings(tmp_path):
     settings.write_text('[scoring]\nrula_open_boundary = "lower"\n[other]\nx = 1\n')
     code, out = _run(tmp_path, GOOD, "--method", "rula", "--settings", str(settings))
     assert code == 0
-    assert pd.read_csv(out).loc[2, "left_rula_upper_arm_band"] == 1   # 20 degrees now in the lower band
+    assert pd.read_csv(out).loc[2, "left_rula_upper_arm_band"] == 1  # 20 degrees now in the lower band
 
 
 def test_missing_columns(tmp_path, capsys):
@@ -93,5 +93,7 @@ def test_unknown_setting(tmp_path, capsys):
 
 @pytest.mark.parametrize("missing", ["angles.csv"])
 def test_missing_input_file(tmp_path, capsys, missing):
-    code = cli.main(["score", "--method", "rula", "--angles", str(tmp_path / missing), "--out", str(tmp_path / "o.csv")])
+    code = cli.main(
+        ["score", "--method", "rula", "--angles", str(tmp_path / missing), "--out", str(tmp_path / "o.csv")]
+    )
     assert code == 2 and "does not exist" in capsys.readouterr().err

@@ -142,8 +142,11 @@ def test_bands_read_as_the_reference_words_them():
     rula, reba = load_method("rula"), load_method("reba")
     assert rula.bands["upper_arm"].edges_deg == (-20, 20, 45, 90)
     assert rula.bands["upper_arm"].scores == (2, 1, 2, 3, 4)
-    assert rula.bands["upper_arm"].adjustment.points == {"shoulder_raised": 1, "upper_arm_abducted": 1,
-                                                         "arm_supported": -1}
+    assert rula.bands["upper_arm"].adjustment.points == {
+        "shoulder_raised": 1,
+        "upper_arm_abducted": 1,
+        "arm_supported": -1,
+    }
     assert rula.bands["upper_arm"].adjustment.adjusted_range == (1, 6)
     assert rula.bands["lower_arm"].adjustment.adjusted_range == (1, 3)
     assert rula.bands["lower_arm"].variants["separate"].adjusted_range == (1, 4)
@@ -186,40 +189,115 @@ def _broken(tmp_path, text: str, old: str, new: str, name: str = "rula.toml") ->
 
 MALFORMED = [
     # (text, old, new, expected field in the message, fragment of the message)
-    (RULA_TEXT, "  [ 3,   4,   4,   4,   4,   4,   5,   5 ],   # UA2 LA3",
-     "  [ 3,   4,   4,   4,   4,   4,   5 ],   # UA2 LA3", "table_a.values", "expected 8 values"),
+    (
+        RULA_TEXT,
+        "  [ 3,   4,   4,   4,   4,   4,   5,   5 ],   # UA2 LA3",
+        "  [ 3,   4,   4,   4,   4,   4,   5 ],   # UA2 LA3",
+        "table_a.values",
+        "expected 8 values",
+    ),
     (RULA_TEXT, "  [ 9,   9,   9,   9,   9,   9,   9,   9 ],   # UA6 LA3\n", "", "table_a.values", "expected 18 rows"),
-    (RULA_TEXT, "  [ 4,   4,   4,   4,   4,   5,   5,   5 ],   # UA3 LA3",
-     "  [ 2,   4,   4,   4,   4,   5,   5,   5 ],   # UA3 LA3", "table_a.values", "not monotone"),
-    (RULA_TEXT, "  [ 1,  2,  3,  3,  4,  5,  5 ],   # C1", "  [ 1,  2,  3,  3,  4,  5,  12 ],   # C1",
-     "table_c.values", "whole numbers 1-7"),
-    (RULA_TEXT, "sizes = { neck = 6, trunk = 6, legs = 2 }", "sizes = { neck = 6, trunk = 5, legs = 2 }",
-     "table_b.values", "expected 10 values"),
-    (RULA_TEXT, "edges   = [      -20,        20,        45,        90]",
-     "edges   = [      -20,        45,        20,        90]", "upper_arm.edges", "ascend"),
-    (RULA_TEXT, "scores  = [   2,         1,         2,         3,        4]",
-     "scores  = [   2,         1,         3,         2,        4]", "upper_arm.scores", "rise away"),
-    (RULA_TEXT, 'at_edge = [  "lower",  "setting", "setting",  "higher"]',
-     'at_edge = [  "lower",  "setting", "maybe",  "higher"]', "upper_arm.at_edge", "expected one of"),
-    (RULA_TEXT, "adjusted_range = [1, 6]", "adjusted_range = [1, 5]", "upper_arm.adjusted_range",
-     "highest adjusted score is 6"),
-    (RULA_TEXT, 'adjust = { wrist_deviated = 1 }', 'adjust = { wrist_bent = 1 }', "wrist.adjust.wrist_bent",
-     "unknown flag"),
-    (RULA_TEXT, 'tolerance_setting = "wrist_neutral_deg"', 'tolerance_setting = "wrist_tolerance"',
-     "wrist.tolerance_setting", "not an angle setting"),
-    (RULA_TEXT, "scores = [5, 6]\nlabel = \"AL3\"", "scores = [5, 5]\nlabel = \"AL3\"", "action_levels[4].scores",
-     "start at 6"),
+    (
+        RULA_TEXT,
+        "  [ 4,   4,   4,   4,   4,   5,   5,   5 ],   # UA3 LA3",
+        "  [ 2,   4,   4,   4,   4,   5,   5,   5 ],   # UA3 LA3",
+        "table_a.values",
+        "not monotone",
+    ),
+    (
+        RULA_TEXT,
+        "  [ 1,  2,  3,  3,  4,  5,  5 ],   # C1",
+        "  [ 1,  2,  3,  3,  4,  5,  12 ],   # C1",
+        "table_c.values",
+        "whole numbers 1-7",
+    ),
+    (
+        RULA_TEXT,
+        "sizes = { neck = 6, trunk = 6, legs = 2 }",
+        "sizes = { neck = 6, trunk = 5, legs = 2 }",
+        "table_b.values",
+        "expected 10 values",
+    ),
+    (
+        RULA_TEXT,
+        "edges   = [      -20,        20,        45,        90]",
+        "edges   = [      -20,        45,        20,        90]",
+        "upper_arm.edges",
+        "ascend",
+    ),
+    (
+        RULA_TEXT,
+        "scores  = [   2,         1,         2,         3,        4]",
+        "scores  = [   2,         1,         3,         2,        4]",
+        "upper_arm.scores",
+        "rise away",
+    ),
+    (
+        RULA_TEXT,
+        'at_edge = [  "lower",  "setting", "setting",  "higher"]',
+        'at_edge = [  "lower",  "setting", "maybe",  "higher"]',
+        "upper_arm.at_edge",
+        "expected one of",
+    ),
+    (
+        RULA_TEXT,
+        "adjusted_range = [1, 6]",
+        "adjusted_range = [1, 5]",
+        "upper_arm.adjusted_range",
+        "highest adjusted score is 6",
+    ),
+    (
+        RULA_TEXT,
+        "adjust = { wrist_deviated = 1 }",
+        "adjust = { wrist_bent = 1 }",
+        "wrist.adjust.wrist_bent",
+        "unknown flag",
+    ),
+    (
+        RULA_TEXT,
+        'tolerance_setting = "wrist_neutral_deg"',
+        'tolerance_setting = "wrist_tolerance"',
+        "wrist.tolerance_setting",
+        "not an angle setting",
+    ),
+    (
+        RULA_TEXT,
+        'scores = [5, 6]\nlabel = "AL3"',
+        'scores = [5, 5]\nlabel = "AL3"',
+        "action_levels[4].scores",
+        "start at 6",
+    ),
     (RULA_TEXT, 'method = "rula"', 'method = "owas"', "method", "expected one of"),
     (RULA_TEXT, "[muscle_use]", "[muscle_use]\nscroe = 1", "muscle_use", "unknown key"),
-    (RULA_TEXT, "table = [\n#  intermittent  static or repeated\n  [ 0,            0 ],",
-     "table = [\n#  intermittent  static or repeated\n  [ 0,            0, 1 ],", "force.table", "equal length"),
+    (
+        RULA_TEXT,
+        "table = [\n#  intermittent  static or repeated\n  [ 0,            0 ],",
+        "table = [\n#  intermittent  static or repeated\n  [ 0,            0, 1 ],",
+        "force.table",
+        "equal length",
+    ),
     (RULA_TEXT, "score_range = [1, 7]", "score_range = [1, 8]", "score_range", "expected [1, 7]"),
-    (REBA_TEXT, "scores = { good = 0, fair = 1, poor = 2, unacceptable = 3 }",
-     "scores = { good = 0, fair = 2, poor = 1, unacceptable = 3 }", "coupling.scores", "rising"),
-    (REBA_TEXT, "sizes = { trunk = 5, neck = 3, legs = 4 }", "sizes = { trunk = 5, neck = 3, legs = 3 }",
-     "table_a.values", "expected 9 values"),
-    (REBA_TEXT, "adjusted_range = [1, 4]  # legs + knee", "adjusted_range = [1, 3]  # legs + knee",
-     "knee.adjusted_range", "spans [1, 4]"),
+    (
+        REBA_TEXT,
+        "scores = { good = 0, fair = 1, poor = 2, unacceptable = 3 }",
+        "scores = { good = 0, fair = 2, poor = 1, unacceptable = 3 }",
+        "coupling.scores",
+        "rising",
+    ),
+    (
+        REBA_TEXT,
+        "sizes = { trunk = 5, neck = 3, legs = 4 }",
+        "sizes = { trunk = 5, neck = 3, legs = 3 }",
+        "table_a.values",
+        "expected 9 values",
+    ),
+    (
+        REBA_TEXT,
+        "adjusted_range = [1, 4]  # legs + knee",
+        "adjusted_range = [1, 3]  # legs + knee",
+        "knee.adjusted_range",
+        "spans [1, 4]",
+    ),
     (REBA_TEXT, "shock_add = 1", "shock_add = 1\nshock_score = 3", "load", "exactly one of"),
 ]
 
@@ -261,10 +339,17 @@ def test_every_reference_band_boundary_is_in_the_files():
     """Each number the reference's step tables name as a boundary appears as an edge."""
     methods = {"rula": load_method("rula"), "reba": load_method("reba")}
     expected = {
-        ("rula", "upper_arm"): {-20, 20, 45, 90}, ("rula", "lower_arm"): {60, 100}, ("rula", "wrist"): {-15, 0, 15},
-        ("rula", "neck"): {0, 10, 20}, ("rula", "trunk"): {0, 20, 60},
-        ("reba", "neck"): {0, 20}, ("reba", "trunk"): {-20, 0, 20, 60}, ("reba", "knee"): {30, 60},
-        ("reba", "upper_arm"): {-20, 20, 45, 90}, ("reba", "lower_arm"): {60, 100}, ("reba", "wrist"): {-15, 15},
+        ("rula", "upper_arm"): {-20, 20, 45, 90},
+        ("rula", "lower_arm"): {60, 100},
+        ("rula", "wrist"): {-15, 0, 15},
+        ("rula", "neck"): {0, 10, 20},
+        ("rula", "trunk"): {0, 20, 60},
+        ("reba", "neck"): {0, 20},
+        ("reba", "trunk"): {-20, 0, 20, 60},
+        ("reba", "knee"): {30, 60},
+        ("reba", "upper_arm"): {-20, 20, 45, 90},
+        ("reba", "lower_arm"): {60, 100},
+        ("reba", "wrist"): {-15, 15},
     }
     for (m, part), edges in expected.items():
         assert set(methods[m].bands[part].edges_deg) == edges, (m, part)

@@ -22,14 +22,24 @@ def _table(n: int, **deg):
     return joint_angles(points, np.arange(n) / FPS).to_frame()
 
 
-POSE = dict(trunk_flexion=35, neck_flexion=25, left_upper_arm_flexion=100, right_upper_arm_flexion=10,
-            left_elbow_flexion=30, right_elbow_flexion=80, left_wrist_flexion=25, right_wrist_flexion=0,
-            left_knee_flexion=45, right_knee_flexion=45)
+POSE = dict(
+    trunk_flexion=35,
+    neck_flexion=25,
+    left_upper_arm_flexion=100,
+    right_upper_arm_flexion=10,
+    left_elbow_flexion=30,
+    right_elbow_flexion=80,
+    left_wrist_flexion=25,
+    right_wrist_flexion=0,
+    left_knee_flexion=45,
+    right_knee_flexion=45,
+)
 
 
 def test_known_posture_scores_as_worked_by_hand():
-    frame = _table(6, **POSE).assign(static_posture=0.0, repeated_action=0.0, rapid_change=0.0, legs_supported=1.0,
-                                      load_kg=0.0, coupling="good")
+    frame = _table(6, **POSE).assign(
+        static_posture=0.0, repeated_action=0.0, rapid_change=0.0, legs_supported=1.0, load_kg=0.0, coupling="good"
+    )
     s = score_posture(frame).iloc[0]
     # RULA left: UA 100 -> 4, LA 30 -> 2, wrist 25 -> 3, twist 1: Table A (UA4 LA2, W3T1) = 4
     assert (s.left_rula_upper_arm, s.left_rula_lower_arm, s.left_rula_wrist, s.left_rula_table_a) == (4, 2, 3, 4)
@@ -57,5 +67,5 @@ def test_held_trunk_through_the_whole_chain():
     trunk_bands = summary.distributions["rula_trunk_band"]
     assert trunk_bands.at(3).time_s == pytest.approx(70.0) and trunk_bands.at(3).longest_hold_s == pytest.approx(70.0)
     iso = {f.body_part: f.verdict for f in summary.exposure if f.standard == "ISO 11226"}
-    assert iso["trunk"] == "time-limited"            # 35 degrees held > 4 s
+    assert iso["trunk"] == "time-limited"  # 35 degrees held > 4 s
     assert iso["left upper arm"] == "not recommended"  # 100 degrees elevation held

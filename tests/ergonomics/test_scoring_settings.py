@@ -48,16 +48,19 @@ def test_unknown_names_are_one_error_naming_them(tmp_path):
         ScoringSettings().replace(nope=1)
 
 
-@pytest.mark.parametrize("name,value,fragment", [
-    ("rula_open_boundary", "upper", "expected one of higher, lower"),
-    ("unknown_flags", "ignore", "expected one of absent, missing"),
-    ("wrist_neutral_deg", -1, "expected a number >= 0 and below 90 (degrees), got -1"),
-    ("trunk_twisted_deg", 95, "below 90 (degrees), got 95"),
-    ("rula_static_hold_s", 0, "greater than 0"),
-    ("static_includes_neutral", 1, "true or false"),
-    ("rapid_change_deg", "30", "expected a number"),
-    ("max_gap_s", float("nan"), "expected a number"),
-])
+@pytest.mark.parametrize(
+    "name,value,fragment",
+    [
+        ("rula_open_boundary", "upper", "expected one of higher, lower"),
+        ("unknown_flags", "ignore", "expected one of absent, missing"),
+        ("wrist_neutral_deg", -1, "expected a number >= 0 and below 90 (degrees), got -1"),
+        ("trunk_twisted_deg", 95, "below 90 (degrees), got 95"),
+        ("rula_static_hold_s", 0, "greater than 0"),
+        ("static_includes_neutral", 1, "true or false"),
+        ("rapid_change_deg", "30", "expected a number"),
+        ("max_gap_s", float("nan"), "expected a number"),
+    ],
+)
 def test_bad_values_name_the_setting(tmp_path, name, value, fragment):
     with pytest.raises(ConfigError) as exc:
         from_mapping({name: value}, source="day1.toml")

@@ -12,10 +12,15 @@ LEFT_HAND = [JOINT_INDEX[j] for j in ("left_wrist", "left_index", "left_pinky")]
 
 
 def _posture(n: int = 4) -> pd.DataFrame:
-    return pd.DataFrame({"left_wrist_flexion": np.radians([5.0, 5.0, np.nan, 5.0][:n]),
-                         "right_wrist_flexion": np.radians([-8.0] * n),
-                         "left_wrist_deviation": np.zeros(n), "right_wrist_deviation": np.zeros(n),
-                         "trunk_flexion": np.full(n, 0.3)})
+    return pd.DataFrame(
+        {
+            "left_wrist_flexion": np.radians([5.0, 5.0, np.nan, 5.0][:n]),
+            "right_wrist_flexion": np.radians([-8.0] * n),
+            "left_wrist_deviation": np.zeros(n),
+            "right_wrist_deviation": np.zeros(n),
+            "trunk_flexion": np.full(n, 0.3),
+        }
+    )
 
 
 def test_hidden_where_nan_or_every_hand_point_inferred():
@@ -49,8 +54,11 @@ def test_settings_value_replaces_only_hidden_angles_where_given():
 def test_inputs_column_lists_several_inputs_in_order_and_is_read_back():
     use = {name: np.array([True, False, name.startswith("right")]) for name in T.SETTINGS_INPUTS}
     column = T.inputs_column(use, 3)
-    assert column.tolist() == ["left_wrist_flexion;right_wrist_flexion;left_wrist_deviation;right_wrist_deviation",
-                               "", "right_wrist_flexion;right_wrist_deviation"]
+    assert column.tolist() == [
+        "left_wrist_flexion;right_wrist_flexion;left_wrist_deviation;right_wrist_deviation",
+        "",
+        "right_wrist_flexion;right_wrist_deviation",
+    ]
     assert T.used_mask(column, "right_wrist_flexion").tolist() == [True, False, True]
     assert T.used_mask(column, "left_wrist_deviation").tolist() == [True, False, False]
     assert T.used_mask(pd.Series(["", None], dtype="string"), "left_wrist_flexion").tolist() == [False, False]

@@ -10,8 +10,21 @@ from ergopose.cli import main
 
 
 def simulate(out: Path, *, workers: int = 2, minutes: float = 0.25, seed: int = 0, size: str = "320x240") -> Path:
-    code = main(["simulate", "--out", str(out), "--workers", str(workers), "--minutes", str(minutes),
-                 "--seed", str(seed), "--size", size])
+    code = main(
+        [
+            "simulate",
+            "--out",
+            str(out),
+            "--workers",
+            str(workers),
+            "--minutes",
+            str(minutes),
+            "--seed",
+            str(seed),
+            "--size",
+            size,
+        ]
+    )
     assert code == 0
     return out
 
@@ -30,11 +43,20 @@ def ground_truth_tracks(gt, worker_order=None):
     points = gt.joints_world[frame, person]
     angle = np.degrees(np.nanmax(gt.theta.astype(np.float64), axis=1))[frame, person]  # (n, 33)
     n = len(frame)
-    return TrackFrames(worker=worker.astype(np.int64), frame=frame.astype(np.int64), time_s=gt.times_s[frame],
-                       points_world=points.copy(), raw_points_world=points.copy(),
-                       confidence=np.ones((n, NUM_JOINTS)), reprojection_error_px=np.zeros((n, NUM_JOINTS)),
-                       views=np.full((n, NUM_JOINTS), 2, np.int8), gap_filled=np.zeros((n, NUM_JOINTS), bool),
-                       gated=np.zeros((n, NUM_JOINTS), bool), smoothed=False, lens_angle_deg=angle)
+    return TrackFrames(
+        worker=worker.astype(np.int64),
+        frame=frame.astype(np.int64),
+        time_s=gt.times_s[frame],
+        points_world=points.copy(),
+        raw_points_world=points.copy(),
+        confidence=np.ones((n, NUM_JOINTS)),
+        reprojection_error_px=np.zeros((n, NUM_JOINTS)),
+        views=np.full((n, NUM_JOINTS), 2, np.int8),
+        gap_filled=np.zeros((n, NUM_JOINTS), bool),
+        gated=np.zeros((n, NUM_JOINTS), bool),
+        smoothed=False,
+        lens_angle_deg=angle,
+    )
 
 
 def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = None) -> Path:
@@ -53,8 +75,12 @@ def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = 
     from ergopose.session import load_session
 
     session = load_session(session_dir, check_videos=False)
-    with TracksWriter(out / "pipeline" / "tracks.parquet", fps=session.fps, cameras=session.camera_names,
-                      settings=ReconSettings().as_dict()) as writer:
+    with TracksWriter(
+        out / "pipeline" / "tracks.parquet",
+        fps=session.fps,
+        cameras=session.camera_names,
+        settings=ReconSettings().as_dict(),
+    ) as writer:
         writer.write(tracks)
         if statures:
             writer.set_workers({k: {"stature_estimate_m": v} for k, v in statures.items()})

@@ -28,8 +28,9 @@ def trc_joints(path) -> tuple[np.ndarray, np.ndarray]:
     return joints, trc.times_s
 
 
-def make_results(out: Path, people: list[tuple[int, np.ndarray, np.ndarray]], fps: float,
-                 names: dict[int, str] | None = None) -> Path:
+def make_results(
+    out: Path, people: list[tuple[int, np.ndarray, np.ndarray]], fps: float, names: dict[int, str] | None = None
+) -> Path:
     """people: (worker number, frames (n,), points_world (n, 33, 3)); writes OUT/pipeline/tracks.parquet
     and OUT/csv/<name>_steps.csv (name: names[worker] or worker_<n>)."""
     rows = []
@@ -43,11 +44,20 @@ def make_results(out: Path, people: list[tuple[int, np.ndarray, np.ndarray]], fp
     worker, frame, pts = worker[order], frame[order], pts[order]
     n = len(frame)
     ok = np.isfinite(pts).all(-1)
-    tf = TrackFrames(worker=worker, frame=frame, time_s=frame / fps, points_world=pts, raw_points_world=pts.copy(),
-                     confidence=np.where(ok, 0.9, 0.0), reprojection_error_px=np.where(ok, 1.0, np.nan),
-                     views=np.where(ok, 2, 0).astype(np.int8), gap_filled=np.zeros((n, NUM_JOINTS), bool),
-                     gated=np.zeros((n, NUM_JOINTS), bool), smoothed=True,
-                     lens_angle_deg=np.full((n, NUM_JOINTS), 30.0))
+    tf = TrackFrames(
+        worker=worker,
+        frame=frame,
+        time_s=frame / fps,
+        points_world=pts,
+        raw_points_world=pts.copy(),
+        confidence=np.where(ok, 0.9, 0.0),
+        reprojection_error_px=np.where(ok, 1.0, np.nan),
+        views=np.where(ok, 2, 0).astype(np.int8),
+        gap_filled=np.zeros((n, NUM_JOINTS), bool),
+        gated=np.zeros((n, NUM_JOINTS), bool),
+        smoothed=True,
+        lens_angle_deg=np.full((n, NUM_JOINTS), 30.0),
+    )
     (out / "pipeline").mkdir(parents=True, exist_ok=True)
     write_tracks(out / "pipeline" / "tracks.parquet", tf, fps=fps, cameras=("cam_01", "cam_02"))
     for w, frames, points in people:

@@ -6,8 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ergopose.evaluation.agreement import (confusion_matrix, cohen_kappa, exact_agreement, kappa_from_matrix,
-                                           within_one)
+from ergopose.evaluation.agreement import confusion_matrix, cohen_kappa, exact_agreement, kappa_from_matrix, within_one
 
 
 def test_unweighted_kappa_of_the_textbook_two_by_two_example():

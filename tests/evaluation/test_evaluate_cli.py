@@ -14,8 +14,7 @@ from ergopose.sim.ground_truth import load_ground_truth
 # Left out of make test-fast (still in make test): every test here evaluates a simulated 15 s session (small_session).
 pytestmark = pytest.mark.slow
 
-SECTIONS = ("source", "lens_regions", "matching", "detection", "errors_3d", "limbs", "angles", "scores", "bar",
-            "notes")
+SECTIONS = ("source", "lens_regions", "matching", "detection", "errors_3d", "limbs", "angles", "scores", "bar", "notes")
 
 
 def _strict(text: str):
@@ -30,8 +29,15 @@ def test_evaluate_prints_and_writes_json(small_session, tmp_path, capsys):
     out = write_results(small_session, tmp_path / "out", ground_truth_tracks(load_ground_truth(small_session)))
     assert main(["evaluate", "--session", str(small_session), "--results", str(out), "--bar-draws", "10"]) == 0
     text = capsys.readouterr().out
-    for heading in ("Identities", "Detection", "3D joint error (MPJPE)", "Limb lengths", "Joint angles",
-                    "RULA / REBA agreement", "Reference bar"):
+    for heading in (
+        "Identities",
+        "Detection",
+        "3D joint error (MPJPE)",
+        "Limb lengths",
+        "Joint angles",
+        "RULA / REBA agreement",
+        "Reference bar",
+    ):
         assert heading in text
     data = _strict((out / "evaluation.json").read_text())
     for key in SECTIONS:
@@ -39,8 +45,22 @@ def test_evaluate_prints_and_writes_json(small_session, tmp_path, capsys):
     assert data["source"] == "pose network (ergopose assess)" and "oracle" not in data
     assert data["errors_3d"]["mpjpe_mm"] == 0.0
     chosen = tmp_path / "elsewhere" / "ev.json"
-    assert main(["evaluate", "--session", str(small_session), "--results", str(out), "--json", str(chosen),
-                 "--bar-draws", "10"]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                "--session",
+                str(small_session),
+                "--results",
+                str(out),
+                "--json",
+                str(chosen),
+                "--bar-draws",
+                "10",
+            ]
+        )
+        == 0
+    )
     assert _strict(chosen.read_text())["matching"] == data["matching"]
     assert not list(chosen.parent.glob(".*tmp*"))  # written atomically, nothing left behind
 

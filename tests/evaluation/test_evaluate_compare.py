@@ -132,8 +132,9 @@ def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_se
     statures = {w["id"]: w["stature_m"] for w in gt.scene["workers"]}
     # worker_1 is w2 and worker_2 is w1; the stored stature estimates name them correctly ...
     tracks = ground_truth_tracks(gt, worker_order=[1, 0])
-    out = write_results(small_session, tmp_path / "right", tracks,
-                        statures={"worker_1": statures["w2"], "worker_2": statures["w1"]})
+    out = write_results(
+        small_session, tmp_path / "right", tracks, statures={"worker_1": statures["w2"], "worker_2": statures["w1"]}
+    )
     assert sorted(p.name for p in (out / "csv").iterdir()) == ["w1_steps.csv", "w2_steps.csv"]
     ev = _evaluate(small_session, out)
     m = ev["matching"]
@@ -143,8 +144,9 @@ def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_se
     assert ev["scores"]["rula_grand"]["off_edge"]["exact_agreement_pct"] == 100.0
     assert ev["scores"]["task_factor_note"] == ""
     # ... and swapped estimates name them wrongly: every named row is the other person
-    out = write_results(small_session, tmp_path / "wrong", tracks,
-                        statures={"worker_1": statures["w1"], "worker_2": statures["w2"]})
+    out = write_results(
+        small_session, tmp_path / "wrong", tracks, statures={"worker_1": statures["w1"], "worker_2": statures["w2"]}
+    )
     ev = _evaluate(small_session, out)
     assert ev["matching"]["named_by_stature"]["correct_pct"] == 0.0
     assert ev["errors_3d"]["mpjpe_mm"] == 0.0  # the geometry is still exact
@@ -183,7 +185,9 @@ def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, t
     points = tf.points_world.copy()
     # after `half` the two tracked identities exchange people: worker 1 follows w2 and vice versa
     points[swap] = gt.joints_world[tf.frame[swap], 2 - tf.worker[swap]]
-    angles = np.degrees(np.nanmax(gt.theta.astype(np.float64), axis=1))[tf.frame, np.where(swap, 2 - tf.worker, tf.worker - 1)]
+    angles = np.degrees(np.nanmax(gt.theta.astype(np.float64), axis=1))[
+        tf.frame, np.where(swap, 2 - tf.worker, tf.worker - 1)
+    ]
     switched = dataclasses.replace(tf, points_world=points, raw_points_world=points.copy(), lens_angle_deg=angles)
     out = write_results(small_session, tmp_path / "out", switched)
     ev = _evaluate(small_session, out)
@@ -211,8 +215,9 @@ def test_a_one_frame_flicker_is_a_switch_but_not_a_sustained_one(small_session, 
     flick = tf.frame == 90  # the two ids exchange people for one frame only
     points = tf.points_world.copy()
     points[flick] = gt.joints_world[90, 2 - tf.worker[flick]]
-    out = write_results(small_session, tmp_path / "out", dataclasses.replace(tf, points_world=points,
-                                                                               raw_points_world=points.copy()))
+    out = write_results(
+        small_session, tmp_path / "out", dataclasses.replace(tf, points_world=points, raw_points_world=points.copy())
+    )
     m = _evaluate(small_session, out)["matching"]
     assert m["identity_switches"] == 4  # each person: to the other id and back
     assert m["identity_switches_sustained"] == 0 and m["sustained_min_frames"] == 12

@@ -36,18 +36,28 @@ def test_layout_of_an_assessment():
 
 
 def test_json_ready_gives_strict_json():
-    value = {1: (np.int64(3), np.float32(0.5), np.bool_(True)), "a": [math.nan, -math.inf, 2.5],
-             "arr": np.array([[1.0, np.nan], [np.inf, 4.0]]), "s": "text", "n": None}
+    value = {
+        1: (np.int64(3), np.float32(0.5), np.bool_(True)),
+        "a": [math.nan, -math.inf, 2.5],
+        "arr": np.array([[1.0, np.nan], [np.inf, 4.0]]),
+        "s": "text",
+        "n": None,
+    }
     out = json_ready(value)
-    assert out == {"1": [3, 0.5, True], "a": [None, None, 2.5], "arr": [[1.0, None], [None, 4.0]],
-                   "s": "text", "n": None}
+    assert out == {
+        "1": [3, 0.5, True],
+        "a": [None, None, 2.5],
+        "arr": [[1.0, None], [None, 4.0]],
+        "s": "text",
+        "n": None,
+    }
     assert [type(x) for x in out["1"]] == [int, float, bool]  # numpy scalars become Python ones
     json.dumps(out, allow_nan=False)  # would raise on a NaN left in
 
 
-@pytest.mark.parametrize("x, nd, expected", [
-    (1.23456, 3, 1.235), (np.float32(2.5), 0, 2.0), (np.float64(-0.00049), 3, -0.0), (7, 1, 7.0),
-])
+@pytest.mark.parametrize(
+    "x, nd, expected", [(1.23456, 3, 1.235), (np.float32(2.5), 0, 2.0), (np.float64(-0.00049), 3, -0.0), (7, 1, 7.0)]
+)
 def test_round_or_nan_rounds(x, nd, expected):
     assert round_or_nan(x, nd) == expected
 

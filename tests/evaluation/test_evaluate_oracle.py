@@ -46,8 +46,12 @@ def test_oracle_outputs_are_labelled(exact_run):
     # the assessment's driver ran it (its stored chunks served this run alone and are gone):
     # the folder holds the labelled results only, no unlabelled CSV file, report page or chunk
     files = sorted(str(p.relative_to(layout.root)) for p in layout.root.rglob("*") if p.is_file())
-    assert files == ["README_ORACLE.txt", "csv/ORACLE_w1_steps.csv", "csv/ORACLE_w2_steps.csv",
-                     "pipeline/ORACLE_tracks.parquet"]
+    assert files == [
+        "README_ORACLE.txt",
+        "csv/ORACLE_w1_steps.csv",
+        "csv/ORACLE_w2_steps.csv",
+        "pipeline/ORACLE_tracks.parquet",
+    ]
     assert ev["source"].startswith("ORACLE 2D") and ev["oracle"]["banner"] == ev["source"]
 
 
@@ -78,11 +82,27 @@ def test_pixel_noise_costs_accuracy(small_session, exact_run, tmp_path):
 @pytest.mark.slow
 def test_oracle_through_the_command_line(small_session, tmp_path, capsys):
     out = tmp_path / "out"
-    code = main(["evaluate", "--session", str(small_session), "--results", str(out), "--oracle",
-                 "--noise-px", "0.5", "--dropout", "0.01", "--bar-draws", "5"])
+    code = main(
+        [
+            "evaluate",
+            "--session",
+            str(small_session),
+            "--results",
+            str(out),
+            "--oracle",
+            "--noise-px",
+            "0.5",
+            "--dropout",
+            "0.01",
+            "--bar-draws",
+            "5",
+        ]
+    )
     assert code == 0
     text = capsys.readouterr().out
-    assert text.splitlines()[0] == "ORACLE 2D (simulated ground truth projected with 0.5 px noise) — not the pose network"
+    assert (
+        text.splitlines()[0] == "ORACLE 2D (simulated ground truth projected with 0.5 px noise) — not the pose network"
+    )
     data = json.loads((out / "oracle" / "evaluation.json").read_text())
     assert data["oracle"]["noise_px"] == 0.5 and data["oracle"]["person_dropout"] == 0.01
     assert data["source"].startswith("ORACLE 2D")
@@ -90,8 +110,9 @@ def test_oracle_through_the_command_line(small_session, tmp_path, capsys):
 
 
 def test_bad_oracle_options_are_one_line_errors(small_session, tmp_path, capsys):
-    code = main(["evaluate", "--session", str(small_session), "--results", str(tmp_path), "--oracle",
-                 "--dropout", "1.5"])
+    code = main(
+        ["evaluate", "--session", str(small_session), "--results", str(tmp_path), "--oracle", "--dropout", "1.5"]
+    )
     assert code == 2
     err = capsys.readouterr().err
     assert err.startswith("ergopose: error:") and err.count("\n") == 1 and "--dropout" in err

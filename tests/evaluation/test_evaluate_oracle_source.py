@@ -13,14 +13,7 @@ import pytest
 from evaluation_helpers import video_session
 
 from ergopose.errors import InputError
-from ergopose.evaluation.oracle import (
-    OracleFrames,
-    OracleOptions,
-    _readme,
-    oracle_layout,
-    publish_oracle,
-    run_oracle,
-)
+from ergopose.evaluation.oracle import OracleFrames, OracleOptions, _readme, oracle_layout, publish_oracle, run_oracle
 from ergopose.sim.ground_truth import GroundTruth
 from ergopose.sim.scene import rig_cameras
 from ergopose.sim.synthetic import WorkerScript, project_all, walk_workers
@@ -32,8 +25,14 @@ EXACT = OracleOptions(noise_px=0.0, person_dropout=0.0, joint_dropout=0.0, occlu
 def test_options_and_layout():
     o = OracleOptions(noise_px=1.5, seed=4)
     assert o.banner().startswith("ORACLE 2D (simulated ground truth projected with 1.5 px noise)")
-    assert o.as_dict() == {"noise_px": 1.5, "person_dropout": 0.02, "joint_dropout": 0.02,
-                           "occluded_noise_px": 6.0, "seed": 4, "banner": o.banner()}
+    assert o.as_dict() == {
+        "noise_px": 1.5,
+        "person_dropout": 0.02,
+        "joint_dropout": 0.02,
+        "occluded_noise_px": 6.0,
+        "seed": 4,
+        "banner": o.banner(),
+    }
     layout = oracle_layout(Path("out"))
     assert layout.root == Path("out/oracle")
     assert layout.tracks == Path("out/oracle/pipeline/ORACLE_tracks.parquet")
@@ -52,8 +51,10 @@ def truth():
     """Three frames of two people standing under the rig; person 2 is outside camera 2's image in
     every frame and outside both images in frame 1."""
     cams = rig_cameras(320, 320)
-    scripts = [WorkerScript(1.75, np.array([[-0.5, 0.0]]), pause_s=10.0),
-               WorkerScript(1.6, np.array([[0.6, 0.3]]), pause_s=10.0)]
+    scripts = [
+        WorkerScript(1.75, np.array([[-0.5, 0.0]]), pause_s=10.0),
+        WorkerScript(1.6, np.array([[0.6, 0.3]]), pause_s=10.0),
+    ]
     joints = walk_workers(scripts, 3)  # (3, 2, 33, 3)
     pixels = project_all(cams, joints)  # (3, 2 cameras, 2 people, 33, 2)
     vis = np.where(np.isfinite(pixels).all(axis=-1), VISIBLE, OUTSIDE_IMAGE).astype(np.int8)
@@ -61,10 +62,23 @@ def truth():
     vis[:, 1, 1] = OUTSIDE_IMAGE
     vis[1, :, 1] = OUTSIDE_IMAGE
     f, c, w = vis.shape[:3]
-    gt = GroundTruth(path=None, fps=12.0, worker_ids=("w1", "w2"), camera_names=tuple(cam.name for cam in cams),
-                     joints_world=joints, pixels=pixels, theta=np.zeros((f, c, w, 33)), visibility=vis,
-                     task=np.zeros((f, w), np.int8), task_names=("none",), planted=np.zeros((f, w, 2), bool),
-                     carrying=np.zeros((f, w), bool), times_s=np.arange(f) / 12.0, postures=None, scene={})
+    gt = GroundTruth(
+        path=None,
+        fps=12.0,
+        worker_ids=("w1", "w2"),
+        camera_names=tuple(cam.name for cam in cams),
+        joints_world=joints,
+        pixels=pixels,
+        theta=np.zeros((f, c, w, 33)),
+        visibility=vis,
+        task=np.zeros((f, w), np.int8),
+        task_names=("none",),
+        planted=np.zeros((f, w, 2), bool),
+        carrying=np.zeros((f, w), bool),
+        times_s=np.arange(f) / 12.0,
+        postures=None,
+        scene={},
+    )
     return SimpleNamespace(calibrated_cameras=cams), gt
 
 

@@ -48,8 +48,13 @@ def test_against_itself_everything_agrees(trc, world, tmp_path, capsys):
     assert ev["alignment"]["residual_rms_mm"] < 1e-6
     np.testing.assert_allclose(ev["alignment"]["rotation_world_from_reference"], TO_WORLD, atol=1e-6)
     by_angle = ev["angles"]["by_angle"]
-    for name in ("trunk_flexion", "trunk_side_bend", "left_upper_arm_elevation", "right_elbow_flexion",
-                 "left_knee_flexion"):
+    for name in (
+        "trunk_flexion",
+        "trunk_side_bend",
+        "left_upper_arm_elevation",
+        "right_elbow_flexion",
+        "left_knee_flexion",
+    ):
         # The frames CSV keeps 2 decimals of a degree.
         assert by_angle[name]["n"] == 100 and by_angle[name]["mae_deg"] < 0.005
     # The Pose2Sim TRC has no ears, eyes or hand points: neck and wrist angles are not defined.

@@ -19,17 +19,46 @@ from ergopose.recon.settings import ReconSettings
 
 
 def _evaluation(**changes) -> Evaluation:
-    fields = dict(source="test", session="s", results="r", frames=10, fps=12.0, lens_regions={"agree": True},
-                  matching={"switches": 0}, detection={"rate_pct": math.nan}, errors_3d={"mpjpe_mm": (1.5, 2)},
-                  limbs={}, angles={}, scores={}, bar={}, notes=("a note",))
+    fields = dict(
+        source="test",
+        session="s",
+        results="r",
+        frames=10,
+        fps=12.0,
+        lens_regions={"agree": True},
+        matching={"switches": 0},
+        detection={"rate_pct": math.nan},
+        errors_3d={"mpjpe_mm": (1.5, 2)},
+        limbs={},
+        angles={},
+        scores={},
+        bar={},
+        notes=("a note",),
+    )
     fields.update(changes)
     return Evaluation(**fields)
 
 
 def test_to_dict_orders_the_sections_and_is_strict_json():
     d = _evaluation().to_dict()
-    assert list(d) == ["format", "version", "source", "session", "results", "frames", "fps", "lens_regions",
-                       "matching", "detection", "errors_3d", "limbs", "angles", "scores", "bar", "notes"]
+    assert list(d) == [
+        "format",
+        "version",
+        "source",
+        "session",
+        "results",
+        "frames",
+        "fps",
+        "lens_regions",
+        "matching",
+        "detection",
+        "errors_3d",
+        "limbs",
+        "angles",
+        "scores",
+        "bar",
+        "notes",
+    ]
     assert (d["format"], d["version"]) == ("ergopose.evaluation", 1)
     assert d["detection"] == {"rate_pct": None}  # NaN -> null
     assert d["errors_3d"] == {"mpjpe_mm": [1.5, 2]} and d["notes"] == ["a note"]
@@ -54,13 +83,17 @@ def test_write_json_writes_strict_json(tmp_path):
 def stubbed(monkeypatch):
     """evaluate_results over stub sections; returns the list of calls (name, arguments)."""
     calls: list[tuple[str, tuple]] = []
-    inp = SimpleNamespace(recon=ReconSettings(lens_region_limits_deg=(40.0, 70.0)),
-                          session=SimpleNamespace(path=Path("session")), gt=SimpleNamespace(n_frames=24, fps=12.0))
+    inp = SimpleNamespace(
+        recon=ReconSettings(lens_region_limits_deg=(40.0, 70.0)),
+        session=SimpleNamespace(path=Path("session")),
+        gt=SimpleNamespace(n_frames=24, fps=12.0),
+    )
 
     def stub(name, value):
         def f(*args, **kwargs):
             calls.append((name, args + tuple(sorted(kwargs.items()))))
             return value
+
         monkeypatch.setattr(compare, name, f)
 
     stub("load_inputs", inp)
@@ -79,21 +112,40 @@ def stubbed(monkeypatch):
 def test_evaluate_results_puts_the_sections_together(stubbed):
     events = []
     layout = ResultsLayout.of_assess(Path("out"))
-    ev = evaluate_results("session", layout, source="src", oracle={"o": 1}, bar_noise_px=0.25, bar_draws=7,
-                          seed=3, progress=events.append)
-    assert [name for name, _ in stubbed] == ["load_inputs", "row_people", "matching_section", "detection_section",
-                                             "errors_section", "limbs_section", "worker_frames", "angles_section",
-                                             "scores_section", "bar_section"]
+    ev = evaluate_results(
+        "session", layout, source="src", oracle={"o": 1}, bar_noise_px=0.25, bar_draws=7, seed=3, progress=events.append
+    )
+    assert [name for name, _ in stubbed] == [
+        "load_inputs",
+        "row_people",
+        "matching_section",
+        "detection_section",
+        "errors_section",
+        "limbs_section",
+        "worker_frames",
+        "angles_section",
+        "scores_section",
+        "bar_section",
+    ]
     bar_args = dict(stubbed[-1][1][3:])
     assert stubbed[-1][1][2] == (40.0, 70.0) and bar_args == {"draws": 7, "noise_px": 0.25, "seed": 3}
     assert (ev.source, ev.session, ev.results, ev.frames, ev.fps) == ("src", "session", "out", 24, 12.0)
     assert (ev.matching, ev.detection, ev.errors_3d, ev.limbs, ev.bar, ev.oracle) == (
-        {"matching": 1}, {"detection": 1}, {"errors": 1}, {"limbs": 1}, {"bar": 1}, {"o": 1})
+        {"matching": 1},
+        {"detection": 1},
+        {"errors": 1},
+        {"limbs": 1},
+        {"bar": 1},
+        {"o": 1},
+    )
     assert ev.lens_regions["used_limits_deg"] == [40.0, 70.0]
     # notes: the lens regions differ, the scores' note, nobody matched, the angles' caveat
     assert len(ev.notes) == 4 and ev.notes[0].startswith("Lens regions")
-    assert ev.notes[1:] == ("task factor note", "No tracked worker could be matched to a simulated worker: "
-                            "the per-worker sections are empty.", "angles caveat")
+    assert ev.notes[1:] == (
+        "task factor note",
+        "No tracked worker could be matched to a simulated worker: the per-worker sections are empty.",
+        "angles caveat",
+    )
     # one event per step before it runs, then the end
     assert [(e.stage, e.done, e.total) for e in events] == [("evaluation", k, 8) for k in range(9)]
 

@@ -34,8 +34,17 @@ def _look_at(position: np.ndarray, target: np.ndarray) -> np.ndarray:
 def _cameras(names=("cam_01", "cam_02", "cam_03")) -> list[Camera]:
     positions = [np.array([3.0, 0.0, 1.5]), np.array([0.0, 3.0, 1.8]), np.array([-2.5, -2.0, 2.2])]
     lens = Rectilinear.from_fov(800, 600, np.radians(70))
-    return [Camera(name=n, lens=lens, width=800, height=600, rotation_world_from_cam=_look_at(p, np.array([0, 0, 1.0])),
-                   position_world=p) for n, p in zip(names, positions)]
+    return [
+        Camera(
+            name=n,
+            lens=lens,
+            width=800,
+            height=600,
+            rotation_world_from_cam=_look_at(p, np.array([0, 0, 1.0])),
+            position_world=p,
+        )
+        for n, p in zip(names, positions)
+    ]
 
 
 def test_weighted_dlt_recovers_the_points_the_cameras_saw():

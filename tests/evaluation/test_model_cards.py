@@ -12,7 +12,7 @@ from ergopose.evaluation.model_cards import RIGHT_TORSO, crops_of_recording, gat
 
 def test_matched_gate_keeps_the_reference_share():
     reference = np.linspace(0.0, 1.0, 101)  # 30 of 101 below 0.3
-    values = np.linspace(0.0, 0.5, 101)     # the same ranks, half the scale
+    values = np.linspace(0.0, 0.5, 101)  # the same ranks, half the scale
     gate = matched_gate(values, reference, 0.3)
     assert gate == pytest.approx(0.15)
     assert np.mean(values < gate) == pytest.approx(np.mean(reference < 0.3))
@@ -21,8 +21,12 @@ def test_matched_gate_keeps_the_reference_share():
 
 
 def _result(visibility, errors, presence, empty):
-    return {"visibility": np.asarray(visibility, float), "errors": np.asarray(errors, float),
-            "presence": np.asarray(presence, float), "empty_presence": np.asarray(empty, float)}
+    return {
+        "visibility": np.asarray(visibility, float),
+        "errors": np.asarray(errors, float),
+        "presence": np.asarray(presence, float),
+        "empty_presence": np.asarray(empty, float),
+    }
 
 
 def test_gate_table_pools_sources_and_reports_the_cards_gates():

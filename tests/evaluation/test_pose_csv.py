@@ -24,7 +24,8 @@ def _csv_of_reference(path, camera, ref, frames, shift_px=0.0):
             if ref["conf"][f, j] > 0:
                 rows.append((f, f / 60.0, 0, name, px[j, 0] + shift_px, px[j, 1], 1.0))
     pd.DataFrame(rows, columns=["frame", "time_s", "person", "joint", "x_px", "y_px", "confidence"]).to_csv(
-        path, index=False)
+        path, index=False
+    )
     return path
 
 

@@ -33,10 +33,20 @@ JY_D = np.array([-0.0014613319981768, -0.00329861110580401, 0.00605760088590183,
 
 def two_cameras() -> list[Camera]:
     cam_2 = ceiling_camera("cam_2", KannalaBrandt.from_opencv(JY_K, JY_D), 1280, 800, [0.1, -0.2, 3.0], yaw=0.3)
-    cam_10 = Camera("cam_10", DoubleSphere(158.286, 158.274, 254.961, 256.889, -0.1721, 0.5931), 512, 512,
-                    look_at_rotation([0.2, 0.1, -1.0]), [1.5, 0.0, 2.9],
-                    CalibrationInfo(rms_error_px=0.2637, date="2024-05-01", method="cv2.fisheye.calibrate",
-                                    notes='lens "B", re-focused\nafter cleaning'))
+    cam_10 = Camera(
+        "cam_10",
+        DoubleSphere(158.286, 158.274, 254.961, 256.889, -0.1721, 0.5931),
+        512,
+        512,
+        look_at_rotation([0.2, 0.1, -1.0]),
+        [1.5, 0.0, 2.9],
+        CalibrationInfo(
+            rms_error_px=0.2637,
+            date="2024-05-01",
+            method="cv2.fisheye.calibrate",
+            notes='lens "B", re-focused\nafter cleaning',
+        ),
+    )
     return [cam_2, cam_10]
 
 
@@ -66,8 +76,11 @@ def test_round_trip_keeps_every_number_and_the_file_order(tmp_path):
 
 
 def test_every_lens_kind_round_trips(tmp_path):
-    lenses = [Rectilinear(500, 501, 320, 240), Equidistant(300, 300, 599.5, 599.5),
-              KannalaBrandt(620, 621, 1295.5, 971.5, 0.02, -0.01, 0.003, -0.0005)]
+    lenses = [
+        Rectilinear(500, 501, 320, 240),
+        Equidistant(300, 300, 599.5, 599.5),
+        KannalaBrandt(620, 621, 1295.5, 971.5, 0.02, -0.01, 0.003, -0.0005),
+    ]
     cameras = [ceiling_camera(f"c{i}", lens, 1280, 960, [i, 0, 3]) for i, lens in enumerate(lenses)]
     path = save_calibration(tmp_path / "c.toml", cameras)
     assert load_calibration(path) == tuple(cameras)
@@ -80,8 +93,9 @@ def test_rodrigues_pose_is_accepted(tmp_path):
     data["cameras"][1]["pose"]["rodrigues_world_from_cam"] = rvec.ravel().tolist()
     loaded = load_calibration(write(tmp_path, data))
     np.testing.assert_allclose(loaded[1].rotation_world_from_cam, rotation, atol=1e-12)
-    np.testing.assert_allclose(rotation_from_rodrigues([0, 0, math.pi / 2]), [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
-                               atol=1e-15)
+    np.testing.assert_allclose(
+        rotation_from_rodrigues([0, 0, math.pi / 2]), [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-15
+    )
     np.testing.assert_array_equal(rotation_from_rodrigues([0, 0, 0]), np.eye(3))
 
 
@@ -134,16 +148,36 @@ ERRORS = [
     (("cameras", 1, "pose", "position_world"), [1.0, 2.0], "cameras[1].pose.position_world", "3 numbers"),
     (("cameras", 1, "pose", "position_world"), [1.0, "2", 3.0], "cameras[1].pose.position_world", "3 numbers"),
     (("cameras", 1, "pose", "positon_world"), [1.0, 2.0, 3.0], "cameras[1].pose.positon_world", "unknown key"),
-    (("cameras", 1, "pose", "rotation_world_from_cam"), _DELETE, "cameras[1].pose.rotation_world_from_cam",
-     "exactly one"),
-    (("cameras", 1, "pose", "rotation_world_from_cam"), [[2.0, 0, 0], [0, 2.0, 0], [0, 0, 2.0]],
-     "cameras[1].pose.rotation_world_from_cam", "orthonormal"),
-    (("cameras", 1, "pose", "rotation_world_from_cam"), [[1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0]],
-     "cameras[1].pose.rotation_world_from_cam", "determinant"),
-    (("cameras", 1, "pose", "rotation_world_from_cam"), [[1.0, 0, 0], [0, 1.0, 0]],
-     "cameras[1].pose.rotation_world_from_cam", "3 rows of 3 numbers"),
-    (("cameras", 1, "pose", "rodrigues_world_from_cam"), [0.0, 0.0, 0.1], "cameras[1].pose.rotation_world_from_cam",
-     "exactly one"),
+    (
+        ("cameras", 1, "pose", "rotation_world_from_cam"),
+        _DELETE,
+        "cameras[1].pose.rotation_world_from_cam",
+        "exactly one",
+    ),
+    (
+        ("cameras", 1, "pose", "rotation_world_from_cam"),
+        [[2.0, 0, 0], [0, 2.0, 0], [0, 0, 2.0]],
+        "cameras[1].pose.rotation_world_from_cam",
+        "orthonormal",
+    ),
+    (
+        ("cameras", 1, "pose", "rotation_world_from_cam"),
+        [[1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0]],
+        "cameras[1].pose.rotation_world_from_cam",
+        "determinant",
+    ),
+    (
+        ("cameras", 1, "pose", "rotation_world_from_cam"),
+        [[1.0, 0, 0], [0, 1.0, 0]],
+        "cameras[1].pose.rotation_world_from_cam",
+        "3 rows of 3 numbers",
+    ),
+    (
+        ("cameras", 1, "pose", "rodrigues_world_from_cam"),
+        [0.0, 0.0, 0.1],
+        "cameras[1].pose.rotation_world_from_cam",
+        "exactly one",
+    ),
     (("cameras", 1, "calibration", "rms"), 0.3, "cameras[1].calibration.rms", "unknown key"),
     (("cameras", 1, "calibration", "rms_error_px"), -0.3, "cameras[1].calibration.rms_error_px", ">= 0"),
     (("cameras", 1, "calibration", "notes"), 12, "cameras[1].calibration.notes", "text"),
@@ -188,8 +222,9 @@ def test_save_refuses_what_it_could_not_load(tmp_path):
 def test_opencv_import_matches_cv2_fisheye_projection(rng):
     rvec = np.array([0.3, -2.9, 0.2])  # world -> camera, as cv2.fisheye.calibrate / solvePnP give it
     tvec = np.array([0.1, 0.4, 2.8])
-    camera = camera_from_opencv_fisheye("cam_1", JY_K, JY_D, 1280, 800, R=rvec, t=tvec,
-                                        calibration=CalibrationInfo(rms_error_px=0.263782587133))
+    camera = camera_from_opencv_fisheye(
+        "cam_1", JY_K, JY_D, 1280, 800, R=rvec, t=tvec, calibration=CalibrationInfo(rms_error_px=0.263782587133)
+    )
     rotation_cw, _ = cv2.Rodrigues(rvec)
     points_cam = rng.uniform([-2, -2, 0.3], [2, 2, 4], size=(300, 3))
     points_world = (points_cam - tvec) @ rotation_cw  # R^T (p_cam - t)

@@ -114,8 +114,9 @@ def test_field_of_view():
 
 def test_validation_names_the_field():
     lens = Equidistant(300.0, 300.0, 599.5, 599.5)
-    good = dict(name="cam_1", lens=lens, width=1200, height=1200,
-                rotation_world_from_cam=np.eye(3), position_world=[0, 0, 3])
+    good = dict(
+        name="cam_1", lens=lens, width=1200, height=1200, rotation_world_from_cam=np.eye(3), position_world=[0, 0, 3]
+    )
     Camera(**good)
     cases = [
         ({"name": ""}, "name"),
@@ -169,8 +170,9 @@ def test_field_of_view_follows_the_image_circle():
         # The principal point is a pixel or two off the circle's centre: both spans ~ 2 x 95 deg.
         assert abs(math.degrees(hfov) - 190.0) < 0.5 and abs(math.degrees(vfov) - 190.0) < 0.5
         assert camera.max_theta_in_image() == pytest.approx(IMAGE_CIRCLE_THETA, abs=2e-3)
-        bare = Camera(camera.name, camera.lens, camera.width, camera.height, camera.rotation_world_from_cam,
-                      camera.position_world)
+        bare = Camera(
+            camera.name, camera.lens, camera.width, camera.height, camera.rotation_world_from_cam, camera.position_world
+        )
         assert math.degrees(bare.field_of_view()[0]) > 290.0  # the old figure, from the model alone
         assert camera != bare
         u, v, r = camera.image_circle

@@ -13,8 +13,7 @@ from ergopose.geometry.lenses.rectilinear import Rectilinear
 from ergopose.geometry.views import VirtualView, build_map, build_map_interpolated, upright_rotation
 
 W, H = 2592, 1944
-FISHEYE_KB = KannalaBrandt(fx=620.0, fy=620.0, cx=(W - 1) / 2, cy=(H - 1) / 2,
-                           k1=0.02, k2=-0.01, k3=0.003, k4=-0.0005)
+FISHEYE_KB = KannalaBrandt(fx=620.0, fy=620.0, cx=(W - 1) / 2, cy=(H - 1) / 2, k1=0.02, k2=-0.01, k3=0.003, k4=-0.0005)
 CAMERA = ceiling_camera("cam_1", FISHEYE_KB, W, H, position_world=(0.0, 0.0, 3.0))
 
 
@@ -23,8 +22,9 @@ def _direction(polar_deg: float, azimuth_deg: float) -> np.ndarray:
     return np.array([np.sin(p) * np.cos(a), np.sin(p) * np.sin(a), np.cos(p)])
 
 
-@pytest.mark.parametrize("polar,azimuth,half_fov", [(0, 0, 30), (35, 120, 8), (60, -40, 25), (65, 200, 40),
-                                                     (90, 10, 20)])
+@pytest.mark.parametrize(
+    "polar,azimuth,half_fov", [(0, 0, 30), (35, 120, 8), (60, -40, 25), (65, 200, 40), (90, 10, 20)]
+)
 def test_interpolated_map_matches_the_exact_map(polar, azimuth, half_fov):
     # Person views of the paper's 2592 x 1944 fisheye (its lens ends at 126 deg), from straight
     # down to the horizon.

@@ -74,8 +74,18 @@ def test_pose2sim_output_reprojects_onto_its_2d_keypoints(demo):
     # The other reading of the extrinsics (camera -> world) misses by metres in the image.
     # The file's (R, t) read as camera -> world: R_world_from_cam = R, position = t, where the
     # import has R_world_from_cam = R^T and position = -R^T t.
-    flipped = [Camera(c.name, c.lens, c.width, c.height, c.rotation_world_from_cam.T,
-                      -(c.rotation_world_from_cam.T @ c.position_world), c.calibration) for c in cameras]
+    flipped = [
+        Camera(
+            c.name,
+            c.lens,
+            c.width,
+            c.height,
+            c.rotation_world_from_cam.T,
+            -(c.rotation_world_from_cam.T @ c.position_world),
+            c.calibration,
+        )
+        for c in cameras
+    ]
     wrong = np.concatenate(list(reprojection_errors(demo, flipped).values()))
     assert np.nanmedian(wrong) > 500.0
 
@@ -108,10 +118,13 @@ fisheye = false
 
 
 def test_anipose_layout_fisheye_units_and_warnings(tmp_path):
-    second = CAM.replace("cam_0", "cam_1").replace('"A"', '"B"').replace(
-        "translation = [0.0, 0.0, 0.0]", "translation = [-1500.0, 0.0, 0.0]").replace(
-        "distortions = [-0.1, 0.02, 0.0, 0.0, 0.0]", "distortions = [0.01, -0.002, 0.001, 0.0]").replace(
-        "fisheye = false", "fisheye = true")
+    second = (
+        CAM.replace("cam_0", "cam_1")
+        .replace('"A"', '"B"')
+        .replace("translation = [0.0, 0.0, 0.0]", "translation = [-1500.0, 0.0, 0.0]")
+        .replace("distortions = [-0.1, 0.02, 0.0, 0.0, 0.0]", "distortions = [0.01, -0.002, 0.001, 0.0]")
+        .replace("fisheye = false", "fisheye = true")
+    )
     path = _write(tmp_path / "anipose.toml", CAM + "\n" + second + "\n[metadata]\nadjusted = true\n")
     cameras = read_pose2sim_calibration(path, units="mm")
     assert [c.name for c in cameras] == ["A", "B"]
@@ -124,16 +137,21 @@ def test_anipose_layout_fisheye_units_and_warnings(tmp_path):
     assert any("millimetres" in w for w in world_frame_warnings(in_metres))
 
 
-@pytest.mark.parametrize("edit, field", [
-    (lambda t: t.replace("fisheye = false", "fisheye = true"), "cam_0.distortions"),
-    (lambda t: t.replace('size = [1280.0, 720.0]', 'size = [1280.5, 720.0]'), "cam_0.size"),
-    (lambda t: t.replace("rotation = [0.0, 0.0, 0.0]\n", ""), "cam_0.rotation"),
-    (lambda t: t.replace("fisheye = false", "fisheye = false\nskew = 0"), "cam_0.skew"),
-    (lambda t: t.replace("[0.0, 900.0, 360.0]", "[0.0, -900.0, 360.0]"), "cam_0"),
-    (lambda t: t.replace("distortions = [-0.1, 0.02, 0.0, 0.0, 0.0]", "distortions = [-0.1, 0.02]"),
-     "cam_0.distortions"),
-    (lambda t: "", None),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        (lambda t: t.replace("fisheye = false", "fisheye = true"), "cam_0.distortions"),
+        (lambda t: t.replace("size = [1280.0, 720.0]", "size = [1280.5, 720.0]"), "cam_0.size"),
+        (lambda t: t.replace("rotation = [0.0, 0.0, 0.0]\n", ""), "cam_0.rotation"),
+        (lambda t: t.replace("fisheye = false", "fisheye = false\nskew = 0"), "cam_0.skew"),
+        (lambda t: t.replace("[0.0, 900.0, 360.0]", "[0.0, -900.0, 360.0]"), "cam_0"),
+        (
+            lambda t: t.replace("distortions = [-0.1, 0.02, 0.0, 0.0, 0.0]", "distortions = [-0.1, 0.02]"),
+            "cam_0.distortions",
+        ),
+        (lambda t: "", None),
+    ],
+)
 def test_bad_files_give_one_clear_error(tmp_path, edit, field, capsys):
     path = _write(tmp_path / "bad.toml", edit(CAM))
     with pytest.raises(ConfigError) as info:

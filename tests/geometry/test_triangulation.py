@@ -44,8 +44,7 @@ def look_at(centre, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
 def ring_cameras(n: int, radius: float = 3.0, height: float = 2.5) -> tuple[np.ndarray, np.ndarray]:
     """n cameras on a circle around the work area; returns (P (n,3,4), poses (n,4,4))."""
     angles = np.linspace(0.0, 2 * np.pi, n, endpoint=False) + 0.3
-    poses = np.stack([look_at([radius * np.cos(a), radius * np.sin(a), height], [0.1, -0.2, 1.0])
-                      for a in angles])
+    poses = np.stack([look_at([radius * np.cos(a), radius * np.sin(a), height], [0.1, -0.2, 1.0]) for a in angles])
     return projection_matrix(K_PIX, None, poses), poses
 
 
@@ -65,8 +64,12 @@ def test_projection_matrix_is_the_papers_product(rng):
     R, _ = cv2.Rodrigues(np.array([0.0, np.radians(40.0), 0.0]))
     R2, _ = cv2.Rodrigues(np.array([np.radians(10.0), 0.0, 0.0]))
     R = R @ R2
-    paper = K_PIX @ np.hstack([np.eye(3), np.zeros((3, 1))]) @ np.block(
-        [[R.T, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]) @ np.linalg.inv(W)
+    paper = (
+        K_PIX
+        @ np.hstack([np.eye(3), np.zeros((3, 1))])
+        @ np.block([[R.T, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]])
+        @ np.linalg.inv(W)
+    )
     P = projection_matrix(K_PIX, R, W)
     np.testing.assert_allclose(P, paper, rtol=1e-12, atol=1e-9)
     # Rotation direction: the view's optical axis is R @ e_z in the camera frame, so a point
@@ -175,15 +178,13 @@ def test_fisheye_cameras_through_virtual_views(rng):
     from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
     from ergopose.geometry.views import VirtualView
 
-    lens = KannalaBrandt(fx=620.0, fy=620.0, cx=1295.5, cy=971.5, k1=-7.4e-05, k2=-0.00703,
-                         k3=0.00738, k4=-0.00342)
-    cams = [ceiling_camera(f"cam_{i}", lens, 2592, 1944, c)
-            for i, c in enumerate([(-0.75, 0.0, 3.0), (0.75, 0.0, 3.0)])]
+    lens = KannalaBrandt(fx=620.0, fy=620.0, cx=1295.5, cy=971.5, k1=-7.4e-05, k2=-0.00703, k3=0.00738, k4=-0.00342)
+    cams = [
+        ceiling_camera(f"cam_{i}", lens, 2592, 1944, c) for i, c in enumerate([(-0.75, 0.0, 3.0), (0.75, 0.0, 3.0)])
+    ]
     X = body_points(rng, (33,)) + np.array([2.0, -2.5, 0.0])  # near a corner of the floor
-    views = [VirtualView.aimed_at(cam, X.mean(axis=0), hfov=np.radians(60.0), size=(320, 320))
-             for cam in cams]
-    P = np.stack([projection_matrix(v.K, v.rotation_cam_from_view, v.source.pose_world_from_cam)
-                  for v in views])
+    views = [VirtualView.aimed_at(cam, X.mean(axis=0), hfov=np.radians(60.0), size=(320, 320)) for cam in cams]
+    P = np.stack([projection_matrix(v.K, v.rotation_cam_from_view, v.source.pose_world_from_cam) for v in views])
     np.testing.assert_allclose(P, np.stack([v.projection_matrix for v in views]), rtol=1e-12, atol=1e-9)
     pixels_view = np.stack([v.source_to_view_pixels(cam.project_world(X)) for v, cam in zip(views, cams)])
     np.testing.assert_allclose(pixels_view, reproject(P, X), atol=1e-6)
@@ -200,12 +201,12 @@ def test_nan_pixels_and_zero_weights_are_excluded(rng):
     X = body_points(rng, (4, 10))
     pixels = reproject(P, X)  # (4, 3, 10, 2)
     weights = np.ones(pixels.shape[:-1])
-    pixels[0, 1, 2] = np.nan           # frame 0 joint 2: view 1 missing
+    pixels[0, 1, 2] = np.nan  # frame 0 joint 2: view 1 missing
     pixels[1, 0, 3] = [5000.0, -70.0]  # frame 1 joint 3: garbage in view 0 ...
-    weights[1, 0, 3] = 0.0             # ... with weight 0
-    pixels[2, 0, 4, 0] = np.nan        # one coordinate NaN is enough
-    pixels[3, 2, 5] = [-900.0, 80.0]   # frame 3 joint 5: garbage in view 2 ...
-    weights[3, 2, 5] = np.nan          # ... with an unknown weight
+    weights[1, 0, 3] = 0.0  # ... with weight 0
+    pixels[2, 0, 4, 0] = np.nan  # one coordinate NaN is enough
+    pixels[3, 2, 5] = [-900.0, 80.0]  # frame 3 joint 5: garbage in view 2 ...
+    weights[3, 2, 5] = np.nan  # ... with an unknown weight
     tri = triangulate_dlt(P, pixels, weights)
     np.testing.assert_allclose(tri.points, X, rtol=1e-9)
     assert tri.views_used[0, 2] == 2 and tri.views_used[1, 3] == 2 and tri.views_used[2, 4] == 2
@@ -219,9 +220,9 @@ def test_fewer_than_min_views_gives_nan_never_a_point(rng):
     P, _ = ring_cameras(3)
     X = body_points(rng, (8,))
     pixels = reproject(P, X)
-    pixels[1:, 0] = np.nan   # joint 0 only in view 0
-    pixels[:, 1] = np.nan    # joint 1 nowhere
-    pixels[2, 2] = np.nan    # joint 2 in views 0 and 1 only
+    pixels[1:, 0] = np.nan  # joint 0 only in view 0
+    pixels[:, 1] = np.nan  # joint 1 nowhere
+    pixels[2, 2] = np.nan  # joint 2 in views 0 and 1 only
     tri = triangulate_dlt(P, pixels)
     np.testing.assert_array_equal(tri.views_used[:3], [1, 0, 2])
     assert np.all(np.isnan(tri.points[:2])) and np.all(np.isnan(tri.reprojection_error_px[:2]))
@@ -271,9 +272,10 @@ def test_residuals_match_an_independent_reprojection(rng):
         R_cw = poses[v, :3, :3].T
         t = -R_cw @ poses[v, :3, 3]
         proj, _ = cv2.projectPoints(tri.points, cv2.Rodrigues(R_cw)[0], t, K_PIX, None)
-        np.testing.assert_allclose(tri.residuals_px[v], np.linalg.norm(proj[:, 0] - pixels[v], axis=-1),
-                                   rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(tri.reprojection_error_px, np.sqrt(np.mean(tri.residuals_px ** 2, axis=0)))
+        np.testing.assert_allclose(
+            tri.residuals_px[v], np.linalg.norm(proj[:, 0] - pixels[v], axis=-1), rtol=1e-9, atol=1e-9
+        )
+    np.testing.assert_allclose(tri.reprojection_error_px, np.sqrt(np.mean(tri.residuals_px**2, axis=0)))
     # With noise the error is of the order of the noise, and the 3D error of millimetres.
     assert 0.5 < np.median(tri.reprojection_error_px) < 3.0
     assert np.median(np.linalg.norm(tri.points - X, axis=-1)) < 0.01
@@ -296,12 +298,12 @@ def test_weights_pull_the_answer_toward_the_trusted_view(rng):
     assert np.nanmean(trusted.residuals_px[0]) > np.nanmean(equal.residuals_px[0])
     assert np.nanmean(trusted.residuals_px[1:]) < np.nanmean(equal.residuals_px[1:])
     # Scaling all weights together changes nothing.
-    np.testing.assert_allclose(triangulate_dlt(P, pixels, 7.0 * weights).points, trusted.points,
-                               rtol=1e-9)
+    np.testing.assert_allclose(triangulate_dlt(P, pixels, 7.0 * weights).points, trusted.points, rtol=1e-9)
     # A vanishing weight tends to leaving the view out.
     weights[0] = 1e-4
-    np.testing.assert_allclose(triangulate_dlt(P, pixels, weights).points,
-                               triangulate_dlt(P[1:], pixels[1:]).points, atol=1e-6)
+    np.testing.assert_allclose(
+        triangulate_dlt(P, pixels, weights).points, triangulate_dlt(P[1:], pixels[1:]).points, atol=1e-6
+    )
 
 
 def test_normalized_rows_ignore_the_scale_of_p(rng):
@@ -398,11 +400,11 @@ def test_midpoint_nan_rules(rng):
     X = body_points(rng, (5,))
     origins, rays = _rays(poses, X)
     rays[0, 0] = np.nan
-    rays[1, 0] = np.nan      # joint 0: one ray
+    rays[1, 0] = np.nan  # joint 0: one ray
     weights = np.ones((3, 5))
-    weights[:2, 1] = 0.0     # joint 1: one ray
+    weights[:2, 1] = 0.0  # joint 1: one ray
     rays[2, 2] = [1e3, 0, 0]
-    weights[2, 2] = 0.0      # joint 2: two good rays, garbage with weight 0
+    weights[2, 2] = 0.0  # joint 2: two good rays, garbage with weight 0
     mid = triangulate_midpoint(origins, rays, weights)
     np.testing.assert_array_equal(mid.views_used, [1, 1, 2, 3, 3])
     assert np.all(np.isnan(mid.points[:2])) and np.all(np.isnan(mid.residuals_m[:, :2]))
@@ -453,10 +455,27 @@ def test_reject_outliers_keeps_min_views_and_clean_data(rng):
 #: BODY_25B keypoint index of each TRC marker, in the TRC's column order; from the skeleton tree
 #: printed in Config_BalancingTrial.toml ([pose.CUSTOM]: "id = 12, name = RHip", ...).
 TRC_TO_BODY25B = {
-    "RHip": 12, "RKnee": 14, "RAnkle": 16, "RBigToe": 22, "RSmallToe": 23, "RHeel": 24,
-    "LHip": 11, "LKnee": 13, "LAnkle": 15, "LBigToe": 19, "LSmallToe": 20, "LHeel": 21,
-    "Neck": 17, "Head": 18, "Nose": 0, "RShoulder": 6, "RElbow": 8, "RWrist": 10,
-    "LShoulder": 5, "LElbow": 7, "LWrist": 9,
+    "RHip": 12,
+    "RKnee": 14,
+    "RAnkle": 16,
+    "RBigToe": 22,
+    "RSmallToe": 23,
+    "RHeel": 24,
+    "LHip": 11,
+    "LKnee": 13,
+    "LAnkle": 15,
+    "LBigToe": 19,
+    "LSmallToe": 20,
+    "LHeel": 21,
+    "Neck": 17,
+    "Head": 18,
+    "Nose": 0,
+    "RShoulder": 6,
+    "RElbow": 8,
+    "RWrist": 10,
+    "LShoulder": 5,
+    "LElbow": 7,
+    "LWrist": 9,
 }
 
 
@@ -482,7 +501,7 @@ def pose2sim(shared_data):
     assert header["Units"] == "m" and header["NumMarkers"] == "21" and header["NumFrames"] == "100"
     names = [n for n in lines[3].split("\t")[2:] if n]
     assert len(names) == 21
-    values = np.array([[float(x) for x in line.split("\t")[2:2 + 63]] for line in lines[5:] if line.strip()])
+    values = np.array([[float(x) for x in line.split("\t")[2 : 2 + 63]] for line in lines[5:] if line.strip()])
     trc = values.reshape(-1, 21, 3)
     assert trc.shape[0] == 100
     points_world = trc[..., [2, 0, 1]]  # TRC axes = world[:, [1, 2, 0]]
@@ -510,13 +529,13 @@ def test_pose2sim_demo_reproduced_by_weighted_dlt(pose2sim):
     n_views = tri.views_used
     assert n_views.min() >= 2
     close = diff_mm < 0.1
-    assert 0.60 <= close.mean() <= 0.63          # SOURCE.md: 61.5 % of the 2,100 points
-    assert close[n_views == 2].mean() >= 0.90    # 93.5 % of the 2-camera points
+    assert 0.60 <= close.mean() <= 0.63  # SOURCE.md: 61.5 % of the 2,100 points
+    assert close[n_views == 2].mean() >= 0.90  # 93.5 % of the 2-camera points
     assert 0.55 <= close[n_views == 4].mean() <= 0.61  # 57.9 % of the 4-camera points
     # The rest is where Pose2Sim left a camera out (reprojection error over 15 px).
     assert np.median(tri.reprojection_error_px[~close]) > np.median(tri.reprojection_error_px[close])
-    assert 20 < np.mean(diff_mm) < 28             # SOURCE.md: mean difference 24 mm (all points)
-    assert 50 < np.percentile(diff_mm, 90) < 62   # SOURCE.md: p90 56 mm
+    assert 20 < np.mean(diff_mm) < 28  # SOURCE.md: mean difference 24 mm (all points)
+    assert 50 < np.percentile(diff_mm, 90) < 62  # SOURCE.md: p90 56 mm
     # Median reprojection error (mean over cameras, as Pose2Sim reports it): about 13-14 px.
     assert 12 < np.median(np.nanmean(tri.residuals_px, axis=1)) < 15
 
@@ -531,10 +550,9 @@ def test_pose2sim_demo_reproduced_by_weighted_dlt(pose2sim):
 def test_pose2sim_demo_outlier_rejection_moves_toward_pose2sim(pose2sim):
     P, pixels, weights, reference = pose2sim
     plain = triangulate_dlt(P, pixels, weights, solver="svd", normalize_rows=False)
-    tri, rejected = reject_outliers(P, pixels, weights, threshold_px=15.0, solver="svd",
-                                    normalize_rows=False)
+    tri, rejected = reject_outliers(P, pixels, weights, threshold_px=15.0, solver="svd", normalize_rows=False)
     before = np.mean(1000 * np.linalg.norm(plain.points - reference, axis=-1) < 0.1)
     after = np.mean(1000 * np.linalg.norm(tri.points - reference, axis=-1) < 0.1)
-    assert after > before + 0.1   # 61.5 % -> about 74 %
+    assert after > before + 0.1  # 61.5 % -> about 74 %
     assert rejected.any() and not (rejected & (weights == 0)).any()
     assert np.all(tri.views_used >= 2)

@@ -13,8 +13,7 @@ from ergopose.geometry.views import VirtualView, build_map, upright_rotation
 
 # The paper's camera: 2592 x 1944, 180-degree fisheye; realistic Kannala-Brandt coefficients.
 W, H = 2592, 1944
-FISHEYE_KB = KannalaBrandt(fx=620.0, fy=620.0, cx=(W - 1) / 2, cy=(H - 1) / 2,
-                           k1=0.02, k2=-0.01, k3=0.003, k4=-0.0005)
+FISHEYE_KB = KannalaBrandt(fx=620.0, fy=620.0, cx=(W - 1) / 2, cy=(H - 1) / 2, k1=0.02, k2=-0.01, k3=0.003, k4=-0.0005)
 
 
 def ceiling_camera(lens, size=(W, H)):
@@ -88,12 +87,15 @@ def test_view_image_equals_the_scene_seen_by_the_virtual_camera():
 @pytest.mark.parametrize("off_axis_deg", [95.0, 100.0, 105.0])
 def test_views_beyond_90_degrees_render_fully(off_axis_deg):
     """Lenses of about 240 degrees (equidistant, and KB with theta from atan2) both see past 90 degrees."""
-    for lens in (Equidistant(fx=280.0, fy=280.0, cx=599.5, cy=599.5),
-                 KannalaBrandt(fx=280.0, fy=280.0, cx=599.5, cy=599.5, k1=0.01, k2=-0.002, k3=0.0, k4=0.0)):
+    for lens in (
+        Equidistant(fx=280.0, fy=280.0, cx=599.5, cy=599.5),
+        KannalaBrandt(fx=280.0, fy=280.0, cx=599.5, cy=599.5, k1=0.01, k2=-0.002, k3=0.0, k4=0.0),
+    ):
         camera = ceiling_camera(lens, size=(1200, 1200))
         a = np.radians(off_axis_deg)
-        view = VirtualView.aimed_along(camera, np.array([np.sin(a), 0.0, np.cos(a)]), hfov=np.radians(20),
-                                       size=(128, 128))
+        view = VirtualView.aimed_along(
+            camera, np.array([np.sin(a), 0.0, np.cos(a)]), hfov=np.radians(20), size=(128, 128)
+        )
         view_map = view.build_map()
         assert view_map.valid.all()
         inside = (view_map.map_x >= 0) & (view_map.map_x <= 1199) & (view_map.map_y >= 0) & (view_map.map_y <= 1199)

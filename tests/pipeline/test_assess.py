@@ -33,8 +33,20 @@ def test_assess_writes_the_report_and_csv_files(reference, capsys):
     frames = [name for name in csvs if name.endswith("_frames.csv")]
     assert frames, "no worker was tracked"
     header = csvs[frames[0]].split(b"\n", 1)[0].decode()
-    for column in ("time", "time_s", "name", "trunk_flexion_deg", "trunk_flexion_sd_deg", "rula_grand", "rula_grand_p",
-                   "rula_action_level", "reba_score", "reba_risk_level", "scored", "cause"):
+    for column in (
+        "time",
+        "time_s",
+        "name",
+        "trunk_flexion_deg",
+        "trunk_flexion_sd_deg",
+        "rula_grand",
+        "rula_grand_p",
+        "rula_action_level",
+        "reba_score",
+        "reba_risk_level",
+        "scored",
+        "cause",
+    ):
         assert column in header.split(",")
     steps = csvs[frames[0].replace("_frames.csv", "_steps.csv")].split(b"\n", 1)[0].decode().split(",")
     assert "trunk_flexion" in steps and "left_rula_upper_arm_band" in steps
@@ -51,8 +63,9 @@ def test_killed_runs_resume_to_identical_csv_files(reference, tiny_session, fetc
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     rng = np.random.default_rng(5)
     for _ in range(5):
-        proc = subprocess.Popen(args, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                start_new_session=True)
+        proc = subprocess.Popen(
+            args, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        )
         time.sleep(float(rng.uniform(1.0, 6.0)))
         os.killpg(proc.pid, signal.SIGKILL)  # the process and its worker processes: a power cut
         proc.wait()
@@ -66,8 +79,9 @@ def test_killed_runs_resume_to_identical_csv_files(reference, tiny_session, fetc
 def _kill_when(args, env, out: Path, appeared, timeout_s: float = 120.0) -> bool:
     """Start the assessment, kill its whole process group the moment ``appeared(out)`` is true;
     False when the run ended first."""
-    proc = subprocess.Popen(args, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        args, cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
     t_end = time.monotonic() + timeout_s
     try:
         while proc.poll() is None and time.monotonic() < t_end:
@@ -94,8 +108,7 @@ def _staged(pattern: str):
 
 
 @pytest.mark.slow
-def test_runs_killed_in_every_stage_resume_to_identical_csv_files(reference, tiny_session, fetched_model_dir,
-                                                                  tmp_path):
+def test_runs_killed_in_every_stage_resume_to_identical_csv_files(reference, tiny_session, fetched_model_dir, tmp_path):
     """Kill at a seeded chunk of the 2D stage, then while the tracks table, a scored-frames file,
     a CSV file and the stored results are being written (the moment a temporary file of each
     appears): each following run resumes, and the last one writes the CSVs of an uninterrupted run."""
@@ -168,8 +181,9 @@ def _unknown_key(session: Path) -> str:
 
 
 @pytest.mark.parametrize("damage", [_corrupt, _truncate, _fewer_frames, _wrong_size, _unknown_key])
-def test_bad_input_gives_one_clear_message_and_keeps_earlier_outputs(damage, reference, tiny_session,
-                                                                     fetched_model_dir, tmp_path, capsys):
+def test_bad_input_gives_one_clear_message_and_keeps_earlier_outputs(
+    damage, reference, tiny_session, fetched_model_dir, tmp_path, capsys
+):
     ref_out, expected = reference
     out = tmp_path / "report"
     shutil.copytree(ref_out, out)
@@ -206,7 +220,7 @@ def test_assessed_report_in_chromium(reference, tmp_path):
         for s in result["svgs"]:
             assert s["width"] > 50 and s["height"] > 30, (page.name, s)
     worker_page = pages[1]
-    worker_id = worker_page.stem[len("worker-"):]
+    worker_id = worker_page.stem[len("worker-") :]
     frames = pd.read_parquet(out / "results" / "workers" / worker_id / "frames.parquet")
     result = probe(worker_page, tmp_path)
     for method, col, levels in (("rula", "rula_action_level", range(1, 5)), ("reba", "reba_risk_level", range(0, 5))):
@@ -242,7 +256,7 @@ def test_assessed_print_version_in_chromium(reference, tmp_path):
     from tests.report.test_browser_print import A4_PRINTABLE_PX, layout, pdf_pages
 
     out, _ = reference
-    workers = sorted(p.stem[len("worker-"):] for p in out.glob("worker-*.html"))
+    workers = sorted(p.stem[len("worker-") :] for p in out.glob("worker-*.html"))
     total, per_worker = pdf_pages(out / "print.html", tmp_path)
     assert sorted(per_worker) == workers
     assert total == 1 + sum(per_worker.values()) and all(1 <= n <= 2 for n in per_worker.values()), per_worker

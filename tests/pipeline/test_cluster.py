@@ -30,8 +30,9 @@ def test_addresses():
             cluster.parse_address(bad)
 
 
-def test_local_cluster_writes_the_csv_bytes_of_a_local_run(reference, tiny_session, fetched_model_dir, tmp_path,
-                                                           capsys):
+def test_local_cluster_writes_the_csv_bytes_of_a_local_run(
+    reference, tiny_session, fetched_model_dir, tmp_path, capsys
+):
     _, expected = reference
     out = tmp_path / "report"
     capsys.readouterr()
@@ -42,15 +43,17 @@ def test_local_cluster_writes_the_csv_bytes_of_a_local_run(reference, tiny_sessi
     assert not [p for p in out.rglob("*") if ".tmp" in p.name]
 
 
-def test_a_worker_killed_mid_run_the_run_completes_with_the_same_csv_bytes(reference, tiny_session,
-                                                                           fetched_model_dir, tmp_path):
+def test_a_worker_killed_mid_run_the_run_completes_with_the_same_csv_bytes(
+    reference, tiny_session, fetched_model_dir, tmp_path
+):
     """SIGKILL one of two workers as soon as the first chunk is stored: Dask reschedules its work
     (the nanny starts a new worker, which loads the networks again) and the results are unchanged."""
     _, expected = reference
     out = tmp_path / "report"
     killed = []
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                  silence_logs=logging.CRITICAL) as lc:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
+    ) as lc:
         pids = [n.pid for n in lc.workers.values()]
 
         def kill_one(event):
@@ -81,8 +84,23 @@ def test_one_damaged_session_of_three_fails_alone(reference, tiny_session, fetch
     damage_middle(tiny_session / "cam_2.mp4", sessions[1] / "cam_2.mp4", length=3000)
     out = tmp_path / "reports"
     capsys.readouterr()
-    code = cli.main(["assess", "--sessions", *map(str, sessions), "--out", str(out), "--cluster", "local:2",
-                     "--model-dir", str(fetched_model_dir[0]), "--chunk-seconds", "0.5", "--max-bad-frames", "0.1"])
+    code = cli.main(
+        [
+            "assess",
+            "--sessions",
+            *map(str, sessions),
+            "--out",
+            str(out),
+            "--cluster",
+            "local:2",
+            "--model-dir",
+            str(fetched_model_dir[0]),
+            "--chunk-seconds",
+            "0.5",
+            "--max-bad-frames",
+            "0.1",
+        ]
+    )
     captured = capsys.readouterr()
     assert code == 1
     assert csv_bytes(out / "day_a") == expected
@@ -98,8 +116,9 @@ def test_one_damaged_session_of_three_fails_alone(reference, tiny_session, fetch
         assert f"{name} pose" in captured.err
 
 
-def test_videos_given_as_urls_are_copied_to_the_workers_and_removed(reference, tiny_session, fetched_model_dir,
-                                                                    tmp_path, monkeypatch):
+def test_videos_given_as_urls_are_copied_to_the_workers_and_removed(
+    reference, tiny_session, fetched_model_dir, tmp_path, monkeypatch
+):
     """The session's settings name its videos by file:// URL (in a folder of their own): the client
     and the worker each read a copy from the cache folder (here one on this machine), the CSV bytes
     are those of a local run of the folder, and no copy is left once the session is done."""

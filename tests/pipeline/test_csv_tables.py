@@ -61,7 +61,7 @@ def documented(section: str, placeholders: dict[str, tuple[str, ...]] | None = N
     start = text.index(f"\n## {section}\n")
     end = text.find("\n## ", start + 1)
     names: list[str] = []
-    for line in text[start:end if end > 0 else None].splitlines():
+    for line in text[start : end if end > 0 else None].splitlines():
         if not line.startswith("| `"):
             continue
         first = line.split("|")[1]
@@ -72,7 +72,11 @@ def documented(section: str, placeholders: dict[str, tuple[str, ...]] | None = N
 
 def test_the_doc_parser_finds_what_a_table_lists():
     assert _expand("<method>_level{1,2}_s", {"<method>": ("rula", "reba")}) == [
-        "rula_level1_s", "rula_level2_s", "reba_level1_s", "reba_level2_s"]
+        "rula_level1_s",
+        "rula_level2_s",
+        "reba_level1_s",
+        "reba_level2_s",
+    ]
     assert "rula_grand_p" in documented("Frames per worker")
     assert "not_a_column" not in documented("Frames per worker")
 
@@ -194,4 +198,5 @@ def test_the_terminal_the_report_and_the_summary_csv_give_the_same_shares(assess
 
 def _seconds(s: float) -> str:
     from ergopose.report.wording import fmt_duration
+
     return fmt_duration(s)

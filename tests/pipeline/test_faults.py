@@ -68,8 +68,10 @@ def test_out_naming_a_file_or_a_folder_below_a_file(tiny_session, model_dir, tmp
     assert a_file.read_text() == "keep me\n" and sorted(tmp_path.iterdir()) == [a_file]
 
 
-@pytest.mark.skipif(hasattr(os, "geteuid") and os.geteuid() == 0,
-                    reason="root writes into read-only folders; the injected read-only file system below covers it")
+@pytest.mark.skipif(
+    hasattr(os, "geteuid") and os.geteuid() == 0,
+    reason="root writes into read-only folders; the injected read-only file system below covers it",
+)
 def test_read_only_output_folder(reference, tiny_session, model_dir, tmp_path, capsys):
     out = _copy(reference[0], tmp_path / "report")
     before = _files(out)
@@ -148,8 +150,9 @@ def _chunks(out: Path) -> dict[str, bytes]:
 
 
 @pytest.mark.slow
-def test_full_disk_while_storing_chunks_keeps_the_finished_ones(reference, tiny_session, model_dir, tmp_path,
-                                                                capsys, monkeypatch):
+def test_full_disk_while_storing_chunks_keeps_the_finished_ones(
+    reference, tiny_session, model_dir, tmp_path, capsys, monkeypatch
+):
     ref_out, expected = reference
     out = tmp_path / "report"
     written = _enospc_on_chunk(monkeypatch, after=2)
@@ -168,8 +171,9 @@ def test_full_disk_while_storing_chunks_keeps_the_finished_ones(reference, tiny_
 
 
 @pytest.mark.slow
-def test_full_disk_while_writing_csv_files_keeps_the_earlier_results(reference, tiny_session, model_dir, tmp_path,
-                                                                     capsys, monkeypatch):
+def test_full_disk_while_writing_csv_files_keeps_the_earlier_results(
+    reference, tiny_session, model_dir, tmp_path, capsys, monkeypatch
+):
     """ENOSPC in the middle of the per-frame CSV files of a second run over finished results: every
     earlier file keeps its bytes (new ones replace them only when complete)."""
     from ergopose.ergonomics import export
@@ -194,16 +198,21 @@ def test_full_disk_while_writing_csv_files_keeps_the_earlier_results(reference, 
 
 def _mount_tmpfs(path: Path, size: str) -> None:
     path.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
-                          capture_output=True, text=True)
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)], capture_output=True, text=True
+    )
     if done.returncode != 0:
-        pytest.skip(f"a small tmpfs cannot be mounted here ({done.stderr.strip() or 'mount failed'}); "
-                    "the injected ENOSPC tests cover a full disk")
+        pytest.skip(
+            f"a small tmpfs cannot be mounted here ({done.stderr.strip() or 'mount failed'}); "
+            "the injected ENOSPC tests cover a full disk"
+        )
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("mount")),
-                    reason="mounting a small tmpfs needs root; the injected ENOSPC tests cover a full disk")
+@pytest.mark.skipif(
+    not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("mount")),
+    reason="mounting a small tmpfs needs root; the injected ENOSPC tests cover a full disk",
+)
 def test_a_really_full_disk_then_more_room(reference, tiny_session, model_dir, tmp_path, capsys, monkeypatch):
     """A 400 kB tmpfs (the room check told to let it through): the chunks fit, the later files do
     not; one line, the chunks kept, and after the disk grows the run resumes to the same CSVs."""
@@ -257,21 +266,36 @@ CHUNK = "pipeline/chunks/chunk_000000012.npz"
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("where, damage, message", [
-    (CHUNK, _truncate, "cannot be read"),
-    (CHUNK, _flip_a_byte, "cannot be read"),
-    (CHUNK, _change_an_array, "fails its checksum"),
-    ("pipeline/manifest.json", _truncate, None),
-    ("pipeline/tracks.parquet", _truncate, None),
-    ("pipeline/scored/worker_1.parquet", _truncate, None),
-    ("results/session.json", _truncate, None),
-    ("results/workers/worker_1/frames.parquet", _truncate, None),
-    ("csv/worker_1_frames.csv", _truncate, None),
-    ("index.html", _truncate, None),
-], ids=["chunk-cut", "chunk-byte", "chunk-checksum", "manifest", "tracks", "scored", "results-json",
-        "results-frames", "csv", "html"])
-def test_a_damaged_stored_piece_is_named_and_recomputed_alone(where, damage, message, reference, tiny_session,
-                                                              model_dir, tmp_path, capsys):
+@pytest.mark.parametrize(
+    "where, damage, message",
+    [
+        (CHUNK, _truncate, "cannot be read"),
+        (CHUNK, _flip_a_byte, "cannot be read"),
+        (CHUNK, _change_an_array, "fails its checksum"),
+        ("pipeline/manifest.json", _truncate, None),
+        ("pipeline/tracks.parquet", _truncate, None),
+        ("pipeline/scored/worker_1.parquet", _truncate, None),
+        ("results/session.json", _truncate, None),
+        ("results/workers/worker_1/frames.parquet", _truncate, None),
+        ("csv/worker_1_frames.csv", _truncate, None),
+        ("index.html", _truncate, None),
+    ],
+    ids=[
+        "chunk-cut",
+        "chunk-byte",
+        "chunk-checksum",
+        "manifest",
+        "tracks",
+        "scored",
+        "results-json",
+        "results-frames",
+        "csv",
+        "html",
+    ],
+)
+def test_a_damaged_stored_piece_is_named_and_recomputed_alone(
+    where, damage, message, reference, tiny_session, model_dir, tmp_path, capsys
+):
     ref_out, expected = reference
     out = _copy(ref_out, tmp_path / "report")
     damage(out / where)
@@ -325,8 +349,7 @@ def test_results_carry_the_recordings_fingerprint(reference, tiny_session):
 
 
 @pytest.mark.slow
-def test_assess_refuses_a_folder_with_another_recordings_results(reference, other_session, model_dir, tmp_path,
-                                                                 capsys):
+def test_assess_refuses_a_folder_with_another_recordings_results(reference, other_session, model_dir, tmp_path, capsys):
     out = _copy(reference[0], tmp_path / "report")
     before = _files(out)
     code, _, lines = _run(capsys, *assess_args(other_session, out, model_dir))
@@ -340,8 +363,9 @@ def test_assess_refuses_a_folder_with_another_recordings_results(reference, othe
 
 
 @pytest.mark.slow
-def test_report_and_evaluate_refuse_another_recordings_results(reference, tiny_session, other_session, tmp_path,
-                                                               capsys):
+def test_report_and_evaluate_refuse_another_recordings_results(
+    reference, tiny_session, other_session, tmp_path, capsys
+):
     out = _copy(reference[0], tmp_path / "report")
     before = _files(out)
     code, _, lines = _run(capsys, "report", "--session", other_session, "--out", out, "--quiet")
@@ -402,8 +426,9 @@ def test_unreadable_frames_are_skipped_counted_and_reported(damaged_session, mod
 def test_too_many_bad_frames_in_a_piece_name_the_video_and_time(damaged_session, model_dir, tmp_path, capsys):
     out = tmp_path / "report"
     # 1 of the 6 frames of a 0.5 s piece is 17 %: refused with at most 10 % allowed
-    code, _, lines = _run(capsys, *assess_args(damaged_session, out, model_dir, "--processes", 1,
-                                               "--max-bad-frames", 0.1))
+    code, _, lines = _run(
+        capsys, *assess_args(damaged_session, out, model_dir, "--processes", 1, "--max-bad-frames", 0.1)
+    )
     assert code == 2
     line = _one_error(lines, "cam_2.mp4", "cannot be read", "10 %", "--max-bad-frames")
     assert "0:00:01.0 and 0:00:01.5" in line  # frames 12-17 of 12 fps: the piece holding frame 13

@@ -11,15 +11,29 @@ from ergopose.session import Session, TaskFactors, WorkerInfo
 
 def _session(statures: dict[str, float], rules: Rules = Rules(by_stature=True)) -> Session:
     workers = tuple(WorkerInfo(w, None, TaskFactors(), (), stature_m=s) for w, s in statures.items())
-    return Session(path=Path("day1"), format_version=1, recorded_at=None, fps=12.0, frame_count=10, cameras=(),
-                   defaults=TaskFactors(), periods=(), workers=workers, scoring={}, description=None,
-                   ground_truth_dir=None, settings_path=Path("day1/settings.toml"),
-                   calibration_path=Path("day1/calibration.toml"), identification=rules)
+    return Session(
+        path=Path("day1"),
+        format_version=1,
+        recorded_at=None,
+        fps=12.0,
+        frame_count=10,
+        cameras=(),
+        defaults=TaskFactors(),
+        periods=(),
+        workers=workers,
+        scoring={},
+        description=None,
+        ground_truth_dir=None,
+        settings_path=Path("day1/settings.toml"),
+        calibration_path=Path("day1/calibration.toml"),
+        identification=rules,
+    )
 
 
 def test_distinct_heights_are_matched_optimally():
-    ident = identify_by_stature({"worker_1": 1.66, "worker_2": 1.83, "worker_3": float("nan")},
-                                _session({"anna": 1.64, "ben": 1.85}))
+    ident = identify_by_stature(
+        {"worker_1": 1.66, "worker_2": 1.83, "worker_3": float("nan")}, _session({"anna": 1.64, "ben": 1.85})
+    )
     assert {(m.tracked_id, m.worker_id) for m in ident.matches} == {("worker_1", "anna"), ("worker_2", "ben")}
     assert ident.rename("worker_2") == "ben" and ident.rename("worker_3") == "worker_3"
     assert not ident.notes
@@ -44,7 +58,9 @@ def test_a_settings_id_equal_to_an_unmatched_pseudonym_is_not_reused():
 
 
 def test_tolerance_is_a_setting():
-    loose = identify_by_stature({"worker_1": 1.60}, _session({"anna": 1.70}, Rules(by_stature=True, stature_tolerance_m=0.12)))
+    loose = identify_by_stature(
+        {"worker_1": 1.60}, _session({"anna": 1.70}, Rules(by_stature=True, stature_tolerance_m=0.12))
+    )
     assert [m.worker_id for m in loose.matches] == ["anna"]
 
 

@@ -28,17 +28,19 @@ def test_assess_takes_a_model_name(capsys):
     assert "invalid choice: 'giant'" in capsys.readouterr().err
 
 
-
 @pytest.mark.slow
 def test_the_chosen_card_and_its_gates_reach_the_job(tiny_session, fetched_model_dir, tmp_path):
-    run = assess_module.prepare(tiny_session, AssessOptions(out_dir=tmp_path / "out", model="heavy",
-                                                            model_dir=str(fetched_model_dir[0])))
+    run = assess_module.prepare(
+        tiny_session, AssessOptions(out_dir=tmp_path / "out", model="heavy", model_dir=str(fetched_model_dir[0]))
+    )
     heavy = landmark_card("heavy")
     job, models = run.job, run.models
     assert job.model == "heavy" and [m.card.name for m in models] == ["blazepose_detector", heavy.name]
     assert job.pose == PoseSettings().with_gates(heavy.gates)
     assert job.recon.min_confidence == heavy.gates.min_triangulation_confidence < ReconSettings().min_confidence
-    assert job.recon == dataclasses.replace(run.session.reconstruction, min_confidence=heavy.gates.min_triangulation_confidence)
+    assert job.recon == dataclasses.replace(
+        run.session.reconstruction, min_confidence=heavy.gates.min_triangulation_confidence
+    )
     assert run.session.reconstruction.expected_workers == 2  # ergopose simulate writes the number of workers
     assert models[-1].sha256 == heavy.file.sha256
 
@@ -50,5 +52,7 @@ def test_rescoring_names_the_model_the_tracks_were_made_with(tmp_path):
     assert json.loads(store.manifest_path.read_text())["inputs"]["models"][1] == heavy.file.sha256
     assert [m.card.name for m in rescore._models(tmp_path)] == ["blazepose_detector", heavy.name]
     # No manifest (or one that names unknown files): the detector and the default card.
-    assert [m.card.name for m in rescore._models(tmp_path / "nothing")] == \
-        ["blazepose_detector", landmark_card(None).name]
+    assert [m.card.name for m in rescore._models(tmp_path / "nothing")] == [
+        "blazepose_detector",
+        landmark_card(None).name,
+    ]

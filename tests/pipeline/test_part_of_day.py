@@ -26,23 +26,36 @@ from tests.pipeline.helpers import PROGRESS_LINE, ground_truth_tracks
 START = dt.datetime(2024, 3, 4, 22, 0, 0, tzinfo=dt.timezone(dt.timedelta(hours=1)))
 
 
-@pytest.mark.parametrize("text, seconds", [
-    ("22:00", 0.0), ("22:15", 900.0), ("22:15:30", 930.0), ("22:15:30.5", 930.5), ("90", 90.0), ("90.5", 90.5),
-    ("90s", 90.0), ("0", 0.0), ("01:30", 3.5 * 3600),  # past midnight: the next day, within the shift
-])
+@pytest.mark.parametrize(
+    "text, seconds",
+    [
+        ("22:00", 0.0),
+        ("22:15", 900.0),
+        ("22:15:30", 930.0),
+        ("22:15:30.5", 930.5),
+        ("90", 90.0),
+        ("90.5", 90.5),
+        ("90s", 90.0),
+        ("0", 0.0),
+        ("01:30", 3.5 * 3600),  # past midnight: the next day, within the shift
+    ],
+)
 def test_times_are_clock_times_of_the_sessions_day_or_seconds(text, seconds):
     assert parse_time(text, START, 8 * 3600.0, "--start") == pytest.approx(seconds)
 
 
-@pytest.mark.parametrize("start, end, field, words", [
-    ("22:30", "22:10", "--end", "is not after --start 22:30"),
-    ("22:30", "22:30", "--end", "is not after"),
-    ("21:00", None, "--start", "outside the session"),
-    (None, "07:00", "--end", "outside the session"),       # the next morning, after the 8 h shift
-    ("99999", None, "--start", "outside the session"),
-    ("half past ten", None, "--start", "is not a time"),
-    ("25:00", None, "--start", "not a clock time"),
-])
+@pytest.mark.parametrize(
+    "start, end, field, words",
+    [
+        ("22:30", "22:10", "--end", "is not after --start 22:30"),
+        ("22:30", "22:30", "--end", "is not after"),
+        ("21:00", None, "--start", "outside the session"),
+        (None, "07:00", "--end", "outside the session"),  # the next morning, after the 8 h shift
+        ("99999", None, "--start", "outside the session"),
+        ("half past ten", None, "--start", "is not a time"),
+        ("25:00", None, "--start", "not a clock time"),
+    ],
+)
 def test_bad_windows_name_the_option(start, end, field, words):
     with pytest.raises(ConfigError) as exc:
         resolve(start, end, START, 8 * 3600.0)
@@ -79,8 +92,20 @@ def _clock(session, seconds: float) -> str:
 def test_report_start_end_scores_the_window_again_beside_the_whole_day(assessed, capsys):
     session, out, frames = assessed
     whole = {p: p.read_bytes() for p in (out / "csv").iterdir()}
-    code = cli.main(["report", "--session", str(session), "--out", str(out), "--quiet",
-                     "--start", _clock(session, 1.0), "--end", "2.5"])
+    code = cli.main(
+        [
+            "report",
+            "--session",
+            str(session),
+            "--out",
+            str(out),
+            "--quiet",
+            "--start",
+            _clock(session, 1.0),
+            "--end",
+            "2.5",
+        ]
+    )
     printed = capsys.readouterr().out
     assert code == 0
     recorded = load_session(session, check_videos=False).recorded_at
@@ -98,11 +123,14 @@ def test_report_start_end_scores_the_window_again_beside_the_whole_day(assessed,
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("start, end, words", [
-    ("2.5", "1", "--end: 1 is not after --start 2.5"),
-    ("60", None, "--start: 60 is outside the session"),
-    ("soon", None, "--start: 'soon' is not a time"),
-])
+@pytest.mark.parametrize(
+    "start, end, words",
+    [
+        ("2.5", "1", "--end: 1 is not after --start 2.5"),
+        ("60", None, "--start: 60 is outside the session"),
+        ("soon", None, "--start: 'soon' is not a time"),
+    ],
+)
 def test_bad_report_windows_give_one_line_and_exit_2(assessed, capsys, start, end, words):
     session, out, _ = assessed
     args = ["report", "--session", str(session), "--out", str(out), "--quiet", "--start", start]
@@ -120,5 +148,6 @@ def test_assess_refuses_a_bad_window_before_any_work(tiny_session, tmp_path, cap
     err = capsys.readouterr().err
     lines = [ln for ln in err.splitlines() if ln.strip() and not PROGRESS_LINE.match(ln)]
     assert code == 2 and lines == [
-        "ergopose: error: --end: 1 is not after --start 2: the session runs from 08:00 to 08:00:03 (3 s)"], err
+        "ergopose: error: --end: 1 is not after --start 2: the session runs from 08:00 to 08:00:03 (3 s)"
+    ], err
     assert not (out / "pipeline" / "chunks").exists()

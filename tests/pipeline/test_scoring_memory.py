@@ -44,10 +44,21 @@ def _rows(n: int, seed: int = 0) -> TrackFrames:
     frame = np.arange(n, dtype=np.int64)
     J = pts.shape[1]
     z = np.zeros((n, J))
-    return TrackFrames(worker=np.ones(n, np.int64), frame=frame, time_s=frame / FPS, points_world=pts,
-                       raw_points_world=pts, confidence=z + 0.9, reprojection_error_px=z,
-                       views=np.full((n, J), 2, np.int8), gap_filled=z.astype(bool), gated=z.astype(bool),
-                       smoothed=True, lens_angle_deg=z + 30, std_world=std)
+    return TrackFrames(
+        worker=np.ones(n, np.int64),
+        frame=frame,
+        time_s=frame / FPS,
+        points_world=pts,
+        raw_points_world=pts,
+        confidence=z + 0.9,
+        reprojection_error_px=z,
+        views=np.full((n, J), 2, np.int8),
+        gap_filled=z.astype(bool),
+        gated=z.astype(bool),
+        smoothed=True,
+        lens_angle_deg=z + 30,
+        std_world=std,
+    )
 
 
 def test_draws_one_at_a_time_are_the_draws_of_all_at_once():

@@ -38,23 +38,33 @@ def _shift_rows(seconds: float, seed: int, long_gap: bool) -> TrackFrames:
     # a stooped posture held for 3 minutes across a block boundary (frames 2500-4660; blocks of 2880)
     flexion = joint_angles(pts).trunk_flexion
     stoop = int(np.flatnonzero((flexion > np.radians(35)) & (flexion < np.radians(50)))[0])
-    pts[2500:2500 + int(180 * FPS)] = pts[stoop]
+    pts[2500 : 2500 + int(180 * FPS)] = pts[stoop]
     pts += rng.normal(0, 0.003, pts.shape)
     n = len(pts)
     keep = np.ones(n, bool)
     for start in rng.integers(min(4700, n // 2), n - 100, 12):  # the track lost for 1-8 s
-        keep[start:start + rng.integers(12, 96)] = False
+        keep[start : start + rng.integers(12, 96)] = False
     for start in rng.integers(0, n - 400, 20):  # an arm unseen for up to 30 s
-        pts[start:start + rng.integers(10, 360), 13:16] = np.nan
+        pts[start : start + rng.integers(10, 360), 13:16] = np.nan
     if long_gap:  # the right elbow unseen for 3 minutes: longer than the blocks' context
-        pts[6000:6000 + int(180 * FPS), 14] = np.nan
+        pts[6000 : 6000 + int(180 * FPS), 14] = np.nan
     frame = np.flatnonzero(keep).astype(np.int64)
     J = pts.shape[1]
     z = np.zeros((len(frame), J))
-    return TrackFrames(worker=np.ones(len(frame), np.int64), frame=frame, time_s=frame / FPS,
-                       points_world=pts[keep], raw_points_world=pts[keep], confidence=z + 0.9,
-                       reprojection_error_px=z, views=np.full((len(frame), J), 2, np.int8),
-                       gap_filled=z.astype(bool), gated=z.astype(bool), smoothed=True, lens_angle_deg=z + 30)
+    return TrackFrames(
+        worker=np.ones(len(frame), np.int64),
+        frame=frame,
+        time_s=frame / FPS,
+        points_world=pts[keep],
+        raw_points_world=pts[keep],
+        confidence=z + 0.9,
+        reprojection_error_px=z,
+        views=np.full((len(frame), J), 2, np.int8),
+        gap_filled=z.astype(bool),
+        gated=z.astype(bool),
+        smoothed=True,
+        lens_angle_deg=z + 30,
+    )
 
 
 class _Collect:
@@ -78,8 +88,9 @@ def _blockwise(session, rows, scoring, pieces, block_frames, context_frames):
 
     sink = _Collect()
     ref = _reference(rows)
-    scorer = WorkerScorer(lambda r: score_rows(session, r, "worker_1", scoring, ref), sink, block_frames,
-                          context_frames)
+    scorer = WorkerScorer(
+        lambda r: score_rows(session, r, "worker_1", scoring, ref), sink, block_frames, context_frames
+    )
     for a, b in zip(pieces[:-1], pieces[1:]):  # rows arrive in uneven pieces, as row groups of the table do
         sel = (rows.frame >= a) & (rows.frame < b)
         scorer.add(TrackFrames(**{k: (v[sel] if isinstance(v, np.ndarray) else v) for k, v in rows.__dict__.items()}))
@@ -104,7 +115,7 @@ def test_blocks_score_every_frame_as_the_whole_shift_does(session):
     blocks, scorer = _blockwise(session, rows, scoring, pieces, block, context)
     assert scorer.blocks == 7 and scorer.frames == len(rows)
     static = whole["reba_static"].fillna(0).to_numpy() > 0
-    assert static[2500 + 60 * 12:4660].all() and static.sum() < 3000, "the held stoop is static, and only it"
+    assert static[2500 + 60 * 12 : 4660].all() and static.sum() < 3000, "the held stoop is static, and only it"
     rep = [c for c in whole.columns if c.startswith("rep_")]
     assert sum(int(whole[c].fillna(0).sum()) for c in rep) > 20, "the shift has repetitions to compare"
     pd.testing.assert_frame_equal(blocks, whole)
@@ -138,7 +149,7 @@ def test_the_frames_csv_written_block_by_block_has_the_bytes_of_one_write(sessio
     write_worker_frames_csv(tmp_path / "one.csv", whole)
     with FramesCsvWriter(tmp_path / "blocks.csv") as w:
         for k in range(0, len(blocks), 1000):
-            w.write(blocks.iloc[k:k + 1000])
+            w.write(blocks.iloc[k : k + 1000])
     assert (tmp_path / "blocks.csv").read_bytes() == (tmp_path / "one.csv").read_bytes()
 
 
@@ -155,8 +166,9 @@ def test_worst_periods_from_the_period_frames_equal_those_from_every_frame(sessi
     ref = _reference(rows)
     block, context = block_sizes(scoring, FPS, block_seconds=240.0)
     with contextlib.ExitStack() as stack:
-        sink = score.WorkerSink(stack, "worker_1", tmp_path / "w_frames.csv", tmp_path / "w.parquet", scoring, FPS,
-                                  np.full(16, np.nan))
+        sink = score.WorkerSink(
+            stack, "worker_1", tmp_path / "w_frames.csv", tmp_path / "w.parquet", scoring, FPS, np.full(16, np.nan)
+        )
         scorer = WorkerScorer(lambda r: score.score_rows(session, r, "worker_1", scoring, ref), sink, block, context)
         scorer.add(rows)
         scorer.finish()
@@ -181,8 +193,9 @@ def test_the_periods_name_the_task_inputs_of_the_settings(session):
     from ergopose.report import adapters
     from ergopose.session import TaskFactors
 
-    given = dataclasses.replace(session, defaults=TaskFactors(load_kg=12.0, load_mode="static", coupling="poor"),
-                                periods=(), workers=())
+    given = dataclasses.replace(
+        session, defaults=TaskFactors(load_kg=12.0, load_mode="static", coupling="poor"), periods=(), workers=()
+    )
     scoring = scoring_settings(given)
     scored = score_worker(given, _shift_rows(6 * 60, seed=3, long_gap=False), "worker_1", scoring, None)
     worst = adapters.worker_summary(scored.summary, frames=scored.frames).worst
@@ -191,7 +204,10 @@ def test_the_periods_name_the_task_inputs_of_the_settings(session):
         found = {(i.input, i.source): i for i in w.inputs}
         assert found[("load", "task input")].value == "12 kg, held static"
         assert found[("hand coupling", "task input")].value == "poor"
-        for key in (("load", "task input"), ("hand coupling", "task input"), ("shock or rapid build-up of force",
-                                                                              "not given")):
+        for key in (
+            ("load", "task input"),
+            ("hand coupling", "task input"),
+            ("shock or rapid build-up of force", "not given"),
+        ):
             assert found[key].seconds == pytest.approx(w.high_s)
         assert w.inputs[0].source == "measured" and w.inputs[0].input.startswith("angles of the upper arms")

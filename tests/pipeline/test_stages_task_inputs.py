@@ -33,17 +33,35 @@ NAN_RIGHT = np.isin(np.arange(N), [6, 7, 8])
 
 
 def _session(defaults: TaskFactors) -> Session:
-    return Session(path=Path("day1"), format_version=1, recorded_at=None, fps=FPS, frame_count=N, cameras=(),
-                   defaults=defaults, periods=(), workers=(), scoring={}, description=None, ground_truth_dir=None,
-                   settings_path=Path("day1/settings.toml"), calibration_path=Path("day1/calibration.toml"))
+    return Session(
+        path=Path("day1"),
+        format_version=1,
+        recorded_at=None,
+        fps=FPS,
+        frame_count=N,
+        cameras=(),
+        defaults=defaults,
+        periods=(),
+        workers=(),
+        scoring={},
+        description=None,
+        ground_truth_dir=None,
+        settings_path=Path("day1/settings.toml"),
+        calibration_path=Path("day1/calibration.toml"),
+    )
 
 
 def _rows(with_inferred: bool = True):
     m = body.BodyMeasurements.from_stature(1.75)
-    posture = body.Posture(left_upper_arm_flexion=np.radians(30.0), right_upper_arm_flexion=np.radians(30.0),
-                           left_elbow_flexion=np.radians(80.0), right_elbow_flexion=np.radians(80.0),
-                           left_wrist_flexion=np.radians(5.0), right_wrist_flexion=np.radians(-8.0),
-                           heading=np.zeros(N))
+    posture = body.Posture(
+        left_upper_arm_flexion=np.radians(30.0),
+        right_upper_arm_flexion=np.radians(30.0),
+        left_elbow_flexion=np.radians(80.0),
+        right_elbow_flexion=np.radians(80.0),
+        left_wrist_flexion=np.radians(5.0),
+        right_wrist_flexion=np.radians(-8.0),
+        heading=np.zeros(N),
+    )
     pts = body.pose_skeleton(m, body.place_on_floor(m, posture))
     pts[np.ix_(NAN_RIGHT, RIGHT_HAND)] = np.nan
     J = pts.shape[1]
@@ -52,10 +70,21 @@ def _rows(with_inferred: bool = True):
     inferred[~HIDDEN_LEFT, JOINT_INDEX["left_index"]] = True  # one hand point inferred: the hand is still seen
     z = np.zeros((N, J))
     frame = np.arange(N, dtype=np.int64)
-    fields = dict(worker=np.ones(N, np.int64), frame=frame, time_s=frame / FPS, points_world=pts,
-                  raw_points_world=pts, confidence=z + 0.9, reprojection_error_px=z,
-                  views=np.full((N, J), 2, np.int8), gap_filled=z.astype(bool), gated=z.astype(bool), smoothed=True,
-                  lens_angle_deg=z + 30, std_world=np.full((N, J, 3), 0.004))
+    fields = dict(
+        worker=np.ones(N, np.int64),
+        frame=frame,
+        time_s=frame / FPS,
+        points_world=pts,
+        raw_points_world=pts,
+        confidence=z + 0.9,
+        reprojection_error_px=z,
+        views=np.full((N, J), 2, np.int8),
+        gap_filled=z.astype(bool),
+        gated=z.astype(bool),
+        smoothed=True,
+        lens_angle_deg=z + 30,
+        std_world=np.full((N, J, 3), 0.004),
+    )
     if with_inferred:
         return TrackFrames(**fields, inferred=inferred)
 

@@ -35,11 +35,22 @@ def _rows(sel: slice) -> TrackFrames:
     people = walk_workers(scripts, 6, fps=FPS)  # (6, 3, 33, 3)
     pts = people[frame, worker - 1] + 0.001 * frame[:, None, None]
     n, j = pts.shape[:2]
-    return TrackFrames(worker=worker, frame=frame, time_s=frame / FPS, points_world=pts, raw_points_world=pts.copy(),
-                       confidence=np.full((n, j), 0.9), reprojection_error_px=np.ones((n, j)),
-                       views=np.full((n, j), 2, np.int8), gap_filled=np.zeros((n, j), bool),
-                       gated=np.zeros((n, j), bool), smoothed=True, lens_angle_deg=np.full((n, j), 20.0),
-                       inferred=np.zeros((n, j), bool), std_world=np.full((n, j, 3), 0.01))
+    return TrackFrames(
+        worker=worker,
+        frame=frame,
+        time_s=frame / FPS,
+        points_world=pts,
+        raw_points_world=pts.copy(),
+        confidence=np.full((n, j), 0.9),
+        reprojection_error_px=np.ones((n, j)),
+        views=np.full((n, j), 2, np.int8),
+        gap_filled=np.zeros((n, j), bool),
+        gated=np.zeros((n, j), bool),
+        smoothed=True,
+        lens_angle_deg=np.full((n, j), 20.0),
+        inferred=np.zeros((n, j), bool),
+        std_world=np.full((n, j, 3), 0.01),
+    )
 
 
 @pytest.fixture
@@ -85,12 +96,15 @@ def test_regroup_reads_again_only_for_other_groups(table):
     assert merged.worker_summary == {"kept": {}} and merged.window is None
 
 
-@pytest.mark.parametrize("start, end, groups, expected", [
-    (0.0, 4 / FPS, {}, (1, 2)),        # frames 0-3: tracker 3 not yet seen
-    (4 / FPS, 6 / FPS, {}, (1, 3)),    # frames 4-5: tracker 2 gone
-    (4 / FPS, 6 / FPS, {3: 2}, (1, 2)),  # ... but scored with tracker 3, who is there
-    (3 / FPS, 4 / FPS, {}, (1, 2)),    # frame 3 alone
-])
+@pytest.mark.parametrize(
+    "start, end, groups, expected",
+    [
+        (0.0, 4 / FPS, {}, (1, 2)),  # frames 0-3: tracker 3 not yet seen
+        (4 / FPS, 6 / FPS, {}, (1, 3)),  # frames 4-5: tracker 2 gone
+        (4 / FPS, 6 / FPS, {3: 2}, (1, 2)),  # ... but scored with tracker 3, who is there
+        (3 / FPS, 4 / FPS, {}, (1, 2)),  # frame 3 alone
+    ],
+)
 def test_within_keeps_the_workers_tracked_in_the_window(table, start, end, groups, expected):
     t = dataclasses.replace(stored_tracks(table, ReconSettings(), groups), window=Window(start, end))
     assert within(t, FPS).workers == expected

@@ -49,14 +49,29 @@ def _tracks(session: Path, out: Path) -> int:
     number = np.where(index == 0, 1, np.where(frame < n_frames // 2, 2, 3))
     pts = gt.joints_world[frame, index]
     n, j = pts.shape[:2]
-    tf = TrackFrames(worker=number.astype(np.int64), frame=frame.astype(np.int64), time_s=frame / gt.fps,
-                     points_world=pts, raw_points_world=pts.copy(), confidence=np.full((n, j), 0.9),
-                     reprojection_error_px=np.ones((n, j)), views=np.full((n, j), 2, np.int8),
-                     gap_filled=np.zeros((n, j), bool), gated=np.zeros((n, j), bool), smoothed=True,
-                     lens_angle_deg=np.full((n, j), 30.0), inferred=np.zeros((n, j), bool),
-                     std_world=np.full((n, j, 3), 0.01))
-    write_tracks(ResultStore(out).tracks_path, tf, fps=gt.fps, cameras=gt.camera_names,
-                 workers={k: {"stature_estimate_m": v} for k, v in STATURES.items()})
+    tf = TrackFrames(
+        worker=number.astype(np.int64),
+        frame=frame.astype(np.int64),
+        time_s=frame / gt.fps,
+        points_world=pts,
+        raw_points_world=pts.copy(),
+        confidence=np.full((n, j), 0.9),
+        reprojection_error_px=np.ones((n, j)),
+        views=np.full((n, j), 2, np.int8),
+        gap_filled=np.zeros((n, j), bool),
+        gated=np.zeros((n, j), bool),
+        smoothed=True,
+        lens_angle_deg=np.full((n, j), 30.0),
+        inferred=np.zeros((n, j), bool),
+        std_world=np.full((n, j, 3), 0.01),
+    )
+    write_tracks(
+        ResultStore(out).tracks_path,
+        tf,
+        fps=gt.fps,
+        cameras=gt.camera_names,
+        workers={k: {"stature_estimate_m": v} for k, v in STATURES.items()},
+    )
     return int(n_frames)
 
 
@@ -97,7 +112,10 @@ def test_task_inputs_for_ids_nobody_has_are_named_in_a_warning_and_the_report(as
     assert "[workers.w1], [workers.w2]" in warnings[0] and "ergopose workers" in warnings[0]
     assert "worker_1, worker_2, worker_3" in warnings[0]
     assert sorted(p.name for p in (out / "csv").glob("*_frames.csv")) == [
-        "worker_1_frames.csv", "worker_2_frames.csv", "worker_3_frames.csv"]
+        "worker_1_frames.csv",
+        "worker_2_frames.csv",
+        "worker_3_frames.csv",
+    ]
     scored = _frames(out, "worker_1")["reba_load"].dropna()
     assert len(scored) and (scored == 0).all()  # the defaults' 0 kg: w1's 12 kg reached nobody
     text = (out / "results" / "session.json").read_text(encoding="utf-8")
@@ -134,8 +152,25 @@ def test_assess_warns_at_the_start_before_the_video_work(copy, monkeypatch):
 def test_naming_applies_the_task_inputs_and_the_scores_change(copy, capsys):
     session, out, frames = copy
     before = _frames(out, "worker_1")
-    assert cli.main(["workers", "--session", str(session), "--results", str(out), "--quiet",
-                     "--name", "worker_1=Anna", "--name", "worker_2=w2", "--name", "worker_3=w2"]) == 0
+    assert (
+        cli.main(
+            [
+                "workers",
+                "--session",
+                str(session),
+                "--results",
+                str(out),
+                "--quiet",
+                "--name",
+                "worker_1=Anna",
+                "--name",
+                "worker_2=w2",
+                "--name",
+                "worker_3=w2",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "applied to nobody" not in err
     assert names.load_names(session) == {"worker_1": "Anna", "worker_2": "w2", "worker_3": "w2"}
@@ -220,19 +255,31 @@ def test_by_stature_names_the_matching_person_end_to_end(copy):
     path.write_text(tomli_w.dumps(data), encoding="utf-8")
     assert cli.main(["workers", "--session", str(session), "--results", str(out), "--rescore", "--quiet"]) == 0
     assert sorted(p.name for p in (out / "csv").glob("*_frames.csv")) == [
-        "w1_frames.csv", "worker_2_frames.csv", "worker_3_frames.csv"]
+        "w1_frames.csv",
+        "worker_2_frames.csv",
+        "worker_3_frames.csv",
+    ]
     assert (_frames(out, "w1")["reba_load"].dropna() == W1_REBA_LOAD).all()
 
 
 def test_rows_of_one_person_in_two_ids_keep_the_better_seen_row_per_frame():
     n, j = 4, 33
-    rows = TrackFrames(worker=np.array([1, 3, 1, 3]), frame=np.array([0, 0, 1, 2]), time_s=np.zeros(n),
-                       points_world=np.arange(n, dtype=float)[:, None, None] * np.ones((n, j, 3)),
-                       raw_points_world=np.zeros((n, j, 3)), confidence=np.zeros((n, j)),
-                       reprojection_error_px=np.zeros((n, j)),
-                       views=np.array([1, 2, 2, 2], np.int8)[:, None] * np.ones((n, j), np.int8),
-                       gap_filled=np.zeros((n, j), bool), gated=np.zeros((n, j), bool), smoothed=True,
-                       lens_angle_deg=np.zeros((n, j)), inferred=np.zeros((n, j), bool), std_world=np.zeros((n, j, 3)))
+    rows = TrackFrames(
+        worker=np.array([1, 3, 1, 3]),
+        frame=np.array([0, 0, 1, 2]),
+        time_s=np.zeros(n),
+        points_world=np.arange(n, dtype=float)[:, None, None] * np.ones((n, j, 3)),
+        raw_points_world=np.zeros((n, j, 3)),
+        confidence=np.zeros((n, j)),
+        reprojection_error_px=np.zeros((n, j)),
+        views=np.array([1, 2, 2, 2], np.int8)[:, None] * np.ones((n, j), np.int8),
+        gap_filled=np.zeros((n, j), bool),
+        gated=np.zeros((n, j), bool),
+        smoothed=True,
+        lens_angle_deg=np.zeros((n, j)),
+        inferred=np.zeros((n, j), bool),
+        std_world=np.zeros((n, j, 3)),
+    )
     merged = names.merge_rows(rows, {1: 1, 3: 1})
     assert merged.worker.tolist() == [1, 1, 1] and merged.frame.tolist() == [0, 1, 2]
     assert merged.points_world[:, 0, 0].tolist() == [1.0, 2.0, 3.0]  # frame 0: worker_3's row, seen by 2 cameras

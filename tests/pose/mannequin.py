@@ -8,12 +8,18 @@ import numpy as np
 #: Joint positions (pixels) of the cartoon person as drawn on a 256 x 256 image: standing,
 #: facing the viewer (its left side on the image's right), hips near the centre.
 MANNEQUIN_JOINTS: dict[str, tuple[float, float]] = {
-    "left_shoulder": (150, 66), "right_shoulder": (106, 66),
-    "left_elbow": (170, 102), "right_elbow": (86, 102),
-    "left_wrist": (180, 136), "right_wrist": (76, 136),
-    "left_hip": (141, 130), "right_hip": (115, 130),
-    "left_knee": (145, 180), "right_knee": (111, 180),
-    "left_ankle": (147, 226), "right_ankle": (109, 226),
+    "left_shoulder": (150, 66),
+    "right_shoulder": (106, 66),
+    "left_elbow": (170, 102),
+    "right_elbow": (86, 102),
+    "left_wrist": (180, 136),
+    "right_wrist": (76, 136),
+    "left_hip": (141, 130),
+    "right_hip": (115, 130),
+    "left_knee": (145, 180),
+    "right_knee": (111, 180),
+    "left_ankle": (147, 226),
+    "right_ankle": (109, 226),
 }
 
 SKIN = (140, 180, 230)  # BGR
@@ -23,7 +29,9 @@ SHOES = (30, 30, 120)
 HAIR = (30, 50, 80)
 
 
-def draw_mannequin(image: np.ndarray, scale: float = 1.0, offset: tuple[float, float] = (0.0, 0.0)) -> dict[str, np.ndarray]:
+def draw_mannequin(
+    image: np.ndarray, scale: float = 1.0, offset: tuple[float, float] = (0.0, 0.0)
+) -> dict[str, np.ndarray]:
     """Draw the cartoon person onto ``image`` (in place), its 256-pixel layout scaled by ``scale``
     and shifted by ``offset``; return the drawn joint positions (pixels) by name."""
     off = np.asarray(offset, dtype=np.float64)
@@ -38,9 +46,17 @@ def draw_mannequin(image: np.ndarray, scale: float = 1.0, offset: tuple[float, f
     def j(name):
         return pt(MANNEQUIN_JOINTS[name])
 
-    cv2.fillConvexPoly(image, np.array([pt((106, 116)), pt((150, 116)), pt((152, 140)), pt((104, 140))], np.int32), PANTS)
-    cv2.fillConvexPoly(image, np.array([pt((106, 58)), pt((150, 58)), j("left_shoulder"), pt((146, 120)),
-                                        pt((110, 120)), j("right_shoulder")], np.int32), SHIRT)
+    cv2.fillConvexPoly(
+        image, np.array([pt((106, 116)), pt((150, 116)), pt((152, 140)), pt((104, 140))], np.int32), PANTS
+    )
+    cv2.fillConvexPoly(
+        image,
+        np.array(
+            [pt((106, 58)), pt((150, 58)), j("left_shoulder"), pt((146, 120)), pt((110, 120)), j("right_shoulder")],
+            np.int32,
+        ),
+        SHIRT,
+    )
     for side, d in (("left", 1), ("right", -1)):
         cv2.line(image, j(f"{side}_hip"), j(f"{side}_knee"), PANTS, t(17))
         cv2.line(image, j(f"{side}_knee"), j(f"{side}_ankle"), PANTS, t(14))

@@ -51,7 +51,7 @@ def test_anchor_layout_matches_the_detector_output():
     np.testing.assert_allclose(anchors[2], [1.5 / 28, 0.5 / 28])  # row-major: x moves first
     np.testing.assert_allclose(anchors[2 * 28], [0.5 / 28, 1.5 / 28])
     np.testing.assert_allclose(anchors[1568], [0.5 / 14, 0.5 / 14])
-    np.testing.assert_allclose(anchors[1568 + 392: 1568 + 392 + 6], np.tile([0.5 / 7, 0.5 / 7], (6, 1)))
+    np.testing.assert_allclose(anchors[1568 + 392 : 1568 + 392 + 6], np.tile([0.5 / 7, 0.5 / 7], (6, 1)))
     np.testing.assert_allclose(anchors[-1], [6.5 / 7, 6.5 / 7])
 
 
@@ -339,8 +339,10 @@ def test_each_card_gives_its_gates_to_the_stage():
     assert base.with_gates(None) is base
     # full's gates are the stage's defaults: results stored before the cards had gates stay valid.
     full = landmark_card("full").gates
-    assert (PoseSettings().min_presence, PoseSettings().min_keypoint_confidence) == \
-        (full.min_presence, full.min_keypoint_confidence)
+    assert (PoseSettings().min_presence, PoseSettings().min_keypoint_confidence) == (
+        full.min_presence,
+        full.min_keypoint_confidence,
+    )
     from ergopose.recon.settings import ReconSettings
 
     assert ReconSettings().min_confidence == full.min_triangulation_confidence

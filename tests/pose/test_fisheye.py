@@ -48,8 +48,9 @@ def camera():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("target", [(1.2, 0.8, 1.0), (-2.0, 1.5, 1.0), (0.5, -2.6, 1.0),
-                                    (0.35, -0.3, 1.0)])  # the last 12 deg off the axis, under the camera
+@pytest.mark.parametrize(
+    "target", [(1.2, 0.8, 1.0), (-2.0, 1.5, 1.0), (0.5, -2.6, 1.0), (0.35, -0.3, 1.0)]
+)  # the last 12 deg off the axis, under the camera
 def test_stage_finds_and_refocuses_on_a_person(camera, landmarker, detector, target):
     frame, joints = fisheye_with_person(camera, target)
     stage = FisheyePoseEstimator(camera, 0, landmarker, detector)
@@ -69,8 +70,9 @@ def test_stage_finds_and_refocuses_on_a_person(camera, landmarker, detector, tar
         det = found.to_recon(camera, time_s=frame_index / 12.0)
         assert det.count == 1 and det.camera == "cam_1"
         ok = np.isfinite(det.rays_world).all(axis=-1)
-        from_p = Detections2D(det.camera, det.frame, det.time_s, det.pixels_view, det.confidence,
-                              det.projection).world_rays()
+        from_p = Detections2D(
+            det.camera, det.frame, det.time_s, det.pixels_view, det.confidence, det.projection
+        ).world_rays()
         assert np.allclose(det.rays_world[ok], from_p[ok], atol=1e-9)
 
 
@@ -104,7 +106,7 @@ def test_view_cache_reuses_maps_for_nearby_requests(camera):
 def _view_pixel_shift(requested: VirtualView, served: VirtualView) -> float:
     """Largest distance (view pixels) between where a ray falls in the requested view and in the
     view served instead, over all pixels of the requested view."""
-    v, u = np.mgrid[0:requested.height, 0:requested.width].astype(np.float64)
+    v, u = np.mgrid[0 : requested.height, 0 : requested.width].astype(np.float64)
     pixels = np.stack([u, v], axis=-1)
     rays_cam = requested.view_pixels_to_rays_cam(pixels)
     in_served = served.lens.project(rays_cam @ served.rotation_cam_from_view)
@@ -179,10 +181,14 @@ def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector,
     to_view = build_map(camera.lens, (camera.width, camera.height), view.lens, view.rotation_cam_from_view.T)
     frame = to_view.apply(drawing, exact=True, border_value=background)
     hip_ray = _unit(view.view_pixels_to_rays_cam((joints_view["left_hip"] + joints_view["right_hip"]) / 2))
-    shoulder_ray = _unit(view.view_pixels_to_rays_cam((joints_view["left_shoulder"] + joints_view["right_shoulder"]) / 2))
+    shoulder_ray = _unit(
+        view.view_pixels_to_rays_cam((joints_view["left_shoulder"] + joints_view["right_shoulder"]) / 2)
+    )
     # In the upright view the person leans by the drawn angle.
     upright = VirtualView.aimed_along(camera, hip_ray, np.radians(40))
-    d = upright.lens.project(shoulder_ray @ upright.rotation_cam_from_view) - upright.lens.project(hip_ray @ upright.rotation_cam_from_view)
+    d = upright.lens.project(shoulder_ray @ upright.rotation_cam_from_view) - upright.lens.project(
+        hip_ray @ upright.rotation_cam_from_view
+    )
     assert abs(np.degrees(np.arctan2(d[0], -d[1])) - lean_deg) < 3.0
     settings = PoseSettings(max_body_roll=np.radians(30.0))
     stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings)
@@ -198,8 +204,9 @@ def test_refocused_view_is_rolled_to_the_body_axis(camera, landmarker, detector,
     found = stage.process(frame, 1)
     assert found.count == 1 and found.source[0] == SOURCE_REFOCUS
     px = found.pixels_view[0]
-    axis = px[[JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]].mean(0) - \
-        px[[JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]].mean(0)
+    axis = px[[JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]].mean(0) - px[
+        [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
+    ].mean(0)
     # (The network's shoulders and hips on the drawn figure leaning by 30 degrees in the view
     # give its axis to within about 13 degrees.)
     assert abs(np.degrees(np.arctan2(axis[0], -axis[1])) - left_over) < 15.0

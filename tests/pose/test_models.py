@@ -106,10 +106,14 @@ def test_corrupted_file_is_refused_then_restored_from_a_local_wheel(fetched_mode
     with pytest.raises(ModelError, match="fetch --force"):
         ensure_model(BLAZEPOSE_LANDMARK_FULL, model_dir=cache)
     # A plain fetch re-creates only what is not verified; here from a local copy of the wheel.
-    wheel = _make_wheel(tmp_path / "mediapipe-0.10.14-py3-none-any.whl", {
-        c.file.path_in_source: (fetched_model_dir[0] / c.file.filename).read_bytes()
-        for c in MODEL_CARDS.values() if c.source == MEDIAPIPE_WHEEL
-    })
+    wheel = _make_wheel(
+        tmp_path / "mediapipe-0.10.14-py3-none-any.whl",
+        {
+            c.file.path_in_source: (fetched_model_dir[0] / c.file.filename).read_bytes()
+            for c in MODEL_CARDS.values()
+            if c.source == MEDIAPIPE_WHEEL
+        },
+    )
     events = []
     fetch_models(progress=events.append, model_dir=cache, wheel=wheel)
     assert verify_model(BLAZEPOSE_LANDMARK_FULL, cache) == target
@@ -221,7 +225,10 @@ def test_pip_errors_are_reduced_to_their_reason():
     dns = refused.replace("[Errno 111] Connection refused", "[Errno -3] Temporary failure in name resolution")
     assert models._pip_error(dns) == "cannot reach the package index: Temporary failure in name resolution"
     missing = "ERROR: Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)\n"
-    assert models._pip_error(missing) == "Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)"
+    assert (
+        models._pip_error(missing)
+        == "Could not find a version that satisfies the requirement mediapipe==9.9 (from versions: 0.10.14)"
+    )
     assert models._pip_error("") == "no output"
 
 
@@ -251,8 +258,10 @@ def test_three_landmark_cards_share_input_and_outputs_and_carry_gates():
     # lite and heavy come from the npm package (the wheel has only full), pinned twice over.
     assert cards[0].source == cards[2].source == MEDIAPIPE_POSE_NPM and isinstance(MEDIAPIPE_POSE_NPM, NpmSource)
     assert len(MEDIAPIPE_POSE_NPM.tarball_sha256) == 64 and MEDIAPIPE_POSE_NPM.integrity.startswith("sha512-")
-    assert MEDIAPIPE_POSE_NPM.tarball_url("https://registry.npmjs.org/") == \
-        "https://registry.npmjs.org/@mediapipe/pose/-/pose-0.5.1675469404.tgz"
+    assert (
+        MEDIAPIPE_POSE_NPM.tarball_url("https://registry.npmjs.org/")
+        == "https://registry.npmjs.org/@mediapipe/pose/-/pose-0.5.1675469404.tgz"
+    )
     assert cards[2].file.path_in_source == "package/pose_landmark_heavy.tflite"
     assert MODEL_CARDS[BLAZEPOSE_DETECTOR].gates is None
     with pytest.raises(ModelError, match="choose one of lite, full, heavy"):

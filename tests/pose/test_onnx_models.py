@@ -14,12 +14,7 @@ from onnx import TensorProto, helper, numpy_helper
 
 from ergopose.errors import ConfigError, InputError, ModelError
 from ergopose.keypoints import COCO17, JOINT_INDEX
-from ergopose.pose.onnx_models import (
-    OnnxPoseModel,
-    decode_heatmaps,
-    decode_simcc,
-    load_onnx_card,
-)
+from ergopose.pose.onnx_models import OnnxPoseModel, decode_heatmaps, decode_simcc, load_onnx_card
 
 W, H = 192, 256  # input width, height (the RTMPose / SimpleBaseline body size)
 STRIDE = 4
@@ -40,15 +35,21 @@ def _constant_outputs_model(path: Path, outputs: dict[str, np.ndarray], batch="N
         helper.make_node("Shape", ["input"], ["shape"]),
         helper.make_node("Slice", ["shape", "zero", "one"], ["n"]),
     ]
-    inits = [numpy_helper.from_array(np.array([0], np.int64), "zero"),
-             numpy_helper.from_array(np.array([1], np.int64), "one")]
+    inits = [
+        numpy_helper.from_array(np.array([0], np.int64), "zero"),
+        numpy_helper.from_array(np.array([1], np.int64), "one"),
+    ]
     outs = []
     for name, value in outputs.items():
         value = value.astype(np.float32)
-        inits += [numpy_helper.from_array(value, f"{name}_const"),
-                  numpy_helper.from_array(np.array(value.shape[1:], np.int64), f"{name}_rest")]
-        nodes += [helper.make_node("Concat", ["n", f"{name}_rest"], [f"{name}_shape"], axis=0),
-                  helper.make_node("Expand", [f"{name}_const", f"{name}_shape"], [name])]
+        inits += [
+            numpy_helper.from_array(value, f"{name}_const"),
+            numpy_helper.from_array(np.array(value.shape[1:], np.int64), f"{name}_rest"),
+        ]
+        nodes += [
+            helper.make_node("Concat", ["n", f"{name}_rest"], [f"{name}_shape"], axis=0),
+            helper.make_node("Expand", [f"{name}_const", f"{name}_shape"], [name]),
+        ]
         outs.append(helper.make_tensor_value_info(name, TensorProto.FLOAT, [batch, *value.shape[1:]]))
     return _save(helper.make_graph(nodes, "constant", [inp], outs, inits), path)
 
@@ -57,10 +58,12 @@ def _pooled_channel_model(path: Path, k: int) -> Path:
     """Heatmap k x (H/4) x (W/4): the first input channel average-pooled over 4 x 4 cells."""
     inp = helper.make_tensor_value_info("input", TensorProto.FLOAT, ["N", 3, H, W])
     out = helper.make_tensor_value_info("heatmaps", TensorProto.FLOAT, ["N", k, H // STRIDE, W // STRIDE])
-    inits = [numpy_helper.from_array(np.array([0], np.int64), "c0"),
-             numpy_helper.from_array(np.array([1], np.int64), "c1"),
-             numpy_helper.from_array(np.array([1], np.int64), "axis1"),
-             numpy_helper.from_array(np.array([1, k, 1, 1], np.int64), "reps")]
+    inits = [
+        numpy_helper.from_array(np.array([0], np.int64), "c0"),
+        numpy_helper.from_array(np.array([1], np.int64), "c1"),
+        numpy_helper.from_array(np.array([1], np.int64), "axis1"),
+        numpy_helper.from_array(np.array([1, k, 1, 1], np.int64), "reps"),
+    ]
     nodes = [
         helper.make_node("Slice", ["input", "c0", "c1", "axis1"], ["first"]),
         helper.make_node("AveragePool", ["first"], ["pooled"], kernel_shape=[STRIDE, STRIDE], strides=[STRIDE, STRIDE]),
@@ -69,12 +72,21 @@ def _pooled_channel_model(path: Path, k: int) -> Path:
     return _save(helper.make_graph(nodes, "pooled", [inp], [out], inits), path)
 
 
-def _card(path: Path, model: Path, output_type: str, keypoints, *, channel_order="RGB",
-          mean=(123.675, 116.28, 103.53), std=(58.395, 57.12, 57.375), extra: str = "") -> Path:
+def _card(
+    path: Path,
+    model: Path,
+    output_type: str,
+    keypoints,
+    *,
+    channel_order="RGB",
+    mean=(123.675, 116.28, 103.53),
+    std=(58.395, 57.12, 57.375),
+    extra: str = "",
+) -> Path:
     kp = f'"{keypoints}"' if isinstance(keypoints, str) else "[" + ", ".join(f'"{n}"' for n in keypoints) + "]"
     path.write_text(
         f'name = "{path.stem}"\nfile = "{model.name}"\nlicence = "test"\n{extra}\n'
-        f"[input]\nwidth = {W}\nheight = {H}\nchannel_order = \"{channel_order}\"\n"
+        f'[input]\nwidth = {W}\nheight = {H}\nchannel_order = "{channel_order}"\n'
         f"mean = {list(mean)}\nstd = {list(std)}\n"
         f'[output]\ntype = "{output_type}"\nsplit_ratio = 2.0\nkeypoints = {kp}\n',
         encoding="utf-8",
@@ -83,7 +95,7 @@ def _card(path: Path, model: Path, output_type: str, keypoints, *, channel_order
 
 
 def _gaussian(shape, centre, sigma_x, sigma_y, rho=0.0, peak=1.0):
-    yy, xx = np.mgrid[0:shape[0], 0:shape[1]].astype(np.float64)
+    yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float64)
     dx, dy = (xx - centre[0]) / sigma_x, (yy - centre[1]) / sigma_y
     return peak * np.exp(-(dx * dx - 2 * rho * dx * dy + dy * dy) / (2 * (1 - rho * rho)))
 
@@ -96,11 +108,14 @@ def test_heatmap_model_recovers_sub_cell_gaussian_peaks(tmp_path):
     rng = np.random.default_rng(17)
     centres = np.column_stack([rng.uniform(3, ww - 4, 17), rng.uniform(3, hh - 4, 17)])
     peaks = rng.uniform(0.3, 0.95, 17)
-    maps = np.stack([
-        _gaussian((hh, ww), c, sx, sy, rho, p)
-        for c, sx, sy, rho, p in zip(centres, rng.uniform(1.5, 3, 17), rng.uniform(1.5, 3, 17),
-                                     rng.uniform(-0.5, 0.5, 17), peaks)
-    ])[None]
+    maps = np.stack(
+        [
+            _gaussian((hh, ww), c, sx, sy, rho, p)
+            for c, sx, sy, rho, p in zip(
+                centres, rng.uniform(1.5, 3, 17), rng.uniform(1.5, 3, 17), rng.uniform(-0.5, 0.5, 17), peaks
+            )
+        ]
+    )[None]
     model = _constant_outputs_model(tmp_path / "hm.onnx", {"heatmaps": maps})
     runner = OnnxPoseModel(_card(tmp_path / "hm.toml", model, "heatmap", "coco17"))
     kp = runner(np.zeros((H, W, 3), np.uint8))
@@ -137,8 +152,8 @@ def test_input_dependent_model_checks_channel_order_and_normalisation(tmp_path):
     for col, row in cells:
         img = np.zeros((H, W, 3), np.uint8)
         img[..., 2] = 10  # red background -> 0 after normalisation
-        img[row * 4:row * 4 + 4, col * 4:col * 4 + 4, 2] = 255
-        img[decoy[1] * 4:decoy[1] * 4 + 4, decoy[0] * 4:decoy[0] * 4 + 4, 0] = 255
+        img[row * 4 : row * 4 + 4, col * 4 : col * 4 + 4, 2] = 255
+        img[decoy[1] * 4 : decoy[1] * 4 + 4, decoy[0] * 4 : decoy[0] * 4 + 4, 0] = 255
         images.append(img)
     results = rgb.run_batch(images)
     wrist = JOINT_INDEX["left_wrist"]
@@ -146,8 +161,11 @@ def test_input_dependent_model_checks_channel_order_and_normalisation(tmp_path):
         np.testing.assert_allclose(kp.pixels[wrist], [col * STRIDE, row * STRIDE], atol=1e-6)
         assert kp.confidence[wrist] == pytest.approx(1.0, abs=1e-5)
     # The same network read as BGR sees the blue channel first and finds the decoy.
-    bgr = OnnxPoseModel(_card(tmp_path / "bgr.toml", model, "heatmap", "coco17", channel_order="BGR",
-                              mean=(0, 0, 0), std=(255, 255, 255)))
+    bgr = OnnxPoseModel(
+        _card(
+            tmp_path / "bgr.toml", model, "heatmap", "coco17", channel_order="BGR", mean=(0, 0, 0), std=(255, 255, 255)
+        )
+    )
     kp = bgr(images[0])
     np.testing.assert_allclose(kp.pixels[wrist], [decoy[0] * STRIDE, decoy[1] * STRIDE], atol=1e-6)
     x = rgb.preprocess(images[0][None])
@@ -175,8 +193,12 @@ def test_simcc_model_decodes_bins_and_maps_halpe26(tmp_path):
     kp = OnnxPoseModel(_card(tmp_path / "simcc.toml", model, "simcc", "halpe26"))(np.zeros((H, W, 3), np.uint8))
     # Halpe 0-16 are COCO's; 20/21 big toes -> foot_index; 24/25 heels; head/neck/hip/small toes unused.
     pairs = [(i, JOINT_INDEX[n]) for i, n in enumerate(COCO17)]
-    pairs += [(20, JOINT_INDEX["left_foot_index"]), (21, JOINT_INDEX["right_foot_index"]),
-              (24, JOINT_INDEX["left_heel"]), (25, JOINT_INDEX["right_heel"])]
+    pairs += [
+        (20, JOINT_INDEX["left_foot_index"]),
+        (21, JOINT_INDEX["right_foot_index"]),
+        (24, JOINT_INDEX["left_heel"]),
+        (25, JOINT_INDEX["right_heel"]),
+    ]
     src, dst = np.array(pairs).T
     np.testing.assert_allclose(kp.pixels[dst], np.column_stack([bx[src], by[src]]) / 2.0)
     np.testing.assert_allclose(kp.confidence[dst], np.minimum(px, py)[src], rtol=1e-6)
@@ -197,8 +219,15 @@ def test_static_batch_model_runs_one_image_at_a_time(tmp_path):
     maps = np.zeros((1, 17, H // STRIDE, W // STRIDE))
     maps[0, :, 7, 9] = 0.7
     model = _constant_outputs_model(tmp_path / "static.onnx", {"heatmaps": maps}, batch=1)
-    runner = OnnxPoseModel(_card(tmp_path / "static.toml", model, "heatmap", "coco17",
-                                 extra='sha256 = "' + hashlib.sha256(model.read_bytes()).hexdigest() + '"'))
+    runner = OnnxPoseModel(
+        _card(
+            tmp_path / "static.toml",
+            model,
+            "heatmap",
+            "coco17",
+            extra='sha256 = "' + hashlib.sha256(model.read_bytes()).hexdigest() + '"',
+        )
+    )
     assert not runner.dynamic_batch
     out = runner.run_batch([np.zeros((H, W, 3), np.uint8)] * 3)
     assert len(out) == 3
@@ -221,7 +250,9 @@ def test_card_errors_name_the_field(tmp_path):
     with pytest.raises(ConfigError, match="unknown keypoint preset"):
         load_onnx_card(_card(tmp_path / "c.toml", model, "heatmap", "mpii"))
     bad = tmp_path / "d.toml"
-    bad.write_text('file = "m.onnx"\n[input]\nwidth = 192\n[output]\ntype = "heatmap"\nkeypoints = "coco17"\n', encoding="utf-8")
+    bad.write_text(
+        'file = "m.onnx"\n[input]\nwidth = 192\n[output]\ntype = "heatmap"\nkeypoints = "coco17"\n', encoding="utf-8"
+    )
     with pytest.raises(ConfigError, match=r"d\.toml: input\.height: missing"):
         load_onnx_card(bad)
     with pytest.raises(ConfigError, match="model card not found"):

@@ -28,11 +28,11 @@ MARGIN = 0.015
 #: move the figures up).
 SHORTFALL = {
     ("astronaut", 250.0): "0.083 in one case (80 deg, straight down the 1024 x 768 image, whose bottom edge runs "
-                          "through the eyes); the other 23 within 0.039",
+    "through the eyes); the other 23 within 0.039",
     ("camera", 620.0): "not found in 4 of 24 (20 deg at 270 deg; 80 deg at 0, 90 and 270 deg: views lose the man "
-                       "bent over his tripod as they re-focus); 14 of the 20 found above 0.05, up to 0.217",
+    "bent over his tripod as they re-focus); 14 of the 20 found above 0.05, up to 0.217",
     ("camera", 250.0): "not found in 1 of 24 (80 deg straight up: 11 of the 25 keypoints outside the 1024 x 768 "
-                       "frame); 18 of the 23 found above 0.05, up to 0.386",
+    "frame); 18 of the 23 found above 0.05, up to 0.386",
 }
 
 
@@ -40,8 +40,10 @@ def _photo(name: str) -> np.ndarray:
     photo = next(p for p in P.PHOTOS if p.name == name)
     path = P.photo_file(photo)
     if path is None:
-        pytest.skip(f"needs the photo {photo.path} of the package {photo.package} "
-                    "(a test dependency: pip install -c constraints.txt '.[test]')")
+        pytest.skip(
+            f"needs the photo {photo.path} of the package {photo.package} "
+            "(a test dependency: pip install -c constraints.txt '.[test]')"
+        )
     return P.read_photo(path)
 
 
@@ -72,8 +74,12 @@ def test_warp_puts_the_photo_where_asked_head_away_from_the_centre(off_axis_deg,
     back = w.photo_pixels(w.camera.lens.unproject(np.stack([u, v], axis=-1).astype(np.float64)))
 
     def within(margin):
-        return (back[..., 0] > -margin) & (back[..., 0] < 159 + margin) & \
-            (back[..., 1] > -margin) & (back[..., 1] < 199 + margin)
+        return (
+            (back[..., 0] > -margin)
+            & (back[..., 0] < 159 + margin)
+            & (back[..., 1] > -margin)
+            & (back[..., 1] < 199 + margin)
+        )
 
     assert within(0.0).sum() > 0.7 * 160 * 200 * (rho / 600.0) ** 2  # the photo's area, near enough
     assert (lit & ~within(1.0)).sum() == 0  # bilinear sampling blends the edge with the black
@@ -91,8 +97,10 @@ def _measure(name: str, density: tuple[float, int, int], landmarker, detector) -
         ref = P.photo_reference(image, detector, landmarker)
         assert ref is not None, f"the network finds nobody with both shoulders in {name}"
         same = P.reference_at_density(image, detector, landmarker, density[0] / P.focal_px(ref))
-        _ROWS[key] = [P.run_case(case, image, ref, landmarker, detector, same_density=same)
-                      for case in P.cases([name], densities=[density])]
+        _ROWS[key] = [
+            P.run_case(case, image, ref, landmarker, detector, same_density=same)
+            for case in P.cases([name], densities=[density])
+        ]
     return _ROWS[key]
 
 

@@ -43,7 +43,7 @@ def user_lines(err: str) -> list[str]:
 
 def _masked(frame: np.ndarray) -> np.ndarray:
     u, v, r = CIRCLE
-    yy, xx = np.mgrid[0:frame.shape[0], 0:frame.shape[1]]
+    yy, xx = np.mgrid[0 : frame.shape[0], 0 : frame.shape[1]]
     out = frame.copy()
     out[np.hypot(xx - u, yy - v) > r] = 0
     return out
@@ -96,8 +96,9 @@ def test_pose_with_a_calibration_file(camera, walking_video, fetched_model_dir, 
     video, truth = walking_video
     calibration = save_calibration(tmp_path / "calibration.toml", [camera])
     out = tmp_path / "keypoints.csv"
-    code, stdout, lines = _run(capsys, "pose", video, "--camera", calibration, "--out", out,
-                               "--model-dir", fetched_model_dir[0])
+    code, stdout, lines = _run(
+        capsys, "pose", video, "--camera", calibration, "--out", out, "--model-dir", fetched_model_dir[0]
+    )
     assert code == 0, lines
     assert lines == []  # no warnings
     assert "people found in" in stdout and str(out) in stdout
@@ -110,8 +111,19 @@ def test_pose_without_calibration_finds_the_image_circle(walking_video, fetched_
     # The field of view across the lit circle of the test lens.
     theta = float(np.arccos(LENS.unproject(np.array([CIRCLE[0] + CIRCLE[2], CIRCLE[1]]))[2]))
     out = tmp_path / "keypoints.csv"
-    code, stdout, lines = _run(capsys, "pose", video, "--fov-deg", f"{2 * math.degrees(theta):.1f}", "--out", out,
-                               "--model-dir", fetched_model_dir[0], "--start", "0.1")
+    code, stdout, lines = _run(
+        capsys,
+        "pose",
+        video,
+        "--fov-deg",
+        f"{2 * math.degrees(theta):.1f}",
+        "--out",
+        out,
+        "--model-dir",
+        fetched_model_dir[0],
+        "--start",
+        "0.1",
+    )
     assert code == 0, lines
     circle = re.search(r"equidistant lens, .* image circle at \(([\d.]+), ([\d.]+)\) r = ([\d.]+) px", stdout)
     assert circle is not None, stdout
@@ -127,10 +139,13 @@ def _score_against_ground_truth(table: pd.DataFrame, gt, camera_index: int) -> t
     ground truth's, in fisheye pixels) of the worker's; the closest is scored."""
     hips = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
     shoulders = [JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]]
-    limbs = [JOINT_INDEX[s + n] for n in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle")
-             for s in ("left_", "right_")]
-    people = {key: g.set_index("joint").reindex(list(JOINT_INDEX))[["x_px", "y_px"]].to_numpy(float)
-              for key, g in table.groupby(["frame", "person"])}
+    limbs = [
+        JOINT_INDEX[s + n] for n in ("shoulder", "elbow", "wrist", "hip", "knee", "ankle") for s in ("left_", "right_")
+    ]
+    people = {
+        key: g.set_index("joint").reindex(list(JOINT_INDEX))[["x_px", "y_px"]].to_numpy(float)
+        for key, g in table.groupby(["frame", "person"])
+    }
     counted, found, errors = 0, 0, []
     for f in range(gt.n_frames):
         here = [xy for (frame, _), xy in people.items() if frame == f]
@@ -161,11 +176,13 @@ def test_pose_on_a_simulated_session_video(tiny_session, fetched_model_dir, tmp_
 
     out = tmp_path / "cam_1.csv"
     camera = ["--camera", tiny_session / "calibration.toml"] if calibrated else ["--fov-deg", "190"]
-    code, stdout, lines = _run(capsys, "pose", tiny_session / "cam_1.mp4", *camera, "--out", out,
-                               "--model-dir", fetched_model_dir[0])
+    code, stdout, lines = _run(
+        capsys, "pose", tiny_session / "cam_1.mp4", *camera, "--out", out, "--model-dir", fetched_model_dir[0]
+    )
     assert code == 0, lines
-    counted, found, errors = _score_against_ground_truth(pd.read_csv(out), load_ground_truth(
-        tiny_session / "ground_truth"), 0)
+    counted, found, errors = _score_against_ground_truth(
+        pd.read_csv(out), load_ground_truth(tiny_session / "ground_truth"), 0
+    )
     assert counted >= 30
     assert found >= 0.9 * counted, (found, counted)
     assert np.median(errors) < 0.25, np.median(errors)
@@ -199,8 +216,9 @@ def _write(path, frames, fps=FPS):
     return path
 
 
-@pytest.mark.parametrize("case", ["missing", "not a video", "fov 90", "fov 300", "black", "not fisheye",
-                                  "fov with camera", "max people 0"])
+@pytest.mark.parametrize(
+    "case", ["missing", "not a video", "fov 90", "fov 300", "black", "not fisheye", "fov with camera", "max people 0"]
+)
 def test_bad_input_is_one_line_and_a_non_zero_exit(case, tmp_path, capsys):
     out = tmp_path / "k.csv"
     args: list = []
@@ -254,8 +272,19 @@ def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, 
     root = shared_data / "pose2sim-demo"
     out = tmp_path / "cam01.csv"
     # Frames 0-1 of cam01 (60 fps); the calibration's cam_01 is chosen by the video's name.
-    code, stdout, lines = _run(capsys, "pose", root / "videos" / "cam01.mp4", "--camera", root / "Calib_qualisys.toml",
-                               "--out", out, "--end", "0.034", "--model-dir", fetched_model_dir[0])
+    code, stdout, lines = _run(
+        capsys,
+        "pose",
+        root / "videos" / "cam01.mp4",
+        "--camera",
+        root / "Calib_qualisys.toml",
+        "--out",
+        out,
+        "--end",
+        "0.034",
+        "--model-dir",
+        fetched_model_dir[0],
+    )
     assert code == 0, lines
     assert len(lines) == 1 and "1088x1920" in lines[0] and "1080x1920" in lines[0]  # the padding warning
     table = pd.read_csv(out)
@@ -266,10 +295,17 @@ def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, 
     rows = table[(table["frame"] == 0)]
     torso = np.linalg.norm(k[5, :2] - k[11, :2])
     best = min(
-        np.median([np.linalg.norm(rows[(rows["person"] == p) & (rows["joint"] == name)][["x_px", "y_px"]]
-                                  .to_numpy(float)[0] - k[i, :2])
-                   for i, name in ((5, "left_shoulder"), (6, "right_shoulder"), (11, "left_hip"), (12, "right_hip"))])
-        for p in sorted(set(rows["person"])))
+        np.median(
+            [
+                np.linalg.norm(
+                    rows[(rows["person"] == p) & (rows["joint"] == name)][["x_px", "y_px"]].to_numpy(float)[0]
+                    - k[i, :2]
+                )
+                for i, name in ((5, "left_shoulder"), (6, "right_shoulder"), (11, "left_hip"), (12, "right_hip"))
+            ]
+        )
+        for p in sorted(set(rows["person"]))
+    )
     assert best < 0.15 * torso, (best, torso)
 
 
@@ -280,8 +316,19 @@ def test_pose_with_another_model_card(model, camera, walking_video, fetched_mode
     video, truth = walking_video
     calibration = save_calibration(tmp_path / "calibration.toml", [camera])
     out = tmp_path / "keypoints.csv"
-    code, stdout, lines = _run(capsys, "pose", video, "--camera", calibration, "--out", out,
-                               "--model-dir", fetched_model_dir[0], "--model", model)
+    code, stdout, lines = _run(
+        capsys,
+        "pose",
+        video,
+        "--camera",
+        calibration,
+        "--out",
+        out,
+        "--model-dir",
+        fetched_model_dir[0],
+        "--model",
+        model,
+    )
     assert code == 0 and lines == [], lines
     _check_keypoints(pd.read_csv(out), truth)
 

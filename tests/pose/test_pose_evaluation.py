@@ -31,21 +31,39 @@ CAMERA_HEIGHT = 3.0
 
 #: A standing person facing +x at the origin: (forward, left, height) in metres per joint.
 _BODY = {
-    "nose": (0.10, 0.0, 1.62), "left_eye_inner": (0.09, 0.02, 1.66), "left_eye": (0.09, 0.035, 1.66),
-    "left_eye_outer": (0.08, 0.05, 1.66), "right_eye_inner": (0.09, -0.02, 1.66), "right_eye": (0.09, -0.035, 1.66),
-    "right_eye_outer": (0.08, -0.05, 1.66), "left_ear": (0.0, 0.08, 1.64), "right_ear": (0.0, -0.08, 1.64),
-    "mouth_left": (0.09, 0.025, 1.57), "mouth_right": (0.09, -0.025, 1.57),
-    "left_shoulder": (0.0, 0.19, 1.45), "right_shoulder": (0.0, -0.19, 1.45),
-    "left_elbow": (0.0, 0.22, 1.15), "right_elbow": (0.0, -0.22, 1.15),
-    "left_wrist": (0.03, 0.23, 0.88), "right_wrist": (0.03, -0.23, 0.88),
-    "left_pinky": (0.05, 0.24, 0.80), "right_pinky": (0.05, -0.24, 0.80),
-    "left_index": (0.06, 0.23, 0.79), "right_index": (0.06, -0.23, 0.79),
-    "left_thumb": (0.06, 0.21, 0.82), "right_thumb": (0.06, -0.21, 0.82),
-    "left_hip": (0.0, 0.10, 0.95), "right_hip": (0.0, -0.10, 0.95),
-    "left_knee": (0.02, 0.10, 0.50), "right_knee": (0.02, -0.10, 0.50),
-    "left_ankle": (0.0, 0.10, 0.08), "right_ankle": (0.0, -0.10, 0.08),
-    "left_heel": (-0.05, 0.10, 0.04), "right_heel": (-0.05, -0.10, 0.04),
-    "left_foot_index": (0.15, 0.10, 0.02), "right_foot_index": (0.15, -0.10, 0.02),
+    "nose": (0.10, 0.0, 1.62),
+    "left_eye_inner": (0.09, 0.02, 1.66),
+    "left_eye": (0.09, 0.035, 1.66),
+    "left_eye_outer": (0.08, 0.05, 1.66),
+    "right_eye_inner": (0.09, -0.02, 1.66),
+    "right_eye": (0.09, -0.035, 1.66),
+    "right_eye_outer": (0.08, -0.05, 1.66),
+    "left_ear": (0.0, 0.08, 1.64),
+    "right_ear": (0.0, -0.08, 1.64),
+    "mouth_left": (0.09, 0.025, 1.57),
+    "mouth_right": (0.09, -0.025, 1.57),
+    "left_shoulder": (0.0, 0.19, 1.45),
+    "right_shoulder": (0.0, -0.19, 1.45),
+    "left_elbow": (0.0, 0.22, 1.15),
+    "right_elbow": (0.0, -0.22, 1.15),
+    "left_wrist": (0.03, 0.23, 0.88),
+    "right_wrist": (0.03, -0.23, 0.88),
+    "left_pinky": (0.05, 0.24, 0.80),
+    "right_pinky": (0.05, -0.24, 0.80),
+    "left_index": (0.06, 0.23, 0.79),
+    "right_index": (0.06, -0.23, 0.79),
+    "left_thumb": (0.06, 0.21, 0.82),
+    "right_thumb": (0.06, -0.21, 0.82),
+    "left_hip": (0.0, 0.10, 0.95),
+    "right_hip": (0.0, -0.10, 0.95),
+    "left_knee": (0.02, 0.10, 0.50),
+    "right_knee": (0.02, -0.10, 0.50),
+    "left_ankle": (0.0, 0.10, 0.08),
+    "right_ankle": (0.0, -0.10, 0.08),
+    "left_heel": (-0.05, 0.10, 0.04),
+    "right_heel": (-0.05, -0.10, 0.04),
+    "left_foot_index": (0.15, 0.10, 0.02),
+    "right_foot_index": (0.15, -0.10, 0.02),
 }
 
 
@@ -86,7 +104,11 @@ def test_settings_follow_the_stage():
     assert SETTINGS.min_presence == stage.min_presence
     plain = EvaluationSettings()  # the plain defaults are the stage's too
     assert (plain.margin, plain.min_half_fov, plain.max_half_fov, plain.min_presence) == (
-        stage.body_margin, stage.min_half_fov, stage.max_half_fov, stage.min_presence)
+        stage.body_margin,
+        stage.min_half_fov,
+        stage.max_half_fov,
+        stage.min_presence,
+    )
     assert len(EVAL_JOINTS) == 12 and set(EVAL_JOINTS) <= set(FIT_JOINTS)
 
 
@@ -247,9 +269,19 @@ def test_crops_around_the_true_keypoints(camera, x, y):
 def detections(camera, rays_list, presence):
     rays = np.stack(rays_list)
     n = rays.shape[0]
-    return FrameDetections(0, 0, np.zeros((n, NUM_JOINTS, 2)), camera.lens.project(rays), rays,
-                           np.ones((n, NUM_JOINTS)), np.asarray(presence, float), np.zeros((n, 3, 4)),
-                           np.zeros((n, 3)), np.zeros(n), np.zeros(n, np.int64))
+    return FrameDetections(
+        0,
+        0,
+        np.zeros((n, NUM_JOINTS, 2)),
+        camera.lens.project(rays),
+        rays,
+        np.ones((n, NUM_JOINTS)),
+        np.asarray(presence, float),
+        np.zeros((n, 3, 4)),
+        np.zeros((n, 3)),
+        np.zeros(n),
+        np.zeros(n, np.int64),
+    )
 
 
 def test_stage_matching_is_one_to_one_and_counts_false_positives(camera):
@@ -259,8 +291,11 @@ def test_stage_matching_is_one_to_one_and_counts_false_positives(camera):
     ghost = geometry(camera, standing_person(2.0, -2.0))
     shift = rotation_about(np.cross(a.hip_ray, [0.0, 0.0, 1.0]), 0.2 * a.torso_angle)
     # Detections: b exactly, a slightly off, a second (worse) copy of a, the hidden worker, a ghost.
-    found = detections(camera, [b.rays_cam, a.rays_cam @ shift.T, a.rays_cam @ (shift @ shift @ shift).T,
-                                hidden.rays_cam, ghost.rays_cam], [0.9, 0.8, 0.7, 0.9, 0.9])
+    found = detections(
+        camera,
+        [b.rays_cam, a.rays_cam @ shift.T, a.rays_cam @ (shift @ shift @ shift).T, hidden.rays_cam, ghost.rays_cam],
+        [0.9, 0.8, 0.7, 0.9, 0.9],
+    )
     matches, false_positives = _match_stage([(0, a), (1, b)], [hidden], found, SETTINGS)
     assert matches == {0: 1, 1: 0}
     # The second copy of a and the ghost are false positives; the hidden worker's detection is not.
@@ -275,10 +310,19 @@ def test_summary_counts_and_percentiles():
     err[0, :4] = [1.0, 2.0, 3.0, 4.0]
     err[2, :2] = [5.0, 10.0]
     trials = PersonTrials(
-        condition=np.zeros(n, np.int64), frame=np.arange(n), camera=np.zeros(n, np.int64),
-        worker=np.zeros(n, np.int64), region=np.ones(n, np.int64), theta=np.full(n, 0.7), trunk_inclination=np.full(n, 0.1),
-        presence=np.array([0.9, 0.2, 0.8, np.nan, 0.1]), found=np.array([True, False, True, False, False]),
-        hip_error_torso=np.full(n, 0.1), joint_error_px=err, joint_error_torso=err / 10.0)
+        condition=np.zeros(n, np.int64),
+        frame=np.arange(n),
+        camera=np.zeros(n, np.int64),
+        worker=np.zeros(n, np.int64),
+        region=np.ones(n, np.int64),
+        theta=np.full(n, 0.7),
+        trunk_inclination=np.full(n, 0.1),
+        presence=np.array([0.9, 0.2, 0.8, np.nan, 0.1]),
+        found=np.array([True, False, True, False, False]),
+        hip_error_torso=np.full(n, 0.1),
+        joint_error_px=err,
+        joint_error_torso=err / 10.0,
+    )
     s = _summary("view", "all", "outer", trials)
     assert (s.persons, s.found, s.joints) == (5, 2, 6)
     assert s.detection_rate == pytest.approx(0.4)

@@ -34,8 +34,10 @@ def _tiny_model() -> bytes:
     graph = schema.SubGraphT()
     graph.tensors = [tensor(b"a", 2), tensor(b"b", 3), tensor(b"sum", 2), tensor(b"square", 3)]
     graph.inputs, graph.outputs = [0, 1], [2, 3]
-    graph.operators = [operator(0, [0, 0], 2, schema.BuiltinOptions.AddOptions, schema.AddOptionsT()),
-                       operator(1, [1, 1], 3, schema.BuiltinOptions.MulOptions, schema.MulOptionsT())]
+    graph.operators = [
+        operator(0, [0, 0], 2, schema.BuiltinOptions.AddOptions, schema.AddOptionsT()),
+        operator(1, [1, 1], 3, schema.BuiltinOptions.MulOptions, schema.MulOptionsT()),
+    ]
     model = schema.ModelT()
     model.version, model.subgraphs, model.buffers = 3, [graph], [schema.BufferT()]
     model.operatorCodes = [code(schema.BuiltinOperator.ADD), code(schema.BuiltinOperator.MUL)]
@@ -52,8 +54,9 @@ def _run(content: bytes, a: np.ndarray, b: np.ndarray) -> dict[tuple[int, ...], 
     for detail, value in zip(interp.get_input_details(), (a, b)):
         interp.set_tensor(detail["index"], value)
     interp.invoke()
-    return {tuple(int(n) for n in d["shape"]): interp.get_tensor(d["index"]).copy()
-            for d in interp.get_output_details()}
+    return {
+        tuple(int(n) for n in d["shape"]): interp.get_tensor(d["index"]).copy() for d in interp.get_output_details()
+    }
 
 
 def test_an_output_and_the_operators_only_it_needs_are_left_out():

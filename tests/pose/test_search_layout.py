@@ -34,16 +34,28 @@ def equidistant_camera(size: int, fov_deg: float = 180.0, height: float = 3.0, t
     lens = Equidistant(fx=f, fy=f, cx=(size - 1) / 2, cy=(size - 1) / 2)
     c, s = math.cos(math.radians(tilt_deg)), math.sin(math.radians(tilt_deg))
     tilt = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-    return Camera(name=f"eq{size}", lens=lens, width=size, height=size,
-                  rotation_world_from_cam=ceiling_rotation() @ tilt, position_world=np.array([0.0, 0.0, height]),
-                  image_circle=((size - 1) / 2, (size - 1) / 2, size / 2))
+    return Camera(
+        name=f"eq{size}",
+        lens=lens,
+        width=size,
+        height=size,
+        rotation_world_from_cam=ceiling_rotation() @ tilt,
+        position_world=np.array([0.0, 0.0, height]),
+        image_circle=((size - 1) / 2, (size - 1) / 2, size / 2),
+    )
 
 
 def wall_camera() -> Camera:
     """A 1920 x 1080 pinhole camera (70 deg across) 1.9 m high, looking level and 15 deg down."""
     forward = np.array([math.cos(math.radians(15)), 0.0, -math.sin(math.radians(15))])
-    return Camera(name="wall", lens=Rectilinear.from_fov(1920, 1080, math.radians(70.0)), width=1920, height=1080,
-                  rotation_world_from_cam=look_at_rotation(forward), position_world=np.array([0.0, 0.0, 1.9]))
+    return Camera(
+        name="wall",
+        lens=Rectilinear.from_fov(1920, 1080, math.radians(70.0)),
+        width=1920,
+        height=1080,
+        rotation_world_from_cam=look_at_rotation(forward),
+        position_world=np.array([0.0, 0.0, 1.9]),
+    )
 
 
 CAMERAS = {
@@ -59,7 +71,7 @@ def cap_directions(top: float, n: int = 4000) -> np.ndarray:
     """n directions spread evenly over the cap of angles 0..top off the lens axis (camera frame)."""
     k = np.arange(n) + 0.5
     z = 1.0 - (1.0 - math.cos(top)) * k / n
-    az = math.pi * (1.0 + 5 ** 0.5) * k
+    az = math.pi * (1.0 + 5**0.5) * k
     r = np.sqrt(1.0 - z * z)
     return np.stack([r * np.cos(az), r * np.sin(az), z], axis=-1)
 
@@ -83,8 +95,10 @@ def test_every_direction_lies_in_a_view_that_holds_the_person_at_the_size_rule(n
     fine_enough = np.tan(halves[None]) <= 1.01 * np.tan(allowed[:, None])  # the rule, to 1 %
     ok = (holds & fine_enough).any(axis=1)
     worst = dirs[~ok]
-    assert ok.all(), (f"{(~ok).sum()} of {len(dirs)} directions not held, e.g. "
-                      f"{np.degrees(np.arccos(worst[:3, 2])).round(1).tolist()} deg off the axis")
+    assert ok.all(), (
+        f"{(~ok).sum()} of {len(dirs)} directions not held, e.g. "
+        f"{np.degrees(np.arccos(worst[:3, 2])).round(1).tolist()} deg off the axis"
+    )
 
 
 def test_views_that_hold_nothing_of_a_rectangular_image_are_left_out():
@@ -118,8 +132,10 @@ def test_a_finer_image_of_the_same_lens_gets_finer_views():
     # With a farther working distance the person rule asks for finer views everywhere; only the
     # finer image gets them.
     far = SearchSizing(max_distance=9.0)
-    assert derive_layout(rig_cameras(2592, 1944)[0], DETECTOR_PX, far).count > \
-        derive_layout(coarse_camera, DETECTOR_PX, far).count + 10
+    assert (
+        derive_layout(rig_cameras(2592, 1944)[0], DETECTOR_PX, far).count
+        > derive_layout(coarse_camera, DETECTOR_PX, far).count + 10
+    )
 
 
 @pytest.mark.parametrize("name", ["rig 1024x768", "equidistant 2048x2048"])
@@ -148,8 +164,7 @@ def test_person_size_is_the_standing_body_or_its_width_from_above():
     assert person_size(camera, d, sizing) == pytest.approx(2 * math.atan(0.25 / 2.15), abs=1e-9)
     # Towards the horizon and beyond the working distance: the person at 6 m.
     for far in (np.array([1.0, 0.0, -0.05]), np.array([1.0, 0.0, 0.2])):
-        assert person_size(camera, down @ far, sizing) == pytest.approx(math.atan(3 / 6) - math.atan(1.3 / 6),
-                                                                         abs=1e-9)
+        assert person_size(camera, down @ far, sizing) == pytest.approx(math.atan(3 / 6) - math.atan(1.3 / 6), abs=1e-9)
 
 
 def test_pixel_density_of_an_equidistant_lens():
@@ -199,15 +214,16 @@ def test_each_pass_runs_every_search_view_once_at_the_cost_per_frame(spread):
     if spread:
         assert max(counts) <= math.ceil(views / period)
     else:
-        assert counts[period - 1::period] == [views] * 3 and sum(counts[:period - 1]) == 0
+        assert counts[period - 1 :: period] == [views] * 3 and sum(counts[: period - 1]) == 0
 
 
 def test_an_unknown_layout_is_a_config_error():
     from ergopose.errors import ConfigError
 
     with pytest.raises(ConfigError, match="search_layout: must be 'lens' or 'fixed'"):
-        FisheyePoseEstimator(rig_cameras(1024, 768)[0], 0, _NoLandmarker(), _CountingDetector(),
-                             PoseSettings(search_layout="rings"))
+        FisheyePoseEstimator(
+            rig_cameras(1024, 768)[0], 0, _NoLandmarker(), _CountingDetector(), PoseSettings(search_layout="rings")
+        )
 
 
 def test_fixed_layout_stays_available():

@@ -48,8 +48,14 @@ def _image_roll_of_world_up(camera, rotation_cam_from_view, point_world):
 CAMERAS = {
     "ceiling": ceiling_camera("cam_1", Equidistant(330.0, 330.0, 511.5, 511.5), 1024, 1024, (0.0, 0.0, 3.0)),
     # A tilted wall camera (the re-rendered Pose2Sim cameras are of this kind).
-    "tilted": Camera("cam_2", Equidistant(300.0, 300.0, 511.5, 511.5), 1024, 1024,
-                     look_at_rotation((1.0, 0.3, -0.6)), (-2.0, -1.0, 2.5)),
+    "tilted": Camera(
+        "cam_2",
+        Equidistant(300.0, 300.0, 511.5, 511.5),
+        1024,
+        1024,
+        look_at_rotation((1.0, 0.3, -0.6)),
+        (-2.0, -1.0, 2.5),
+    ),
 }
 
 
@@ -166,10 +172,14 @@ class _SwappingLandmarker:
         if n not in self.swap_calls:
             return kp
         m = self.mirror
-        return dataclasses.replace(kp, pixels=kp.pixels[m], confidence=kp.confidence[m],
-                                   depth=None if kp.depth is None else kp.depth[m],
-                                   landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[m],
-                                   world_m=None if kp.world_m is None else kp.world_m[m])
+        return dataclasses.replace(
+            kp,
+            pixels=kp.pixels[m],
+            confidence=kp.confidence[m],
+            depth=None if kp.depth is None else kp.depth[m],
+            landmark_presence=None if kp.landmark_presence is None else kp.landmark_presence[m],
+            world_m=None if kp.world_m is None else kp.world_m[m],
+        )
 
 
 def _run(camera, landmarker, frame, joints, settings, frames):
@@ -196,8 +206,14 @@ def test_a_left_right_swap_in_a_sequence_is_put_back(camera, landmarker):
     # The drawn person faces the camera with left and right well apart; the network gets them right.
     assert np.linalg.norm(joints["left_shoulder"] - joints["right_shoulder"]) > 10
     swaps = {3, 6, 7}  # network calls (one view per frame here): frames 3, 6 and 7
-    before, _ = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints,
-                     dataclasses.replace(PoseSettings(), left_right_check=False), 10)
+    before, _ = _run(
+        camera,
+        _SwappingLandmarker(landmarker, swaps),
+        frame,
+        joints,
+        dataclasses.replace(PoseSettings(), left_right_check=False),
+        10,
+    )
     assert [not c for c in before] == [f in swaps for f in range(10)]  # passed on unchecked
     lowering = PoseSettings(uncertain_confidence=0.1)
     after, conf = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, lowering, 10)
@@ -227,8 +243,8 @@ def test_a_swap_the_network_keeps_is_followed_and_flagged(camera, landmarker):
     assert not any(correct[flip:]), correct
     # The frames of the change and a window after it carry lowered confidence; the network's
     # labelling is trusted again once it has held for a whole window.
-    assert all(c <= s.uncertain_confidence for c in conf[flip:flip + s.left_right_window]), conf
-    assert all(c > 0.5 for c in conf[flip + s.left_right_window:]), conf
+    assert all(c <= s.uncertain_confidence for c in conf[flip : flip + s.left_right_window]), conf
+    assert all(c > 0.5 for c in conf[flip + s.left_right_window :]), conf
     assert conf[1] > 0.5
 
 
@@ -249,7 +265,9 @@ def test_on_real_frames_a_view_that_starts_upside_down_comes_upright(shared_data
     hip = R._unit(rays[R.HIPS].mean(0))
     torso = float(R._angle(R._unit(rays[R.SHOULDERS].mean(0)), hip))
     vf = R.virtual_fisheye(real, hip, np.radians(75.0), np.pi, 250.0)
-    view_map = R.build_map(vf.camera.lens, (vf.camera.width, vf.camera.height), real.lens, vf.rotation_real_from_virtual)
+    view_map = R.build_map(
+        vf.camera.lens, (vf.camera.width, vf.camera.height), real.lens, vf.rotation_real_from_virtual
+    )
     hip_v = hip @ vf.rotation_real_from_virtual
     assert np.isclose(np.degrees(np.arccos(hip_v[2])), 75.0)
     rolls = {}

@@ -55,8 +55,7 @@ def counted_people(session, gt):
             for w in range(len(gt.worker_ids)):
                 vis = gt.visibility[f, c, w]
                 if np.all((vis[SHOULDERS + HIPS] == 0) | (vis[SHOULDERS + HIPS] == 1)):
-                    out.append((f, c, w, PersonGeometry.of(cam.camera, gt.joints_world[f, w],
-                                                           gt.pixels[f, c, w], vis)))
+                    out.append((f, c, w, PersonGeometry.of(cam.camera, gt.joints_world[f, w], gt.pixels[f, c, w], vis)))
     return out
 
 
@@ -196,8 +195,21 @@ def test_module_command_writes_the_tables(sim_session, fetched_model_dir, tmp_pa
     from ergopose.evaluation.pose import main
 
     out = tmp_path / "tables.md"
-    code = main([str(sim_session), "--conditions", "view,crop", "--step", "6", "--processes", "1",
-                 "--model-dir", str(fetched_model_dir[0]), "--out", str(out)])
+    code = main(
+        [
+            str(sim_session),
+            "--conditions",
+            "view,crop",
+            "--step",
+            "6",
+            "--processes",
+            "1",
+            "--model-dir",
+            str(fetched_model_dir[0]),
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     text = out.read_text(encoding="utf-8")
     assert "| view | outer |" in text and "| crop | all |" in text and "| stage |" not in text

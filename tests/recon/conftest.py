@@ -15,10 +15,10 @@ FPS = 12.0
 @dataclass
 class Scenario:
     cameras: tuple
-    truth: np.ndarray          # (F, P, 33, 3)
-    frames: list               # per frame (Detections2D cam_1, Detections2D cam_2)
-    order: list                # per frame, per camera: ground-truth person of each detection
-    visible: np.ndarray        # (F, C, P)
+    truth: np.ndarray  # (F, P, 33, 3)
+    frames: list  # per frame (Detections2D cam_1, Detections2D cam_2)
+    order: list  # per frame, per camera: ground-truth person of each detection
+    visible: np.ndarray  # (F, C, P)
     statures: tuple
 
 
@@ -50,14 +50,34 @@ def crossing(cameras) -> Scenario:
 
 def shift_scripts() -> list[WorkerScript]:
     return [
-        WorkerScript(1.62, np.array([[-2.2, -1.5], [-1.0, 1.6], [-2.4, 1.9], [-1.4, -2.2], [0.5, 0.2], [-2.0, 0.0]]),
-                     pause_s=6.0, speed_m_s=1.1, work_phase=0.0),
-        WorkerScript(1.72, np.array([[2.3, 1.5], [0.8, -1.8], [2.4, -2.3], [1.2, 2.2], [-0.5, -0.4], [2.0, 0.5]]),
-                     pause_s=5.0, speed_m_s=1.2, work_phase=1.1),
-        WorkerScript(1.82, np.array([[0.2, 2.4], [0.0, -2.4], [1.8, 0.2], [-1.9, 0.6], [0.3, 2.3], [0.2, -1.0]]),
-                     pause_s=4.0, speed_m_s=1.0, work_phase=2.3),
-        WorkerScript(1.92, np.array([[-0.5, -2.5], [-2.3, 2.4], [2.4, 2.4], [-0.3, -0.6], [2.3, -2.0], [-2.3, -2.0]]),
-                     pause_s=3.0, speed_m_s=1.3, work_phase=3.7),
+        WorkerScript(
+            1.62,
+            np.array([[-2.2, -1.5], [-1.0, 1.6], [-2.4, 1.9], [-1.4, -2.2], [0.5, 0.2], [-2.0, 0.0]]),
+            pause_s=6.0,
+            speed_m_s=1.1,
+            work_phase=0.0,
+        ),
+        WorkerScript(
+            1.72,
+            np.array([[2.3, 1.5], [0.8, -1.8], [2.4, -2.3], [1.2, 2.2], [-0.5, -0.4], [2.0, 0.5]]),
+            pause_s=5.0,
+            speed_m_s=1.2,
+            work_phase=1.1,
+        ),
+        WorkerScript(
+            1.82,
+            np.array([[0.2, 2.4], [0.0, -2.4], [1.8, 0.2], [-1.9, 0.6], [0.3, 2.3], [0.2, -1.0]]),
+            pause_s=4.0,
+            speed_m_s=1.0,
+            work_phase=2.3,
+        ),
+        WorkerScript(
+            1.92,
+            np.array([[-0.5, -2.5], [-2.3, 2.4], [2.4, 2.4], [-0.3, -0.6], [2.3, -2.0], [-2.3, -2.0]]),
+            pause_s=3.0,
+            speed_m_s=1.3,
+            work_phase=3.7,
+        ),
     ]
 
 
@@ -71,9 +91,9 @@ def shift(cameras) -> Scenario:
     truth = walk_workers(scripts, n, FPS)
     vis = np.ones((n, 2, len(scripts)), bool)
     s = lambda a, b: slice(int(a * FPS), int(b * FPS))  # noqa: E731
-    vis[s(10, 15), 0, 0] = False      # worker 0 behind a shelf for camera 1
-    vis[s(20, 21), :, 1] = False      # worker 1 hidden from both for 1 s
-    vis[s(30, 55), :, 2] = False      # worker 2 leaves the area for 25 s
-    vis[s(40, 45), :, 3] = False      # worker 3 hidden from both for 5 s
+    vis[s(10, 15), 0, 0] = False  # worker 0 behind a shelf for camera 1
+    vis[s(20, 21), :, 1] = False  # worker 1 hidden from both for 1 s
+    vis[s(30, 55), :, 2] = False  # worker 2 leaves the area for 25 s
+    vis[s(40, 45), :, 3] = False  # worker 3 hidden from both for 5 s
     frames, order = observe(cameras, truth, noise_px=2.0, dropout=0.02, visible=vis, seed=7, fps=FPS)
     return Scenario(cameras, truth, frames, order, vis, tuple(s.stature for s in scripts))

@@ -14,8 +14,9 @@ from tests.recon.conftest import FPS
 
 def test_ray_closest_points_known_answer():
     # Two skew lines: x-axis at z = 0 and a line parallel to y through (1, 0, 2).
-    dist, mid, s, t = ray_closest_points(np.zeros(3), np.array([1.0, 0, 0]), np.array([1.0, -5.0, 2.0]),
-                                         np.array([0.0, 1.0, 0.0]))
+    dist, mid, s, t = ray_closest_points(
+        np.zeros(3), np.array([1.0, 0, 0]), np.array([1.0, -5.0, 2.0]), np.array([0.0, 1.0, 0.0])
+    )
     assert np.isclose(dist, 2.0) and np.allclose(mid, [1.0, 0.0, 1.0]) and np.isclose(s, 1.0) and np.isclose(t, 5.0)
 
 
@@ -38,8 +39,10 @@ def test_ghost_pair_in_an_epipolar_plane_is_refused(cameras):
     exactly (the ghost), but too high and with a too short trunk -- the pair is impossible."""
     from ergopose.sim.synthetic import WorkerScript
 
-    scripts = [WorkerScript(1.75, np.array([[-1.0, 1.0]]), pause_s=10.0),
-               WorkerScript(1.75, np.array([[1.0, 1.0]]), pause_s=10.0)]
+    scripts = [
+        WorkerScript(1.75, np.array([[-1.0, 1.0]]), pause_s=10.0),
+        WorkerScript(1.75, np.array([[1.0, 1.0]]), pause_s=10.0),
+    ]
     truth = walk_workers(scripts, 1, FPS)
     frames, order = observe(cameras, truth, noise_px=0.0, dropout=0.0, seed=1, shuffle=False)
     a, b = frames[0]
@@ -58,8 +61,9 @@ def _raw_ray_cost(a: Detections2D, b: Detections2D) -> np.ndarray:
     from ergopose.recon.records import TORSO_JOINTS
 
     ra, rb = a.world_rays()[:, TORSO_JOINTS], b.world_rays()[:, TORSO_JOINTS]
-    d, _, _, _ = ray_closest_points(a.centres_world()[:, None, None], ra[:, None], b.centres_world()[None, :, None],
-                                    rb[None, :])
+    d, _, _, _ = ray_closest_points(
+        a.centres_world()[:, None, None], ra[:, None], b.centres_world()[None, :, None], rb[None, :]
+    )
     return d.mean(axis=-1)
 
 

@@ -40,14 +40,20 @@ def _bodies(n, rng, stature=1.75):
     """n postures (reaching, bending, twisting) on the floor and their 33 points."""
     m = BodyMeasurements.from_stature(stature)
     posture = Posture(
-        trunk_flexion=rng.uniform(0.0, 0.8, n), trunk_twist=rng.uniform(-0.3, 0.3, n),
+        trunk_flexion=rng.uniform(0.0, 0.8, n),
+        trunk_twist=rng.uniform(-0.3, 0.3, n),
         neck_flexion=rng.uniform(-0.2, 0.5, n),
-        left_upper_arm_flexion=rng.uniform(0.0, 1.8, n), right_upper_arm_flexion=rng.uniform(0.0, 1.8, n),
-        left_elbow_flexion=rng.uniform(0.2, 1.8, n), right_elbow_flexion=rng.uniform(0.2, 1.8, n),
-        left_knee_flexion=rng.uniform(0.0, 0.6, n), right_knee_flexion=rng.uniform(0.0, 0.6, n),
-        left_hip_flexion=rng.uniform(0.0, 0.5, n), right_hip_flexion=rng.uniform(0.0, 0.5, n),
+        left_upper_arm_flexion=rng.uniform(0.0, 1.8, n),
+        right_upper_arm_flexion=rng.uniform(0.0, 1.8, n),
+        left_elbow_flexion=rng.uniform(0.2, 1.8, n),
+        right_elbow_flexion=rng.uniform(0.2, 1.8, n),
+        left_knee_flexion=rng.uniform(0.0, 0.6, n),
+        right_knee_flexion=rng.uniform(0.0, 0.6, n),
+        left_hip_flexion=rng.uniform(0.0, 0.5, n),
+        right_hip_flexion=rng.uniform(0.0, 0.5, n),
         heading=rng.uniform(-np.pi, np.pi, n),
-        root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], axis=-1))
+        root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], axis=-1),
+    )
     posture = place_on_floor(m, posture)
     return pose_skeleton(m, posture)
 
@@ -79,7 +85,7 @@ def test_two_cameras_recover_the_body_and_its_uncertainty(rng):
     assert not fit.inferred.any()
     # The fit's deviations describe its errors: error / predicted deviation per coordinate.
     z = (fit.points_world - truth) / np.sqrt(fit.variance_world)
-    assert 0.6 < np.sqrt(np.mean(z ** 2)) < 1.6
+    assert 0.6 < np.sqrt(np.mean(z**2)) < 1.6
 
 
 def test_without_the_body_model_terms_two_views_are_independent_triangulations(rng):
@@ -89,8 +95,15 @@ def test_without_the_body_model_terms_two_views_are_independent_triangulations(r
     truth = _bodies(5, rng)
     P, px, conf = _views(truth, rng, noise_px=0.5)
     L = B.segment_lengths(truth)
-    fit = B.fit_bodies(P, px, conf, truth + 0.03, L, np.full_like(L, 1e6),
-                       options=B.FitOptions(pose_prior_sigma_m=1e6, huber_k=1e6, iterations=15))
+    fit = B.fit_bodies(
+        P,
+        px,
+        conf,
+        truth + 0.03,
+        L,
+        np.full_like(L, 1e6),
+        options=B.FitOptions(pose_prior_sigma_m=1e6, huber_k=1e6, iterations=15),
+    )
     dlt = triangulate_dlt(P, px, conf)
     # The floor term stays: a foot point the noise put below the floor is lifted to it.
     above = dlt.points[..., 2] > 0.02
@@ -103,8 +116,16 @@ def test_one_camera_is_enough_with_the_segment_lengths_and_the_previous_pose(rng
     moved = truth + np.array([0.03, -0.02, 0.0])  # this frame: the body moved 3.6 cm
     P, px, conf = _views(moved, rng)
     conf[:, 1] = 0.0  # the second camera does not see the worker
-    fit = _fit(P, px, conf, moved, truth, previous_world=truth, previous_sigma_m=np.full(30, 0.155),
-               previous_dt_s=np.full(30, 1 / 12))
+    fit = _fit(
+        P,
+        px,
+        conf,
+        moved,
+        truth,
+        previous_world=truth,
+        previous_sigma_m=np.full(30, 0.155),
+        previous_dt_s=np.full(30, 1 / 12),
+    )
     err = np.linalg.norm(fit.points_world - moved, axis=-1)
     assert fit.inferred.all()
     assert np.median(err) < 0.03
@@ -119,8 +140,16 @@ def test_a_limb_nobody_sees_is_carried_and_marked_inferred(rng):
     arm = [JOINT_INDEX[n] for n in ("left_wrist", "left_pinky", "left_index", "left_thumb")]
     conf[:, :, arm] = 0.0
     px[:, :, arm] = np.nan
-    fit = _fit(P, px, conf, truth, truth + 0.02, previous_world=truth, previous_sigma_m=np.full(20, 0.155),
-               previous_dt_s=np.full(20, 1 / 12))
+    fit = _fit(
+        P,
+        px,
+        conf,
+        truth,
+        truth + 0.02,
+        previous_world=truth,
+        previous_sigma_m=np.full(20, 0.155),
+        previous_dt_s=np.full(20, 1 / 12),
+    )
     assert fit.inferred[:, arm].all() and not fit.inferred[:, JOINT_INDEX["left_elbow"]].any()
     err = np.linalg.norm(fit.points_world - truth, axis=-1)
     assert np.median(err[:, arm]) < 0.05
@@ -135,9 +164,15 @@ def test_a_wrong_keypoint_does_not_drag_the_body(rng):
     e = JOINT_INDEX["right_elbow"]
     px[:, 0, e] += 60.0
     robust = _fit(P, px, conf, truth, truth + 0.02)
-    plain = B.fit_bodies(P, px, conf, truth + 0.02, B.segment_lengths(truth),
-                         B._PLAY_ABS + B._PLAY_REL * B.segment_lengths(truth),
-                         options=B.FitOptions(huber_k=1e6))  # squared loss
+    plain = B.fit_bodies(
+        P,
+        px,
+        conf,
+        truth + 0.02,
+        B.segment_lengths(truth),
+        B._PLAY_ABS + B._PLAY_REL * B.segment_lengths(truth),
+        options=B.FitOptions(huber_k=1e6),
+    )  # squared loss
     err_r = np.linalg.norm(robust.points_world[:, e] - truth[:, e], axis=-1)
     err_p = np.linalg.norm(plain.points_world[:, e] - truth[:, e], axis=-1)
     assert np.median(err_r) < 0.5 * np.median(err_p)
@@ -151,8 +186,7 @@ def test_angles_from_the_fit_follow_the_posture(rng):
     fit = _fit(P, px, conf, truth, truth + rng.normal(0.0, 0.05, truth.shape))
     t = np.arange(60) / 12.0
     a, b = joint_angles(fit.points_world, t).to_frame(), joint_angles(truth, t).to_frame()
-    for name in ("trunk_flexion", "left_upper_arm_flexion", "right_elbow_flexion", "left_knee_flexion",
-                 "neck_flexion"):
+    for name in ("trunk_flexion", "left_upper_arm_flexion", "right_elbow_flexion", "left_knee_flexion", "neck_flexion"):
         d = np.degrees(np.abs(a[name] - b[name]))
         assert np.median(d) < 4.0, name
 
@@ -173,7 +207,7 @@ def test_worker_lengths_measured_or_scaled_population():
 def test_segments_cover_every_joint_and_the_limbs_come_first():
     from ergopose.keypoints import LIMBS
 
-    assert B.SEGMENTS[:len(LIMBS)] == tuple(name for name, _, _ in LIMBS)
+    assert B.SEGMENTS[: len(LIMBS)] == tuple(name for name, _, _ in LIMBS)
     touched = (B.SEGMENT_MATRIX != 0).any(axis=0)
     assert touched.all()
     assert np.allclose(B.SEGMENT_MATRIX.sum(axis=1), 0.0)  # differences of points
@@ -190,7 +224,7 @@ def test_a_camera_that_crossed_the_legs_or_the_whole_body_is_turned_back(rng):
     previous = truth + rng.normal(0.0, 0.01, truth.shape)  # last frame's fit: close to now
     legs, arms = B.LIMB_SIDE_GROUPS[1], B.LIMB_SIDE_GROUPS[0]
     wrong = px.copy()
-    wrong[:10, 1] = px[:10, 1][:, MIRROR]                                  # whole body, camera 2
+    wrong[:10, 1] = px[:10, 1][:, MIRROR]  # whole body, camera 2
     wrong[10:20, 1] = np.where(legs[:, None], px[10:20, 1][:, MIRROR], px[10:20, 1])  # legs only
     wrong[20:, 0] = np.where(arms[:, None], px[20:, 0][:, MIRROR], px[20:, 0])  # arms only, camera 1
     fixed, _, swapped, unanimous = B.correct_left_right(P, wrong, conf, previous)
@@ -228,12 +262,23 @@ def test_a_mirrored_previous_pose_against_unanimous_cameras(rng):
 def _shift_rows(truth, P, px, conf):
     """The rows ShiftBodies.fit_range takes, for one worker (identity 0) over len(truth) frames."""
     n = len(truth)
-    return {"frame": np.arange(n), "identity": np.zeros(n, np.int64), "points": truth.copy(),
-            "ungated": truth.copy(), "var": np.full(truth.shape, 1e-4), "views": np.full((n, NUM_JOINTS), 2),
-            "err": np.full((n, NUM_JOINTS), 1.0), "conf": np.full((n, NUM_JOINTS), 0.9),
-            "P": P, "px": px, "oc": conf,
-            "fit": np.full(truth.shape, np.nan), "fit_var": np.full(truth.shape, np.nan),
-            "inferred": np.zeros((n, NUM_JOINTS), bool), "fit_err": np.full((n, NUM_JOINTS), np.nan)}
+    return {
+        "frame": np.arange(n),
+        "identity": np.zeros(n, np.int64),
+        "points": truth.copy(),
+        "ungated": truth.copy(),
+        "var": np.full(truth.shape, 1e-4),
+        "views": np.full((n, NUM_JOINTS), 2),
+        "err": np.full((n, NUM_JOINTS), 1.0),
+        "conf": np.full((n, NUM_JOINTS), 0.9),
+        "P": P,
+        "px": px,
+        "oc": conf,
+        "fit": np.full(truth.shape, np.nan),
+        "fit_var": np.full(truth.shape, np.nan),
+        "inferred": np.zeros((n, NUM_JOINTS), bool),
+        "fit_err": np.full((n, NUM_JOINTS), np.nan),
+    }
 
 
 @pytest.mark.parametrize("lock_break_s, recovers", [(0.5, True), (0.0, False)])
@@ -264,9 +309,13 @@ def test_a_worker_fitted_mirrored_comes_back_when_the_cameras_agree(rng, lock_br
 
 def _flexed_bodies(n, rng, wrist_flexion):
     m = BodyMeasurements.from_stature(1.75)
-    posture = Posture(left_upper_arm_flexion=rng.uniform(0.2, 1.4, n), left_elbow_flexion=rng.uniform(0.4, 1.4, n),
-                      left_wrist_flexion=wrist_flexion, heading=rng.uniform(-np.pi, np.pi, n),
-                      root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], -1))
+    posture = Posture(
+        left_upper_arm_flexion=rng.uniform(0.2, 1.4, n),
+        left_elbow_flexion=rng.uniform(0.4, 1.4, n),
+        left_wrist_flexion=wrist_flexion,
+        heading=rng.uniform(-np.pi, np.pi, n),
+        root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], -1),
+    )
     return pose_skeleton(m, place_on_floor(m, posture))
 
 
@@ -286,8 +335,17 @@ def test_a_hand_two_cameras_do_not_see_continues_its_forearm_and_a_seen_hand_kee
     conf[:, :, hand] = 0.0  # no camera sees the hand
     flex = {}
     for sigma in (0.05, 0.0):
-        fit = _fit(P, px, conf, truth, start, previous_world=start, previous_sigma_m=np.full(n, 0.155),
-                   previous_dt_s=np.full(n, 1 / 12), options=B.FitOptions(hand_prior_sigma_m=sigma))
+        fit = _fit(
+            P,
+            px,
+            conf,
+            truth,
+            start,
+            previous_world=start,
+            previous_sigma_m=np.full(n, 0.155),
+            previous_dt_s=np.full(n, 1 / 12),
+            options=B.FitOptions(hand_prior_sigma_m=sigma),
+        )
         flex[sigma] = np.degrees(joint_angles(fit.points_world).to_frame()["left_wrist_flexion"].to_numpy())
     assert np.median(np.abs(flex[0.05])) < 30.0  # 22.5 measured (46.4 without the prior)
     assert np.median(np.abs(flex[0.0])) > np.median(np.abs(flex[0.05])) + 15.0

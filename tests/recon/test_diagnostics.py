@@ -16,10 +16,20 @@ def _tracks(points, angle, worker=None):
     n = points.shape[0]
     worker = np.ones(n, np.int64) if worker is None else worker
     z = np.zeros((n, 33))
-    return TrackFrames(worker=worker, frame=np.arange(n), time_s=np.arange(n) / 12.0, points_world=points,
-                       raw_points_world=points.copy(), confidence=z + 1, reprojection_error_px=z,
-                       views=np.full((n, 33), 2, np.int8), gap_filled=z.astype(bool), gated=z.astype(bool),
-                       smoothed=True, lens_angle_deg=angle)
+    return TrackFrames(
+        worker=worker,
+        frame=np.arange(n),
+        time_s=np.arange(n) / 12.0,
+        points_world=points,
+        raw_points_world=points.copy(),
+        confidence=z + 1,
+        reprojection_error_px=z,
+        views=np.full((n, 33), 2, np.int8),
+        gap_filled=z.astype(bool),
+        gated=z.astype(bool),
+        smoothed=True,
+        lens_angle_deg=angle,
+    )
 
 
 def test_lens_region_edges():
@@ -121,8 +131,12 @@ def test_statistics_in_chunks_equal_one_piece_and_percentiles_are_within_a_bin(r
         for key, s1 in d1.stats.items():
             s2 = d2.stats[key]
             assert (s1.frames, s1.reconstructed) == (s2.frames, s2.reconstructed)
-            np.testing.assert_allclose([s1.mean_m, s1.std_m, *s1.percentiles_m], [s2.mean_m, s2.std_m, *s2.percentiles_m],
-                                       rtol=1e-9, atol=1e-12)
+            np.testing.assert_allclose(
+                [s1.mean_m, s1.std_m, *s1.percentiles_m],
+                [s2.mean_m, s2.std_m, *s2.percentiles_m],
+                rtol=1e-9,
+                atol=1e-12,
+            )
     for d, w in zip(whole, (1, 2)):
         v = lengths[(worker == w) & np.isfinite(lengths)]
         s = d.get("left_upper_arm")

@@ -83,7 +83,7 @@ def test_person_seen_by_one_camera_is_a_single_row(four_cameras, crossing):
     truth = crossing.truth[:24]
     vis = np.ones((24, 4, 4), bool)
     vis[:, [0, 2, 3], 1] = False  # person 1 seen by camera 2 only
-    vis[:, 3, 2] = False          # person 2 by cameras 1-3
+    vis[:, 3, 2] = False  # person 2 by cameras 1-3
     frames, order = observe(four_cameras, truth, noise_px=1.0, dropout=0.0, visible=vis, seed=3, fps=FPS)
     people = reconstruct_frames(frames)
     w = _workers(people, order)
@@ -186,11 +186,7 @@ def test_gross_error_in_one_of_three_views_drops_that_view(four_cameras):
 def test_oracle_four_cameras():
     """ORACLE 2D (2 px noise, dropouts, furniture and body occlusion by ray casts), 4 workers,
     20 s, with the simulator's two-camera rig plus two more ceiling cameras."""
-    from ergopose.sim.synthetic import (
-        PAPER_SIZE,
-        frames_from_oracle,
-        simulated_ground_truth,
-    )
+    from ergopose.sim.synthetic import PAPER_SIZE, frames_from_oracle, simulated_ground_truth
     from ergopose.sim.oracle import OracleSource
     from ergopose.sim.scene import rig_cameras
 
@@ -222,7 +218,9 @@ def test_oracle_four_cameras():
         e = np.full((len(fr), 4, NUM_JOINTS), np.nan)
         for r in sets:
             p = w[r][w[r] >= 0][0]
-            e[people.frame[r], p] = np.linalg.norm(people.points_world[r] - gt.joints_world[people.frame[r], p], axis=-1)
+            e[people.frame[r], p] = np.linalg.norm(
+                people.points_world[r] - gt.joints_world[people.frame[r], p], axis=-1
+            )
         errors[len(sel)] = e
     both = np.isfinite(errors[2]) & np.isfinite(errors[4])
     m2, m4 = np.mean(errors[2][both]), np.mean(errors[4][both])
@@ -236,10 +234,29 @@ def test_oracle_four_cameras():
 # Real people: the Pose2Sim demo (4 pinhole cameras, OpenPose BODY_25B, up to 2 people a camera)
 
 #: BODY_25B index of each BlazePose joint it has (COCO order for 0-16, feet 19-24).
-BODY25B = {"nose": 0, "left_eye": 1, "right_eye": 2, "left_ear": 3, "right_ear": 4, "left_shoulder": 5,
-           "right_shoulder": 6, "left_elbow": 7, "right_elbow": 8, "left_wrist": 9, "right_wrist": 10,
-           "left_hip": 11, "right_hip": 12, "left_knee": 13, "right_knee": 14, "left_ankle": 15, "right_ankle": 16,
-           "left_foot_index": 19, "left_heel": 21, "right_foot_index": 22, "right_heel": 24}
+BODY25B = {
+    "nose": 0,
+    "left_eye": 1,
+    "right_eye": 2,
+    "left_ear": 3,
+    "right_ear": 4,
+    "left_shoulder": 5,
+    "right_shoulder": 6,
+    "left_elbow": 7,
+    "right_elbow": 8,
+    "left_wrist": 9,
+    "right_wrist": 10,
+    "left_hip": 11,
+    "right_hip": 12,
+    "left_knee": 13,
+    "right_knee": 14,
+    "left_ankle": 15,
+    "right_ankle": 16,
+    "left_foot_index": 19,
+    "left_heel": 21,
+    "right_foot_index": 22,
+    "right_heel": 24,
+}
 
 
 def _pose2sim_people(path):
@@ -289,8 +306,8 @@ def pose2sim_frames(shared_data):
 @dataclass
 class Pose2SimDemo:
     root: Path
-    frames: list        # per frame, one Detections2D per camera
-    raw: list           # per frame and camera, the BODY_25B keypoints (25, 3) of each person
+    frames: list  # per frame, one Detections2D per camera
+    raw: list  # per frame and camera, the BODY_25B keypoints (25, 3) of each person
     chosen: np.ndarray  # (100, 4) the person Pose2Sim's association kept (-1: none)
 
 
@@ -335,7 +352,9 @@ def test_pose2sim_demo_association(pose2sim_frames):
     assert two.sum() >= 90 and np.all(low.detection[two][:, 2:] == -1)
     assert np.all(low.detection[two][:, :2] != low.detection[main][low.frame[two], :2])
     nose = np.nanmedian(low.points_world[two][:, 0], axis=0)
-    ankles = np.nanmedian(low.points_world[two][:, [JOINT_INDEX["left_ankle"], JOINT_INDEX["right_ankle"]]], axis=(0, 1))
+    ankles = np.nanmedian(
+        low.points_world[two][:, [JOINT_INDEX["left_ankle"], JOINT_INDEX["right_ankle"]]], axis=(0, 1)
+    )
     assert np.linalg.norm(nose[:2] - np.nanmedian(low.points_world[main, 0, :2], axis=0)) > 2.5
     # Nose 1.4 m above the ankles (standing), but the whole body about 0.2 m low (ankles at
     # -0.17 m): at the edge of both images, outside the calibrated volume.
@@ -347,11 +366,25 @@ def test_pose2sim_demo_association(pose2sim_frames):
 
 
 #: Pose2Sim TRC marker -> BlazePose joint (the markers both skeletons have).
-TRC_MARKERS = {"RHip": "right_hip", "RKnee": "right_knee", "RAnkle": "right_ankle", "RBigToe": "right_foot_index",
-               "RHeel": "right_heel", "LHip": "left_hip", "LKnee": "left_knee", "LAnkle": "left_ankle",
-               "LBigToe": "left_foot_index", "LHeel": "left_heel", "Nose": "nose", "RShoulder": "right_shoulder",
-               "RElbow": "right_elbow", "RWrist": "right_wrist", "LShoulder": "left_shoulder",
-               "LElbow": "left_elbow", "LWrist": "left_wrist"}
+TRC_MARKERS = {
+    "RHip": "right_hip",
+    "RKnee": "right_knee",
+    "RAnkle": "right_ankle",
+    "RBigToe": "right_foot_index",
+    "RHeel": "right_heel",
+    "LHip": "left_hip",
+    "LKnee": "left_knee",
+    "LAnkle": "left_ankle",
+    "LBigToe": "left_foot_index",
+    "LHeel": "left_heel",
+    "Nose": "nose",
+    "RShoulder": "right_shoulder",
+    "RElbow": "right_elbow",
+    "RWrist": "right_wrist",
+    "LShoulder": "left_shoulder",
+    "LElbow": "left_elbow",
+    "LWrist": "left_wrist",
+}
 
 
 def _pose2sim_trc(root):
@@ -359,7 +392,9 @@ def _pose2sim_trc(root):
     axes are world[:, [1, 2, 0]], Y up; SOURCE.md)."""
     lines = (root / "pose-3d" / "S00_P00_T01_BalancingTrial_0-100.trc").read_text().splitlines()
     names = [n for n in lines[3].split("\t")[2:] if n]
-    values = np.array([[float(x) for x in line.split("\t")[2:2 + 3 * len(names)]] for line in lines[5:] if line.strip()])
+    values = np.array(
+        [[float(x) for x in line.split("\t")[2 : 2 + 3 * len(names)]] for line in lines[5:] if line.strip()]
+    )
     trc = values.reshape(len(values), len(names), 3)[..., [2, 0, 1]]
     return trc[:, [names.index(m) for m in TRC_MARKERS]]
 

@@ -38,8 +38,9 @@ def test_oracle_four_workers(oracle_session):
     per_worker = D.truth_for_workers(tf, truth, mapping)
     raw = D.region_errors(tf, per_worker, source="raw")
     e = np.concatenate([np.linalg.norm(tf.worker_rows(w).points_world - g, axis=-1) for w, g in per_worker.items()])
-    raw_e = np.concatenate([np.linalg.norm(tf.worker_rows(w).raw_points_world - g, axis=-1)
-                            for w, g in per_worker.items()])
+    raw_e = np.concatenate(
+        [np.linalg.norm(tf.worker_rows(w).raw_points_world - g, axis=-1) for w, g in per_worker.items()]
+    )
     inferred = np.concatenate([tf.worker_rows(w).inferred for w in per_worker])
     # The body model gives every joint of every tracked frame a position (the joint-by-joint
     # triangulation gave 30 % of them: legs are almost never seen by both ceiling cameras here).

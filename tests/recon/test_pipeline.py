@@ -39,8 +39,19 @@ def test_chunked_processing_gives_the_same_table(shift):
     chunked = _run_chunks(people, n, [0, 1, 7, 300, 301, 555, 900, n], settings, shift.cameras, pickle_between=True)
     assert len(whole) == len(chunked) > 3000
     assert len(np.unique(whole.frame * 1000 + whole.worker)) == len(whole)  # one row per worker and frame
-    for name in ("worker", "frame", "time_s", "points_world", "raw_points_world", "confidence",
-                 "reprojection_error_px", "views", "gap_filled", "gated", "lens_angle_deg"):
+    for name in (
+        "worker",
+        "frame",
+        "time_s",
+        "points_world",
+        "raw_points_world",
+        "confidence",
+        "reprojection_error_px",
+        "views",
+        "gap_filled",
+        "gated",
+        "lens_angle_deg",
+    ):
         assert np.array_equal(getattr(whole, name), getattr(chunked, name), equal_nan=True), name
 
 
@@ -126,8 +137,10 @@ def test_slots_of_departed_workers_are_reused_with_identical_results(monkeypatch
     from ergopose.sim.synthetic import WorkerScript, walk_workers
 
     n = 4000
-    scripts = [WorkerScript(stature=1.62, waypoints=np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0]]), pause_s=20.0),
-               WorkerScript(stature=1.88, waypoints=np.array([[1.5, 1.5], [-1.5, 1.5], [-1.5, -0.5]]), pause_s=20.0)]
+    scripts = [
+        WorkerScript(stature=1.62, waypoints=np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0]]), pause_s=20.0),
+        WorkerScript(stature=1.88, waypoints=np.array([[1.5, 1.5], [-1.5, 1.5], [-1.5, -0.5]]), pause_s=20.0),
+    ]
     X = walk_workers(scripts, n, FPS)  # (n, 2, 33, 3)
     seen = np.zeros((n, 2), bool)
     seen[0:1200, 0] = seen[3000:3600, 0] = True  # A leaves and comes back after 150 s

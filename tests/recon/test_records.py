@@ -22,8 +22,10 @@ def test_upright_rotations_match_views_module(rng):
     for k in range(50):
         assert np.allclose(R[k], upright_rotation(d[k], up), atol=1e-12)
     # Parallel to up: falls back like the views module.
-    assert np.allclose(upright_rotations(np.array([[0, 0, 1.0]]), np.array([0, 0, 1.0]))[0],
-                       upright_rotation(np.array([0, 0, 1.0]), np.array([0, 0, 1.0])))
+    assert np.allclose(
+        upright_rotations(np.array([[0, 0, 1.0]]), np.array([0, 0, 1.0]))[0],
+        upright_rotation(np.array([0, 0, 1.0]), np.array([0, 0, 1.0])),
+    )
 
 
 def test_fisheye_adapter_equals_virtual_view(cameras, rng):
@@ -82,7 +84,7 @@ def test_people_from_points_and_take(cameras):
     X[0, 5] = np.nan
     p = People3D.from_points(np.repeat(np.arange(3), 4), np.repeat(np.arange(3), 4) / FPS, X)
     assert len(p) == 12 and p.views[0, 5] == 0 and p.views[0, 4] == 2
-    assert np.isnan(p.variance_world[0, 5]).all() and np.allclose(p.variance_world[1], 0.03 ** 2)
+    assert np.isnan(p.variance_world[0, 5]).all() and np.allclose(p.variance_world[1], 0.03**2)
     q = People3D.concat([p.take(np.arange(4)), p.take(np.arange(4, 12))])
     assert np.array_equal(q.points_world, p.points_world, equal_nan=True)
 

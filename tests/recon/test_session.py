@@ -16,8 +16,15 @@ from tests.recon.conftest import FPS
 def test_session_to_parquet(crossing, tmp_path):
     events = []
     path = tmp_path / "out" / "tracks.parquet"
-    summary, none = reconstruct_session(crossing.frames, path, fps=FPS, cameras=crossing.cameras, chunk_frames=25,
-                                        progress=events.append, total_frames=len(crossing.frames))
+    summary, none = reconstruct_session(
+        crossing.frames,
+        path,
+        fps=FPS,
+        cameras=crossing.cameras,
+        chunk_frames=25,
+        progress=events.append,
+        total_frames=len(crossing.frames),
+    )
     assert none is None and summary.path == path and path.exists()
     assert summary.frames == len(crossing.frames) and summary.people_pairs == 4 * len(crossing.frames)
     assert summary.people_single_view == 0 and summary.workers == ("worker_1", "worker_2", "worker_3", "worker_4")

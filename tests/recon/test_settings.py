@@ -16,12 +16,20 @@ def test_defaults_and_replace():
     assert from_mapping(s.as_dict()) == s
 
 
-@pytest.mark.parametrize("changes, field", [
-    ({"nope": 1}, "unknown"), ({"motion_model": "spline"}, "motion_model"), ({"smoothing": 1}, "smoothing"),
-    ({"track_gate_m": 0}, "track_gate_m"), ({"lens_region_limits_deg": [60, 30]}, "lens_region_limits_deg"),
-    ({"max_gated_run": 2.5}, "max_gated_run"), ({"torso_min_z_m": 3.0}, "torso_min_z_m"),
-    ({"min_confidence": 1.0}, "min_confidence"), ({"keypoint_sigma_px": float("nan")}, "keypoint_sigma_px"),
-])
+@pytest.mark.parametrize(
+    "changes, field",
+    [
+        ({"nope": 1}, "unknown"),
+        ({"motion_model": "spline"}, "motion_model"),
+        ({"smoothing": 1}, "smoothing"),
+        ({"track_gate_m": 0}, "track_gate_m"),
+        ({"lens_region_limits_deg": [60, 30]}, "lens_region_limits_deg"),
+        ({"max_gated_run": 2.5}, "max_gated_run"),
+        ({"torso_min_z_m": 3.0}, "torso_min_z_m"),
+        ({"min_confidence": 1.0}, "min_confidence"),
+        ({"keypoint_sigma_px": float("nan")}, "keypoint_sigma_px"),
+    ],
+)
 def test_invalid_settings_name_the_field(changes, field):
     with pytest.raises(ConfigError, match=field):
         ReconSettings().replace(**changes)

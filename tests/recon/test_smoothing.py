@@ -7,7 +7,13 @@ import pytest
 from filterpy.kalman import KalmanFilter
 
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.smoothing import INITIAL_ACCELERATION_SIGMA, INITIAL_VELOCITY_SIGMA, KalmanRTS, motion_matrices, smooth_series
+from ergopose.recon.smoothing import (
+    INITIAL_ACCELERATION_SIGMA,
+    INITIAL_VELOCITY_SIGMA,
+    KalmanRTS,
+    motion_matrices,
+    smooth_series,
+)
 
 FPS = 12.0
 
@@ -25,7 +31,7 @@ def _filterpy_reference(z: np.ndarray, var: np.ndarray, settings: ReconSettings)
     kf.H[0, 0] = 1.0
     kf.x = np.zeros((n, 1))
     kf.x[0, 0] = z[t0]
-    p0 = [var[t0], INITIAL_VELOCITY_SIGMA ** 2, INITIAL_ACCELERATION_SIGMA ** 2][:n]
+    p0 = [var[t0], INITIAL_VELOCITY_SIGMA**2, INITIAL_ACCELERATION_SIGMA**2][:n]
     kf.P = np.diag(p0)
     xs, Ps = [kf.x.copy()], [kf.P.copy()]
     for t in range(t0 + 1, len(z)):
@@ -50,10 +56,10 @@ def test_equals_filterpy_kalman_and_rts(model, rng):
     res = smooth_series(z, var, FPS, settings)
     for s in range(S):
         t0, t1, ref_x, ref_P = _filterpy_reference(z[:, s], var[:, s], settings)
-        assert np.allclose(res.value[t0:t1 + 1, s], ref_x[:t1 - t0 + 1], rtol=0, atol=1e-10)
-        assert np.allclose(res.variance[t0:t1 + 1, s], ref_P[:t1 - t0 + 1], rtol=1e-9, atol=1e-14)
+        assert np.allclose(res.value[t0 : t1 + 1, s], ref_x[: t1 - t0 + 1], rtol=0, atol=1e-10)
+        assert np.allclose(res.variance[t0 : t1 + 1, s], ref_P[: t1 - t0 + 1], rtol=1e-9, atol=1e-14)
         # Before the first and after the last measurement nothing is output.
-        assert np.all(np.isnan(res.value[:t0, s])) and np.all(np.isnan(res.value[t1 + 1:, s]))
+        assert np.all(np.isnan(res.value[:t0, s])) and np.all(np.isnan(res.value[t1 + 1 :, s]))
         assert np.array_equal(res.measured[:, s], np.isfinite(z[:, s]))
 
 
@@ -63,8 +69,8 @@ def test_gaps_filled_up_to_the_limit_only():
     t = np.arange(T) / FPS
     z = np.tile((0.5 * t)[:, None], (1, 3))
     var = np.full((T, 3), 1e-6)
-    z[10:16] = np.nan   # 6 missing frames: filled
-    z[30:37] = np.nan   # 7 missing frames: a gap, the series restarts after it
+    z[10:16] = np.nan  # 6 missing frames: filled
+    z[30:37] = np.nan  # 7 missing frames: a gap, the series restarts after it
     res = smooth_series(z, var, FPS, settings)
     assert res.gap_filled[10:16].all() and np.isfinite(res.value[10:16]).all()
     assert np.allclose(res.value[10:16, 0], 0.5 * t[10:16], atol=1e-4)  # straight line bridged
@@ -76,9 +82,9 @@ def test_outliers_are_gated_and_long_runs_restart(rng):
     settings = ReconSettings(outlier_gate_chi2=16.27, max_gated_run=3)
     T = 120
     truth = np.tile(np.linspace(0, 1, T)[:, None], (1, 3))
-    var = np.full((T, 3), 0.01 ** 2)
+    var = np.full((T, 3), 0.01**2)
     z = truth + rng.normal(0, 0.01, (T, 3))
-    z[40] += 0.5   # one wild point (all three coordinates of the joint)
+    z[40] += 0.5  # one wild point (all three coordinates of the joint)
     z[70:] += 0.4  # a real jump: the person moved
     res = smooth_series(z, var, FPS, settings)
     assert res.gated[40].all() and not res.measured[40].any()
@@ -124,7 +130,7 @@ def test_smoothing_reduces_error(rng):
     T, S = 600, 3
     t = np.arange(T) / FPS
     truth = np.stack([np.sin(t), np.cos(0.7 * t), 0.3 * np.sin(2 * t)], axis=1)
-    var = np.full((T, S), 0.03 ** 2)
+    var = np.full((T, S), 0.03**2)
     z = truth + rng.normal(0, 0.03, (T, S))
     res = smooth_series(z, var, FPS, ReconSettings())
     raw = np.sqrt(np.mean((z - truth) ** 2))

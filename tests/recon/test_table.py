@@ -11,8 +11,15 @@ import pytest
 from ergopose.errors import InputError
 from ergopose.keypoints import BLAZEPOSE33
 from ergopose.recon.pipeline import TrackFrames
-from ergopose.recon.table import (COLUMNS, TracksWriter, display_names, read_metadata, read_tracks,
-                                  table_to_frames, write_tracks)
+from ergopose.recon.table import (
+    COLUMNS,
+    TracksWriter,
+    display_names,
+    read_metadata,
+    read_tracks,
+    table_to_frames,
+    write_tracks,
+)
 
 
 def _frames(rng, n=5, workers=(1, 3)) -> TrackFrames:
@@ -23,16 +30,32 @@ def _frames(rng, n=5, workers=(1, 3)) -> TrackFrames:
     X[0, 4] = np.nan
     raw = X + 0.01
     raw[1, :] = np.nan
-    return TrackFrames(worker=w, frame=f, time_s=f / 12.0, points_world=X, raw_points_world=raw,
-                       confidence=rng.uniform(0, 1, (m, 33)), reprojection_error_px=rng.uniform(0, 5, (m, 33)),
-                       views=rng.integers(0, 3, (m, 33)).astype(np.int8), gap_filled=rng.random((m, 33)) < 0.1,
-                       gated=rng.random((m, 33)) < 0.05, smoothed=True, lens_angle_deg=rng.uniform(0, 80, (m, 33)))
+    return TrackFrames(
+        worker=w,
+        frame=f,
+        time_s=f / 12.0,
+        points_world=X,
+        raw_points_world=raw,
+        confidence=rng.uniform(0, 1, (m, 33)),
+        reprojection_error_px=rng.uniform(0, 5, (m, 33)),
+        views=rng.integers(0, 3, (m, 33)).astype(np.int8),
+        gap_filled=rng.random((m, 33)) < 0.1,
+        gated=rng.random((m, 33)) < 0.05,
+        smoothed=True,
+        lens_angle_deg=rng.uniform(0, 80, (m, 33)),
+    )
 
 
 def test_round_trip(tmp_path, rng):
     tf = _frames(rng)
-    path = write_tracks(tmp_path / "tracks.parquet", tf, fps=12.0, cameras=("cam_1", "cam_2"),
-                        settings={"smoothing": True}, workers={"worker_1": {"stature_estimate_m": 1.7}})
+    path = write_tracks(
+        tmp_path / "tracks.parquet",
+        tf,
+        fps=12.0,
+        cameras=("cam_1", "cam_2"),
+        settings={"smoothing": True},
+        workers={"worker_1": {"stature_estimate_m": 1.7}},
+    )
     table = read_tracks(path)
     df = table.data
     assert tuple(df.columns) == COLUMNS and len(df) == len(tf) * 33

@@ -80,12 +80,14 @@ def test_relink_uses_body_measurements_and_refuses_to_guess(rng):
     gives it a new one."""
     n = int(40 * FPS)
     for statures, expect_same in (((1.60, 1.90), True), ((1.75, 1.75), False)):
-        scripts = [WorkerScript(statures[0], np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
-                   WorkerScript(statures[1], np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0)]
+        scripts = [
+            WorkerScript(statures[0], np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+            WorkerScript(statures[1], np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
+        ]
         truth = walk_workers(scripts, n, FPS)
         vis = np.ones((n, 2), bool)
-        vis[int(10 * FPS):int(30 * FPS), :] = False
-        vis[int(30 * FPS):, 0] = False  # worker 0 never comes back
+        vis[int(10 * FPS) : int(30 * FPS), :] = False
+        vis[int(30 * FPS) :, 0] = False  # worker 0 never comes back
         people = _stored(truth, vis, rng)
         tr = Tracker(ReconSettings(), FPS)
         res = tr.update(people, 0, n)
@@ -105,8 +107,7 @@ def test_short_spurious_tracks_are_dropped(rng):
     ghost = walk_workers([WorkerScript(1.8, np.array([[-2.0, 2.0]]), pause_s=9.0)], n, FPS)
     vis_ghost = np.zeros(n, bool)
     vis_ghost[30:36] = True  # half a second
-    people = People3D.concat([_stored(truth, np.ones((n, 1), bool), rng),
-                              _stored(ghost, vis_ghost[:, None], rng)])
+    people = People3D.concat([_stored(truth, np.ones((n, 1), bool), rng), _stored(ghost, vis_ghost[:, None], rng)])
     people = people.take(np.argsort(people.frame, kind="stable"))
     sr = ShiftReconstruction(ReconSettings(), FPS)
     tf = TrackFrames.concat([sr.push(people, 0, n), sr.finish()])
@@ -137,8 +138,10 @@ def test_people_meeting_and_turning_back_keep_their_identities(rng):
     can separate) and walk back. The contact check splits their tracks and gives the
     identities back by body measurements; without it the tracks cross over."""
     n = int(14 * FPS)
-    scripts = [WorkerScript(1.60, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
-               WorkerScript(1.90, np.array([[2.0, 0.0], [0.05, 0.0], [2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0))]
+    scripts = [
+        WorkerScript(1.60, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
+        WorkerScript(1.90, np.array([[2.0, 0.0], [0.05, 0.0], [2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
+    ]
     truth = walk_workers(scripts, n, FPS)
     people = _stored(truth, np.ones((n, 2), bool), rng, sigma=0.01)
     f, p = np.nonzero(np.ones((n, 2), bool))
@@ -149,8 +152,11 @@ def test_people_meeting_and_turning_back_keep_their_identities(rng):
         fin = tr.finish()
         resolved = {**res.resolved, **fin.resolved}
         ident = np.array([resolved[t] for t in res.track])
-        same = all(set(ident[(p == q) & (f > n - 24)]) == set(ident[(p == q) & (f < 12)]) and
-                   len(set(ident[(p == q) & (f > n - 24)])) == 1 for q in (0, 1))
+        same = all(
+            set(ident[(p == q) & (f > n - 24)]) == set(ident[(p == q) & (f < 12)])
+            and len(set(ident[(p == q) & (f > n - 24)])) == 1
+            for q in (0, 1)
+        )
         return same, len(set(ident)), tr.next_group
 
     same, identities, groups = kept(ReconSettings())
@@ -186,11 +192,13 @@ def test_a_full_roster_keeps_a_returning_worker_whose_measurements_drifted(rng):
     workers are followed still gets a new identity."""
     n = int(40 * FPS)
     paths = [np.array([[-2.0, -2.0], [-1.0, 2.0]]), np.array([[2.0, -2.0], [1.0, 2.0]])]
-    before = walk_workers([WorkerScript(1.75, paths[0], pause_s=5.0), WorkerScript(1.60, paths[1], pause_s=5.0)], n, FPS)
+    before = walk_workers(
+        [WorkerScript(1.75, paths[0], pause_s=5.0), WorkerScript(1.60, paths[1], pause_s=5.0)], n, FPS
+    )
     after = walk_workers([WorkerScript(1.75, paths[0], pause_s=5.0), WorkerScript(1.90, paths[1], pause_s=5.0)], n, FPS)
     truth = np.where((np.arange(n) < 20 * FPS)[:, None, None, None], before, after)
     vis = np.ones((n, 2), bool)
-    vis[int(10 * FPS):int(30 * FPS), 1] = False
+    vis[int(10 * FPS) : int(30 * FPS), 1] = False
     people = _stored(truth, vis, rng)
     for expected, identities in ((0, 3), (3, 3), (2, 2)):
         tr = Tracker(ReconSettings(expected_workers=expected), FPS)
@@ -206,7 +214,7 @@ def test_a_full_roster_keeps_a_returning_worker_whose_measurements_drifted(rng):
     third = walk_workers([WorkerScript(1.80, np.array([[0.0, -2.5], [0.0, 2.5]]), pause_s=5.0)], n, FPS)
     truth3 = np.concatenate([before, third], axis=1)
     vis3 = np.ones((n, 3), bool)
-    vis3[:int(20 * FPS), 2] = False
+    vis3[: int(20 * FPS), 2] = False
     tr = Tracker(ReconSettings(expected_workers=2), FPS)
     tr.update(_stored(truth3, vis3, rng), 0, n)
     tr.finish()
@@ -221,8 +229,7 @@ def _dressed(people: People3D, person: np.ndarray, colours: np.ndarray, rng, noi
 
 #: Two workers' clothing colours (L*a*b*, OpenCV's 8-bit scale, upper body then thighs): a red and
 #: a blue shirt over the same grey trousers.
-RED_AND_BLUE = np.array([[136.0, 208.0, 195.0, 120.0, 128.0, 128.0],
-                         [82.0, 207.0, 20.0, 120.0, 128.0, 128.0]])
+RED_AND_BLUE = np.array([[136.0, 208.0, 195.0, 120.0, 128.0, 128.0], [82.0, 207.0, 20.0, 120.0, 128.0, 128.0]])
 
 
 def test_clothes_keep_identities_where_body_measurements_cannot(rng):
@@ -230,8 +237,10 @@ def test_clothes_keep_identities_where_body_measurements_cannot(rng):
     back. Their limb lengths cannot tell them apart, so without colours the tracks cross over at
     the turn; their shirts (red, blue) keep each worker's identity."""
     n = int(14 * FPS)
-    scripts = [WorkerScript(1.75, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
-               WorkerScript(1.75, np.array([[2.0, 0.0], [0.05, 0.0], [2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0))]
+    scripts = [
+        WorkerScript(1.75, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
+        WorkerScript(1.75, np.array([[2.0, 0.0], [0.05, 0.0], [2.0, 0.6]]), pause_s=(1.0, 2.5, 8.0)),
+    ]
     truth = walk_workers(scripts, n, FPS)
     plain = _stored(truth, np.ones((n, 2), bool), rng, sigma=0.01)
     f, p = np.nonzero(np.ones((n, 2), bool))
@@ -242,8 +251,11 @@ def test_clothes_keep_identities_where_body_measurements_cannot(rng):
         res = tr.update(people, 0, n)
         resolved = {**res.resolved, **tr.finish().resolved}
         ident = np.array([resolved[t] for t in res.track])
-        return all(set(ident[(p == q) & (f > n - 24)]) == set(ident[(p == q) & (f < 12)]) and
-                   len(set(ident[(p == q) & (f > n - 24)])) == 1 for q in (0, 1)), len(set(ident))
+        return all(
+            set(ident[(p == q) & (f > n - 24)]) == set(ident[(p == q) & (f < 12)])
+            and len(set(ident[(p == q) & (f > n - 24)])) == 1
+            for q in (0, 1)
+        ), len(set(ident))
 
     assert kept(dressed) == (True, 2)
     assert not kept(plain)[0]
@@ -255,12 +267,14 @@ def test_a_returning_worker_is_known_by_the_clothes(rng):
     the blue shirt gives the blue worker's identity back. A worker in a green shirt coming back
     instead is someone new."""
     n = int(40 * FPS)
-    scripts = [WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
-               WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0)]
+    scripts = [
+        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
+    ]
     truth = walk_workers(scripts, n, FPS)
     vis = np.ones((n, 2), bool)
-    vis[int(10 * FPS):int(30 * FPS), :] = False
-    vis[int(30 * FPS):, 0] = False  # worker 0 never comes back
+    vis[int(10 * FPS) : int(30 * FPS), :] = False
+    vis[int(30 * FPS) :, 0] = False  # worker 0 never comes back
     f, p = np.nonzero(vis)
     green = np.array([150.0, 80.0, 170.0, 120.0, 128.0, 128.0])
     for returning, expect_same in ((RED_AND_BLUE[1], True), (green, False)):

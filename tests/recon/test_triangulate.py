@@ -30,8 +30,10 @@ def test_exact_observations_give_exact_points(cameras):
     truth = walk_workers(crossing_scripts(), 6, FPS)
     people = reconstruct_frames(_exact_frames(cameras, truth))
     assert len(people) == 24 and np.all(people.n_cameras == 2)
-    err = [np.linalg.norm(people.points_world[r] - truth[people.frame[r]], axis=-1).max(axis=-1)
-           for r in range(len(people))]
+    err = [
+        np.linalg.norm(people.points_world[r] - truth[people.frame[r]], axis=-1).max(axis=-1)
+        for r in range(len(people))
+    ]
     # Each pair is one true person (rows are not labelled: take the closest).
     for r in range(len(people)):
         d = np.linalg.norm(people.points_world[r][None] - truth[people.frame[r]], axis=-1).max(axis=-1)
@@ -98,9 +100,12 @@ def test_variance_model_matches_the_observed_scatter(cameras, rng):
     conf = np.ones(px0.shape[:-1])
     draws = 400
     noisy = px0[None] + rng.normal(0.0, 1.5, (draws,) + px0.shape)
-    pts = triangulate_pairs(np.broadcast_to(P, (draws,) + P.shape).reshape(-1, 2, 3, 4),
-                            noisy.reshape((-1,) + px0.shape[1:]), np.broadcast_to(conf, (draws,) + conf.shape).reshape(
-                                (-1,) + conf.shape[1:]), settings)[0].reshape(draws, 4, 33, 3)
+    pts = triangulate_pairs(
+        np.broadcast_to(P, (draws,) + P.shape).reshape(-1, 2, 3, 4),
+        noisy.reshape((-1,) + px0.shape[1:]),
+        np.broadcast_to(conf, (draws,) + conf.shape).reshape((-1,) + conf.shape[1:]),
+        settings,
+    )[0].reshape(draws, 4, 33, 3)
     emp = pts.var(axis=0)  # (4, 33, 3)
     exact = triangulate_pairs(P, px0, conf, settings)
     pred = point_variance(P, exact[0], conf, np.zeros((4, 33)), settings)

@@ -39,9 +39,13 @@ def rendered_report(stored_report):
 
 
 #: Names that strain the layout: right-to-left (Arabic, Hebrew), very long without a break, CJK.
-CROWDED_NAMES = ("فاطمة الزهراء بنت محمد عبد الرحمن", "אברהם בן־דוד הלוי מירושלים",
-                 "Maximilian-Alexander-Oberbergermeister-Wolkenstein-Trostburg-von-und-zu-Hohenzollern-Sigmaringen",
-                 "李雷", "Ana María de la Santísima Trinidad Fernández-Villaverde y Gómez de Arteche")
+CROWDED_NAMES = (
+    "فاطمة الزهراء بنت محمد عبد الرحمن",
+    "אברהם בן־דוד הלוי מירושלים",
+    "Maximilian-Alexander-Oberbergermeister-Wolkenstein-Trostburg-von-und-zu-Hohenzollern-Sigmaringen",
+    "李雷",
+    "Ana María de la Santísima Trinidad Fernández-Villaverde y Gómez de Arteche",
+)
 
 
 @pytest.fixture(scope="session")

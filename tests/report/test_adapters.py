@@ -36,8 +36,10 @@ FPS = 12.0
 def pipeline_records():
     rng = np.random.default_rng(99)
     n = int(150 * FPS)
-    scripts = [WorkerScript(1.72, np.array([[-1.5, 1.0], [1.0, 1.2], [1.5, -1.5]]), pause_s=20.0, work_phase=0.0),
-               WorkerScript(1.65, np.array([[0.5, -2.0], [-1.8, -0.5]]), pause_s=30.0, work_phase=1.0)]
+    scripts = [
+        WorkerScript(1.72, np.array([[-1.5, 1.0], [1.0, 1.2], [1.5, -1.5]]), pause_s=20.0, work_phase=0.0),
+        WorkerScript(1.65, np.array([[0.5, -2.0], [-1.8, -0.5]]), pause_s=30.0, work_phase=1.0),
+    ]
     truth = walk_workers(scripts, n, FPS)  # (F, P, 33, 3)
     t = np.arange(n) / FPS
     out = []
@@ -59,11 +61,20 @@ def pipeline_records():
     frame = np.repeat(np.arange(n), truth.shape[1])
     radius = np.hypot(pts_all[..., 0], pts_all[..., 1])
     lens = np.degrees(np.arctan2(np.nan_to_num(radius, nan=1.0), 3.0 - np.nan_to_num(pts_all[..., 2], nan=1.0)))
-    tracks = TrackFrames(worker=worker, frame=frame, time_s=frame / FPS, points_world=pts_all,
-                         raw_points_world=pts_all, confidence=np.ones(pts_all.shape[:2]),
-                         reprojection_error_px=np.ones(pts_all.shape[:2]), views=np.full(pts_all.shape[:2], 2, np.int8),
-                         gap_filled=np.zeros(pts_all.shape[:2], bool), gated=np.zeros(pts_all.shape[:2], bool),
-                         smoothed=False, lens_angle_deg=lens)
+    tracks = TrackFrames(
+        worker=worker,
+        frame=frame,
+        time_s=frame / FPS,
+        points_world=pts_all,
+        raw_points_world=pts_all,
+        confidence=np.ones(pts_all.shape[:2]),
+        reprojection_error_px=np.ones(pts_all.shape[:2]),
+        views=np.full(pts_all.shape[:2], 2, np.int8),
+        gap_filled=np.zeros(pts_all.shape[:2], bool),
+        gated=np.zeros(pts_all.shape[:2], bool),
+        smoothed=False,
+        lens_angle_deg=lens,
+    )
     return out, limb_diagnostics(tracks)
 
 
@@ -84,7 +95,11 @@ def test_worker_summary_matches_the_aggregation(pipeline_records):
         dist = summary.distributions[col]
         assert total == pytest.approx(dist.time_s - dist.missing_time_s)
     assert {b.criterion for b in ws.body_parts if b.body_part == "trunk" and b.method == "rula"} <= {
-        "upright", "0-20 flexion", "20-60 flexion", "60 or more flexion"}
+        "upright",
+        "0-20 flexion",
+        "20-60 flexion",
+        "60 or more flexion",
+    }
     # worst moments: inside their episodes, with a skeleton and a reason naming body parts
     assert ws.worst
     for w in ws.worst:
@@ -111,9 +126,9 @@ def test_reliable_frames_rule():
 
     m = BodyMeasurements.from_stature(1.8)
     pts = np.repeat(pose_skeleton(m, place_on_floor(m, Posture()))[None], 10, axis=0)
-    pts[3, 15] = np.nan                      # a wrist missing: forearm not reconstructed
-    pts[5, 26] += np.array([0, 0, -0.2])     # a knee 20 cm off: thigh and shank lengths wrong
-    pts[7, 0] = np.nan                       # the nose: no scored limb needs it
+    pts[3, 15] = np.nan  # a wrist missing: forearm not reconstructed
+    pts[5, 26] += np.array([0, 0, -0.2])  # a knee 20 cm off: thigh and shank lengths wrong
+    pts[7, 0] = np.nan  # the nose: no scored limb needs it
     ok = reliable_frames(pts)
     assert ok.tolist() == [True, True, True, False, True, False, True, True, True, True]
     assert "15 %" in reliable_rule()
@@ -122,8 +137,9 @@ def test_reliable_frames_rule():
 def test_diagnostics_adapter(pipeline_records):
     records, diags = pipeline_records
     frames, summary, pts = records[0]
-    d = adapters.worker_diagnostics(diags[0], frames_reliable=int(reliable_frames(pts).sum()),
-                                    reliable_rule=reliable_rule())
+    d = adapters.worker_diagnostics(
+        diags[0], frames_reliable=int(reliable_frames(pts).sum()), reliable_rule=reliable_rule()
+    )
     assert d.frames_observed == len(frames)
     assert sum(d.region_frames.values()) == len(frames)
     stats = {s.limb: s for s in d.limb_lengths if s.region == "all"}
@@ -139,14 +155,32 @@ def test_diagnostics_adapter(pipeline_records):
 def test_assumptions_from_session_settings(tmp_path):
     import datetime as dt
 
-    session = Session(path=tmp_path, format_version=1, recorded_at=dt.datetime(2024, 3, 4, 8, 0, 0), fps=12.0,
-                      frame_count=100, cameras=(), defaults=TaskFactors(load_kg=0.0, coupling="good"),
-                      periods=(FactorPeriod(600.0, 900.0, TaskFactors(load_kg=12.0)),
-                               FactorPeriod(900.0, 960.0, TaskFactors(wrist_deviation=math.radians(-10.0)))),
-                      workers=(SessionWorker("w1", "Worker A", TaskFactors(load_kg=2.0, wrist_flexion=math.radians(-20.0)),
-                                             (FactorPeriod(120.0, 180.0, TaskFactors(load_kg=15.0, load_mode="static")),)),),
-                      scoring={}, description="Line 3", ground_truth_dir=None, settings_path=tmp_path / "settings.toml",
-                      calibration_path=tmp_path / "calibration.toml")
+    session = Session(
+        path=tmp_path,
+        format_version=1,
+        recorded_at=dt.datetime(2024, 3, 4, 8, 0, 0),
+        fps=12.0,
+        frame_count=100,
+        cameras=(),
+        defaults=TaskFactors(load_kg=0.0, coupling="good"),
+        periods=(
+            FactorPeriod(600.0, 900.0, TaskFactors(load_kg=12.0)),
+            FactorPeriod(900.0, 960.0, TaskFactors(wrist_deviation=math.radians(-10.0))),
+        ),
+        workers=(
+            SessionWorker(
+                "w1",
+                "Worker A",
+                TaskFactors(load_kg=2.0, wrist_flexion=math.radians(-20.0)),
+                (FactorPeriod(120.0, 180.0, TaskFactors(load_kg=15.0, load_mode="static")),),
+            ),
+        ),
+        scoring={},
+        description="Line 3",
+        ground_truth_dir=None,
+        settings_path=tmp_path / "settings.toml",
+        calibration_path=tmp_path / "calibration.toml",
+    )
     infos = adapters.worker_infos(session, ["w1", "w2"], {"w1": [("Per-frame scores", "csv/w1.csv")]})
     w1, w2 = infos
     assert w1.name == "Worker A" and w2.name is None
@@ -161,7 +195,9 @@ def test_assumptions_from_session_settings(tmp_path):
     assert by_item["wrist flexion of the task"].source == "settings.toml [workers.w1]"
     assert "where the cameras do not see the hand" in by_item["wrist flexion of the task"].applies_to
     assert by_item["wrist deviation of the task"].value == "not given: the measured angle is scored"
-    assert by_item["wrist deviation of the task, 08:15:00 to 08:16:00"].value == "-10° (ulnar, toward the little finger)"
+    assert (
+        by_item["wrist deviation of the task, 08:15:00 to 08:16:00"].value == "-10° (ulnar, toward the little finger)"
+    )
     assert {a.item for a in w2.assumptions} >= {"load", "load, 08:10:00 to 08:15:00"}
     assert w1.csv_files[0].path == "csv/w1.csv"
 
@@ -175,18 +211,26 @@ def test_from_pipeline_records_to_pages(pipeline_records, tmp_path):
     workers, infos = [], []
     for (frames, summary, pts), diag in zip(records, diags):
         ws = adapters.worker_summary(summary, frames=frames, joints_at=lambda t, pts=pts: pts[int(round(t * FPS))])
-        wd = adapters.worker_diagnostics(diag, frames_reliable=int(reliable_frames(pts).sum()),
-                                         reliable_rule=reliable_rule())
+        wd = adapters.worker_diagnostics(
+            diag, frames_reliable=int(reliable_frames(pts).sum()), reliable_rule=reliable_rule()
+        )
         mid = (pts[:, 23, :2] + pts[:, 24, :2]) / 2  # NaN where a hip is missing
-        table = frames_table(frames["time_s"].to_numpy(), rula_grand=frames["rula_grand"],
-                             rula_action_level=frames["rula_action_level"], reba_score=frames["reba_score"],
-                             reba_risk_level=frames["reba_risk_level"], floor_x_m=mid[:, 0], floor_y_m=mid[:, 1],
-                             reliable=reliable_frames(pts))
+        table = frames_table(
+            frames["time_s"].to_numpy(),
+            rula_grand=frames["rula_grand"],
+            rula_action_level=frames["rula_action_level"],
+            reba_score=frames["reba_score"],
+            reba_risk_level=frames["reba_risk_level"],
+            floor_x_m=mid[:, 0],
+            floor_y_m=mid[:, 1],
+            reliable=reliable_frames(pts),
+        )
         workers.append((ws, wd, table))
         infos.append(WorkerInfo(worker_id=summary.worker))
     n = len(records[0][0])
-    session = SessionInfo(**{**base.__dict__, "workers": tuple(infos), "frames": n, "duration_s": n / FPS,
-                             "csv_files": ()})
+    session = SessionInfo(
+        **{**base.__dict__, "workers": tuple(infos), "frames": n, "duration_s": n / FPS, "csv_files": ()}
+    )
     save_results(tmp_path, session, workers)
     render_report(tmp_path)
     text = (tmp_path / "worker-worker_1.html").read_text(encoding="utf-8")

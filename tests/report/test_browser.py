@@ -27,9 +27,20 @@ from ergopose.report.pages import worker_page_name
 
 pytestmark = pytest.mark.browser
 
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-default-apps", "--disable-extensions", "--hide-scrollbars", "--mute-audio"]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-default-apps",
+    "--disable-extensions",
+    "--hide-scrollbars",
+    "--mute-audio",
+]
 DOCS_IMG = Path(__file__).resolve().parents[2] / "docs" / "img"
 
 PROBE = """<script>
@@ -84,8 +95,9 @@ def probe(page: Path, tmp_path: Path, window: str = "1280,800") -> dict:
     csp = "default-src 'none'; style-src 'unsafe-inline'; img-src data:"
     assert csp in html
     test_copy = page.with_name(f"test-probe-{page.name}")
-    test_copy.write_text(html.replace(csp, csp + "; script-src 'unsafe-inline'").replace("</body>", PROBE + "</body>"),
-                         encoding="utf-8")
+    test_copy.write_text(
+        html.replace(csp, csp + "; script-src 'unsafe-inline'").replace("</body>", PROBE + "</body>"), encoding="utf-8"
+    )
     try:
         proc = run_chromium(test_copy.as_uri(), tmp_path, "--dump-dom", f"--window-size={window}")
     finally:
@@ -127,8 +139,10 @@ def test_index_page_in_chromium(rendered_report, tmp_path):
 def test_shipped_pages_load_silently_and_screenshots(rendered_report, tmp_path):
     folder, session, workers, files = rendered_report
     shots = {}
-    for page, name, window in ((folder / "index.html", "report-index.png", "1280,1500"),
-                               (folder / worker_page_name("W2"), "report-worker.png", "1280,2300")):
+    for page, name, window in (
+        (folder / "index.html", "report-index.png", "1280,1500"),
+        (folder / worker_page_name("W2"), "report-worker.png", "1280,2300"),
+    ):
         png = tmp_path / name
         proc = run_chromium(page.as_uri(), tmp_path, f"--screenshot={png}", f"--window-size={window}")
         assert console_messages(proc.stderr) == []
@@ -149,8 +163,9 @@ def test_shipped_pages_load_silently_and_screenshots(rendered_report, tmp_path):
 def test_prints_to_a4_pdf(rendered_report, tmp_path):
     folder, session, workers, files = rendered_report
     pdf = tmp_path / "worker.pdf"
-    proc = run_chromium((folder / worker_page_name("W1")).as_uri(), tmp_path, f"--print-to-pdf={pdf}",
-                        "--no-pdf-header-footer")
+    proc = run_chromium(
+        (folder / worker_page_name("W1")).as_uri(), tmp_path, f"--print-to-pdf={pdf}", "--no-pdf-header-footer"
+    )
     assert console_messages(proc.stderr) == []
     data = pdf.read_bytes()
     assert data.startswith(b"%PDF")

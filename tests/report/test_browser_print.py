@@ -75,8 +75,10 @@ def pdf_pages(page: Path, tmp_path: Path) -> tuple[int, dict[str, int]]:
     proc = run_chromium(page.as_uri(), tmp_path, f"--print-to-pdf={pdf}", "--no-pdf-header-footer")
     assert console_messages(proc.stderr) == []
     data = pdf.read_bytes()
-    kids = {int(n): re.findall(rb"(\d+) 0 R", body) for n, body in
-            re.findall(rb"\n(\d+) 0 obj\n<</Type /Pages\n/Count \d+\n/Kids \[([^\]]*)\]", data)}
+    kids = {
+        int(n): re.findall(rb"(\d+) 0 R", body)
+        for n, body in re.findall(rb"\n(\d+) 0 obj\n<</Type /Pages\n/Count \d+\n/Kids \[([^\]]*)\]", data)
+    }
     children = {int(k) for ks in kids.values() for k in ks}
     (root,) = [n for n in kids if n not in children]
 
@@ -106,10 +108,17 @@ def test_twenty_workers_print_within_the_limit(crowded_report, tmp_path):
     assert all(1 <= n <= 2 for n in per_worker.values()), per_worker
 
 
-@pytest.mark.parametrize("page, window, print_rules", [
-    ("index.html", "1280,900", False), ("index.html", "800,900", False),
-    (worker_page_name("W1"), "800,900", False), (worker_page_name("W3"), "800,900", False),
-    (PRINT_FILE, f"{A4_PRINTABLE_PX},1000", True)], ids=["index", "index-narrow", "worker-rtl", "worker-long", "print"])
+@pytest.mark.parametrize(
+    "page, window, print_rules",
+    [
+        ("index.html", "1280,900", False),
+        ("index.html", "800,900", False),
+        (worker_page_name("W1"), "800,900", False),
+        (worker_page_name("W3"), "800,900", False),
+        (PRINT_FILE, f"{A4_PRINTABLE_PX},1000", True),
+    ],
+    ids=["index", "index-narrow", "worker-rtl", "worker-long", "print"],
+)
 def test_crowded_pages_keep_their_layout(crowded_report, tmp_path, page, window, print_rules):
     folder, session, workers, files = crowded_report
     found = layout(folder / page, tmp_path, window, print_rules)

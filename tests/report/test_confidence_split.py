@@ -44,8 +44,13 @@ EXPECTED = {  # level -> (seconds, percent, {cause: (seconds, percent)})
 
 def _frames() -> tuple[pd.DataFrame, np.ndarray]:
     n = 200
-    spec = [("confident", "", 100), ("low", "one camera", 40), ("low", "occluded limbs", 20),
-            ("unscored", "not seen", 30), ("unscored", "one camera", 10)]
+    spec = [
+        ("confident", "", 100),
+        ("low", "one camera", 40),
+        ("low", "occluded limbs", 20),
+        ("unscored", "not seen", 30),
+        ("unscored", "one camera", 10),
+    ]
     conf = np.concatenate([[c] * k for c, _, k in spec])
     cause = np.concatenate([[ca] * k for _, ca, k in spec])
     order = np.random.default_rng(3).permutation(n)  # interleaved, so runs cross chunk ends
@@ -54,18 +59,27 @@ def _frames() -> tuple[pd.DataFrame, np.ndarray]:
     rula = np.where(scored, np.where(np.arange(n) % 4 == 0, 6, 3), np.nan)
     reba = np.where(scored, np.where(np.arange(n) % 5 == 0, 9, 4), np.nan)
     sd_wrist = np.where(np.arange(n) < 150, 5.0, 20.0)[order]
-    frames = pd.DataFrame({
-        "worker": "W1", "frame": np.arange(n), "time_s": np.arange(n) / FPS,
-        "rula_grand": pd.array(rula, dtype="Float64").astype("Int16"),
-        "rula_action_level": pd.array(np.where(np.isnan(rula), np.nan, np.where(rula >= 5, 3, 2)),
-                                      dtype="Float64").astype("Int8"),
-        "reba_score": pd.array(reba, dtype="Float64").astype("Int16"),
-        "reba_risk_level": pd.array(np.where(np.isnan(reba), np.nan, np.where(reba >= 8, 3, 2)),
-                                    dtype="Float64").astype("Int8"),
-        "left_wrist_flexion": np.radians(10.0), "left_wrist_flexion_sd": np.radians(sd_wrist),
-        "neck_flexion": np.radians(15.0), "neck_flexion_sd": np.radians(2.0),
-        "confidence": pd.array(conf, dtype="string"), "cause": pd.array(cause, dtype="string"),
-    })
+    frames = pd.DataFrame(
+        {
+            "worker": "W1",
+            "frame": np.arange(n),
+            "time_s": np.arange(n) / FPS,
+            "rula_grand": pd.array(rula, dtype="Float64").astype("Int16"),
+            "rula_action_level": pd.array(
+                np.where(np.isnan(rula), np.nan, np.where(rula >= 5, 3, 2)), dtype="Float64"
+            ).astype("Int8"),
+            "reba_score": pd.array(reba, dtype="Float64").astype("Int16"),
+            "reba_risk_level": pd.array(
+                np.where(np.isnan(reba), np.nan, np.where(reba >= 8, 3, 2)), dtype="Float64"
+            ).astype("Int8"),
+            "left_wrist_flexion": np.radians(10.0),
+            "left_wrist_flexion_sd": np.radians(sd_wrist),
+            "neck_flexion": np.radians(15.0),
+            "neck_flexion_sd": np.radians(2.0),
+            "confidence": pd.array(conf, dtype="string"),
+            "cause": pd.array(cause, dtype="string"),
+        }
+    )
     inferred = np.zeros((n, NUM_JOINTS), dtype=bool)
     inferred[order[:120], JOINT_INDEX["left_pinky"]] = True
     return frames, inferred
@@ -121,7 +135,9 @@ def test_summary_csvs_carry_the_split(summary):
     assert (row["low_confidence_one_camera_s"], row["low_confidence_occluded_limbs_s"]) == pytest.approx((4.0, 2.0))
     assert (row["scored_s"], row["scored_pct_of_tracked"]) == pytest.approx((16.0, 80.0))
     assert row["low_confidence_not_seen_s"] == 0.0
-    assert (row["unscored_s"], row["unscored_pct_of_tracked"], row["unscored_not_seen_s"]) == pytest.approx((4.0, 20.0, 3.0))
+    assert (row["unscored_s"], row["unscored_pct_of_tracked"], row["unscored_not_seen_s"]) == pytest.approx(
+        (4.0, 20.0, 3.0)
+    )
     assert row["left_wrist_inferred_pct_of_tracked"] == pytest.approx(60.0)
     # high risk with both bases: RULA level 3 in the frames with grand score 6
     frames, _ = _frames()
@@ -168,11 +184,15 @@ def test_report_and_terminal_show_the_same_figures(summary, tmp_path: Path):
     lines = worker_lines(WorkerOutput(worker_id="W1", name="W1", summary=summary, csv_files=()))
     terminal = "\n".join(lines)
     assert "scored with confidence: 10 s (50.0 % of tracked time)" in terminal
-    assert "scored with low confidence: 6.0 s (30.0 % of tracked time): one camera 4.0 s (20.0 %); " \
-           "occluded limbs 2.0 s (10.0 %)" in terminal
+    assert (
+        "scored with low confidence: 6.0 s (30.0 % of tracked time): one camera 4.0 s (20.0 %); "
+        "occluded limbs 2.0 s (10.0 %)" in terminal
+    )
     assert "not scored: 4.0 s (20.0 % of tracked time): not seen 3.0 s (15.0 %); one camera 1.0 s (5.0 %)" in terminal
-    assert f"RULA action level 3-4: {'%.1f s' % rula_high} = {tracked_pct} of tracked time, {scored_pct} of scored " \
-           "time (16 s scored; not scored 4.0 s = 20.0 % of tracked time, causes above)" in terminal
+    assert (
+        f"RULA action level 3-4: {'%.1f s' % rula_high} = {tracked_pct} of tracked time, {scored_pct} of scored "
+        "time (16 s scored; not scored 4.0 s = 20.0 % of tracked time, causes above)" in terminal
+    )
 
 
 def test_results_without_confidence_still_render(tmp_path: Path):
@@ -182,7 +202,7 @@ def test_results_without_confidence_still_render(tmp_path: Path):
     rec = dataclasses.replace(rec, confidence=(), inputs=())
     render_report(tmp_path, session_results(session, [(rec, diag, frames)]))
     page = (tmp_path / "worker-W1.html").read_text(encoding="utf-8")
-    assert "Not recorded with these results." in page and 'data-input=' not in page
+    assert "Not recorded with these results." in page and "data-input=" not in page
 
 
 def test_wrist_flexion_from_the_settings_is_counted_once_and_shown_alike(tmp_path: Path):
@@ -214,7 +234,8 @@ def test_wrist_flexion_from_the_settings_is_counted_once_and_shown_alike(tmp_pat
     record = adapters.worker_summary(summary)
     wrist = next(i for i in record.inputs if i.body_part == "left wrist")
     assert [(v.input, v.seconds, v.scored_s) for v in wrist.from_settings] == [
-        ("left_wrist_flexion", pytest.approx(used / FPS), pytest.approx(16.0))]
+        ("left_wrist_flexion", pytest.approx(used / FPS), pytest.approx(16.0))
+    ]
     assert all(not i.from_settings for i in record.inputs if i.body_part != "left wrist")
     save_results(tmp_path, session, [(record, diag, timeline)])
     render_report(tmp_path, session_results(session, [(record, diag, timeline)]))

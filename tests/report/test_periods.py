@@ -99,7 +99,7 @@ def test_a_long_shift_keeps_every_high_second():
     high = np.zeros(n, dtype=bool)
     starts = rng.choice(n - 200, 300, replace=False)
     for s in starts:  # building the series, not the code under test
-        high[s:s + 120] = True
+        high[s : s + 120] = True
     t = np.arange(n) / 12.0
     got = sustained_periods(t, high, 1 / 12)
     assert sum(p.high_s for p in got) == pytest.approx(high.sum() / 12)
@@ -112,16 +112,23 @@ def _period_rows():
     import pandas as pd
 
     nan = np.nan
-    return pd.DataFrame({
-        "load_kg": [12.0] * 6 + [nan] * 4,
-        "load_mode": pd.array(["static"] * 6 + [None] * 4, dtype="string"),
-        "coupling": pd.array([None] * 10, dtype="string"),
-        "shock": [nan] * 10, "arm_supported": [1.0] * 10, "seated": [0.0] * 5 + [nan] * 5,
-        "legs_supported": [nan] * 10, "wrist_twist_end_range": [nan] * 10,
-        "inputs_from_settings": pd.array(["left_wrist_flexion"] * 3 + [""] * 7, dtype="string"),
-        "left_wrist_flexion": [np.radians(20.0)] * 3 + [0.3] * 7, "right_wrist_flexion": [0.1] * 10,
-        "left_wrist_deviation": [0.0] * 10, "right_wrist_deviation": [0.0] * 10,
-    })
+    return pd.DataFrame(
+        {
+            "load_kg": [12.0] * 6 + [nan] * 4,
+            "load_mode": pd.array(["static"] * 6 + [None] * 4, dtype="string"),
+            "coupling": pd.array([None] * 10, dtype="string"),
+            "shock": [nan] * 10,
+            "arm_supported": [1.0] * 10,
+            "seated": [0.0] * 5 + [nan] * 5,
+            "legs_supported": [nan] * 10,
+            "wrist_twist_end_range": [nan] * 10,
+            "inputs_from_settings": pd.array(["left_wrist_flexion"] * 3 + [""] * 7, dtype="string"),
+            "left_wrist_flexion": [np.radians(20.0)] * 3 + [0.3] * 7,
+            "right_wrist_flexion": [0.1] * 10,
+            "left_wrist_deviation": [0.0] * 10,
+            "right_wrist_deviation": [0.0] * 10,
+        }
+    )
 
 
 def test_a_period_names_its_task_inputs_and_what_was_measured():
@@ -142,8 +149,9 @@ def test_a_period_names_its_task_inputs_and_what_was_measured():
         InputUse("wrist_twist_end_range", "not given", None, 5.0),
     )
     # results written before the inputs were read: only what the frames hold
-    assert period_inputs(_period_rows()[["load_kg"]], 0.5) == (InputUse("angles", "measured", None, 5.0,
-                                                                         MEASURED_INPUTS),)
+    assert period_inputs(_period_rows()[["load_kg"]], 0.5) == (
+        InputUse("angles", "measured", None, 5.0, MEASURED_INPUTS),
+    )
     assert period_inputs(_period_rows().iloc[0:0], 0.5) == ()
 
 
@@ -163,5 +171,6 @@ def test_the_report_words_of_a_period_s_inputs():
     assert task_inputs_line(records, 5.0) == (
         "left wrist flexion: 20° (flexion), where the hand was not seen (1.5 s); load: 12 kg, held static (3.0 s); "
         "arm supported or leaning: yes; seated: no (2.5 s); not given: load, hand coupling, shock or rapid build-up "
-        "of force, seated, legs and feet supported, wrist twisted near the end of its range")
+        "of force, seated, legs and feet supported, wrist twisted near the end of its range"
+    )
     assert task_inputs_line((), 5.0) == "not recorded"

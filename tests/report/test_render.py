@@ -64,7 +64,10 @@ def test_headline_numbers_come_from_the_frames(rendered_report):
     folder, session, workers, files = rendered_report
     for info, (_, _, frames) in zip(session.workers, workers):
         page = Page((folder / worker_page_name(info.worker_id)).read_text(encoding="utf-8"))
-        for method, col, levels in (("rula", "rula_action_level", range(1, 5)), ("reba", "reba_risk_level", range(0, 5))):
+        for method, col, levels in (
+            ("rula", "rula_action_level", range(1, 5)),
+            ("reba", "reba_risk_level", range(0, 5)),
+        ):
             for k, share in expected_shares(frames, col, levels).items():
                 assert page.shares[f"{method}-{k}"] == share, (info.worker_id, method, k)
 
@@ -102,7 +105,7 @@ def test_every_figure_is_accessible(rendered_report):
         assert figures, name
         for fig in figures:
             assert "<figcaption>" in fig
-            svg_text = fig[fig.index("<svg"):fig.rindex("</svg>") + 6]
+            svg_text = fig[fig.index("<svg") : fig.rindex("</svg>") + 6]
             root = ET.fromstring(svg_text)
             assert root.get("role") == "img" and root.get("aria-labelledby")
             ns = "{http://www.w3.org/2000/svg}"
@@ -120,7 +123,9 @@ def test_links_point_at_the_csv_files(rendered_report):
     assert "csv/session-summary.csv" not in hrefs
     assert "missing: expected csv/session-summary.csv next to this report" in "".join(page.text)
     index = Page((folder / "index.html").read_text(encoding="utf-8"))
-    assert {"worker-W1.html", "worker-W2.html", "worker-W3.html", "csv/W3.csv"} <= {a.get("href") for t, a in index.tags if t == "a"}
+    assert {"worker-W1.html", "worker-W2.html", "worker-W3.html", "csv/W3.csv"} <= {
+        a.get("href") for t, a in index.tags if t == "a"
+    }
 
 
 @pytest.mark.slow
@@ -143,7 +148,9 @@ def hostile_report(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("page_name", ["index.html", "print.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"])
+@pytest.mark.parametrize(
+    "page_name", ["index.html", "print.html", "worker-W1.html", "worker-W2.html", "worker-W3.html"]
+)
 def test_hostile_names_are_escaped_everywhere(hostile_report, page_name):
     text = (hostile_report / page_name).read_text(encoding="utf-8")
     page = Page(text)
@@ -181,8 +188,13 @@ def test_pages_and_results_are_readable_by_others(rendered_report):
     folder, session, workers, files = rendered_report
     mask = os.umask(0)
     os.umask(mask)
-    for p in [files.index, *files.workers, folder / "results", folder / "results" / "session.json",
-              folder / "results" / "workers" / "W1" / "frames.parquet"]:
+    for p in [
+        files.index,
+        *files.workers,
+        folder / "results",
+        folder / "results" / "session.json",
+        folder / "results" / "workers" / "W1" / "frames.parquet",
+    ]:
         mode = stat.S_IMODE(p.stat().st_mode)
         assert mode == (0o777 if p.is_dir() else 0o666) & ~mask, (p, oct(mode))
 
@@ -194,8 +206,15 @@ def test_short_times_and_ticks():
     assert fmt_duration(0.4) == "0.4 s" and fmt_duration(0) == "0 s" and fmt_duration(59.6) == "1 min 00 s"
     assert fmt_duration(7260) == "2 h 01 min"
     ticks = _time_ticks(60.0, Clock("2024-03-04T08:00:00"))
-    assert [label for _, label in ticks] == ["08:00:00", "08:00:10", "08:00:20", "08:00:30", "08:00:40", "08:00:50",
-                                             "08:01:00"]
+    assert [label for _, label in ticks] == [
+        "08:00:00",
+        "08:00:10",
+        "08:00:20",
+        "08:00:30",
+        "08:00:40",
+        "08:00:50",
+        "08:01:00",
+    ]
     ticks = _time_ticks(8 * 3600.0, Clock("2024-03-04T07:45:00"))
     assert ticks[0] == (900.0, "08:00") and ticks[-1][1] == "15:00"
 
@@ -217,8 +236,9 @@ def test_no_report_defects_and_every_abbreviation_in_the_glossary(crowded_report
         text = _visible_text(html)
         for bad in ("0.0 to 0.0", "n/s", "± 0.0", "(n = 1)"):
             assert bad not in html, (name, bad)
-        terms = " ".join(re.findall(r"<dt>(.*?)</dt>", re.search(r'<dl class="glossary">(.*?)</dl>', html,
-                                                                  flags=re.S).group(1)))
+        terms = " ".join(
+            re.findall(r"<dt>(.*?)</dt>", re.search(r'<dl class="glossary">(.*?)</dl>', html, flags=re.S).group(1))
+        )
         for abbr in ("RULA", "REBA", "AL1", "AL2", "AL3", "AL4", "SD", "n/a", "deg"):
             if re.search(rf"(?<![\w/]){re.escape(abbr)}(?![\w/])", text):
                 assert abbr in terms, (name, abbr)
@@ -226,7 +246,9 @@ def test_no_report_defects_and_every_abbreviation_in_the_glossary(crowded_report
     page = (folder / worker_page_name("W2")).read_text(encoding="utf-8")
     table = re.search(r"<caption>RULA: time at each action level per hour.*?</table>", page, flags=re.S).group(0)
     cells = re.findall(r'<td class="num">([^<]*)</td>', table)
-    assert cells and any(re.search(r"\d+ (s|min)", c) for c in cells) and not any(c.strip() in ("0.0", "0") for c in cells)
+    assert (
+        cells and any(re.search(r"\d+ (s|min)", c) for c in cells) and not any(c.strip() in ("0.0", "0") for c in cells)
+    )
 
 
 @pytest.mark.slow
@@ -251,5 +273,10 @@ def test_pages_show_the_sustained_periods(rendered_report):
         _, _, frames = workers[session.workers.index(info)]
         high = (frames["rula_action_level"].isin([3, 4]) | frames["reba_risk_level"].isin([3, 4])).sum() / session.fps
         held = sum(w.high_s for w in summary.worst)
-        assert markupsafe.escape(f"hold {fmt_duration(held)} of the worker's {fmt_duration(high)} at high risk "
-                                 f"({100 * held / high:.1f} %)") in html
+        assert (
+            markupsafe.escape(
+                f"hold {fmt_duration(held)} of the worker's {fmt_duration(high)} at high risk "
+                f"({100 * held / high:.1f} %)"
+            )
+            in html
+        )

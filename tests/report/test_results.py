@@ -11,8 +11,7 @@ import pytest
 
 from ergopose.errors import InputError
 from ergopose.report import results as R
-from ergopose.report.context import (LevelTime, SessionInfo, StandardFlag, WorkerDiagnostics, WorkerInfo,
-                                     WorkerSummary)
+from ergopose.report.context import LevelTime, SessionInfo, StandardFlag, WorkerDiagnostics, WorkerInfo, WorkerSummary
 from ergopose.report._codec import from_jsonable, to_jsonable
 from ergopose.report.render import render_pages
 
@@ -123,14 +122,29 @@ def test_records_refuse_bad_values():
     with pytest.raises(ValueError, match="verdict"):
         StandardFlag("ISO 11226", "trunk", "c", "bad", 1.0, 1.0, "")
     with pytest.raises(ValueError):
-        R.frames_table(np.array([0.0, 0.0]), rula_grand=[1, 2], rula_action_level=[1, 1], reba_score=[1, 2],
-                       reba_risk_level=[0, 1], floor_x_m=[0, 0], floor_y_m=[0, 0], reliable=[True, True])
+        R.frames_table(
+            np.array([0.0, 0.0]),
+            rula_grand=[1, 2],
+            rula_action_level=[1, 1],
+            reba_score=[1, 2],
+            reba_risk_level=[0, 1],
+            floor_x_m=[0, 0],
+            floor_y_m=[0, 0],
+            reliable=[True, True],
+        )
 
 
 def test_frames_table_keeps_missing_scores():
-    f = R.frames_table(np.array([0.0, 0.1]), rula_grand=np.array([3.0, np.nan]), rula_action_level=np.array([2.0, np.nan]),
-                       reba_score=np.array([5.0, 6.0]), reba_risk_level=np.array([2.0, 2.0]),
-                       floor_x_m=np.zeros(2), floor_y_m=np.zeros(2), reliable=np.array([True, False]))
+    f = R.frames_table(
+        np.array([0.0, 0.1]),
+        rula_grand=np.array([3.0, np.nan]),
+        rula_action_level=np.array([2.0, np.nan]),
+        reba_score=np.array([5.0, 6.0]),
+        reba_risk_level=np.array([2.0, 2.0]),
+        floor_x_m=np.zeros(2),
+        floor_y_m=np.zeros(2),
+        reliable=np.array([True, False]),
+    )
     assert str(f["rula_grand"].dtype) == "Int16"
     assert f["rula_grand"].isna().tolist() == [False, True]
 
@@ -152,7 +166,9 @@ def test_results_in_memory_are_the_stored_results(tmp_path, small):
     memory = R.session_results(session, workers)
     assert memory.session == stored.session
     for a, b in zip(memory.workers, stored.workers):
-        assert a.info == b.info and _same_with_nan(a.summary, b.summary) and _same_with_nan(a.diagnostics, b.diagnostics)
+        assert (
+            a.info == b.info and _same_with_nan(a.summary, b.summary) and _same_with_nan(a.diagnostics, b.diagnostics)
+        )
         pd.testing.assert_frame_equal(a.frames, b.frames, check_dtype=True)
     assert render_pages(memory, tmp_path) == render_pages(stored, tmp_path)
     with pytest.raises(ValueError, match="1 worker results for 2 workers"):

@@ -40,21 +40,53 @@ def all_figures():
     starts = np.arange(10) * 60.0
     worst = np.array([1, 2, 3, np.nan, 7, 7, 5, 4, 3, 2], dtype=float)
     med = np.array([1, 1, 2, np.nan, 5, 6, 4, 3, 2, 1], dtype=float)
-    joints = pose_skeleton(BodyMeasurements.from_stature(1.75), place_on_floor(BodyMeasurements.from_stature(1.75), Posture()))
+    joints = pose_skeleton(
+        BodyMeasurements.from_stature(1.75), place_on_floor(BodyMeasurements.from_stature(1.75), Posture())
+    )
     return {
         "stacked_bars": svg.stacked_bars([svg.StackRow(EVIL, seg)], title=EVIL, desc=EVIL, id_prefix="a"),
-        "stacked_columns": svg.stacked_columns([svg.StackColumn(EVIL, seg)], title=EVIL, desc=EVIL, id_prefix="b",
-                                               y_max=60, y_label=EVIL, y_ticks=(0, 30, 60)),
-        "score_timeline": svg.score_timeline(starts, 60.0, worst, med, [svg.Band(0.5, 4.5, "#a6d96a", EVIL),
-                                                                        svg.Band(4.5, 7.5, "#d73027", EVIL)],
-                                             y_min=0.5, y_max=7.5, x_ticks=[(0, EVIL)], title=EVIL, desc=EVIL,
-                                             id_prefix="c", y_label=EVIL),
-        "box_plots": svg.box_plots([svg.BoxRow(EVIL, 1, 2, 3, 4, 5, 10), svg.BoxRow("none", *[math.nan] * 5, 0)],
-                                   title=EVIL, desc=EVIL, id_prefix="d", unit=EVIL),
+        "stacked_columns": svg.stacked_columns(
+            [svg.StackColumn(EVIL, seg)],
+            title=EVIL,
+            desc=EVIL,
+            id_prefix="b",
+            y_max=60,
+            y_label=EVIL,
+            y_ticks=(0, 30, 60),
+        ),
+        "score_timeline": svg.score_timeline(
+            starts,
+            60.0,
+            worst,
+            med,
+            [svg.Band(0.5, 4.5, "#a6d96a", EVIL), svg.Band(4.5, 7.5, "#d73027", EVIL)],
+            y_min=0.5,
+            y_max=7.5,
+            x_ticks=[(0, EVIL)],
+            title=EVIL,
+            desc=EVIL,
+            id_prefix="c",
+            y_label=EVIL,
+        ),
+        "box_plots": svg.box_plots(
+            [svg.BoxRow(EVIL, 1, 2, 3, 4, 5, 10), svg.BoxRow("none", *[math.nan] * 5, 0)],
+            title=EVIL,
+            desc=EVIL,
+            id_prefix="d",
+            unit=EVIL,
+        ),
         "bar_panels": svg.bar_panels([EVIL, "b"], [(EVIL, [50.0, math.nan])], title=EVIL, desc=EVIL, id_prefix="e"),
-        "heat_map": svg.heat_map(np.array([[0.0, 2.0], [1.0, 0.0]]), (-3, 3, -3, 3), title=EVIL, desc=EVIL,
-                                 id_prefix="f", unit=EVIL, outlines=[svg.Outline(EVIL, -1, -1, 1, 1, EVIL)],
-                                 markers=[svg.Marker(EVIL, 0, 0)], presence=np.ones((2, 2))),
+        "heat_map": svg.heat_map(
+            np.array([[0.0, 2.0], [1.0, 0.0]]),
+            (-3, 3, -3, 3),
+            title=EVIL,
+            desc=EVIL,
+            id_prefix="f",
+            unit=EVIL,
+            outlines=[svg.Outline(EVIL, -1, -1, 1, 1, EVIL)],
+            markers=[svg.Marker(EVIL, 0, 0)],
+            presence=np.ones((2, 2)),
+        ),
         "skeleton_views": svg.skeleton_views(joints, title=EVIL, desc=EVIL, id_prefix="g"),
     }
 
@@ -83,9 +115,16 @@ def test_contrast_ratio_known_values():
 
 
 def test_stacked_bar_widths_are_proportional():
-    root = parse(svg.stacked_bars([svg.StackRow("r", (svg.Segment(3.0, "#a6d96a", "", "a"),
-                                                      svg.Segment(1.0, "#d73027", "", "b")))],
-                                  title="t", desc="d", id_prefix="p", width=720, label_width=170))
+    root = parse(
+        svg.stacked_bars(
+            [svg.StackRow("r", (svg.Segment(3.0, "#a6d96a", "", "a"), svg.Segment(1.0, "#d73027", "", "b")))],
+            title="t",
+            desc="d",
+            id_prefix="p",
+            width=720,
+            label_width=170,
+        )
+    )
     rects = [r for r in root.iter(f"{NS}rect") if r.find(f"{NS}title") is not None]
     w = [float(r.get("width")) for r in rects]
     assert w[0] / w[1] == pytest.approx(3.0, rel=1e-3)
@@ -182,17 +221,29 @@ def test_skeleton_projection_of_known_points():
     root = parse(svg.skeleton_views(j, title="t", desc="d", id_prefix="k"))
     marks = [(e.text, float(e.get("x")), float(e.get("y"))) for e in root.iter(f"{NS}text") if e.text in ("L", "R")]
     assert [m[0] for m in marks] == ["L", "R", "L", "R"]  # front view, then side view
-    for (_, lx, ly), (_, rx, ry), (dh, dz) in zip(marks[0::2], marks[1::2], ((0.3 - -0.2, 1.2 - 0.4),
-                                                                               (0.5 - -0.2, 1.2 - 0.4))):
+    for (_, lx, ly), (_, rx, ry), (dh, dz) in zip(
+        marks[0::2], marks[1::2], ((0.3 - -0.2, 1.2 - 0.4), (0.5 - -0.2, 1.2 - 0.4))
+    ):
         assert (lx - rx) / (ly - ry) == pytest.approx(-dh / dz, rel=1e-3)  # pixel y grows downwards
     assert svg.skeleton_projection(np.full((33, 3), np.nan)) is None
 
 
 def test_risk_strips_draw_each_share():
     shares = np.array([[1.0, 0, 0, 0], [0.25, 0.25, 0.25, 0.25], [0, 0, 0, 0]])
-    root = parse(svg.risk_strips([svg.StripRow(EVIL, shares)], 60.0, x_ticks=[(0, "06:00")], title=EVIL, desc=EVIL,
-                                 id_prefix="r", legend=("high", "medium", "low", "not scored", "not tracked"),
-                                 marks=[(0.0, 60.0, "1")], width=400, label_width=100))
+    root = parse(
+        svg.risk_strips(
+            [svg.StripRow(EVIL, shares)],
+            60.0,
+            x_ticks=[(0, "06:00")],
+            title=EVIL,
+            desc=EVIL,
+            id_prefix="r",
+            legend=("high", "medium", "low", "not scored", "not tracked"),
+            marks=[(0.0, 60.0, "1")],
+            width=400,
+            label_width=100,
+        )
+    )
     assert EVIL in texts(root)
     paths = {p.find(f"{NS}title").text: p.get("d") for p in root.iter(f"{NS}path") if p.find(f"{NS}title") is not None}
     # bin width (400 - 100 - 10) / 3; the high path: a full bin, then a quarter of the next

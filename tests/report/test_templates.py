@@ -107,8 +107,9 @@ def test_example_contexts_have_both_branches(example_contexts):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage],
-                         ids=["worker", "index", "print"])
+@pytest.mark.parametrize(
+    "page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage], ids=["worker", "index", "print"]
+)
 def test_template_uses_every_documented_field_and_nothing_else(page_type, example_contexts):
     env = environment(env_class=RecordingEnvironment)
     ctx = example_contexts[page_type]
@@ -121,8 +122,9 @@ def test_template_uses_every_documented_field_and_nothing_else(page_type, exampl
     assert env.reads <= expected
 
 
-@pytest.mark.parametrize("page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage],
-                         ids=["worker", "index", "print"])
+@pytest.mark.parametrize(
+    "page_type", [pages.WorkerPage, pages.IndexPage, pages.PrintPage], ids=["worker", "index", "print"]
+)
 def test_template_names_only_context_fields(page_type):
     """Top-level names of the template and of the layout it extends are exactly the context's fields."""
     env = environment()
@@ -143,9 +145,16 @@ def test_macros_use_only_their_arguments():
     assert jinja2.meta.find_undeclared_variables(env.parse(source)) == set()
 
 
-@pytest.mark.parametrize("cls", sorted(reachable_dataclasses(pages.WorkerPage) | reachable_dataclasses(pages.IndexPage)
-                                       | reachable_dataclasses(pages.PrintPage), key=lambda c: c.__name__),
-                         ids=lambda c: c.__name__)
+@pytest.mark.parametrize(
+    "cls",
+    sorted(
+        reachable_dataclasses(pages.WorkerPage)
+        | reachable_dataclasses(pages.IndexPage)
+        | reachable_dataclasses(pages.PrintPage),
+        key=lambda c: c.__name__,
+    ),
+    ids=lambda c: c.__name__,
+)
 def test_every_context_field_is_documented(cls):
     doc = cls.__doc__ or ""
     missing = [f.name for f in dataclasses.fields(cls) if not re.search(rf"\b{re.escape(f.name)}\b", doc)]
@@ -166,6 +175,8 @@ def test_templates_are_packaged():
     import tomllib
 
     root = Path(__file__).resolve().parents[2]
-    globs = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["ergopose.templates"]
+    globs = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"][
+        "ergopose.templates"
+    ]
     for f in (root / "templates").iterdir():
         assert any(f.match(g) for g in globs), f"{f.name} would not be installed"

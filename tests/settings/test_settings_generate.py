@@ -62,8 +62,9 @@ def test_every_key_is_in_the_docs_and_the_template():
                 inner = inner[0]
             if isinstance(inner, dict) and name == "workers":
                 inner = next(iter(inner.values()))
-            sub = [a for a in (info.annotation, *getattr(info.annotation, "__args__", ()))
-                   if hasattr(a, "model_fields")]
+            sub = [
+                a for a in (info.annotation, *getattr(info.annotation, "__args__", ())) if hasattr(a, "model_fields")
+            ]
             if sub and isinstance(inner, dict):
                 walk(sub[0], inner, f"{path}{name}.")
 
@@ -92,8 +93,20 @@ def test_the_template_with_every_key_set_round_trips_to_the_same_session(tmp_pat
     model, _ = read_settings(tmp_path / "a" / "settings.toml")
     again = settings_text(model.model_dump(exclude_unset=True))
     b = load_session(session_with(tmp_path / "b", again))
-    for field in ("recorded_at", "fps", "description", "camera_names", "defaults", "periods", "workers", "scoring",
-                  "identification", "pose", "reconstruction", "format_version"):
+    for field in (
+        "recorded_at",
+        "fps",
+        "description",
+        "camera_names",
+        "defaults",
+        "periods",
+        "workers",
+        "scoring",
+        "identification",
+        "pose",
+        "reconstruction",
+        "format_version",
+    ):
         assert getattr(a, field) == getattr(b, field), field
     assert read_settings(tmp_path / "b" / "settings.toml")[0] == model
 

@@ -43,33 +43,50 @@ def _message(tmp_path: Path, text: str) -> str:
     return msg.removeprefix(f"{path}: ")
 
 
-@pytest.mark.parametrize("extra, expected", [
-    # unknown key, with a suggestion; without one, the allowed keys
-    ("[workers.w1]\nseatd = true\n", "workers.w1.seatd: unknown key; did you mean 'seated'?"),
-    ("[identification]\ncolour = 1\n",
-     "identification.colour: unknown key (allowed: by_stature, stature_tolerance_m, stature_margin_m)"),
-    ("[reconstruction]\nfit_turn_rate_rad_s = 4.0\n",
-     "reconstruction.fit_turn_rate_rad_s: unknown key; did you mean 'fit_turn_rate_deg_s'?"),
-    # wrong type
-    ("[defaults]\nload_kg = \"heavy\"\n", "defaults.load_kg: expected a number >= 0 (kilograms), got 'heavy'"),
-    ("[pose]\nmax_people = 2.5\n", "pose.max_people: expected a whole number greater than 0, got 2.5"),
-    ("[scoring]\nstatic_includes_neutral = 1\n", "scoring.static_includes_neutral: expected true or false, got 1"),
-    ("[[periods]]\nstart = \"10:00\"\nend = 3.0\nload_kg = 1.0\n",
-     "periods[0].start: expected seconds from the start (a number), a clock time (10:15:00) or a date-time "
-     "(2024-03-04T10:15:00+01:00), got '10:00'"),
-    # out of range
-    ("[[workers.w1.periods]]\nstart = 0.0\nend = 1.0\nload_kg = -2.0\n",
-     "workers.w1.periods[0].load_kg: expected a number >= 0 (kilograms), got -2.0"),
-    ("[defaults]\nwrist_flexion_deg = 95.0\n",
-     "defaults.wrist_flexion_deg: expected a number from -90 to 90 (degrees), got 95.0"),
-    ("[reconstruction]\nmin_confidence = 1.0\n",
-     "reconstruction.min_confidence: expected a number >= 0 and below 1, got 1.0"),
-    ("[pose]\nmax_half_fov_deg = 5.0\n", "pose: min_half_fov_deg (8) must be below max_half_fov_deg (5)"),
-    # missing required
-    ("[calibration_check]\nobservations = \"bars.csv\"\n",
-     "calibration_check.length_m: missing; expected a number greater than 0 (metres)"),
-    ("[[periods]]\nstart = 0.0\nload_kg = 1.0\n", "periods[0].end: missing; expected seconds from the start"),
-])
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        # unknown key, with a suggestion; without one, the allowed keys
+        ("[workers.w1]\nseatd = true\n", "workers.w1.seatd: unknown key; did you mean 'seated'?"),
+        (
+            "[identification]\ncolour = 1\n",
+            "identification.colour: unknown key (allowed: by_stature, stature_tolerance_m, stature_margin_m)",
+        ),
+        (
+            "[reconstruction]\nfit_turn_rate_rad_s = 4.0\n",
+            "reconstruction.fit_turn_rate_rad_s: unknown key; did you mean 'fit_turn_rate_deg_s'?",
+        ),
+        # wrong type
+        ('[defaults]\nload_kg = "heavy"\n', "defaults.load_kg: expected a number >= 0 (kilograms), got 'heavy'"),
+        ("[pose]\nmax_people = 2.5\n", "pose.max_people: expected a whole number greater than 0, got 2.5"),
+        ("[scoring]\nstatic_includes_neutral = 1\n", "scoring.static_includes_neutral: expected true or false, got 1"),
+        (
+            '[[periods]]\nstart = "10:00"\nend = 3.0\nload_kg = 1.0\n',
+            "periods[0].start: expected seconds from the start (a number), a clock time (10:15:00) or a date-time "
+            "(2024-03-04T10:15:00+01:00), got '10:00'",
+        ),
+        # out of range
+        (
+            "[[workers.w1.periods]]\nstart = 0.0\nend = 1.0\nload_kg = -2.0\n",
+            "workers.w1.periods[0].load_kg: expected a number >= 0 (kilograms), got -2.0",
+        ),
+        (
+            "[defaults]\nwrist_flexion_deg = 95.0\n",
+            "defaults.wrist_flexion_deg: expected a number from -90 to 90 (degrees), got 95.0",
+        ),
+        (
+            "[reconstruction]\nmin_confidence = 1.0\n",
+            "reconstruction.min_confidence: expected a number >= 0 and below 1, got 1.0",
+        ),
+        ("[pose]\nmax_half_fov_deg = 5.0\n", "pose: min_half_fov_deg (8) must be below max_half_fov_deg (5)"),
+        # missing required
+        (
+            '[calibration_check]\nobservations = "bars.csv"\n',
+            "calibration_check.length_m: missing; expected a number greater than 0 (metres)",
+        ),
+        ("[[periods]]\nstart = 0.0\nload_kg = 1.0\n", "periods[0].end: missing; expected seconds from the start"),
+    ],
+)
 def test_each_problem_is_one_line_with_the_key_path_value_and_what_is_allowed(tmp_path, extra, expected):
     assert _message(tmp_path, MINIMAL + "\n" + extra).startswith(expected)
 
@@ -78,8 +95,9 @@ def test_missing_top_level_key_and_several_problems(tmp_path):
     msg = _message(tmp_path, MINIMAL.replace("recorded_at = 2024-03-04T08:00:00+01:00\n", ""))
     assert msg.startswith("recorded_at: missing; expected an ISO 8601 date and time")
     msg = _message(tmp_path, MINIMAL + "\n[scoring]\nmax_gap = 1\nrula_static_hold_s = 0\n")
-    assert msg == ("scoring.max_gap: unknown key; did you mean 'max_gap_s'? "
-                   "(and 1 more problem: scoring.rula_static_hold_s)")
+    assert msg == (
+        "scoring.max_gap: unknown key; did you mean 'max_gap_s'? (and 1 more problem: scoring.rula_static_hold_s)"
+    )
 
 
 def test_the_command_line_shows_one_line_and_exits_non_zero(tmp_path, capsys):
@@ -87,25 +105,34 @@ def test_the_command_line_shows_one_line_and_exits_non_zero(tmp_path, capsys):
     assert cli.main(["calibrate", "check", "--session", str(root)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert err.startswith(f"ergopose: error: {root / 'settings.toml'}: reconstruction.track_gate_m: expected a "
-                          "number greater than 0 (metres), got 0")
+    assert err.startswith(
+        f"ergopose: error: {root / 'settings.toml'}: reconstruction.track_gate_m: expected a "
+        "number greater than 0 (metres), got 0"
+    )
 
 
 def test_pose_and_reconstruction_tables_reach_the_session(tmp_path):
     plain = load_session(make_session(tmp_path / "plain"))
     assert plain.pose == PoseSettings() and plain.reconstruction == ReconSettings()
     assert repr(plain.pose) == repr(PoseSettings())  # unchanged fingerprint of the stored 2D work
-    text = SETTINGS + ("\n[pose]\nmax_body_roll_deg = 30.0\nsearch_rings_deg = [0, 40]\nmax_people = 3\n"
-                       "\n[reconstruction]\nfit_turn_rate_deg_s = 180.0\nmax_fill_gap_s = 1\n"
-                       "lens_region_limits_deg = [25, 50]\n")
+    text = SETTINGS + (
+        "\n[pose]\nmax_body_roll_deg = 30.0\nsearch_rings_deg = [0, 40]\nmax_people = 3\n"
+        "\n[reconstruction]\nfit_turn_rate_deg_s = 180.0\nmax_fill_gap_s = 1\n"
+        "lens_region_limits_deg = [25, 50]\n"
+    )
     s = load_session(make_session(tmp_path / "set", settings=text))
-    assert s.pose == dataclasses.replace(PoseSettings(), max_body_roll=math.radians(30.0),
-                                         search_rings=(0.0, math.radians(40.0)), max_people=3)
+    assert s.pose == dataclasses.replace(
+        PoseSettings(), max_body_roll=math.radians(30.0), search_rings=(0.0, math.radians(40.0)), max_people=3
+    )
     assert s.reconstruction.fit_turn_rate_rad_s == pytest.approx(math.pi)
     assert s.reconstruction.max_fill_gap_s == 1.0 and isinstance(s.reconstruction.max_fill_gap_s, float)
     assert s.reconstruction.lens_region_limits_deg == (25.0, 50.0)
-    assert s.reconstruction == dataclasses.replace(ReconSettings(), fit_turn_rate_rad_s=s.reconstruction.fit_turn_rate_rad_s,
-                                                   max_fill_gap_s=1.0, lens_region_limits_deg=(25.0, 50.0))
+    assert s.reconstruction == dataclasses.replace(
+        ReconSettings(),
+        fit_turn_rate_rad_s=s.reconstruction.fit_turn_rate_rad_s,
+        max_fill_gap_s=1.0,
+        lens_region_limits_deg=(25.0, 50.0),
+    )
 
 
 def test_records_hold_the_tables_fields_and_defaults():
@@ -119,8 +146,9 @@ def test_records_hold_the_tables_fields_and_defaults():
         if isinstance(value, str):
             assert getattr(pose, field) == value, key
             continue
-        np.testing.assert_allclose(getattr(pose, field), np.radians(value) if key.endswith("_deg") else value,
-                                   rtol=0, atol=1e-12, err_msg=key)
+        np.testing.assert_allclose(
+            getattr(pose, field), np.radians(value) if key.endswith("_deg") else value, rtol=0, atol=1e-12, err_msg=key
+        )
 
 
 def test_records_check_values_made_in_code():

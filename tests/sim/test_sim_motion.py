@@ -73,8 +73,17 @@ def test_joint_angles_measured_from_the_joints_are_the_built_angles(shift):
     w = shift.workers[1]
     measured = joint_angles(w.joints_world, shift.times_s)
     built = w.angles()
-    for name in ("trunk_flexion", "trunk_side_bend", "trunk_twist", "neck_flexion", "left_knee_flexion",
-                 "right_knee_flexion", "left_elbow_flexion", "right_upper_arm_flexion", "left_upper_arm_abduction"):
+    for name in (
+        "trunk_flexion",
+        "trunk_side_bend",
+        "trunk_twist",
+        "neck_flexion",
+        "left_knee_flexion",
+        "right_knee_flexion",
+        "left_elbow_flexion",
+        "right_upper_arm_flexion",
+        "left_upper_arm_abduction",
+    ):
         got = np.asarray(getattr(measured, name))
         ok = np.isfinite(got)
         assert ok.mean() > 0.99, name
@@ -90,7 +99,7 @@ def test_feet_on_the_floor_while_planted_and_never_below(shift):
         for k, side in enumerate(("left", "right")):
             planted = w.planted[:, k]
             sole = j[planted][:, [J[f"{side}_heel"], J[f"{side}_foot_index"]], 2]
-            assert np.abs(sole).max() < 2e-3          # flat on the floor (hip abduction tilts it < 2 mm)
+            assert np.abs(sole).max() < 2e-3  # flat on the floor (hip abduction tilts it < 2 mm)
             swing = ~planted
             assert swing.any() and j[swing, J[f"{side}_ankle"], 2].max() > w.spec.measurements.ankle_height + 0.03
 
@@ -138,10 +147,10 @@ def test_motion_is_smooth(shift):
     dt = 1.0 / FPS
     for w in shift.workers:
         v = np.linalg.norm(np.diff(w.joints_world, axis=0), axis=-1) / dt
-        assert v.max() < 7.0                       # m/s: swinging feet and reaching hands, no jumps
+        assert v.max() < 7.0  # m/s: swinging feet and reaching hands, no jumps
         root = np.asarray(w.posture.root_position)
         speed = np.linalg.norm(np.diff(root[:, :2], axis=0), axis=1) / dt
-        assert speed.max() < 1.8                   # walking, not running
+        assert speed.max() < 1.8  # walking, not running
         acc = np.linalg.norm(np.diff(root, n=2, axis=0), axis=1) / dt**2
         assert acc.max() < 8.0
 

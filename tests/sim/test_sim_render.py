@@ -94,18 +94,28 @@ def test_batched_kernels_equal_the_reference_intersections(world):
     flat, prim = r._pixels_of_boxes(box[:14])
     t = r._capsules(flat, prim, body.capsule_a[f], body.capsule_b[f], body.capsule_radius)
     d = r.rays_flat[flat].astype(np.float64)
-    ref = ray_capsule(cams[0].position_world, d, body.capsule_a[f][prim].astype(np.float64),
-                      body.capsule_b[f][prim].astype(np.float64), body.capsule_radius[prim].astype(np.float64))
+    ref = ray_capsule(
+        cams[0].position_world,
+        d,
+        body.capsule_a[f][prim].astype(np.float64),
+        body.capsule_b[f][prim].astype(np.float64),
+        body.capsule_radius[prim].astype(np.float64),
+    )
     both = np.isfinite(t) & np.isfinite(ref)
     assert both.sum() > 100
-    assert (np.isfinite(t) != np.isfinite(ref)).mean() < 0.005   # grazing rays may differ in float32
+    assert (np.isfinite(t) != np.isfinite(ref)).mean() < 0.005  # grazing rays may differ in float32
     err = np.abs(t - ref)[both]
-    assert np.percentile(err, 99) < 1e-3 and err.max() < 1e-2   # float32 rays: a few mm at grazing hits
+    assert np.percentile(err, 99) < 1e-3 and err.max() < 1e-2  # float32 rays: a few mm at grazing hits
     flat, prim = r._pixels_of_boxes(box[14:19])
     t = r._ellipsoids(flat, prim, body.ellipsoid_centre[f], body.ellipsoid_axes[f], body.ellipsoid_radii)
     d = r.rays_flat[flat].astype(np.float64)
-    ref = ray_ellipsoid(cams[0].position_world, d, body.ellipsoid_centre[f][prim].astype(np.float64),
-                        body.ellipsoid_axes[f][prim].astype(np.float64), body.ellipsoid_radii[prim].astype(np.float64))
+    ref = ray_ellipsoid(
+        cams[0].position_world,
+        d,
+        body.ellipsoid_centre[f][prim].astype(np.float64),
+        body.ellipsoid_axes[f][prim].astype(np.float64),
+        body.ellipsoid_radii[prim].astype(np.float64),
+    )
     both = np.isfinite(t) & np.isfinite(ref)
     assert both.sum() > 100
     assert (np.isfinite(t) != np.isfinite(ref)).mean() < 0.005
@@ -125,9 +135,14 @@ def test_every_primitive_is_inside_its_box(world):
                     u0, v0, u1, v1 = box[k]
                     if u1 - u0 < 3 or v1 - v0 < 3:
                         continue
-                    flat, prim = r._pixels_of_boxes(box[k:k + 1])
-                    t = r._capsules(flat, prim, bodies[w].capsule_a[f, k:k + 1], bodies[w].capsule_b[f, k:k + 1],
-                                    bodies[w].capsule_radius[k:k + 1])
+                    flat, prim = r._pixels_of_boxes(box[k : k + 1])
+                    t = r._capsules(
+                        flat,
+                        prim,
+                        bodies[w].capsule_a[f, k : k + 1],
+                        bodies[w].capsule_b[f, k : k + 1],
+                        bodies[w].capsule_radius[k : k + 1],
+                    )
                     rows, cols = flat // cam.width, flat % cam.width
                     rim = (rows == v0) | (rows == v1 - 1) | (cols == u0) | (cols == u1 - 1)
                     inside_image = (u0 > 0) & (v0 > 0) & (u1 < cam.width) & (v1 < cam.height)
@@ -156,7 +171,7 @@ def test_joints_land_on_the_mannequins_and_far_pixels_show_the_background(world)
             # pixels far from every worker: identical to the background
             proj = pixels[f].reshape(-1, 2)
             proj = proj[np.isfinite(proj).all(axis=1)]
-            vv, uu = np.mgrid[0:cam.height:7, 0:cam.width:7]
+            vv, uu = np.mgrid[0 : cam.height : 7, 0 : cam.width : 7]
             far = np.min(np.hypot(uu[..., None] - proj[:, 0], vv[..., None] - proj[:, 1]), axis=-1) > 60
             assert far.sum() > 1000
             assert np.array_equal(img[vv[far], uu[far]], r.background[vv[far], uu[far]])

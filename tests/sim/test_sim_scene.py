@@ -8,8 +8,15 @@ import numpy as np
 import pytest
 
 from ergopose.sim.paths import PATH_CLEARANCE
-from ergopose.sim.scene import (DEFAULT_SIZE, IMAGE_CIRCLE_THETA, LENS_REGIONS_DEG, PAPER_SIZE, default_scene,
-                                lens_region, rig_cameras)
+from ergopose.sim.scene import (
+    DEFAULT_SIZE,
+    IMAGE_CIRCLE_THETA,
+    LENS_REGIONS_DEG,
+    PAPER_SIZE,
+    default_scene,
+    lens_region,
+    rig_cameras,
+)
 
 
 @pytest.mark.parametrize("size", [DEFAULT_SIZE, PAPER_SIZE, (640, 480)])
@@ -17,17 +24,19 @@ def test_rig_geometry(size):
     cams = rig_cameras(*size)
     assert [c.name for c in cams] == ["cam_1", "cam_2"]
     c1, c2 = (c.position_world for c in cams)
-    assert 2.9 <= c1[2] <= 3.05 and 2.9 <= c2[2] <= 3.05          # 3 m ceiling
-    assert 1.4 <= np.linalg.norm((c1 - c2)[:2]) <= 1.6             # baseline about 1.5 m
+    assert 2.9 <= c1[2] <= 3.05 and 2.9 <= c2[2] <= 3.05  # 3 m ceiling
+    assert 1.4 <= np.linalg.norm((c1 - c2)[:2]) <= 1.6  # baseline about 1.5 m
     for cam in cams:
-        assert cam.axis_world[2] < -0.99                           # looking down, within 8 degrees
+        assert cam.axis_world[2] < -0.99  # looking down, within 8 degrees
         # 95 degrees off-axis lands just inside the short side of the image: the image circle fits
         lens = cam.lens
         phi = np.linspace(0, 2 * np.pi, 72, endpoint=False)
         t = IMAGE_CIRCLE_THETA
-        rim = lens.project(np.stack([np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full_like(phi, np.cos(t))], 1))
+        rim = lens.project(
+            np.stack([np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full_like(phi, np.cos(t))], 1)
+        )
         assert cam.in_image(rim).all()
-        short = (rim[:, 1] if size[1] <= size[0] else rim[:, 0])
+        short = rim[:, 1] if size[1] <= size[0] else rim[:, 0]
         assert short.min() < 0.02 * min(size) and short.max() > 0.98 * min(size)
         assert cam.lens.max_theta > IMAGE_CIRCLE_THETA
     assert cams[0].lens != cams[1].lens  # two real cameras never share exact intrinsics

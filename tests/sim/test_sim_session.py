@@ -146,7 +146,7 @@ def test_ground_truth_joints_lie_on_the_rendered_workers(sessions):
                     counted += 1
                     closer += np.abs(video[v, u] - with_workers[v, u]).sum() < np.abs(video[v, u] - empty[v, u]).sum()
             proj = gt.pixels[f, c].reshape(-1, 2)
-            vv, uu = np.mgrid[20:sc.camera.height - 20:9, 20:sc.camera.width - 20:9]
+            vv, uu = np.mgrid[20 : sc.camera.height - 20 : 9, 20 : sc.camera.width - 20 : 9]
             far = np.min(np.hypot(uu[..., None] - proj[:, 0], vv[..., None] - proj[:, 1]), axis=-1) > 80
             assert np.median(np.abs(video[vv[far], uu[far]] - empty[vv[far], uu[far]]).sum(axis=-1)) <= 12
         assert counted > 40 and closer / counted > 0.95, (sc.name, closer, counted)
@@ -162,8 +162,9 @@ def test_ground_truth_matches_a_fresh_render_of_the_motion(sessions):
     motion = simulate_motion(default_scene(), 2, 6.0, 12.0, seed=7)
     assert np.array_equal(motion.joints_world, gt.joints_world)
     s = load_session(root)
-    r = CameraRenderer(s.cameras[0].camera, default_scene(), all_body_primitives(motion),
-                       RenderOptions(noise_sigma=0.0))
+    r = CameraRenderer(
+        s.cameras[0].camera, default_scene(), all_body_primitives(motion), RenderOptions(noise_sigma=0.0)
+    )
     video = _frames(s.cameras[0].video_path)[30].astype(int)
     assert np.abs(video - r.render(30).astype(int)).mean() < 4.0
 

@@ -44,7 +44,9 @@ def lens_from_dict(data: Any) -> LensModel:
     a missing, unknown or non-numeric parameter, or parameters the model rejects.
     """
     if not isinstance(data, dict):
-        raise ConfigError(f"expected a table with 'kind' and the lens parameters, got {type(data).__name__}", field="lens")
+        raise ConfigError(
+            f"expected a table with 'kind' and the lens parameters, got {type(data).__name__}", field="lens"
+        )
     if "kind" not in data:
         raise ConfigError(f"missing 'kind' (one of: {', '.join(LENS_KINDS)})", field="lens.kind")
     kind = data["kind"]

@@ -112,4 +112,3 @@ class RadialLens(BlockwiseLens):
         np.divide(t, rd, out=t, where=rd > 0)  # rd = 0: sin(0) = 0 stays, ray (0, 0, 1)
         np.multiply(mx, t, out=out[:, 0])
         np.multiply(my, t, out=out[:, 1])
-

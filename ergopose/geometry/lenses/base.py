@@ -101,7 +101,9 @@ class BlockwiseLens(LensModel):
     def _unproject_block(self, pixels: np.ndarray, out: np.ndarray) -> None: ...
 
 
-def _blockwise(kernel: Callable[..., Any], data: Any, width_in: int, width_out: int, out: np.ndarray | None, what: str) -> np.ndarray:
+def _blockwise(
+    kernel: Callable[..., Any], data: Any, width_in: int, width_out: int, out: np.ndarray | None, what: str
+) -> np.ndarray:
     arr = as_points(data, width_in, what)
     shape = arr.shape[:-1] + (width_out,)
     if out is None:

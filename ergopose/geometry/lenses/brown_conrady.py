@@ -73,8 +73,9 @@ class BrownConrady(BlockwiseLens):
         if abs(K[0, 1]) > 1e-9 * max(abs(K[0, 0]), 1.0):
             raise ConfigError(f"skew is not supported (K[0][1] = {K[0, 1]!r})", field="K")
         if d.size not in (4, 5):
-            raise ConfigError(f"expected 4 or 5 distortion coefficients (k1, k2, p1, p2[, k3]), got {d.size}",
-                              field="distortions")
+            raise ConfigError(
+                f"expected 4 or 5 distortion coefficients (k1, k2, p1, p2[, k3]), got {d.size}", field="distortions"
+            )
         k3 = float(d[4]) if d.size == 5 else 0.0
         return cls(K[0, 0], K[1, 1], K[0, 2], K[1, 2], d[0], d[1], d[2], d[3], k3)
 
@@ -156,7 +157,7 @@ def _radial_turning_point(k1: float, k2: float, k3: float) -> float:
     vanishes (inf if it never does)."""
     coeffs = np.array([7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0])
     nonzero = np.flatnonzero(coeffs)
-    coeffs = coeffs[nonzero[0]:]
+    coeffs = coeffs[nonzero[0] :]
     limit = math.inf
     if coeffs.size > 1:
         for root in np.roots(coeffs):

@@ -93,7 +93,9 @@ class KannalaBrandt(RadialLens):
         # some xi in between (Taylor): with M >= max |f''| on [0, max_theta], d^2 <= 2 tol / M
         # proves convergence without evaluating the polynomial again.
         grid = np.linspace(0.0, max_theta, 20001)
-        curvature = np.abs(grid * (6 * self.k1 + grid**2 * (20 * self.k2 + grid**2 * (42 * self.k3 + grid**2 * 72 * self.k4))))
+        curvature = np.abs(
+            grid * (6 * self.k1 + grid**2 * (20 * self.k2 + grid**2 * (42 * self.k3 + grid**2 * 72 * self.k4)))
+        )
         bound = 1.25 * float(curvature.max()) + 1e-300  # margin for the grid's sampling
         object.__setattr__(self, "_step_tol2", 2.0 * RESIDUAL_TOL / bound)
 
@@ -111,9 +113,7 @@ class KannalaBrandt(RadialLens):
         if not np.allclose(K[2], [0, 0, 1]) or K[1, 0] != 0:
             raise ConfigError(f"the last row must be (0, 0, 1) and K[1,0] zero, got {K.tolist()}", field="K")
         if abs(K[0, 1]) > 1e-9 * abs(K[0, 0]):
-            raise ConfigError(
-                f"skew K[0,1] = {K[0, 1]} is not supported (cv2.fisheye alpha must be 0)", field="K"
-            )
+            raise ConfigError(f"skew K[0,1] = {K[0, 1]} is not supported (cv2.fisheye alpha must be 0)", field="K")
         return cls(K[0, 0], K[1, 1], K[0, 2], K[1, 2], *D)
 
     def to_opencv(self) -> tuple[np.ndarray, np.ndarray]:
@@ -257,7 +257,7 @@ def _first_turning_point(k1: float, k2: float, k3: float, k4: float) -> float:
     """
     coeffs = np.array([9.0 * k4, 7.0 * k3, 5.0 * k2, 3.0 * k1, 1.0])
     nonzero = np.flatnonzero(coeffs)
-    coeffs = coeffs[nonzero[0]:]
+    coeffs = coeffs[nonzero[0] :]
     limit = math.pi
     if coeffs.size > 1:
         for root in np.roots(coeffs):

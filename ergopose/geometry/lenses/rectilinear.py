@@ -17,11 +17,8 @@ from typing import ClassVar
 import numpy as np
 
 from ergopose.errors import ConfigError
-from ergopose.geometry.lenses.base import (
-    BlockwiseLens,
-    require_finite,
-    require_positive,
-)
+from ergopose.geometry.lenses.base import BlockwiseLens, require_finite, require_positive
+
 
 @dataclass(frozen=True)
 class Rectilinear(BlockwiseLens):

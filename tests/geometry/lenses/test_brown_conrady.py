@@ -19,8 +19,11 @@ from ergopose.geometry.lenses import LENS_KINDS, BrownConrady, lens_from_dict
 def pose2sim_lenses(shared_data):
     with open(shared_data / "pose2sim-demo" / "Calib_qualisys.toml", "rb") as f:
         data = tomllib.load(f)
-    return [BrownConrady.from_opencv(np.array(c["matrix"]), c["distortions"])
-            for k, c in data.items() if k.startswith("cam_")]
+    return [
+        BrownConrady.from_opencv(np.array(c["matrix"]), c["distortions"])
+        for k, c in data.items()
+        if k.startswith("cam_")
+    ]
 
 
 #: A wide-angle lens with strong barrel distortion: the radial mapping turns at r ~ 1.80 (61 deg).
