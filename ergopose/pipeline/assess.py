@@ -45,6 +45,7 @@ from ergopose.pipeline.inputs import ModelUse, ensure_models, fingerprint_inputs
 from ergopose.pipeline.publish import WorkerOutput
 from ergopose.pipeline.score import RunEach
 from ergopose.pipeline.store import ResultStore
+from ergopose.pose.models import ConfidenceGates
 from ergopose.pose.settings import PoseSettings
 from ergopose.recon.settings import ReconSettings
 from ergopose.progress import ProgressCallback, report, warn
@@ -102,7 +103,7 @@ class AssessResult:
     stage_seconds: dict = field(default_factory=dict)
 
 
-def _pose_for(pose: PoseSettings, gates) -> PoseSettings:
+def _pose_for(pose: PoseSettings, gates: ConfidenceGates | None) -> PoseSettings:
     """The 2D stage's settings ([pose] of settings.toml) with the landmark card's confidence
     gates, except where settings.toml gives a gate a value other than its default."""
     if gates is None:
@@ -117,7 +118,7 @@ def _pose_for(pose: PoseSettings, gates) -> PoseSettings:
     )
 
 
-def _recon_for(recon: ReconSettings, gates) -> ReconSettings:
+def _recon_for(recon: ReconSettings, gates: ConfidenceGates | None) -> ReconSettings:
     """The reconstruction's settings ([reconstruction] of settings.toml) with the landmark card's
     triangulation gate, except where settings.toml gives min_confidence another value."""
     if gates is None or recon.min_confidence != ReconSettings().min_confidence:
@@ -223,7 +224,9 @@ def prepare(
     )
 
 
-def open_store(run: PreparedRun, progress: ProgressCallback | None):
+def open_store(
+    run: PreparedRun, progress: ProgressCallback | None
+) -> tuple[list[tuple[int, int]], set[int], list[tuple[int, int]]]:
     """With the output folder locked: the chunk ranges (with a part of the day, the chunks that
     hold a frame of it, stored as in a whole-day run), the start frames of the chunks already
     stored (checked), and the ranges still to compute."""
@@ -262,7 +265,7 @@ def prepare_source(
 def people_in_3d(
     run: PreparedRun,
     todo: Sequence[tuple[int, int]],
-    ranges,
+    ranges: Sequence[tuple[int, int]],
     already: int,
     processes: int,
     progress: ProgressCallback | None,
@@ -287,7 +290,11 @@ def people_in_3d(
 
 
 def finish(
-    run: PreparedRun, ranges, reused: int, progress: ProgressCallback | None, run_each: RunEach | None = None
+    run: PreparedRun,
+    ranges: Sequence[tuple[int, int]],
+    reused: int,
+    progress: ProgressCallback | None,
+    run_each: RunEach | None = None,
 ) -> AssessResult:
     """The stages after the chunks, from the stored chunks (:func:`after_people`), and what the
     run wrote (run_each: see :func:`ergopose.pipeline.aggregate.score_tracks`)."""
@@ -316,7 +323,7 @@ Publisher = Callable[..., Any]
 
 def after_people(
     run: PreparedRun,
-    ranges,
+    ranges: Sequence[tuple[int, int]],
     progress: ProgressCallback | None,
     run_each: RunEach | None = None,
     publisher: Publisher = publish.publish,
@@ -342,7 +349,7 @@ def score_and_publish(
     session: Session,
     tracks: track.Tracks,
     out_dir: Path,
-    scoring,
+    scoring: Any,
     models: Sequence[ModelUse],
     progress: ProgressCallback | None,
     run_each: RunEach | None = None,
@@ -369,7 +376,7 @@ def score_and_publish(
         return publisher(named, scored, stage, out_dir, scoring, models, progress, bom=bom, store_dir=store_dir)
 
 
-def chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
+def chunk_task(job: detect.DetectJob, store_root: str, start: int, stop: int) -> tuple[int, int]:
     """Worker-process entry point: one chunk, stored before returning."""
     result = detect_chunk(job, start, stop)
     ResultStore.at(store_root).save_chunk(result)
@@ -377,7 +384,13 @@ def chunk_task(job, store_root: str, start: int, stop: int) -> tuple[int, int]:
 
 
 def _run_chunks(
-    job, store, todo: Sequence[tuple[int, int]], ranges, already: int, processes: int, progress: ProgressCallback | None
+    job: detect.DetectJob,
+    store: ResultStore,
+    todo: Sequence[tuple[int, int]],
+    ranges: Sequence[tuple[int, int]],
+    already: int,
+    processes: int,
+    progress: ProgressCallback | None,
 ) -> None:
     total_frames = sum(stop - start for start, stop in ranges)  # the chunks of this run (a window: some)
     done_frames = sum(stop - start for start, stop in ranges) - sum(stop - start for start, stop in todo)

@@ -76,6 +76,7 @@ def identify_by_stature(measured: dict[str, float], session: Session) -> Identif
     """Match tracked people (``{tracked id: measured stature}``) to the workers with a given stature."""
     rules = session.identification
     workers = [w for w in session.workers if w.stature_m is not None]
+    statures = [float(w.stature_m) for w in workers if w.stature_m is not None]
     tracked = [t for t, v in measured.items() if v is not None and math.isfinite(v)]
     if not workers:
         return Identification((), ())
@@ -89,7 +90,7 @@ def identify_by_stature(measured: dict[str, float], session: Session) -> Identif
         )
     if not tracked:
         return Identification((), ("no tracked person's stature could be measured, so nobody was identified",))
-    diff = np.abs(np.array([[measured[t] - w.stature_m for w in workers] for t in tracked]))
+    diff = np.abs(np.array([[measured[t] - stature for stature in statures] for t in tracked]))
     cost = np.where(diff <= rules.stature_tolerance_m, diff, _BIG)
     rows, cols, total = _best(cost)
     matches, notes = [], []

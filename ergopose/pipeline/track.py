@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterator, Mapping, Sequence
 
 import numpy as np
 import pyarrow as pa
@@ -30,7 +30,8 @@ from ergopose.pipeline.names import (
 from ergopose.pipeline.scoring import ShiftReferences
 from ergopose.pipeline.window import Window
 from ergopose.progress import ProgressCallback, report, warn
-from ergopose.recon.pipeline import ShiftReconstruction
+from ergopose.pipeline.store import ResultStore
+from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
 from ergopose.recon.session import worker_summary
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.table import TracksWriter, read_metadata, table_to_frames
@@ -61,7 +62,7 @@ class Tracks:
 
 def track_session(
     session: Session,
-    store,
+    store: ResultStore,
     ranges: Sequence[tuple[int, int]],
     recon: ReconSettings,
     progress: ProgressCallback | None,
@@ -148,7 +149,7 @@ def regroup(tracks: Tracks, groups: dict) -> Tracks:
     )
 
 
-def read_track_parts(path: Path):
+def read_track_parts(path: Path) -> Iterator[TrackFrames]:
     """The tracks table again, piece by piece in frame order: TrackFrames of whole frames (all
     joints of every worker in a frame), one row group at a time."""
     f = pq.ParquetFile(path)

@@ -91,7 +91,7 @@ class SearchViews:
                     height=size[1],
                     rotation_cam_from_view=view_rotation(self.camera, d, up),
                 )
-            self.views.append((view, view.build_map(interpolated=True)))
+            self.views.append((view, view.build_map()))
         self.half_fov = halves
 
     def period(self, following: bool) -> int:

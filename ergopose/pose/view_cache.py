@@ -42,7 +42,7 @@ class ViewCache:
             height=self.view_size[1],
             rotation_cam_from_view=rolled_view_rotation(self.camera, direction_cam, roll),
         )
-        return view, view.build_map(interpolated=True)
+        return view, view.build_map()
 
     def get(
         self, direction_cam: np.ndarray, half_fov: float, up_cam: np.ndarray | None = None

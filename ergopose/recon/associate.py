@@ -76,7 +76,9 @@ class Association:
     cost_matrix_m: np.ndarray
 
 
-def gated_assignment(cost: np.ndarray, gate, gain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def gated_assignment(
+    cost: np.ndarray, gate: float | np.ndarray, gain: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Optimal pairs among candidates with cost <= gate (gate: scalar, or per row (R, 1)).
 
     Maximises the total relative margin sum(1 - cost / gate) over the chosen pairs, where
@@ -103,7 +105,9 @@ def gated_assignment(cost: np.ndarray, gate, gain: np.ndarray | None = None) -> 
     return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
 
 
-def ray_closest_points(origin_a, rays_a, origin_b, rays_b):
+def ray_closest_points(
+    origin_a: np.ndarray, rays_a: np.ndarray, origin_b: np.ndarray, rays_b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Closest approach of lines o_a + s d_a and o_b + t d_b (unit d), broadcasting (..., 3).
 
     Returns (distance, midpoint (..., 3), s, t); s and t are the distances along each ray (> 0
@@ -124,7 +128,9 @@ def ray_closest_points(origin_a, rays_a, origin_b, rays_b):
     return dist, 0.5 * (pa + pb), s, t
 
 
-def pair_costs(det_a: Detections2D, det_b: Detections2D, settings: ReconSettings, rays=None) -> np.ndarray:
+def pair_costs(
+    det_a: Detections2D, det_b: Detections2D, settings: ReconSettings, rays: tuple | None = None
+) -> np.ndarray:
     """(Na, Nb) mean ray-to-ray distance in metres of every candidate pair; +inf if impossible.
 
     rays: optional ((rays_a, centres_a), (rays_b, centres_b)) already computed (world_rays(),
@@ -355,11 +361,11 @@ def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None
     if groups:
         g = np.stack(groups)
         order = np.lexsort(tuple(g[:, c] for c in range(C - 1, -1, -1)) + (-(g >= 0).sum(axis=1),))
-        g, cst = g[order], np.array(group_cost)[order]
+        g, set_cost = g[order], np.array(group_cost)[order]
     else:
-        g, cst = np.zeros((0, C), np.int64), np.zeros(0)
+        g, set_cost = np.zeros((0, C), np.int64), np.zeros(0)
     singles = [(c, i) for c in range(C) for i in np.flatnonzero(~used[c])]
-    return ViewAssociation(groups=g, cost_m=cst, singles=np.array(singles, np.int64).reshape(-1, 2))
+    return ViewAssociation(groups=g, cost_m=set_cost, singles=np.array(singles, np.int64).reshape(-1, 2))
 
 
 class _Views:
@@ -381,7 +387,7 @@ class _Views:
                 self.R[c, : d.count], self.O[c, : d.count] = rays[c]
         self.cam = np.arange(C)[None, :]
 
-    def check(self, mem: np.ndarray, settings: ReconSettings):
+    def check(self, mem: np.ndarray, settings: ReconSettings) -> tuple[np.ndarray, np.ndarray]:
         """Triangulate sets (H, C) from all their views (least-squares point of the rays).
 
         Returns (view_dist (H, C): each member view's mean distance to the points (the rule of
@@ -414,7 +420,7 @@ def _set_cost(view_dist: np.ndarray) -> np.ndarray:
     return 2.0 * np.where(member, view_dist, 0.0).sum(axis=1) / np.maximum(member.sum(axis=1), 1)
 
 
-def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings):
+def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings) -> tuple[np.ndarray, np.ndarray]:
     """Hypotheses of three or more views, one per candidate pair (module docstring).
 
     Returns (sets (H, C) int64 with -1 for cameras not in the set, cost (H,)); only sets of at
@@ -478,7 +484,9 @@ def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings):
     return mem[keep], _set_cost(view_dist)[keep]
 
 
-def _merge_sets(groups: list, group_cost: list, used: list, geo: _Views, costs: dict, settings: ReconSettings):
+def _merge_sets(
+    groups: list, group_cost: list, used: list, geo: _Views, costs: dict, settings: ReconSettings
+) -> tuple[list, list]:
     """Join sets (and single detections) of disjoint cameras that are one person.
 
     The seeds of :func:`_multi_view_sets` only grow with a camera that sees enough of the joints
@@ -510,8 +518,8 @@ def _merge_sets(groups: list, group_cost: list, used: list, geo: _Views, costs: 
     while len(mem) >= 2:
         M = np.stack(mem)
         inside = np.zeros((len(M), offset[-1]), bool)
-        r, c = np.nonzero(M >= 0)
-        inside[r, offset[c] + M[r, c]] = True
+        r, col = np.nonzero(M >= 0)
+        inside[r, offset[col] + M[r, col]] = True
         linked = (inside.astype(np.int64) @ link.astype(np.int64) @ inside.T.astype(np.int64)) > 0
         disjoint = ((M >= 0).astype(np.int64) @ (M >= 0).T.astype(np.int64)) == 0
         s, t = np.nonzero(np.triu(linked & disjoint, 1))
@@ -537,7 +545,7 @@ def _merge_sets(groups: list, group_cost: list, used: list, geo: _Views, costs: 
     return [mem[k] for k in keep], [cost[k] for k in keep]
 
 
-def _view_distance(dist: np.ndarray, valid: np.ndarray, settings: ReconSettings):
+def _view_distance(dist: np.ndarray, valid: np.ndarray, settings: ReconSettings) -> tuple[np.ndarray, np.ndarray]:
     """Mean over joints (last axis) of distances, the rule of pair_costs: the torso joints
     among ``valid`` when there are at least association_min_joints of them, else all valid
     joints (at least 3). Returns (mean distance, enough joints); inf propagates (behind)."""

@@ -51,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ergopose.keypoints import JOINT_INDEX, LIMBS, MIRROR, NUM_JOINTS
+from ergopose.recon.settings import ReconSettings
 from ergopose.recon.tracking import LimbHistogram
 
 J = NUM_JOINTS
@@ -266,7 +267,7 @@ class FitOptions:
     max_prior_gap_s: float = 2.0
 
     @classmethod
-    def from_settings(cls, settings) -> "FitOptions":
+    def from_settings(cls, settings: ReconSettings) -> "FitOptions":
         return cls(
             keypoint_sigma_px=settings.keypoint_sigma_px,
             min_confidence=settings.min_confidence,
@@ -441,7 +442,7 @@ def fit_bodies(
     lam = np.full(R, 1e-3)
     k = opt.huber_k
 
-    def residuals(X):
+    def residuals(X: np.ndarray) -> dict[str, np.ndarray]:
         """Parts of the cost and what the normal equations need."""
         Xh = np.concatenate([X, ones], axis=-1)
         xp = np.matmul(Xh[:, None], P_t)  # (R, C, J, 3)
@@ -494,7 +495,7 @@ def fit_bodies(
             use=use,
         )
 
-    def normal_equations(X, r):
+    def normal_equations(X: np.ndarray, r: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         H = H_const.copy()
         # reprojection: du/dX = (P[:2, :3] - u P[2, :3]) / depth
         Jp = (P_uv - r["u"][..., :, None] * P_w) / r["dsafe"][..., None, None]  # (R, C, J, 2, 3)
@@ -615,7 +616,7 @@ def correct_left_right(
         proj = x[..., :2] / x[..., 2:3]
         ok_ref = (x[..., 2] > 0) & np.isfinite(proj).all(axis=-1)
 
-        def cost(px, conf, group):
+        def cost(px: np.ndarray, conf: np.ndarray, group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             d = np.minimum(np.linalg.norm(px - proj, axis=-1), SWAP_CAP_PX)
             use = ok_ref & group & (conf > 0) & np.isfinite(d)
             return np.where(use, conf * d * d, 0.0).sum(axis=-1), use.sum(axis=-1)
@@ -704,7 +705,7 @@ class ShiftBodies:
     fitted pose. Picklable with the rest of the reconstruction's state.
     """
 
-    def __init__(self, settings, fps: float) -> None:
+    def __init__(self, settings: ReconSettings, fps: float) -> None:
         self.settings = settings
         self.options = FitOptions.from_settings(settings)
         self.fps = float(fps)
@@ -786,8 +787,8 @@ class ShiftBodies:
         oc = rows["oc"][idx]
         has = oc.reshape(len(idx), -1).max(axis=1) > 0
         # Rows without 2D observations (made from 3D points): the triangulation passes through.
-        for k in np.flatnonzero(~has):
-            r = idx[k]
+        for passing in np.flatnonzero(~has):
+            r = idx[passing]
             rows["fit"][r] = rows["points"][r]
             rows["fit_var"][r] = rows["var"][r]
             rows["inferred"][r] = rows["views"][r] < 2
@@ -823,7 +824,7 @@ class ShiftBodies:
             for k, ident in enumerate(ids):
                 self.side_lock[int(ident)] = runs[k]
             # The plain triangulation paired the cameras' keypoints as reported: not a start there.
-            tri = np.where(swapped.any(axis=1)[:, None, None] & _LATERAL[None, :, None], np.nan, tri)
+            tri = np.where(np.asarray(swapped.any(axis=1))[:, None, None] & _LATERAL[None, :, None], np.nan, tri)
         pelvis = _pelvis_guess(tri, P, px, oc)
         pelvis = np.where(np.isfinite(pelvis), pelvis, np.array([0.0, 0.0, 0.95]))
         facing = _yaw_frames(np.where(np.isfinite(tri), tri, 0.0))

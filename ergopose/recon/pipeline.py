@@ -21,17 +21,19 @@ to its last observation, coasting frames in between included), 33 joints each.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterable, Sequence
 
 import numpy as np
 
 from ergopose.errors import InputError
+from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
 from ergopose.recon.bodyfit import ShiftBodies
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
 from ergopose.recon.triangulate import triangulate_observations
-from ergopose.recon.tracking import LimbHistogram, Tracker, identity_name, limb_lengths
+from ergopose.recon.tracking import LimbHistogram, Tracker, TrackingResult, identity_name, limb_lengths
 
 #: Frames per smoothing block (the grid is frame // BLOCK_FRAMES).
 BLOCK_FRAMES = 1024
@@ -175,6 +177,7 @@ class _Rows:
     def split(self, keep: np.ndarray) -> dict[str, np.ndarray]:
         """Keep rows where ``keep`` (over :meth:`all`), return the others."""
         rows = self.all()
+        assert rows is not None  # called on rows that were added
         out = {k: v[~keep] for k, v in rows.items()}
         kept = {k: v[keep] for k, v in rows.items()}
         self.data = kept if len(kept["frame"]) else None
@@ -209,7 +212,7 @@ class ShiftReconstruction:
         self,
         settings: ReconSettings | None = None,
         fps: float = 12.0,
-        cameras=None,
+        cameras: Sequence[Camera] | None = None,
         first_frame: int = 0,
         block_frames: int = BLOCK_FRAMES,
     ) -> None:
@@ -279,7 +282,7 @@ class ShiftReconstruction:
 
     # --- rows in ----------------------------------------------------------------------------------
 
-    def _take(self, people: People3D | None, res) -> None:
+    def _take(self, people: People3D | None, res: TrackingResult) -> None:
         for e in res.ended:
             self.track_last[e.track] = e.last_frame
         self.track_identity.update(res.resolved)
@@ -299,6 +302,9 @@ class ShiftReconstruction:
         if people is not None and len(people):
             sel = res.track >= 0
             m = int(sel.sum())
+            # People3D fills the observation fields (zeros / NaN for rows made from 3D points).
+            assert people.obs_projection is not None and people.obs_pixels_view is not None
+            assert people.obs_confidence is not None
             self.pending_obs.add(
                 {
                     "frame": people.frame[sel],
@@ -440,7 +446,7 @@ class ShiftReconstruction:
         cent = self.cent.range(b0, b1)
         obs = self.obs.range(b0, b1)
         sm = None
-        if smoothing:
+        if self.kalman is not None:
             sm = self.kalman.smooth(stop=b1)
         self.block_start = b1
         self.obs.drop_before(b1)
@@ -475,7 +481,7 @@ class ShiftReconstruction:
             inferred[p] = obs["inferred"][ok]
         gap = np.zeros((n, J), bool)
         gated = np.zeros((n, J), bool)
-        if smoothing:
+        if sm is not None:
             slot = np.array([self.slots[int(i)] for i in worker], dtype=np.int64)
             t = frame - b0
             val = sm.value.reshape(len(sm.frame), -1, J, 3)
@@ -540,7 +546,7 @@ def constrain_bone_lengths(
     return X
 
 
-def lens_angles_deg(cameras, points: np.ndarray, centres: np.ndarray) -> np.ndarray:
+def lens_angles_deg(cameras: Sequence[Camera] | None, points: np.ndarray, centres: np.ndarray) -> np.ndarray:
     """(n, 33) the larger angle (degrees) off the cameras' axes of each joint (or, where the
     joint is NaN, of the row's centre (n, 3)); NaN without cameras."""
     n = points.shape[0]
@@ -552,5 +558,5 @@ def lens_angles_deg(cameras, points: np.ndarray, centres: np.ndarray) -> np.ndar
         return np.degrees(np.max(ang, axis=0))
 
 
-def identity_names(workers) -> list[str]:
+def identity_names(workers: Iterable[int]) -> list[str]:
     return [identity_name(int(w)) for w in workers]

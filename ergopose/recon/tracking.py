@@ -159,7 +159,7 @@ def _colour_cost(colour: np.ndarray) -> np.ndarray:
         return np.where(np.isfinite(colour), 0.5 * (colour / APPEARANCE_SIGMA) ** 2, 0.0)
 
 
-def _ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray):
+def _ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Points of rays o + t d (R rays) at heights z (T tracks): (T, R, 3) and t (T, R).
 
     A nearly horizontal ray (|d_z| < 0.05) does not fix a point at a height: t is NaN there."""
@@ -263,6 +263,14 @@ def _group_costs(members: list[np.ndarray], identities: list[np.ndarray]) -> np.
         if ok.any():
             out[r] = [float(np.sqrt(np.mean((m[ok] - i[ok]) ** 2))) for i in identities]
     return out
+
+
+def _group_identities(members: list[_Track]) -> list[int]:
+    """The identities of a contact group's continuations (every one has one: only confirmed
+    tracks are split)."""
+    out = [m.identity for m in members]
+    assert all(k is not None for k in out)
+    return [int(k) for k in out if k is not None]
 
 
 def signature_distance(a: np.ndarray, b: np.ndarray) -> float:
@@ -397,6 +405,7 @@ class Tracker:
         # switches at contacts.)
         self._lengths = limb_lengths(people.points_world)
         looks = people.appearance
+        assert looks is not None  # People3D fills it
         resolved: dict[int, int | None] = {}
         ended: list[TrackEnd] = []
         cent_f, cent_t, cent_p = [], [], []
@@ -427,7 +436,12 @@ class Tracker:
             if tracks and len(rows3):
                 cost = np.linalg.norm(pred[:, None, :2] - centre[rows3][None, :, :2], axis=-1)
                 colour = appearance_distance(np.array([self._colour(t) for t in tracks])[:, None], looks[rows3][None])
-                cost = np.where(colour > APPEARANCE_GATE, np.inf, cost)
+                # The colour gate only where the geometry is ambiguous (a person within the gates
+                # of two tracks, or a track with two people within its gate): a worker alone keeps
+                # the track while a carried carton or the light changes the colour seen.
+                within = cost <= gate[:, None]
+                ambiguous = (within.sum(axis=0) >= 2)[None, :] | (within.sum(axis=1) >= 2)[:, None]
+                cost = np.where(ambiguous & (colour > APPEARANCE_GATE), np.inf, cost)
                 gain = _match_gain(cost, gate, gate0) - _colour_cost(colour)
                 ti, ri = gated_assignment(cost, gate[:, None], np.maximum(gain, 1e-3))
                 if len(ti):
@@ -592,6 +606,7 @@ class Tracker:
 
     def _release(self, t: _Track) -> None:
         """An ending track lets go of its identity (if it still holds it): lost since its last frame."""
+        assert t.identity is not None
         ident = self.identities[t.identity]
         if ident.track == t.id:
             ident.track = None
@@ -760,7 +775,7 @@ class Tracker:
             return
         label = list(range(len(live)))
 
-        def root(i):
+        def root(i: int) -> int:
             while label[i] != i:
                 label[i] = label[label[i]]
                 i = label[i]
@@ -795,6 +810,7 @@ class Tracker:
                     group=gid,
                 )
                 self.next_track += 1
+                assert t.identity is not None  # only confirmed tracks are split
                 self.identities[t.identity].track = c.id
                 conts.append(c)
             self.groups[gid] = {"members": conts, "start": f + 1, "separated": None}
@@ -871,7 +887,8 @@ class Tracker:
             return True
         members = g["members"]
         cost = _group_costs(
-            [self._member_medians(m) for m in members], [self.identities[m.identity].hist.medians() for m in members]
+            [self._member_medians(m) for m in members],
+            [self.identities[k].hist.medians() for k in _group_identities(members)],
         )
         return bool(np.isfinite(cost[[members.index(m) for m in live]]).all(axis=1).all())
 
@@ -881,7 +898,7 @@ class Tracker:
         s = self.settings
         g = self.groups.pop(gid)
         members: list[_Track] = g["members"]
-        idents = [m.identity for m in members]
+        idents = _group_identities(members)
         cost = _group_costs(
             [self._member_medians(m) for m in members], [self.identities[k].hist.medians() for k in idents]
         )
