@@ -17,7 +17,6 @@ the view's image plane, so a person standing anywhere under a ceiling camera app
 
 from __future__ import annotations
 
-import functools
 import threading
 from dataclasses import dataclass
 
@@ -179,90 +178,6 @@ def build_map(
     return ViewMap(map_x=map_x, map_y=map_y, valid=valid, fixed1=fixed1, fixed2=fixed2)
 
 
-#: Interpolated maps (:func:`build_map_interpolated`): the exact map is computed on nodes every
-#: ``INTERP_STEP`` view pixels and interpolated between them; the result is checked against the
-#: exact map at ``INTERP_TOLERANCE_PX``.
-INTERP_STEP = 4
-INTERP_TOLERANCE_PX = 0.01
-
-
-@functools.lru_cache(maxsize=8)
-def _lagrange_kernel(step: int) -> np.ndarray:
-    """Cubic (4-point) Lagrange interpolation as a convolution kernel at ``step`` output pixels
-    per node: filtering nodes spread ``step`` pixels apart (zeros between) with it gives, at
-    every pixel, the cubic through the four nearest nodes (the kernel is 1 at 0, 0 at the other
-    nodes, and 4 * step - 1 taps long)."""
-    s = np.abs(np.arange(-2 * step + 1, 2 * step, dtype=np.float64)) / step
-    kernel = np.where(s <= 1.0, (s * s - 1.0) * (s - 2.0) / 2.0, -(s - 1.0) * (s - 2.0) * (s - 3.0) / 6.0)
-    kernel.setflags(write=False)
-    return kernel
-
-
-def build_map_interpolated(
-    dst_lens: Rectilinear,
-    dst_size: tuple[int, int],
-    src_lens: LensModel,
-    rotation_src_from_dst: np.ndarray,
-    step: int = INTERP_STEP,
-    tolerance_px: float = INTERP_TOLERANCE_PX,
-) -> ViewMap | None:
-    """The lookup map of a pinhole view (as :func:`build_map`), computed exactly on nodes every
-    ``step`` view pixels (two more beyond each border) and interpolated between them with cubic
-    Lagrange polynomials (two separable filter passes in OpenCV); about a quarter of the exact
-    build's time for a 256 x 256 view (1.5 against 5.3 ms, machine under load).
-
-    The map of a pinhole view of a smooth lens is smooth, so the interpolation is far below the
-    fixed-point map's 1/32 px step (measured on the simulated fisheye, views 0-90 deg off the axis,
-    half fields 8-55 deg: at most 0.0004 px; 99.9 % of the fixed-point entries the same as the
-    exact map's, the others one 1/32 px step away). Checked on every call: the exact map at the
-    centres of every other cell (where the interpolation is worst) must be within
-    ``tolerance_px``. Returns None (the caller builds the exact map) when a node lies outside the
-    source lens's domain or within two node spacings of its edge (``max_theta``), or when the
-    check fails; otherwise every pixel is valid.
-    """
-    width, height = int(dst_size[0]), int(dst_size[1])
-    if width <= 0 or height <= 0:
-        raise ValueError(f"view size must be positive, got {width} x {height}")
-    rot = np.asarray(rotation_src_from_dst, dtype=np.float64)
-    nx = -(-(width - 1) // step) + 5  # nodes at -2 step .. beyond the last pixel, two past the border
-    ny = -(-(height - 1) // step) + 5
-    xn = (step * (np.arange(nx) - 2.0) - dst_lens.cx) / dst_lens.fx
-    yn = (step * (np.arange(ny) - 2.0) - dst_lens.cy) / dst_lens.fy
-    rays = np.empty((ny, nx, 3))
-    for k in range(3):
-        np.add((yn * rot[k, 1] + rot[k, 2])[:, None], (xn * rot[k, 0])[None, :], out=rays[..., k])
-    if src_lens.max_theta < np.pi:
-        cos_theta = rays[..., 2] / np.linalg.norm(rays, axis=-1)
-        margin = 2.0 * step / min(dst_lens.fx, dst_lens.fy)  # two node spacings (largest at the centre)
-        if float(cos_theta.min()) <= np.cos(max(src_lens.max_theta - margin, 0.0)):
-            return None
-    nodes = src_lens.project(rays)
-    if not np.isfinite(nodes).all():
-        return None
-    spread = np.zeros((step * (ny - 1) + 1, step * (nx - 1) + 1, 2), np.float32)
-    spread[::step, ::step] = nodes
-    kernel = _lagrange_kernel(step)
-    full = cv2.sepFilter2D(spread, cv2.CV_32F, kernel, kernel, borderType=cv2.BORDER_CONSTANT)
-    o = 2 * step
-    xy = full[o : o + height, o : o + width]
-    # The check: cell centres (pixels step/2 + 2 step i) against the exact projection.
-    cu = np.arange(step // 2, width, 2 * step)
-    cv = np.arange(step // 2, height, 2 * step)
-    check = np.empty((cv.size, cu.size, 3))
-    cxn = (cu - dst_lens.cx) / dst_lens.fx
-    cyn = (cv - dst_lens.cy) / dst_lens.fy
-    for k in range(3):
-        np.add((cyn * rot[k, 1] + rot[k, 2])[:, None], (cxn * rot[k, 0])[None, :], out=check[..., k])
-    exact = src_lens.project(check)
-    error = np.abs(xy[cv[:, None], cu[None, :]] - exact)
-    if not float(error.max(initial=0.0)) <= tolerance_px:  # NaN fails too
-        return None
-    map_x = np.ascontiguousarray(xy[..., 0])
-    map_y = np.ascontiguousarray(xy[..., 1])
-    fixed1, fixed2 = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
-    return ViewMap(map_x=map_x, map_y=map_y, valid=np.ones((height, width), dtype=bool), fixed1=fixed1, fixed2=fixed2)
-
-
 def _project_into(lens: LensModel, rays: np.ndarray, out: np.ndarray) -> None:
     """lens.project(rays) written into ``out``, without a new array where the lens accepts out=."""
     if isinstance(lens, BlockwiseLens):
@@ -322,19 +237,9 @@ class VirtualView:
         view_from_cam[:3, :3] = self.rotation_cam_from_view.T
         return self.lens.K @ (view_from_cam @ w_inv)[:3]
 
-    def build_map(self, *, interpolated: bool = False) -> ViewMap:
-        """The lookup map from view pixels to source pixels (build once, apply to every frame).
-
-        interpolated: computed on nodes and interpolated (:func:`build_map_interpolated`, about
-        four times faster, within 0.01 px of the exact map, checked), exact where that does not
-        hold; False: exact at every pixel.
-        """
-        size = (self.width, self.height)
-        if interpolated:
-            view_map = build_map_interpolated(self.lens, size, self.source.lens, self.rotation_cam_from_view)
-            if view_map is not None:
-                return view_map
-        return build_map(self.lens, size, self.source.lens, self.rotation_cam_from_view)
+    def build_map(self) -> ViewMap:
+        """The lookup map from view pixels to source pixels (build once, apply to every frame)."""
+        return build_map(self.lens, (self.width, self.height), self.source.lens, self.rotation_cam_from_view)
 
     def view_to_source_pixels(self, pixels_view: np.ndarray) -> np.ndarray:
         """(..., 2) view pixels -> (..., 2) source pixels (NaN where the source lens cannot see)."""

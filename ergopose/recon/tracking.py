@@ -651,12 +651,12 @@ class Tracker:
         cands = []
         colours = []  # clothing-colour distance to every identity it could be or is followed now
         for ident in self.identities.values():
-            if ident.number not in reserved:
-                colours.append(float(appearance_distance(mine_look, ident.look.mean())))
             if ident.number in reserved:
                 if not final and ident.track is None and ident.last_frame < t.first_frame:
                     return False
                 continue
+            colour = float(appearance_distance(mine_look, ident.look.mean()))
+            colours.append(colour)
             if ident.track is not None:
                 other = live.get(ident.track)
                 if other is None or other.last_3d_frame >= t.first_frame:
@@ -673,14 +673,7 @@ class Tracker:
             reach = s.relink_max_speed_m_s * gap_s + s.track_gate_m
             if np.linalg.norm((t.first_pos - last_pos)[:2]) > reach:
                 continue
-            cands.append(
-                (
-                    signature_distance(mine, ident.hist.medians()),
-                    ident,
-                    gap_s,
-                    float(appearance_distance(mine_look, ident.look.mean())),
-                )
-            )
+            cands.append((signature_distance(mine, ident.hist.medians()), ident, gap_s, colour))
         choice, someone_new = self._by_colour(cands, colours)
         valid = sorted(
             [c for c in cands if np.isfinite(c[0]) and c[0] <= s.relink_max_signature_m],
