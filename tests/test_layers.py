@@ -27,6 +27,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "ergopose.errors",
             "ergopose.progress",
             "ergopose.atomic",
+            "ergopose.arrays",
             "ergopose.keypoints",
             "ergopose.resources",
             "ergopose.video",
