@@ -29,7 +29,7 @@ def _ordinary_mode(path: Path, directory: bool) -> None:
     os.chmod(path, (0o777 if directory else 0o666) & ~_umask())
 
 
-def readable(path: str | os.PathLike) -> None:
+def readable(path: str | os.PathLike[str]) -> None:
     """Give a written file (or folder) the permissions the user's umask allows for new files.
 
     Atomic writing goes through temporary files that are private (0600, folders 0700); reports
@@ -40,7 +40,7 @@ def readable(path: str | os.PathLike) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(final: str | os.PathLike, suffix: str | None = None) -> Iterator[Path]:
+def atomic_path(final: str | os.PathLike[str], suffix: str | None = None) -> Iterator[Path]:
     """Yield a temporary path beside ``final``; rename it to ``final`` if the block succeeds.
 
     The temporary name keeps the final suffix (some writers choose the format from it).
@@ -61,14 +61,14 @@ def atomic_path(final: str | os.PathLike, suffix: str | None = None) -> Iterator
         raise
 
 
-def write_text(final: str | os.PathLike, text: str, encoding: str = "utf-8") -> Path:
+def write_text(final: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> Path:
     """Write text atomically and return the final path."""
     with atomic_path(final) as tmp:
         tmp.write_text(text, encoding=encoding)
     return Path(final)
 
 
-def write_bytes(final: str | os.PathLike, data: bytes) -> Path:
+def write_bytes(final: str | os.PathLike[str], data: bytes) -> Path:
     """Write bytes atomically and return the final path."""
     with atomic_path(final) as tmp:
         tmp.write_bytes(data)
@@ -76,7 +76,7 @@ def write_bytes(final: str | os.PathLike, data: bytes) -> Path:
 
 
 @contextlib.contextmanager
-def atomic_dir(final: str | os.PathLike) -> Iterator[Path]:
+def atomic_dir(final: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary folder beside ``final``; swap it into place if the block succeeds.
 
     An existing folder under ``final`` is replaced only after the new one is complete.
@@ -105,7 +105,7 @@ def _made_here(name: str) -> bool:
     return name.startswith(".") and ".tmp" in name
 
 
-def clean_up(folder: str | os.PathLike) -> list[Path]:
+def clean_up(folder: str | os.PathLike[str]) -> list[Path]:
     """Tidy what a killed process left in ``folder`` and below; return what was removed.
 
     A process killed while writing (SIGKILL, a power cut) cannot remove its temporary files and

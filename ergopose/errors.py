@@ -14,7 +14,7 @@ from os import PathLike
 class ErgoposeError(Exception):
     """A problem with the user's input or environment, explained in one sentence."""
 
-    def __init__(self, message: str, *, path: str | PathLike | None = None, field: str | None = None):
+    def __init__(self, message: str, *, path: str | PathLike[str] | None = None, field: str | None = None):
         self.path = None if path is None else str(path)
         self.field = field
         where = ""

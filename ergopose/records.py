@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import MIRROR, NUM_JOINTS
@@ -126,7 +127,7 @@ class Detections2D:
         M = self.projection[:, :, :3]
         return -np.linalg.solve(M, self.projection[:, :, 3:])[..., 0]
 
-    def world_rays(self) -> np.ndarray:
+    def world_rays(self) -> FloatArray:
         """(N, 33, 3) unit world rays towards each keypoint; NaN where not found.
 
         ``rays_world`` when given; otherwise d = M^-1 (u, v, 1), which points in front of the
@@ -139,7 +140,8 @@ class Detections2D:
         M = self.projection[:, :, :3]
         h = np.concatenate([self.pixels_view, np.ones(self.pixels_view.shape[:-1] + (1,))], axis=-1)
         d = np.linalg.solve(M[:, None], h[..., None])[..., 0]
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+        rays: FloatArray = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        return rays
 
     def with_sides_exchanged(self, people: np.ndarray) -> "Detections2D":
         """The same detections with the left and right keypoints of ``people`` ((N,) bool)

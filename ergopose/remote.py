@@ -59,7 +59,8 @@ def _filesystem(url: str) -> tuple[Any, str]:
             "reading videos from URLs needs fsspec: install ergopose with the extra 'cluster'", path=url
         ) from None
     try:
-        return fsspec.core.url_to_fs(url)
+        found: tuple[Any, str] = fsspec.core.url_to_fs(url)  # (filesystem, path inside it)
+        return found
     except (ImportError, ValueError) as exc:  # unknown protocol, or its package missing (s3fs for s3://)
         raise InputError(f"cannot open this URL ({_one_line(exc)})", path=url) from None
 
@@ -86,7 +87,7 @@ def cached_path(url: str, size: int) -> Path:
     return cache_dir() / digest / name
 
 
-def fetch(url: str, dest: str | os.PathLike | None = None, *, size: int | None = None) -> Path:
+def fetch(url: str, dest: str | os.PathLike[str] | None = None, *, size: int | None = None) -> Path:
     """A local copy of the video at ``url``: ``dest`` (default :func:`cached_path`), copied whole
     unless a file of the remote size is there already. ``size``: the size the caller saw before
     (a worker is given the client's): another size now is an InputError (the video changed)."""
@@ -118,7 +119,7 @@ def fetch(url: str, dest: str | os.PathLike | None = None, *, size: int | None =
     return target
 
 
-def forget(paths: Iterable[str | os.PathLike]) -> int:
+def forget(paths: Iterable[str | os.PathLike[str]]) -> int:
     """Remove these copies (and their folders once empty); the number removed. Paths outside the
     cache folder are left alone."""
     root = cache_dir().resolve()

@@ -361,7 +361,7 @@ class Session:
 # --- loading ------------------------------------------------------------------------------------------
 
 
-def load_session(path: str | os.PathLike, *, check_videos: bool = True) -> Session:
+def load_session(path: str | os.PathLike[str], *, check_videos: bool = True) -> Session:
     """Read and check a session folder (see the module docstring); raise one clear error otherwise.
 
     The settings are validated by the settings model (ergopose.settings.model.SettingsFile: keys,

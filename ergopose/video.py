@@ -50,7 +50,7 @@ def _open(path: Path) -> cv2.VideoCapture:
     return cap
 
 
-def probe_video(path: str | os.PathLike) -> VideoInfo:
+def probe_video(path: str | os.PathLike[str]) -> VideoInfo:
     """Frame count, frame rate and size of a video; InputError if it cannot be read.
 
     The frame count in a container's header can be wrong for a truncated file, so the last frame
@@ -84,7 +84,7 @@ def probe_video(path: str | os.PathLike) -> VideoInfo:
         cap.release()
 
 
-def read_frames(path: str | os.PathLike, start: int, stop: int) -> Iterator[tuple[int, np.ndarray]]:
+def read_frames(path: str | os.PathLike[str], start: int, stop: int) -> Iterator[tuple[int, np.ndarray]]:
     """Yield (frame index, BGR frame) for frames start .. stop-1 of a video.
 
     InputError names the file and the first frame that could not be decoded.
@@ -111,7 +111,9 @@ WRONG_SIZE = "has the wrong size (short or damaged frame)"
 SKIP_CODES = {UNDECODABLE: -1, WRONG_SIZE: -2}
 
 
-def read_frames_checked(path: str | os.PathLike, start: int, stop: int) -> Iterator[tuple[int, np.ndarray | None, str]]:
+def read_frames_checked(
+    path: str | os.PathLike[str], start: int, stop: int
+) -> Iterator[tuple[int, np.ndarray | None, str]]:
     """Yield (frame index, BGR frame or None, "" or why it was skipped) for frames start .. stop-1.
 
     A frame that cannot be decoded (UNDECODABLE) or whose size differs from the video's
