@@ -180,7 +180,7 @@ def _message(model: type[Table], err: Mapping[str, Any]) -> tuple[tuple[Any, ...
 
 
 def config_error(
-    model: type[Table], exc: ValidationError, path: str | os.PathLike | None, prefix: Sequence[Any] = ()
+    model: type[Table], exc: ValidationError, path: str | os.PathLike[str] | None, prefix: Sequence[Any] = ()
 ) -> ConfigError:
     """ONE ConfigError for a ValidationError: the file, the key path, the value and what is allowed
     (and how many more problems the file has)."""
@@ -194,7 +194,7 @@ def config_error(
     return ConfigError(text, path=path, field=key_path(loc, prefix) or None)
 
 
-def validate(model: type[T], data: Any, path: str | os.PathLike | None = None, prefix: Sequence[Any] = ()) -> T:
+def validate(model: type[T], data: Any, path: str | os.PathLike[str] | None = None, prefix: Sequence[Any] = ()) -> T:
     """``data`` (a dict from TOML) as a ``model``; any problem raises one ConfigError naming ``path``
     and the key path (under ``prefix``, e.g. ``("scoring",)`` for a table of a larger file)."""
     if not isinstance(data, dict):

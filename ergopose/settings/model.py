@@ -141,7 +141,7 @@ def read_toml(path: Path, what: str) -> dict[str, Any]:
         raise ConfigError(f"not valid TOML ({exc})", path=path) from None
 
 
-def read_settings(path: str | os.PathLike) -> tuple[SettingsFile, dict[str, Any]]:
+def read_settings(path: str | os.PathLike[str]) -> tuple[SettingsFile, dict[str, Any]]:
     """settings.toml validated: (the model, the file's data as read)."""
     p = Path(path)
     data = read_toml(p, "settings file")
