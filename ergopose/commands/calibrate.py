@@ -12,6 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.atomic import write_text
 from ergopose.calibration import check
 from ergopose.calibration import extrinsics as ext
@@ -281,13 +282,13 @@ def read_point_csvs(
 ) -> dict[str, tuple[list[str], np.ndarray, np.ndarray]]:
     """Per camera: (point names, points_world (N, 3), pixels (N, 2)) from the two CSV files."""
     world_csv, pixels_csv = Path(world_csv), Path(pixels_csv)
-    world: dict[str, np.ndarray] = {}
+    world: dict[str, FloatArray] = {}
     for line, row in _read_csv(world_csv, ("point", "x", "y", "z")):
         name = row["point"]
         if name in world:
             raise InputError(f"line {line}: point {name!r} appears twice", path=world_csv)
         world[name] = np.array([_number(row, k, line, world_csv) for k in ("x", "y", "z")])
-    per_camera: dict[str, tuple[list[str], list, list]] = {}
+    per_camera: dict[str, tuple[list[str], list[FloatArray], list[list[float]]]] = {}
     for line, row in _read_csv(pixels_csv, ("camera", "point", "u", "v")):
         name = row["point"]
         if name not in world:

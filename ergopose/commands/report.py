@@ -83,7 +83,7 @@ def warn_unused_inputs(session: str | Path, results: SessionResults, progress: P
         warn(progress, unused_message(loaded, unused, tracked_ids=stored))
 
 
-def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "report",
         help="re-render the HTML report of a session from its stored results",

@@ -30,7 +30,7 @@ knee columns mean both sides. An empty cell is "not measured": the scores that n
 empty. --settings takes a TOML file of scoring settings (docs/scoring.md)."""
 
 
-def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "score",
         help="RULA or REBA step scores for a CSV of joint angles",

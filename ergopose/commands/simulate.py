@@ -46,7 +46,7 @@ def _start(text: str) -> dt.datetime:
         raise argparse.ArgumentTypeError(f"expected an ISO 8601 date and time, got {text!r}") from None
 
 
-def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "simulate",
         help="write a simulated session with exact ground truth",
