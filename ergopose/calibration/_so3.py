@@ -5,6 +5,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ergopose.arrays import FloatArray
+
 
 def rotation_matrices(rvecs: np.ndarray) -> np.ndarray:
     """(..., 3) rotation vectors (axis * angle, radians) -> (..., 3, 3) rotation matrices."""
@@ -35,8 +37,9 @@ def rotation_vectors(matrices: np.ndarray) -> np.ndarray:
     return out
 
 
-def angle_between(R_a: np.ndarray, R_b: np.ndarray) -> np.ndarray:
+def angle_between(R_a: np.ndarray, R_b: np.ndarray) -> FloatArray:
     """Angle (radians) of the rotation taking R_a to R_b."""
     rel = np.swapaxes(np.asarray(R_a), -1, -2) @ np.asarray(R_b)
     c = (np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0
-    return np.arccos(np.clip(c, -1.0, 1.0))
+    angle: FloatArray = np.arccos(np.clip(c, -1.0, 1.0))
+    return angle

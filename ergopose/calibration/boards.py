@@ -29,6 +29,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import ConfigError
 
 KINDS = ("checkerboard", "charuco")
@@ -326,10 +327,13 @@ class BoardTexture:
     scale: float
     margin_px: int
 
-    def coordinates(self, board: "Board", points_board: np.ndarray) -> np.ndarray:
+    def coordinates(self, board: "Board", points_board: np.ndarray) -> FloatArray:
         """(..., 2+) board-plane points (metres) -> (..., 2) texture pixel coordinates (pixel centres at integers)."""
         x0, y0, _, _ = board.extent()
-        return (np.asarray(points_board)[..., :2] - np.array([x0, y0])) * self.scale + self.margin_px - 0.5
+        pixels: FloatArray = (
+            (np.asarray(points_board)[..., :2] - np.array([x0, y0])) * self.scale + self.margin_px - 0.5
+        )
+        return pixels
 
 
 def board_texture(board: Board, px_per_square: int = 48, margin_squares: float = 1.0) -> BoardTexture:

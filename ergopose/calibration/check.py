@@ -31,6 +31,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.atomic import write_text
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
@@ -96,10 +97,11 @@ class CheckReport:
     regions: tuple[RegionSummary, ...]
 
 
-def angles_from_axis(camera: Camera, pixels: np.ndarray) -> np.ndarray:
+def angles_from_axis(camera: Camera, pixels: np.ndarray) -> FloatArray:
     """(...) angle in radians between the lens axis and the ray through each (..., 2) pixel."""
     rays = camera.lens.unproject(np.asarray(pixels, np.float64))
-    return np.arccos(np.clip(rays[..., 2], -1.0, 1.0))
+    angle: FloatArray = np.arccos(np.clip(rays[..., 2], -1.0, 1.0))
+    return angle
 
 
 def _rays_world(camera: Camera, pixels: np.ndarray) -> np.ndarray:
@@ -113,7 +115,7 @@ def region_of(angle: np.ndarray, ring_bounds: tuple[float, float]) -> np.ndarray
 
 
 def measure_bar(
-    cameras: Sequence,
+    cameras: Sequence[Camera],
     pixels: np.ndarray,
     target_length: float,
     *,

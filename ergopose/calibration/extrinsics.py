@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
+from ergopose.arrays import FloatArray
 from ergopose.calibration._so3 import rotation_matrices, rotation_vectors
 from ergopose.calibration.boards import Board, Detection
 from ergopose.calibration.opencv_fisheye import (
@@ -74,9 +75,10 @@ class PoseResult:
         return self.rotation_world_from_cam.T
 
     @property
-    def translation_cam(self) -> np.ndarray:
+    def translation_cam(self) -> FloatArray:
         """t in x_cam = R_cam_from_world @ x_world + t."""
-        return -self.rotation_world_from_cam.T @ self.position_world
+        t: FloatArray = -self.rotation_world_from_cam.T @ self.position_world
+        return t
 
 
 def _check_points(points_world: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -219,7 +221,7 @@ def residuals_mm(
     points_world: np.ndarray,
     pixels: np.ndarray,
     floor_tolerance: float = 1e-3,
-) -> np.ndarray:
+) -> FloatArray:
     """Per point, millimetres between the point and the ray through its observed pixel.
 
     Floor points (|z| < floor_tolerance): distance on the floor to where the ray meets z = 0.
@@ -236,7 +238,8 @@ def residuals_mm(
         hit = c + lam[:, None] * rays_world
         planar = np.linalg.norm(hit[:, :2] - points_world[:, :2], axis=-1)
     usable = on_floor & (lam > 0) & np.isfinite(planar)
-    return 1000.0 * np.where(usable, planar, perpendicular)
+    distance_mm: FloatArray = 1000.0 * np.where(usable, planar, perpendicular)
+    return distance_mm
 
 
 # ------------------------------------------------------------------ floor board

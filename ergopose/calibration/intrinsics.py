@@ -89,7 +89,7 @@ class IntrinsicsResult:
     coverage: float
     max_theta_observed: float
     recovered: tuple[str, ...] = ()
-    details: dict = field(default_factory=dict)
+    details: dict[str, Any] = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------------ images
@@ -222,7 +222,7 @@ def _calibrate_once(
     """cv2.fisheye.calibrate over the kept views: (rms, K, D, rvecs, tvecs)."""
     objs, imgs = _opencv_points(kept, board)
     # cv2's stubs lack None for K and D (estimated from scratch under these flags)
-    return cv2.fisheye.calibrate(
+    result: tuple[Any, ...] = cv2.fisheye.calibrate(
         objs,
         imgs,
         tuple(int(v) for v in image_size),
@@ -231,6 +231,7 @@ def _calibrate_once(
         flags=flags,
         criteria=criteria,
     )
+    return result
 
 
 def fisheye_calibrate(

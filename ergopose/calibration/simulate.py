@@ -16,6 +16,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.calibration.boards import Board, BoardTexture, board_texture
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.lenses.base import LensModel
@@ -23,14 +24,15 @@ from ergopose.geometry.lenses.base import LensModel
 _ROWS_PER_BLOCK_POINTS = 1 << 20
 
 
-def floor_board_transform(yaw: float = 0.0) -> np.ndarray:
+def floor_board_transform(yaw: float = 0.0) -> FloatArray:
     """(3, 3) rotation world_from_board of a board lying face up on the floor (see
     extrinsics.floor_board_points): world x = board y, world y = board x, world z = -board z,
     then turned by ``yaw`` about z."""
     c, s = np.cos(yaw), np.sin(yaw)
     Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     swap = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-    return Rz @ swap
+    rotation: FloatArray = Rz @ swap
+    return rotation
 
 
 def board_pose_in_camera(
