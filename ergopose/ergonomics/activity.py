@@ -36,6 +36,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d, minimum_filter1d
 from scipy.signal import find_peaks
 
+from ergopose.arrays import BoolArray, FloatArray, IntArray
 from ergopose.errors import InputError
 
 
@@ -92,10 +93,11 @@ def runs(time_s: np.ndarray, codes: np.ndarray, max_gap_s: float) -> tuple[np.nd
     return run_id, first, last
 
 
-def run_durations(time_s: np.ndarray, first: np.ndarray, last: np.ndarray, period_s: float) -> np.ndarray:
+def run_durations(time_s: np.ndarray, first: np.ndarray, last: np.ndarray, period_s: float) -> FloatArray:
     """Duration of each run: last minus first timestamp plus one frame period."""
     t = np.asarray(time_s, dtype=np.float64)
-    return t[last] - t[first] + period_s
+    durations: FloatArray = t[last] - t[first] + period_s
+    return durations
 
 
 def held(
@@ -106,7 +108,7 @@ def held(
     max_gap_s: float,
     neutral: float | None = None,
     period_s: float | None = None,
-) -> np.ndarray:
+) -> BoolArray:
     """True for every frame of a hold (unchanged band) lasting longer than ``hold_s``.
 
     neutral: a band value whose holds do not count (the lowest-scoring band), or None.
@@ -121,7 +123,8 @@ def held(
     long_run &= ~np.isnan(b[first])
     if neutral is not None:
         long_run &= b[first] != neutral
-    return long_run[run_id]
+    in_hold: BoolArray = long_run[run_id]
+    return in_hold
 
 
 def repetition_events(
@@ -180,12 +183,13 @@ class Timeline:
             self._cache[key] = np.searchsorted(self.time_s, self.time_s + offset_s, side=side)
         return self._cache[key]
 
-    def count_centred(self, events: np.ndarray, window_s: float) -> np.ndarray:
+    def count_centred(self, events: np.ndarray, window_s: float) -> IntArray:
         """Number of events within [t - window_s/2, t + window_s/2) around each frame."""
         lo = self.searchsorted(-0.5 * window_s, "left")
         hi = self.searchsorted(0.5 * window_s, "left")
         c = np.concatenate(([0], np.cumsum(np.asarray(events, dtype=np.int64))))
-        return c[hi] - c[lo]
+        counts: IntArray = c[hi] - c[lo]
+        return counts
 
     def _sparse(self, window_s: float) -> _Windows:
         """Trailing windows [start[i], i] of frames at most window_s (+1 ns for rounding) before i."""
@@ -213,7 +217,7 @@ class Timeline:
             self._windows[key] = _Windows(start, reach, regular, width, sparse)
         return self._windows[key]
 
-    def window_span(self, x: np.ndarray, window_s: float) -> np.ndarray:
+    def window_span(self, x: np.ndarray, window_s: float) -> FloatArray:
         """max - min of x over the frames within window_s before each frame (NaN ignored)."""
         start, _, regular, width, sparse = self._sparse(window_s)
         x = np.asarray(x, dtype=np.float64)
@@ -224,7 +228,7 @@ class Timeline:
             wmax = maximum_filter1d(np.where(nan, -np.inf, x), width, mode="nearest", origin=origin)
             wmin = minimum_filter1d(np.where(nan, np.inf, x), width, mode="nearest", origin=origin)
             with np.errstate(invalid="ignore"):
-                span = wmax - wmin
+                span: FloatArray = wmax - wmin
             span[np.isinf(wmax)] = np.nan  # no measured angle in the window
             return span
         assert sparse is not None  # built whenever the frames are not regular
@@ -248,7 +252,7 @@ class Timeline:
                 span[sel] = np.fmax(lmax[lv][a], lmax[lv][b]) - np.fmin(lmin[lv][a], lmin[lv][b])
         return span
 
-    def rapid_change(self, angles: list[np.ndarray], change: float, window_s: float) -> np.ndarray:
+    def rapid_change(self, angles: list[np.ndarray], change: float, window_s: float) -> BoolArray:
         """True for every frame inside a stretch of <= window_s over which any angle spans > change."""
         if self.n == 0:
             return np.zeros(0, dtype=bool)
@@ -260,7 +264,8 @@ class Timeline:
         # non-decreasing, so: a qualifying j in [i, reach[i]) where reach[i] = first j with start[j] > i
         reach = self._sparse(window_s)[1]
         cq = np.concatenate(([0], np.cumsum(ends)))
-        return (cq[reach] - cq[:-1]) > 0
+        rapid: BoolArray = (cq[reach] - cq[:-1]) > 0
+        return rapid
 
 
 def count_in_window(time_s: np.ndarray, events: np.ndarray, window_s: float) -> np.ndarray:

@@ -53,6 +53,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from ergopose.arrays import FloatArray
 from ergopose.ergonomics.activity import check_time, frame_period
 from ergopose.ergonomics.posture import expand_sides
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, REPETITION_ANGLES
@@ -317,7 +318,8 @@ class _Runs:
         self.static_time: dict[int, int] = {}  # frames inside static holds
         self.static_holds: dict[int, int] = {}
         self.top = top
-        self.best: list[tuple] = []  # episodes: (-level, -duration, start, end, peak)
+        # episodes: (-level, -duration, start, end, peak)
+        self.best: list[tuple[int, float, float, float, int | None]] = []
         self.open: tuple[int, float, float, int, float] | None = None  # value, start, last, frames, peak
 
     def add(self, t: np.ndarray, codes: np.ndarray, peaks: np.ndarray | None = None) -> None:
@@ -443,9 +445,10 @@ def _exposure_specs() -> list[_Exposure]:
     return specs
 
 
-def _col(frames: pd.DataFrame, name: str) -> np.ndarray | None:
+def _col(frames: pd.DataFrame, name: str) -> FloatArray | None:
     if name in frames.columns:
-        return frames[name].to_numpy(dtype=np.float64, na_value=np.nan)
+        column: FloatArray = frames[name].to_numpy(dtype=np.float64, na_value=np.nan)
+        return column
     return None
 
 

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import ConfigError, InputError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 
@@ -234,11 +235,12 @@ assert [f.name for f in dataclasses.fields(JointAngles)] == list(ALL_COLUMNS)
 # Vector helpers on (F, 3) arrays; NaN in -> NaN out, degenerate -> NaN, no warnings.
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("...i,...i->...", a, b)
+def _dot(a: np.ndarray, b: np.ndarray) -> FloatArray:
+    dot: FloatArray = np.einsum("...i,...i->...", a, b)
+    return dot
 
 
-def _norm(v: np.ndarray) -> np.ndarray:
+def _norm(v: np.ndarray) -> FloatArray:
     return np.sqrt(_dot(v, v))
 
 
@@ -255,24 +257,28 @@ def _perp_unit(v: np.ndarray, axis_unit: np.ndarray) -> np.ndarray:
     return _unit(v - _dot(v, axis_unit)[..., None] * axis_unit)
 
 
-def _angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _angle_between(a: np.ndarray, b: np.ndarray) -> FloatArray:
     """Unsigned angle between vectors, [0, pi]; precise near 0 and pi."""
     ua, ub = _unit(a), _unit(b)
-    return np.arctan2(_norm(np.cross(ua, ub)), _dot(ua, ub))
+    angle: FloatArray = np.arctan2(_norm(np.cross(ua, ub)), _dot(ua, ub))
+    return angle
 
 
-def _asin(x: np.ndarray) -> np.ndarray:
-    return np.arcsin(np.clip(x, -1.0, 1.0))
+def _asin(x: np.ndarray) -> FloatArray:
+    angle: FloatArray = np.arcsin(np.clip(x, -1.0, 1.0))
+    return angle
 
 
-def _frame(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+def _frame(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> FloatArray:
     """(F, 3, 3) rotation with columns x, y, z."""
-    return np.stack([x, y, z], axis=-1)
+    rotation: FloatArray = np.stack([x, y, z], axis=-1)
+    return rotation
 
 
-def _in_frame(frame: np.ndarray, v: np.ndarray) -> np.ndarray:
+def _in_frame(frame: np.ndarray, v: np.ndarray) -> FloatArray:
     """Coordinates of world vectors v (F, 3) in frames (F, 3, 3): frame^T v."""
-    return frame[:, 0, :] * v[:, 0:1] + frame[:, 1, :] * v[:, 1:2] + frame[:, 2, :] * v[:, 2:3]
+    coords: FloatArray = frame[:, 0, :] * v[:, 0:1] + frame[:, 1, :] * v[:, 1:2] + frame[:, 2, :] * v[:, 2:3]
+    return coords
 
 
 def _yxz(rel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

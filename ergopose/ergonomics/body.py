@@ -65,6 +65,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import ConfigError
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 
@@ -267,18 +268,20 @@ def rot_y(a: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
 
 
-def rot_z(a: np.ndarray) -> np.ndarray:
+def rot_z(a: np.ndarray) -> FloatArray:
     """Right-handed rotation(s) about z; a (...) -> (..., 3, 3)."""
     a = np.asarray(a, dtype=float)
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    rotation: FloatArray = np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+    return rotation
 
 
-def _apply(rot: np.ndarray, vec: ArrayLike) -> np.ndarray:
+def _apply(rot: np.ndarray, vec: ArrayLike) -> FloatArray:
     """rot (..., 3, 3) times a vector (3,) or (..., 3) -> (..., 3)."""
     vec = np.asarray(vec, dtype=float)
-    return rot[..., 0] * vec[..., 0:1] + rot[..., 1] * vec[..., 1:2] + rot[..., 2] * vec[..., 2:3]
+    rotated: FloatArray = rot[..., 0] * vec[..., 0:1] + rot[..., 1] * vec[..., 1:2] + rot[..., 2] * vec[..., 2:3]
+    return rotated
 
 
 #: Frames computed at a time (the (C, 3, 3) intermediates then stay in the CPU cache).
@@ -396,9 +399,10 @@ def place_on_floor(measurements: BodyMeasurements, posture: Posture) -> Posture:
     return posture.replace(root_position=root.reshape(shape + (3,)))
 
 
-def flat_foot_ankle(hip_flexion: ArrayLike, knee_flexion: ArrayLike) -> np.ndarray:
+def flat_foot_ankle(hip_flexion: ArrayLike, knee_flexion: ArrayLike) -> FloatArray:
     """Ankle flexion that keeps the foot level in the sagittal plane: knee_flexion - hip_flexion.
 
     Exact when the hip is not abducted (the hip, knee and ankle rotations then share one axis).
     """
-    return np.asarray(knee_flexion, dtype=float) - np.asarray(hip_flexion, dtype=float)
+    ankle: FloatArray = np.asarray(knee_flexion, dtype=float) - np.asarray(hip_flexion, dtype=float)
+    return ankle

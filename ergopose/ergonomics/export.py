@@ -24,6 +24,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from ergopose.arrays import AnyArray, FloatArray
 from ergopose.atomic import atomic_path
 from ergopose.ergonomics.aggregate import REPETITION_PREFIX, ShiftSummary, aggregate_shift
 from ergopose.ergonomics.posture import (
@@ -50,7 +51,7 @@ _DECIMALS = {"angle": 2, "distance": 3, "time": 3, "load": 2, "percent": 2, "rat
 FRAMES_SUFFIX, STEPS_SUFFIX, SUMMARY_SUFFIX = "_frames.csv", "_steps.csv", "_summary.csv"
 
 
-def steps_path(frames_csv: str | os.PathLike) -> Path:
+def steps_path(frames_csv: str | os.PathLike[str]) -> Path:
     """The steps CSV beside a worker's frames CSV (<worker>_steps.csv)."""
     name = Path(frames_csv).name
     stem = name[: -len(FRAMES_SUFFIX)] if name.endswith(FRAMES_SUFFIX) else Path(name).stem
@@ -71,7 +72,7 @@ def _score_columns(columns: Iterable[str]) -> list[str]:
     return ordered
 
 
-def _write(path: str | os.PathLike, frame: pd.DataFrame, bom: bool = False) -> Path:
+def _write(path: str | os.PathLike[str], frame: pd.DataFrame, bom: bool = False) -> Path:
     with atomic_path(path) as tmp:
         frame.to_csv(tmp, index=False, na_rep="", lineterminator="\n", encoding=_encoding(bom))
     return Path(path)
@@ -115,12 +116,12 @@ def scores_table(frames: pd.DataFrame, *, include_posture: bool = False) -> pd.D
     return out
 
 
-def write_scores_csv(path: str | os.PathLike, frames: pd.DataFrame, *, include_posture: bool = False) -> Path:
+def write_scores_csv(path: str | os.PathLike[str], frames: pd.DataFrame, *, include_posture: bool = False) -> Path:
     """Per-frame scores (what ``ergopose score`` writes): identity, time_s, every step score."""
     return _write(path, scores_table(frames, include_posture=include_posture))
 
 
-def write_worker_steps_csv(path: str | os.PathLike, frames: pd.DataFrame, *, bom: bool = False) -> Path:
+def write_worker_steps_csv(path: str | os.PathLike[str], frames: pd.DataFrame, *, bom: bool = False) -> Path:
     """One worker's frames step by step: identity, time_s, the posture (degrees), every step score
     of both methods and the frame's uncertainty (docs/csv-columns.md, "Steps per frame")."""
     with StepsCsvWriter(path, bom=bom) as w:
@@ -138,7 +139,7 @@ class _PieceWriter(abc.ABC):
     when the block ends, or not at all; the pieces give the bytes of one write of all the rows
     (the first piece fixes the columns). Subclasses give ``table(frames)`` and ``empty()``."""
 
-    def __init__(self, path: str | os.PathLike, *, bom: bool = False) -> None:
+    def __init__(self, path: str | os.PathLike[str], *, bom: bool = False) -> None:
         self.path = Path(path)
         self.bom = bool(bom)
         self.columns: list[str] | None = None
@@ -233,13 +234,13 @@ def clock_times(recorded_at: dt.datetime | None, time_s: ArrayLike) -> pd.Dateti
     return pd.DatetimeIndex(pd.Timestamp(recorded_at) + pd.to_timedelta(ms, unit="ms"))
 
 
-def iso_strings(times: pd.DatetimeIndex | None, n: int) -> np.ndarray:
+def iso_strings(times: pd.DatetimeIndex | None, n: int) -> AnyArray:
     """ISO 8601 with milliseconds and the UTC offset (2024-03-04T08:00:00.083+01:00; no offset for
     times without a zone); empty strings without times. Vectorised (numpy's datetime strings)."""
     if times is None:
         return np.full(n, "", dtype=object)
     wall = times.tz_localize(None) if times.tz is not None else times  # the local clock
-    text = np.datetime_as_string(wall.to_numpy().astype("datetime64[ms]"), unit="ms")
+    text: AnyArray = np.datetime_as_string(wall.to_numpy().astype("datetime64[ms]"), unit="ms")
     if times.tz is None:
         return text.astype(object)
     utc = times.tz_convert("UTC").tz_localize(None)
@@ -259,16 +260,18 @@ def _int_column(frames: pd.DataFrame, col: str) -> pd.Series:
     return pd.Series(pd.arrays.IntegerArray(np.where(ok, np.round(x), 0).astype(np.int16), ~ok))
 
 
-def _float_column(frames: pd.DataFrame, col: str) -> np.ndarray:
+def _float_column(frames: pd.DataFrame, col: str) -> FloatArray:
     if col not in frames.columns:
         return np.full(len(frames), np.nan)
-    return pd.to_numeric(frames[col], errors="coerce").to_numpy(np.float64, na_value=np.nan)
+    column: FloatArray = pd.to_numeric(frames[col], errors="coerce").to_numpy(np.float64, na_value=np.nan)
+    return column
 
 
-def _text_column(frames: pd.DataFrame, col: str) -> np.ndarray:
+def _text_column(frames: pd.DataFrame, col: str) -> AnyArray:
     if col not in frames.columns:
         return np.full(len(frames), "", dtype=object)
-    return frames[col].astype("string").fillna("").to_numpy(dtype=object)
+    column: AnyArray = frames[col].astype("string").fillna("").to_numpy(dtype=object)
+    return column
 
 
 def frames_table(
@@ -338,12 +341,12 @@ class FramesCsvWriter(_PieceWriter):
 
     def __init__(
         self,
-        path: str | os.PathLike,
+        path: str | os.PathLike[str],
         *,
         recorded_at: dt.datetime | None = None,
         name: str | None = None,
         bom: bool = False,
-        parquet: str | os.PathLike | None = None,
+        parquet: str | os.PathLike[str] | None = None,
     ) -> None:
         super().__init__(path, bom=bom)
         self.recorded_at = recorded_at
@@ -395,13 +398,13 @@ class FramesCsvWriter(_PieceWriter):
 
 
 def write_worker_frames_csv(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     frames: pd.DataFrame,
     *,
     recorded_at: dt.datetime | None = None,
     name: str | None = None,
     bom: bool = False,
-    parquet: str | os.PathLike | None = None,
+    parquet: str | os.PathLike[str] | None = None,
 ) -> Path:
     """One worker's frames table (:func:`frames_table`), and the same as Parquet when ``parquet``
     names a file."""
@@ -437,7 +440,7 @@ CONFIDENCE_NAMES = {"confident": "confident", "low": "low_confidence", "unscored
 
 def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
     """A worker's shift summary as a long table (columns WORKER_SUMMARY_COLUMNS)."""
-    rows: list[dict] = []
+    rows: list[dict[str, Any]] = []
 
     def row(**kw: Any) -> None:
         rows.append({"worker": summary.worker, **kw})
@@ -540,7 +543,7 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
     return table
 
 
-def write_worker_summary_csv(path: str | os.PathLike, summary: ShiftSummary, *, bom: bool = False) -> Path:
+def write_worker_summary_csv(path: str | os.PathLike[str], summary: ShiftSummary, *, bom: bool = False) -> Path:
     """A worker's shift summary, one row per reported figure (docs/csv-columns.md)."""
     return _write(path, worker_summary_table(summary), bom=bom)
 
@@ -746,7 +749,7 @@ def session_summary_columns() -> list[str]:
 
 
 def write_session_summary_csv(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     summaries: Sequence[ShiftSummary] | Mapping[str, ShiftSummary],
     *,
     names: Mapping[str, str] | None = None,

@@ -263,7 +263,7 @@ class _Reader:
     def fail(self, field: str, message: str) -> ConfigError:
         return ConfigError(message, path=self.path, field=field)
 
-    def table(self, data: Mapping, key: str, field: str) -> Mapping:
+    def table(self, data: Mapping[str, Any], key: str, field: str) -> Mapping[str, Any]:
         if key not in data:
             raise self.fail(field, "missing")
         value = data[key]
@@ -271,10 +271,10 @@ class _Reader:
             raise self.fail(field, f"expected a table, got {type(value).__name__}")
         return value
 
-    def optional_string(self, data: Mapping, key: str, field: str) -> str | None:
+    def optional_string(self, data: Mapping[str, Any], key: str, field: str) -> str | None:
         return self.string(data, key, field) if key in data else None
 
-    def string(self, data: Mapping, key: str, field: str) -> str:
+    def string(self, data: Mapping[str, Any], key: str, field: str) -> str:
         if key not in data:
             raise self.fail(field, "missing")
         value = data[key]
@@ -282,7 +282,7 @@ class _Reader:
             raise self.fail(field, f"expected a non-empty text, got {value!r}")
         return value
 
-    def integer(self, data: Mapping, key: str, field: str) -> int:
+    def integer(self, data: Mapping[str, Any], key: str, field: str) -> int:
         if key not in data:
             raise self.fail(field, "missing")
         value = data[key]
@@ -290,7 +290,7 @@ class _Reader:
             raise self.fail(field, f"expected a whole number, got {value!r}")
         return value
 
-    def int_list(self, data: Mapping, key: str, field: str, length: int | None = None) -> list[int]:
+    def int_list(self, data: Mapping[str, Any], key: str, field: str, length: int | None = None) -> list[int]:
         value = self.any_list(data, key, field)
         for v in value:
             if isinstance(v, bool) or not isinstance(v, int):
@@ -299,7 +299,7 @@ class _Reader:
             raise self.fail(field, f"expected {length} entries, got {len(value)}")
         return list(value)
 
-    def number_list(self, data: Mapping, key: str, field: str) -> list[float]:
+    def number_list(self, data: Mapping[str, Any], key: str, field: str) -> list[float]:
         value = self.any_list(data, key, field)
         out = []
         for v in value:
@@ -308,7 +308,7 @@ class _Reader:
             out.append(float(v))
         return out
 
-    def any_list(self, data: Mapping, key: str, field: str) -> list:
+    def any_list(self, data: Mapping[str, Any], key: str, field: str) -> list[Any]:
         if key not in data:
             raise self.fail(field, "missing")
         value = data[key]
@@ -316,7 +316,7 @@ class _Reader:
             raise self.fail(field, f"expected a list, got {type(value).__name__}")
         return value
 
-    def no_unknown(self, data: Mapping, allowed: set[str], field: str) -> None:
+    def no_unknown(self, data: Mapping[str, Any], allowed: set[str], field: str) -> None:
         unknown = sorted(set(data) - allowed)
         if unknown:
             where = f"{field}." if field else ""
@@ -324,7 +324,7 @@ class _Reader:
                 f"unknown key(s): {', '.join(where + u for u in unknown)}", path=self.path, field=field or None
             )
 
-    def range_pair(self, data: Mapping, key: str, field: str) -> tuple[int, int]:
+    def range_pair(self, data: Mapping[str, Any], key: str, field: str) -> tuple[int, int]:
         lo, hi = self.int_list(data, key, field, length=2)
         if lo > hi:
             raise self.fail(field, f"the range [{lo}, {hi}] is reversed")
@@ -342,7 +342,7 @@ def _check_valley(r: _Reader, scores: list[int], field: str) -> None:
 
 
 def _adjustment(
-    r: _Reader, data: Mapping, field: str, scores: list[int], extra_max: int = 0, require_adjust: bool = True
+    r: _Reader, data: Mapping[str, Any], field: str, scores: list[int], extra_max: int = 0, require_adjust: bool = True
 ) -> Adjustment:
     points: dict[str, int] = {}
     if "adjust" in data:
@@ -368,7 +368,7 @@ def _adjustment(
     return Adjustment(MappingProxyType(points), (lo, hi))
 
 
-def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Bands:
+def _bands(r: _Reader, data: Mapping[str, Any], name: str, is_adjunct: bool = False) -> Bands:
     field = name
     r.no_unknown(
         data,
@@ -444,7 +444,7 @@ def _bands(r: _Reader, data: Mapping, name: str, is_adjunct: bool = False) -> Ba
     )
 
 
-def _flag_score(r: _Reader, data: Mapping, name: str) -> FlagScore:
+def _flag_score(r: _Reader, data: Mapping[str, Any], name: str) -> FlagScore:
     r.no_unknown(data, {"criterion", "flag", "scores"}, name)
     flag = r.string(data, "flag", f"{name}.flag")
     if flag not in KNOWN_FLAGS:
@@ -457,7 +457,7 @@ def _flag_score(r: _Reader, data: Mapping, name: str) -> FlagScore:
     )
 
 
-def _score_table(r: _Reader, data: Mapping, name: str) -> ScoreTable:
+def _score_table(r: _Reader, data: Mapping[str, Any], name: str) -> ScoreTable:
     r.no_unknown(data, {"row_axes", "column_axes", "sizes", "range", "values"}, name)
     rows = r.any_list(data, "row_axes", f"{name}.row_axes")
     cols = r.any_list(data, "column_axes", f"{name}.column_axes")
@@ -500,7 +500,7 @@ def _score_table(r: _Reader, data: Mapping, name: str) -> ScoreTable:
     return ScoreTable(name=name, axes=tuple(axes), sizes=tuple(sizes), value_range=(lo, hi), values=arr)
 
 
-def _load_rule(r: _Reader, data: Mapping, name: str) -> LoadRule:
+def _load_rule(r: _Reader, data: Mapping[str, Any], name: str) -> LoadRule:
     r.no_unknown(data, {"criterion", "edges_kg", "at_edge", "modes", "table", "shock_score", "shock_add"}, name)
     edges = r.number_list(data, "edges_kg", f"{name}.edges_kg")
     if not edges or any(e <= 0 for e in edges) or any(b <= a for a, b in zip(edges, edges[1:])):
@@ -550,7 +550,7 @@ def _load_rule(r: _Reader, data: Mapping, name: str) -> LoadRule:
     )
 
 
-def _action_levels(r: _Reader, data: Mapping, score_range: tuple[int, int]) -> tuple[ActionLevel, ...]:
+def _action_levels(r: _Reader, data: Mapping[str, Any], score_range: tuple[int, int]) -> tuple[ActionLevel, ...]:
     items = r.any_list(data, "action_levels", "action_levels")
     levels: list[ActionLevel] = []
     expect_low = score_range[0]
@@ -584,7 +584,7 @@ def _action_levels(r: _Reader, data: Mapping, score_range: tuple[int, int]) -> t
     return tuple(levels)
 
 
-def _parse(path: Path, data: Mapping, expected: str | None) -> Method:
+def _parse(path: Path, data: Mapping[str, Any], expected: str | None) -> Method:
     r = _Reader(path)
     name = r.string(data, "method", "method")
     if name not in _SCHEMA:
@@ -693,7 +693,7 @@ def _parse(path: Path, data: Mapping, expected: str | None) -> Method:
     )
 
 
-def load_method_file(path: str | os.PathLike, expected: str | None = None) -> Method:
+def load_method_file(path: str | os.PathLike[str], expected: str | None = None) -> Method:
     """Read and validate one method file; ``expected`` ("rula"/"reba") checks its method key."""
     p = Path(path)
     try:

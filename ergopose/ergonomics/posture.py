@@ -26,6 +26,7 @@ from typing import Iterable, Sequence, SupportsFloat
 import numpy as np
 import pandas as pd
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 
 SIDES = ("left_", "right_")
@@ -170,17 +171,19 @@ def validate_values(frame: pd.DataFrame, source: str | None = None, *, degrees: 
     limit = 180.0 if degrees else np.pi
     unit = "degrees" if degrees else "radians"
 
-    def number(col: str) -> np.ndarray | None:
+    def number(col: str) -> FloatArray | None:
         s = frame[col]
         if pd.api.types.is_numeric_dtype(s) and not pd.api.types.is_bool_dtype(s):
-            return s.to_numpy(dtype=np.float64, na_value=np.nan)
+            values: FloatArray = s.to_numpy(dtype=np.float64, na_value=np.nan)
+            return values
         conv = pd.to_numeric(s, errors="coerce")
         bad = conv.isna().to_numpy() & s.notna().to_numpy() & (s.astype(str).str.strip() != "").to_numpy()
         if bad.any():
             i = _first_bad(bad)
             problems.append(f"{col}: row {i + 1}: {_show(s.iloc[i])} is not a number")
             return None
-        return conv.to_numpy(dtype=np.float64, na_value=np.nan)
+        converted: FloatArray = conv.to_numpy(dtype=np.float64, na_value=np.nan)
+        return converted
 
     for col in frame.columns:
         if col in ANGLE_COLUMNS:
@@ -269,7 +272,7 @@ def prepare(
     return clean
 
 
-def read_posture_csv(path: str | os.PathLike, method: str | Sequence[str]) -> pd.DataFrame:
+def read_posture_csv(path: str | os.PathLike[str], method: str | Sequence[str]) -> pd.DataFrame:
     """Read a posture CSV (angles in DEGREES) and return a checked posture table (RADIANS)."""
     p = Path(path)
     try:

@@ -411,7 +411,7 @@ class _Shared:
         self._timelines: list[act.Timeline] = []
         self._rates: dict[str, np.ndarray] = {}
         self._cols: dict[str, np.ndarray | None] = {}
-        self.flags: dict[tuple, tuple[np.ndarray, np.ndarray | None]] = {}
+        self.flags: dict[tuple[str, str, bool], tuple[np.ndarray, np.ndarray | None]] = {}  # (name, side, absent)
 
     def category(self, name: str, mapping: Mapping[str, int]) -> np.ndarray:
         """A text column mapped to numbers (float; NaN where missing or absent)."""

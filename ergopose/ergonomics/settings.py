@@ -129,14 +129,14 @@ def setting_names() -> tuple[str, ...]:
 
 
 def from_mapping(
-    values: Mapping[str, Any], source: str | os.PathLike | None = None, prefix: tuple[str, ...] = ()
+    values: Mapping[str, Any], source: str | os.PathLike[str] | None = None, prefix: tuple[str, ...] = ()
 ) -> ScoringSettings:
     """Settings from a mapping of names to values; a problem raises one ConfigError naming the
     file (``source``), the key (under ``prefix``), the value and what is allowed."""
     return ScoringSettings(**validate(ScoringTable, dict(values), source, prefix).model_dump())
 
 
-def load_settings(path: str | os.PathLike | None) -> ScoringSettings:
+def load_settings(path: str | os.PathLike[str] | None) -> ScoringSettings:
     """Read a TOML settings file (top-level keys or a [scoring] table); None gives the defaults."""
     if path is None:
         return ScoringSettings()

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from ergopose.arrays import BoolArray
 from ergopose.keypoints import JOINT_INDEX
 
 SIDES = ("left", "right")
@@ -84,10 +85,11 @@ def inputs_column(use: dict[str, np.ndarray], n: int) -> pd.Series:
     return pd.Series(pd.array(text, dtype="string"), name=COLUMN)
 
 
-def used_mask(column: pd.Series, name: str) -> np.ndarray:
+def used_mask(column: pd.Series, name: str) -> BoolArray:
     """(n,) True where the ``inputs_from_settings`` column names the input ``name``."""
     names = column.astype("string").fillna("")
-    return (";" + names + ";").str.contains(f";{name};", regex=False).to_numpy(dtype=bool, na_value=False)
+    mask: BoolArray = (";" + names + ";").str.contains(f";{name};", regex=False).to_numpy(dtype=bool, na_value=False)
+    return mask
 
 
 __all__ = [
