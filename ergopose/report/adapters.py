@@ -18,6 +18,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.ergonomics.methods import Method, load_method
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, LEVEL_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
@@ -151,7 +152,7 @@ def floor_plan_from_scene(scene: Any, cameras: Iterable[Any] = (), cell_m: float
 
 
 def load_floor_plan(
-    path: str | os.PathLike, cameras: Iterable[tuple[str, float, float]] = (), cell_m: float = 0.25
+    path: str | os.PathLike[str], cameras: Iterable[tuple[str, float, float]] = (), cell_m: float = 0.25
 ) -> FloorPlan:
     """The floor plan of a session's floor.toml (docs/session-format.md) with the cameras (name, x, y).
 
@@ -421,9 +422,10 @@ def _angle_body_part(angle: str) -> str:
     return words.replace("elbow", "lower arm (elbow)")
 
 
-def _column(table: Any, name: str) -> np.ndarray:
+def _column(table: Any, name: str) -> FloatArray:
     """A column as float64 with NaN for missing values."""
-    return table[name].to_numpy(dtype=np.float64, na_value=np.nan)
+    column: FloatArray = table[name].to_numpy(dtype=np.float64, na_value=np.nan)
+    return column
 
 
 def worst_periods(
@@ -433,7 +435,7 @@ def worst_periods(
     frame_period_s: float,
     joints_at: Any = None,
     limit: int = 6,
-) -> tuple:
+) -> tuple[WorstMoment, ...]:
     """The sustained periods of high risk of a worker (ergopose.report.periods) as report records,
     ranked: clock span, time at high risk, scores at the frame drawn and the period's peak, the
     body parts in their high bands (from ``frames``, the scored frames with band columns) and the
@@ -710,12 +712,15 @@ def _wrist_words(name: str, value_rad: float) -> str:
 
 def _clock(shift_s: float, start: Any) -> str:
     if start is not None:
-        return (start + _dt.timedelta(seconds=float(shift_s))).strftime("%H:%M:%S")
+        clock: str = (start + _dt.timedelta(seconds=float(shift_s))).strftime("%H:%M:%S")
+        return clock
     h, rem = divmod(int(round(shift_s)), 3600)
     return f"{h}:{rem // 60:02d}:{rem % 60:02d}"
 
 
-def worker_assumptions(session: Any, worker: Any | None, settings_name: str = "settings.toml") -> tuple:
+def worker_assumptions(
+    session: Any, worker: Any | None, settings_name: str = "settings.toml"
+) -> tuple[Assumption, ...]:
     """What was assumed for a worker (ergopose.session.WorkerInfo, or None for an unnamed worker):
     every task factor with the value in force for the whole session and where it was set, then
     every period that changes a factor."""
@@ -758,7 +763,7 @@ def worker_infos(
     worker_ids: Sequence[str],
     csv_files: Mapping[str, Sequence[tuple[str, str]]] | None = None,
     settings_name: str = "settings.toml",
-) -> tuple:
+) -> tuple[WorkerInfo, ...]:
     """WorkerInfo records for the workers found in a session (ids as in the results), with names
     and assumptions from the session settings (ergopose.session.Session) and their CSV files
     ({id: [(label, path relative to the report folder), ...]})."""

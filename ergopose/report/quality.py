@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ergopose.arrays import BoolArray
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.report.context import CalibrationInfo, WorkerDiagnostics
 
@@ -197,7 +198,7 @@ def reliable_rule(tolerance: float = RELIABLE_LENGTH_TOLERANCE) -> str:
 
 def reliable_frames(
     points_world: ArrayLike, tolerance: float = RELIABLE_LENGTH_TOLERANCE, limb_medians_m: ArrayLike | None = None
-) -> np.ndarray:
+) -> BoolArray:
     """Per frame of one worker, whether the skeleton is reliable (the rule of :func:`reliable_rule`).
 
     points_world: (F, 33, 3) joints in metres, NaN = missing. Returns a bool array (F,).
@@ -222,4 +223,5 @@ def reliable_frames(
             median[k] = np.median(lengths[known[:, k], k])
     with np.errstate(invalid="ignore"):
         ok = known & (np.abs(lengths - median) <= tolerance * median)
-    return np.all(ok, axis=1)
+    reliable: BoolArray = np.all(ok, axis=1)
+    return reliable

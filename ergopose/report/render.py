@@ -44,7 +44,7 @@ INDEX_FILE = "index.html"
 
 
 def environment(
-    template_dir: str | os.PathLike | None = None, env_class: type[jinja2.Environment] = jinja2.Environment
+    template_dir: str | os.PathLike[str] | None = None, env_class: type[jinja2.Environment] = jinja2.Environment
 ) -> jinja2.Environment:
     """The Jinja2 environment of the reports: autoescape on, undefined names are errors."""
     folder = Path(template_dir) if template_dir is not None else resource_dir("templates")
@@ -83,7 +83,7 @@ class ReportFiles:
 
 
 def render_pages(
-    results: SessionResults, report_dir: str | os.PathLike | None = None, progress: ProgressCallback | None = None
+    results: SessionResults, report_dir: str | os.PathLike[str] | None = None, progress: ProgressCallback | None = None
 ) -> dict[str, str]:
     """Every page of a report as {file name: HTML}, nothing written."""
     folder = Path(report_dir) if report_dir is not None else None
@@ -102,7 +102,7 @@ def render_pages(
 
 
 def render_report(
-    report_dir: str | os.PathLike, results: SessionResults | None = None, progress: ProgressCallback | None = None
+    report_dir: str | os.PathLike[str], results: SessionResults | None = None, progress: ProgressCallback | None = None
 ) -> ReportFiles:
     """Render the report of ``report_dir`` from its stored results (read from ``report_dir/results``
     unless given) and write the pages there; return what was written."""

@@ -65,7 +65,7 @@ class SessionResults:
     workers: tuple[WorkerResults, ...]
 
 
-def results_dir(report_dir: str | os.PathLike) -> Path:
+def results_dir(report_dir: str | os.PathLike[str]) -> Path:
     """The results folder of a report folder."""
     return Path(report_dir) / RESULTS_DIR
 
@@ -126,7 +126,7 @@ def frames_table(
 
 
 def save_results(
-    report_dir: str | os.PathLike,
+    report_dir: str | os.PathLike[str],
     session: SessionInfo,
     workers: Sequence[tuple[WorkerSummary, WorkerDiagnostics, pd.DataFrame]],
 ) -> Path:
@@ -207,7 +207,7 @@ def _check_frames(frames: pd.DataFrame, source: str) -> None:
         raise InputError("time_s must be finite and strictly ascending", path=source, field="time_s")
 
 
-def load_frames(path: str | os.PathLike) -> pd.DataFrame:
+def load_frames(path: str | os.PathLike[str]) -> pd.DataFrame:
     """Read a frames.parquet (only FRAME_COLUMNS), checked."""
     path = Path(path)
     if not path.is_file():
@@ -223,7 +223,7 @@ def load_frames(path: str | os.PathLike) -> pd.DataFrame:
     return frames
 
 
-def load_results(report_dir: str | os.PathLike) -> SessionResults:
+def load_results(report_dir: str | os.PathLike[str]) -> SessionResults:
     """Read ``<report_dir>/results`` (or ``report_dir`` itself if it is a results folder)."""
     base = Path(report_dir)
     rdir = base if (base / SESSION_FILE).is_file() else results_dir(base)
@@ -247,7 +247,8 @@ def load_results(report_dir: str | os.PathLike) -> SessionResults:
 
 def session_from_mapping(data: Mapping[str, Any], source: str = "session") -> SessionInfo:
     """A SessionInfo from plain JSON-like data (as in session.json's "data")."""
-    return from_jsonable(SessionInfo, dict(data), source=source)
+    info: SessionInfo = from_jsonable(SessionInfo, dict(data), source=source)
+    return info
 
 
 __all__ = [

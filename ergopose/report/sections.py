@@ -13,15 +13,18 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from ergopose.arrays import FloatArray, IntArray
 from ergopose.ergonomics.shares import format_percent, high_risk
 from ergopose.keypoints import LIMBS
 from ergopose.report import periods, svg
 from ergopose.report.context import (
     MAX_SKIPPED_SPANS,
+    BandTime,
     LimbStats,
     MethodInfo,
     PeriodInput,
     SessionInfo,
+    SettingsValue,
     WorkerResults,
     WorkerSummary,
 )
@@ -315,7 +318,7 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
     return tuple(rows), note
 
 
-def _settings_words(values: Sequence) -> str:
+def _settings_words(values: Sequence[SettingsValue]) -> str:
     """The settings' values used in place of a body part's unseen angles, with the share of the
     scored time each was used; "none" when there were none."""
     parts = []
@@ -327,7 +330,9 @@ def _settings_words(values: Sequence) -> str:
     return "; ".join(parts) or "none"
 
 
-def level_segments(secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time") -> tuple:
+def level_segments(
+    secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time"
+) -> tuple[svg.Segment, ...]:
     """One stacked-bar segment per action level of ``method`` (seconds at that level, coloured by
     ``level_colours``), then the unscored time."""
     colours = level_colours(method)
@@ -482,7 +487,7 @@ def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, .
     )
     figs = []
     for m in ("rula", "reba"):
-        parts: dict[str, list] = {}
+        parts: dict[str, list[BandTime]] = {}
         for b in summary.body_parts:
             if b.method == m:
                 parts.setdefault(b.body_part, []).append(b)
@@ -638,7 +643,7 @@ def act_summary(res: WorkerResults, session: SessionInfo, limit: int = MAX_PERIO
     if not all(math.isfinite(w.high_s) for w in shown):
         return f"{len(shown)} periods of high risk (results written before sustained periods were found)."
     in_periods = sum(w.high_s for w in shown)
-    parts: dict[tuple, list[float]] = {}
+    parts: dict[tuple[str, str, int, int], list[float]] = {}
     for w in shown:
         for d in w.drivers:
             parts.setdefault((d.body_part, d.criterion, d.score, d.top), []).append(d.seconds)
@@ -682,11 +687,12 @@ RISK_ORDER = ("high", "medium", "low")
 NOT_SCORED = len(RISK_ORDER)
 
 
-def risk_codes(frames: pd.DataFrame, method: str | None) -> np.ndarray:
+def risk_codes(frames: pd.DataFrame, method: str | None) -> IntArray:
     """Per frame: 0 high, 1 medium, 2 low, 3 not scored, by one method's level, or (method None)
     the worse of the two methods' scored categories (not scored when neither is scored)."""
     if method is None:
-        return np.minimum(risk_codes(frames, "rula"), risk_codes(frames, "reba"))
+        worse: IntArray = np.minimum(risk_codes(frames, "rula"), risk_codes(frames, "reba"))
+        return worse
     col = {"rula": "rula_action_level", "reba": "reba_risk_level"}[method]
     lv = frames[col].to_numpy(dtype=np.float64, na_value=np.nan)
     code = np.full(lv.shape, NOT_SCORED, dtype=np.int64)
@@ -695,7 +701,7 @@ def risk_codes(frames: pd.DataFrame, method: str | None) -> np.ndarray:
     return code
 
 
-def risk_shares(time_s: np.ndarray, codes: np.ndarray, duration_s: float, bin_s: float, fps: float) -> np.ndarray:
+def risk_shares(time_s: np.ndarray, codes: np.ndarray, duration_s: float, bin_s: float, fps: float) -> FloatArray:
     """(bins, 4): share of each time bin at high, medium, low risk and not scored (one bincount);
     the rest of a bin was not tracked. The last bin may be partial: its share is of its own length."""
     n_bins = max(1, int(math.ceil(duration_s / bin_s)))
@@ -703,7 +709,8 @@ def risk_shares(time_s: np.ndarray, codes: np.ndarray, duration_s: float, bin_s:
     counts = np.bincount(idx * 4 + codes, minlength=n_bins * 4).reshape(n_bins, 4).astype(np.float64)
     length = np.minimum(bin_s, duration_s - np.arange(n_bins) * bin_s) * fps
     total = np.maximum(np.maximum(length, counts.sum(axis=1)), 1.0)
-    return counts / total[:, None]
+    shares: FloatArray = counts / total[:, None]
+    return shares
 
 
 def risk_legend(session: SessionInfo) -> tuple[str, ...]:

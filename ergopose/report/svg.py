@@ -512,7 +512,7 @@ def box_plots(
 def _nice_step(raw: float) -> float:
     if raw <= 0 or not math.isfinite(raw):
         return 1.0
-    mag = 10 ** math.floor(math.log10(raw))
+    mag: float = 10 ** math.floor(math.log10(raw))  # 10 ** n: an int for n >= 0
     for m in (1, 2, 2.5, 5, 10):
         if raw <= m * mag:
             return m * mag
