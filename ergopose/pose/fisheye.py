@@ -31,7 +31,9 @@ The paper's steps 1-3 for one camera. Per frame:
    than ``recheck_roll`` away from world up in a turned view is run again in an upright view
    (kept only if that finds the person the right way up). Overlapping detections of one person
    (two targets that converged) are merged, keeping the one with a plausible body axis, then
-   the one whose view is closest to upright, then the more confident one.
+   the one whose view is closest to upright, then the more confident one. Before that, a new
+   cue's small skeleton squeezed onto part of a bigger detection is dropped
+   (:mod:`ergopose.pose.fragments`).
 4. *Left and right.* Each person's skeleton is compared with their previous frame's: a
    skeleton whose left and right limbs match it the other way round is swapped back; when the
    network keeps the other labelling for most of the last ``left_right_window`` frames it is
@@ -61,7 +63,8 @@ from typing import Sequence
 import numpy as np
 
 from ergopose.geometry.camera import Camera
-from ergopose.keypoints import JOINT_INDEX
+from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+from ergopose.pose.fragments import is_fragment
 from ergopose.pose.left_right import LeftRightCheck
 from ergopose.pose.records import (
     SOURCE_MOTION,
@@ -105,6 +108,8 @@ _BODY_JOINTS = np.array(
         )
     ]
 )
+
+_BODY_MASK = np.isin(np.arange(NUM_JOINTS), _BODY_JOINTS)
 
 
 class FisheyePoseEstimator:
@@ -361,11 +366,12 @@ class FisheyePoseEstimator:
             order = sorted(range(len(people)), key=rank)
         else:
             order = sorted(range(len(people)), key=lambda i: -score[i])
+        fragment = self._fragments(people, bearings)
         kept: list[int] = []
         found: dict[int, tuple[np.ndarray, float]] = {}
         for i in order:
             bearing = bearings[i]
-            if bearing is None:
+            if bearing is None or fragment[i]:
                 continue
             ci, ri = bearing[:2]
             duplicate = any(
@@ -377,6 +383,43 @@ class FisheyePoseEstimator:
         for i in kept:
             people[i]["bearing"] = bearings[i]
         return [people[i] for i in kept]
+
+    def _fragments(
+        self, people: list[dict], bearings: list[tuple[np.ndarray, float, np.ndarray | None] | None]
+    ) -> list[bool]:
+        """Which detections are small skeletons squeezed onto part of a bigger detection with a
+        plausible body axis (:mod:`ergopose.pose.fragments`). Only detections from new cues (search
+        views, motion) are tested: a person already followed is never dropped as a fragment. On a
+        simulated four-worker session, followed people of normal size were otherwise dropped as
+        "fragments" of an oversized skeleton spanning two workers (docs/pose-command.md)."""
+        s = self.settings
+        out = [False] * len(people)
+        if len(people) < 2 or s.fragment_ratio <= 0:
+            return out
+        good = [
+            (p["kp"].confidence >= s.min_keypoint_confidence) & np.isfinite(p["rays_cam"]).all(axis=1) for p in people
+        ]
+        for j, small in enumerate(bearings):
+            if people[j]["source"] == SOURCE_REFOCUS:
+                continue  # a followed person is never dropped as a fragment (only new cues are)
+            for i, big in enumerate(bearings):
+                if i == j or small is None or big is None:
+                    continue
+                if s.recheck_roll is not None and abs(people[i]["body_roll"]) > s.recheck_roll:
+                    continue  # an upside-down skeleton is no reference for another
+                if is_fragment(
+                    people[j]["rays_cam"],
+                    good[j] & _BODY_MASK,
+                    small[1],
+                    people[i]["rays_cam"],
+                    good[i],
+                    big[1],
+                    s.fragment_ratio,
+                    s.fragment_distance,
+                ):
+                    out[j] = True
+                    break
+        return out
 
     def _refocus(self, person: dict) -> Target:
         """The next frame's view of a person: aimed at the hips, fitted to the body, rolled

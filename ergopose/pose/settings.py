@@ -51,6 +51,11 @@ class PoseSettings:
     motion_warmup: frames the background model learns before its blobs count.
     same_person_angle: two detections whose hip-centre rays are closer than this fraction of
         their angular radius are one person.
+    fragment_ratio, fragment_distance: a detection whose body radius is at most
+        ``fragment_ratio`` of another's, with its confident body keypoints a median at most
+        ``fragment_distance`` of that one's body radius from its bones, is a small skeleton
+        squeezed onto part of that person and is dropped (:mod:`ergopose.pose.fragments`); 0:
+        never.
     align_views: roll each person view about its axis towards the body axis (the previous
         pose's alignment points or hip-to-shoulder direction when re-focusing, the detector's
         body axis for a search cue), by at most ``max_body_roll`` from upright; False: every
@@ -133,6 +138,8 @@ class PoseSettings:
     motion_min_area: float = 0.0004
     motion_warmup: int = 10
     same_person_angle: float = 0.5
+    fragment_ratio: float = 0.7
+    fragment_distance: float = 0.2
     search_where_lost: bool = True
     align_views: bool = True
     refocus_on_alignment: bool = True
