@@ -45,6 +45,7 @@ import cv2
 import numpy as np
 import tomli_w
 
+from ergopose.arrays import FloatArray
 from ergopose.atomic import write_text
 from ergopose.errors import ConfigError, ErgoposeError
 from ergopose.geometry.camera import CalibrationInfo, Camera, check_rotation
@@ -73,7 +74,7 @@ _HEADER = """\
 # --- loading ---------------------------------------------------------------------------------------
 
 
-def load_calibration(path: str | os.PathLike) -> tuple[Camera, ...]:
+def load_calibration(path: str | os.PathLike[str]) -> tuple[Camera, ...]:
     """Read and check a calibration file; the cameras in file order.
 
     Raises ConfigError (naming the file and the field) for a missing or unreadable file, TOML
@@ -95,7 +96,7 @@ def load_calibration(path: str | os.PathLike) -> tuple[Camera, ...]:
     return cameras_from_dict(data, path=path)
 
 
-def cameras_from_dict(data: dict[str, Any], path: str | os.PathLike | None = None) -> tuple[Camera, ...]:
+def cameras_from_dict(data: dict[str, Any], path: str | os.PathLike[str] | None = None) -> tuple[Camera, ...]:
     """The checks of :func:`load_calibration` on an already parsed TOML table."""
     _no_unknown_keys(data, _TOP_KEYS, "", path)
     if "format_version" not in data:
@@ -279,7 +280,7 @@ def _relocated(exc: ErgoposeError, where: str, label: str, path: Any) -> ConfigE
 # --- saving ----------------------------------------------------------------------------------------
 
 
-def save_calibration(path: str | os.PathLike, cameras: Sequence[Camera], description: str | None = None) -> Path:
+def save_calibration(path: str | os.PathLike[str], cameras: Sequence[Camera], description: str | None = None) -> Path:
     """Write ``cameras`` (in the given order) atomically; returns the path.
 
     Floats are written with full precision, so load_calibration(save_calibration(p, cams))
@@ -342,7 +343,7 @@ def _array(values: Iterable[float]) -> str:
 # --- OpenCV importers ------------------------------------------------------------------------------
 
 
-def rotation_from_rodrigues(rvec: Any) -> np.ndarray:
+def rotation_from_rodrigues(rvec: Any) -> FloatArray:
     """Rotation matrix of an axis-angle vector (direction = axis, length = angle in radians)."""
     r = np.asarray(rvec, dtype=np.float64).reshape(3)
     angle = float(np.linalg.norm(r))
@@ -350,7 +351,8 @@ def rotation_from_rodrigues(rvec: Any) -> np.ndarray:
         return np.eye(3)
     k = r / angle
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+    rotation: FloatArray = np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+    return rotation
 
 
 def camera_from_opencv_fisheye(
@@ -373,6 +375,8 @@ def camera_from_opencv_fisheye(
     lens = KannalaBrandt.from_opencv(K, D)
     if (R is None) != (t is None):
         raise ConfigError("give both R and t (world -> camera) or neither", field="R" if R is None else "t")
+    rotation: FloatArray
+    position: FloatArray
     if R is None:
         rotation, position = np.eye(3), np.zeros(3)
     else:
@@ -398,7 +402,7 @@ OPENCV_K_NAMES = ("K", "camera_matrix", "cameraMatrix", "intrinsics")
 OPENCV_D_NAMES = ("D", "distortion_coefficients", "dist_coeffs", "distCoeffs", "distortion")
 
 
-def read_opencv_fisheye_file(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+def read_opencv_fisheye_file(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """(K 3x3, D (4,), extras) from an OpenCV FileStorage file (.yml, .yaml, .xml, .json).
 
     K is read from the first node of :data:`OPENCV_K_NAMES` present, D from
@@ -481,7 +485,7 @@ LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 _TOML_CAMERA_KEYS = {"name", "size", "matrix", "distortions", "rotation", "translation", "fisheye"}
 
 
-def read_pose2sim_calibration(path: str | os.PathLike, units: str = "m") -> tuple[Camera, ...]:
+def read_pose2sim_calibration(path: str | os.PathLike[str], units: str = "m") -> tuple[Camera, ...]:
     """The cameras of a calibration TOML written by Pose2Sim or anipose (aniposelib), in file order.
 
     Layout: one table per camera (``[cam_01]``, ``[cam_0]``, ...) with ``name``, ``size`` = [width,
@@ -609,7 +613,7 @@ def _has_bool(value: Any) -> bool:
 MAX_PADDING_PX = 15
 
 
-def read_any_calibration(path: str | os.PathLike, units: str = "m") -> tuple[tuple[Camera, ...], str]:
+def read_any_calibration(path: str | os.PathLike[str], units: str = "m") -> tuple[tuple[Camera, ...], str]:
     """The cameras of an ergopose calibration file or of a Pose2Sim/anipose calibration TOML, and
     which of the two it was ("ergopose" or "Pose2Sim/anipose"). ``units``: the length unit of a
     Pose2Sim/anipose file's translations."""

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import ConfigError
 from ergopose.geometry.lenses.base import LensModel
 
@@ -172,15 +173,17 @@ class Camera:
         """The lens axis (camera +z) as a unit world direction."""
         return self.rotation_world_from_cam[:, 2].copy()
 
-    def points_world_to_cam(self, points_world: np.ndarray) -> np.ndarray:
+    def points_world_to_cam(self, points_world: np.ndarray) -> FloatArray:
         """(..., 3) world points -> (..., 3) points in the camera frame: R^T (p - c)."""
         p = np.asarray(points_world, dtype=np.float64)
-        return (p - self.position_world) @ self.rotation_world_from_cam
+        p_cam: FloatArray = (p - self.position_world) @ self.rotation_world_from_cam
+        return p_cam
 
-    def points_cam_to_world(self, points_cam: np.ndarray) -> np.ndarray:
+    def points_cam_to_world(self, points_cam: np.ndarray) -> FloatArray:
         """(..., 3) camera-frame points -> (..., 3) world points: R p + c."""
         p = np.asarray(points_cam, dtype=np.float64)
-        return p @ self.rotation_world_from_cam.T + self.position_world
+        p_world: FloatArray = p @ self.rotation_world_from_cam.T + self.position_world
+        return p_world
 
     # --- projection ----------------------------------------------------------------------------
 
@@ -193,7 +196,8 @@ class Camera:
     def rays_world(self, pixels: np.ndarray) -> np.ndarray:
         """(..., 2) pixels -> (..., 3) unit world directions from ``position_world``; NaN
         outside the lens's domain (outside its image circle)."""
-        return self.lens.unproject(pixels) @ self.rotation_world_from_cam.T
+        rays: FloatArray = self.lens.unproject(pixels) @ self.rotation_world_from_cam.T
+        return rays
 
     def in_image(self, pixels: np.ndarray) -> np.ndarray:
         """(..., 2) pixels -> (...) bool: finite and within [-0.5, size - 0.5] on both axes."""
@@ -203,10 +207,11 @@ class Camera:
         with np.errstate(invalid="ignore"):
             return (u >= -0.5) & (u <= self.width - 0.5) & (v >= -0.5) & (v <= self.height - 0.5)
 
-    def theta_of_pixels(self, pixels: np.ndarray) -> np.ndarray:
+    def theta_of_pixels(self, pixels: np.ndarray) -> FloatArray:
         """(..., 2) pixels -> (...) angle from the lens axis (radians); NaN outside the lens's domain."""
         rays = self.lens.unproject(pixels)
-        return np.arctan2(np.hypot(rays[..., 0], rays[..., 1]), rays[..., 2])
+        theta: FloatArray = np.arctan2(np.hypot(rays[..., 0], rays[..., 1]), rays[..., 2])
+        return theta
 
     def theta_of_points_world(self, points_world: np.ndarray) -> np.ndarray:
         """(..., 3) world points -> (...) angle from the lens axis (radians), in [0, pi].

@@ -42,6 +42,7 @@ from typing import Literal, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 
 __all__ = [
@@ -121,7 +122,7 @@ def _check_tail(arr: np.ndarray, tail: tuple[int, ...], name: str, what: str) ->
 
 def projection_matrix(
     K: ArrayLike, rotation_cam_from_view: ArrayLike | None = None, pose_world_from_cam: ArrayLike | None = None
-) -> np.ndarray:
+) -> FloatArray:
     """The paper's ``P = K [I|0] [[R^T, 0], [0, 1]] W^-1`` for one or many views.
 
     K: (..., 3, 3) pinhole matrix of the (virtual) view, pixels.
@@ -161,7 +162,8 @@ def projection_matrix(
     R_view_from_world = np.swapaxes(R, -1, -2) @ np.swapaxes(R_wc, -1, -2)
     t_view = -(R_view_from_world @ t_wc)
     R_view_from_world, t_view = _broadcast_leading(R_view_from_world, t_view)
-    return K @ np.concatenate([R_view_from_world, t_view], axis=-1)
+    P: FloatArray = K @ np.concatenate([R_view_from_world, t_view], axis=-1)
+    return P
 
 
 def _broadcast_leading(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -193,9 +195,10 @@ def reproject(projections: ArrayLike, points: ArrayLike) -> np.ndarray:
     return np.where(depth > 0, pixels, np.nan)
 
 
-def _project_h(P: np.ndarray, X: np.ndarray) -> np.ndarray:
+def _project_h(P: np.ndarray, X: np.ndarray) -> FloatArray:
     """Homogeneous image points (..., V, J, 3) of points X (..., J, 3) under P (..., V, 3, 4)."""
-    return X[..., None, :, :] @ np.swapaxes(P[..., :3], -1, -2) + P[..., None, :, 3]
+    projected: FloatArray = X[..., None, :, :] @ np.swapaxes(P[..., :3], -1, -2) + P[..., None, :, 3]
+    return projected
 
 
 # --------------------------------------------------------------------------------------------

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.geometry.camera import Camera, look_at_rotation
 from ergopose.geometry.lenses.base import BlockwiseLens, LensModel
 from ergopose.geometry.lenses.rectilinear import Rectilinear
@@ -74,7 +75,12 @@ class ViewMap:
         return int(self.map_x.shape[1]), int(self.map_x.shape[0])
 
     def apply(
-        self, image: np.ndarray, *, exact: bool = False, border_value: int | tuple = 0, out: np.ndarray | None = None
+        self,
+        image: np.ndarray,
+        *,
+        exact: bool = False,
+        border_value: int | tuple[float, ...] = 0,
+        out: np.ndarray | None = None,
     ) -> np.ndarray:
         """Sample ``image`` (the source) at the map with bilinear interpolation.
 
@@ -226,8 +232,11 @@ class VirtualView:
         return self.lens.K
 
     @property
-    def rotation_world_from_view(self) -> np.ndarray:
-        return np.asarray(self.source.rotation_world_from_cam, dtype=np.float64) @ self.rotation_cam_from_view
+    def rotation_world_from_view(self) -> FloatArray:
+        rotation: FloatArray = (
+            np.asarray(self.source.rotation_world_from_cam, dtype=np.float64) @ self.rotation_cam_from_view
+        )
+        return rotation
 
     @property
     def projection_matrix(self) -> np.ndarray:
@@ -251,9 +260,12 @@ class VirtualView:
         rays_cam = self.source.lens.unproject(np.asarray(pixels_src, dtype=np.float64))
         return self.lens.project(rays_cam @ self.rotation_cam_from_view)
 
-    def view_pixels_to_rays_cam(self, pixels_view: np.ndarray) -> np.ndarray:
+    def view_pixels_to_rays_cam(self, pixels_view: np.ndarray) -> FloatArray:
         """(..., 2) view pixels -> (..., 3) unit rays in the source camera frame."""
-        return self.lens.unproject(np.asarray(pixels_view, dtype=np.float64)) @ self.rotation_cam_from_view.T
+        rays_cam: FloatArray = (
+            self.lens.unproject(np.asarray(pixels_view, dtype=np.float64)) @ self.rotation_cam_from_view.T
+        )
+        return rays_cam
 
     def project_world(self, points_world: np.ndarray) -> np.ndarray:
         """(..., 3) world points -> (..., 2) view pixels (NaN behind the view)."""

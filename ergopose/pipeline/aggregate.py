@@ -12,7 +12,7 @@ import dataclasses
 import functools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -20,6 +20,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from ergopose.arrays import FloatArray
 from ergopose.ergonomics.aggregate import ShiftSummary
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
@@ -27,6 +28,7 @@ from ergopose.pipeline.names import Naming, merge_rows, tracker_number
 from ergopose.pipeline.score import RunEach, WorkerSink, score_workers
 from ergopose.pipeline.track import Tracks
 from ergopose.progress import ProgressCallback, report
+from ergopose.recon.diagnostics import WorkerLimbDiagnostics
 from ergopose.recon.table import table_to_frames
 from ergopose.recon.tracking import identity_name
 from ergopose.report import periods
@@ -69,7 +71,7 @@ def score_tracks(
     call of its own (its own pass over the table; the same bytes, as no worker's scores depend
     on another's)."""
     if run_each is not None and len(tracks.workers) > 1:
-        calls = [
+        calls: list[Callable[[], list[Any]]] = [
             functools.partial(
                 score_tracks, session, dataclasses.replace(tracks, workers=(w,)), out_dir, scoring, ident, None
             )
@@ -84,7 +86,9 @@ def score_tracks(
     return [worker_result(sink, w, tracks, diagnostics) for w, sink in sinks.items()]
 
 
-def worker_result(sink: WorkerSink, worker: int, tracks: Tracks, diagnostics: dict) -> ReportWorker:
+def worker_result(
+    sink: WorkerSink, worker: int, tracks: Tracks, diagnostics: Mapping[str, WorkerLimbDiagnostics]
+) -> ReportWorker:
     """One scored worker (its sink, tracker number ``worker``) aggregated for the report:
     the shift summary, the timeline, the sustained periods and the joints drawn for them, the limb
     diagnostics under the reported id."""
@@ -196,10 +200,11 @@ def _joints_at(
     )
     times, points = tf.time_s, tf.points_world
 
-    def joints_at(t: float) -> np.ndarray | None:
+    def joints_at(t: float) -> FloatArray | None:
         if not len(times):
             return None
         i = int(np.argmin(np.abs(times - t)))
-        return points[i]
+        joints: FloatArray = points[i]
+        return joints
 
     return joints_at

@@ -100,7 +100,7 @@ class AssessResult:
     chunks_total: int
     chunks_reused: int
     seconds: float
-    stage_seconds: dict = field(default_factory=dict)
+    stage_seconds: dict[str, float] = field(default_factory=dict)
 
 
 def _pose_for(pose: PoseSettings, gates: ConfidenceGates | None) -> PoseSettings:
@@ -154,7 +154,7 @@ class PreparedRun:
     store: ResultStore
     job: detect.DetectJob
     chunk_frames: int
-    models: tuple
+    models: tuple[ModelUse, ...]
     scoring: object
     t_start: float
     timings: dict[str, float] = field(default_factory=dict)
@@ -163,7 +163,7 @@ class PreparedRun:
     #: how the 2D records are made when not by the pose networks on the videos (a source an
     #: evaluation brings, :class:`ergopose.pipeline.detect.Source2D`): part of the fingerprint of
     #: the stored chunks and of the tracks table's metadata; None for the pose networks
-    source: dict | None = None
+    source: dict[str, Any] | None = None
 
     @property
     def frames(self) -> int:
@@ -241,7 +241,7 @@ def open_store(
 
 
 def prepare_source(
-    session: Session, out_dir: Path, recon: ReconSettings, chunk_frames: int, source: dict
+    session: Session, out_dir: Path, recon: ReconSettings, chunk_frames: int, source: dict[str, Any]
 ) -> PreparedRun:
     """A run whose 2D records come from a source an evaluation brings
     (:class:`ergopose.pipeline.detect.Source2D`, given to :func:`people_in_3d`) instead of the pose

@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 import dask
-from distributed import Client, LocalCluster, WorkerPlugin, as_completed, worker_client
+from distributed import Client, Future, LocalCluster, WorkerPlugin, as_completed, worker_client
 
 from ergopose import __version__, remote
 from ergopose.atomic import clean_up
@@ -113,7 +113,7 @@ def local_cluster(n_workers: int) -> LocalCluster:
     """The LocalCluster of ``local:N``: N one-thread worker processes, the dashboard on a free port,
     the workers' profiler off (:data:`LOCAL_CLUSTER_CONFIG`; a restarted worker keeps it off)."""
     with dask.config.set(LOCAL_CLUSTER_CONFIG):
-        return LocalCluster(
+        return LocalCluster(  # type: ignore[no-untyped-call, unused-ignore]  # distributed's LocalCluster has no annotations
             n_workers=n_workers,
             threads_per_worker=1,
             processes=True,
@@ -133,10 +133,10 @@ def connect(
     with contextlib.ExitStack() as stack:
         if kind == "local":
             cluster = stack.enter_context(local_cluster(int(where)))
-            client = stack.enter_context(Client(cluster))
+            client = stack.enter_context(Client(cluster))  # type: ignore[no-untyped-call, unused-ignore]  # distributed's Client has no annotations
         else:
             try:
-                client = stack.enter_context(Client(str(where), timeout="30s"))
+                client = stack.enter_context(Client(str(where), timeout="30s"))  # type: ignore[no-untyped-call, unused-ignore]  # distributed's Client has no annotations
             except OSError as exc:
                 raise ConfigError(f"cannot reach the Dask scheduler at {where} ({exc})", field="--cluster") from None
         versions = set(client.run(_worker_version).values())
@@ -237,7 +237,7 @@ def _cluster_chunk(
 
 def _cluster_finish(
     run: local.PreparedRun, ranges: Sequence[tuple[int, int]], reused: int, *chunks: Any, copies: Sequence[Copy] = ()
-) -> tuple[local.AssessResult, list]:
+) -> tuple[local.AssessResult, list[ProgressEvent]]:
     """Dask task, once every chunk of the session is stored: tracking, scoring, CSV files and the
     report; returns the result and the warnings met."""
     _fetch(copies)  # the recording's fingerprint reads the videos' first and last bytes
@@ -252,11 +252,12 @@ def _cluster_finish(
     return result, [e for e in events if e.unit == "note"]
 
 
-def _as_tasks(calls: list) -> list:
+def _as_tasks(calls: list[Callable[[], list[Any]]]) -> list[list[Any]]:
     """Run calls as tasks of the cluster this task runs on (each tracked worker's scoring), this
     task's thread leaving the worker's pool while it waits; their results in order."""
     with worker_client() as client:
-        return client.gather(client.map(_call, calls, pure=False))
+        results: list[list[Any]] = client.gather(client.map(_call, calls, pure=False))
+        return results
 
 
 def _call(fn: Callable[[], Any]) -> Any:
@@ -273,7 +274,7 @@ class _Running:
     total_frames: int
     done_frames: int
     t_submit: float
-    chunks: list = dataclasses.field(default_factory=list)
+    chunks: list[Future[tuple[int, int]]] = dataclasses.field(default_factory=list)
     finish: Any = None
     pose_s: float | None = None
     copies: tuple[Copy, ...] = ()
@@ -346,7 +347,9 @@ def _drop_copies(client: Client, st: _Running) -> None:
     remote.forget(paths)
 
 
-def _follow(client: Client, running: list[_Running], outcomes: list, session_dirs: list[Path]) -> None:
+def _follow(
+    client: Client, running: list[_Running], outcomes: list[SessionOutcome | None], session_dirs: list[Path]
+) -> None:
     """Progress per session as its tasks finish; each session's result or error into ``outcomes``."""
     owner: dict[Any, _Running] = {}
     for st in running:
@@ -354,7 +357,7 @@ def _follow(client: Client, running: list[_Running], outcomes: list, session_dir
             owner[f] = st
     pending = [f for st in running for f in (*st.chunks, st.finish)]
     try:
-        for fut in as_completed(pending):
+        for fut in as_completed(pending):  # type: ignore[no-untyped-call, unused-ignore]  # distributed's as_completed has no annotations
             st = owner[fut]
             if fut is not st.finish:
                 if fut.status == "finished":
@@ -368,7 +371,7 @@ def _follow(client: Client, running: list[_Running], outcomes: list, session_dir
             try:
                 result, notes = fut.result()
             except Exception as exc:
-                client.cancel([c for c in st.chunks if not c.done()])
+                client.cancel([c for c in st.chunks if not c.done()])  # type: ignore[no-untyped-call, unused-ignore]  # Client.cancel has no annotations
                 _drop_copies(client, st)
                 outcomes[st.index] = SessionOutcome(session_dirs[st.index], run.out_dir, error=exc)
                 report(st.progress, "report", 0, 1, unit="step", message="failed")
@@ -381,5 +384,5 @@ def _follow(client: Client, running: list[_Running], outcomes: list, session_dir
             outcomes[st.index] = SessionOutcome(session_dirs[st.index], run.out_dir, result=result)
             report(st.progress, "report", 1, 1, unit="step")
     except BaseException:
-        client.cancel(pending)
+        client.cancel(pending)  # type: ignore[no-untyped-call, unused-ignore]  # Client.cancel has no annotations
         raise

@@ -52,7 +52,7 @@ def _existing_ancestor(path: Path) -> Path:
     return p
 
 
-def check_output_folder(out_dir: str | os.PathLike) -> None:
+def check_output_folder(out_dir: str | os.PathLike[str]) -> None:
     """OutputError unless ``out_dir`` is a folder that can be written (or can be made where it is)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -89,7 +89,7 @@ def estimate_output_bytes(frames: int, people: int, chunk_bytes_stored: int = 0)
     return int(chunks + 2 * frames * people * AFTER_BYTES_PER_PERSON_FRAME + FIXED_BYTES)
 
 
-def check_room(out_dir: str | os.PathLike, need_bytes: int) -> None:
+def check_room(out_dir: str | os.PathLike[str], need_bytes: int) -> None:
     """OutputError if the disk of ``out_dir`` has less free space than ``need_bytes``."""
     base = _existing_ancestor(Path(out_dir))
     free = shutil.disk_usage(base).free
@@ -108,7 +108,7 @@ def _size(n: float) -> str:
     return f"{n / 1e3:.0f} kB"
 
 
-def stored_chunk_bytes(out_dir: str | os.PathLike) -> int:
+def stored_chunk_bytes(out_dir: str | os.PathLike[str]) -> int:
     """Bytes of the chunk files already in an output folder (a run to be resumed)."""
     chunks = Path(out_dir) / "pipeline" / "chunks"
     if not chunks.is_dir():
@@ -117,7 +117,7 @@ def stored_chunk_bytes(out_dir: str | os.PathLike) -> int:
 
 
 @contextlib.contextmanager
-def output_faults(out_dir: str | os.PathLike) -> Iterator[None]:
+def output_faults(out_dir: str | os.PathLike[str]) -> Iterator[None]:
     """Turn a full disk, a read-only file system or a refused write met while writing the
     output into one OutputError (naming the file when known, else the output folder)."""
     try:
@@ -181,7 +181,7 @@ class ResultsOwner:
         return ", ".join(parts)
 
 
-def results_owner(out_dir: str | os.PathLike) -> ResultsOwner | None:
+def results_owner(out_dir: str | os.PathLike[str]) -> ResultsOwner | None:
     """Whose results ``out_dir`` holds, or None when it holds none (no readable record of them).
 
     Read from the stored results (results/session.json), else the pose stage's manifest
@@ -210,7 +210,7 @@ def results_owner(out_dir: str | os.PathLike) -> ResultsOwner | None:
     return None
 
 
-def foreign_results(out_dir: str | os.PathLike, session: Session, fingerprint: str) -> ResultsOwner | None:
+def foreign_results(out_dir: str | os.PathLike[str], session: Session, fingerprint: str) -> ResultsOwner | None:
     """The owner of the results in ``out_dir`` if they are of another recording than ``session``
     (with fingerprint ``fingerprint``); None if there are none or they are of this one.
 
@@ -227,7 +227,12 @@ def foreign_results(out_dir: str | os.PathLike, session: Session, fingerprint: s
 
 
 def check_results_session(
-    out_dir: str | os.PathLike, session: Session, force: bool, *, advice: str, progress: ProgressCallback | None = None
+    out_dir: str | os.PathLike[str],
+    session: Session,
+    force: bool,
+    *,
+    advice: str,
+    progress: ProgressCallback | None = None,
 ) -> None:
     """OutputError if ``out_dir`` holds results of another recording than ``session``, unless
     ``force``; then a warning says so. ``advice``: what the user can do instead (the message

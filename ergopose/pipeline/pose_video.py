@@ -59,7 +59,9 @@ class PoseVideoResult:
         return int(np.count_nonzero(self.people > 0))
 
 
-def circle_from_video(path: str | os.PathLike, start: int, stop: int, samples: int = CIRCLE_SAMPLES) -> CircleSearch:
+def circle_from_video(
+    path: str | os.PathLike[str], start: int, stop: int, samples: int = CIRCLE_SAMPLES
+) -> CircleSearch:
     """The image circle seen in up to ``samples`` frames spread evenly over start .. stop-1."""
     picks = np.unique(np.linspace(start, stop - 1, min(samples, stop - start)).round().astype(int))
     frames = (frame for i in picks for _, frame in read_frames(path, int(i), int(i) + 1))
@@ -67,7 +69,7 @@ def circle_from_video(path: str | os.PathLike, start: int, stop: int, samples: i
 
 
 def pose_video(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     camera: Camera,
     fps: float,
     start: int,
@@ -138,7 +140,7 @@ def _table(
     )
 
 
-def write_pose_csv(path: str | os.PathLike, table: pd.DataFrame) -> Path:
+def write_pose_csv(path: str | os.PathLike[str], table: pd.DataFrame) -> Path:
     """Write the keypoint table atomically (a keypoint the lens cannot place: empty x_px, y_px)."""
     with atomic_path(path) as tmp:
         table.to_csv(tmp, index=False, lineterminator="\n")

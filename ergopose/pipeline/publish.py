@@ -16,7 +16,7 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any, Iterator, Mapping, Sequence
 
 from ergopose import __version__
 from ergopose.calibration import check
@@ -40,7 +40,7 @@ from ergopose.pipeline.window import Window, describe
 from ergopose.progress import ProgressCallback
 from ergopose.report import adapters
 from ergopose.report.adapters import floor_plan_from_boxes, load_floor_plan
-from ergopose.report.context import Assumption, DataFile, FloorPlan, SessionInfo
+from ergopose.report.context import Assumption, DataFile, FloorPlan, SessionInfo, SkippedFrames
 from ergopose.report.quality import reliable_rule
 from ergopose.report.render import render_report
 from ergopose.report.results import save_results, session_results
@@ -69,7 +69,7 @@ class WorkerOutput:
 class Outputs:
     index_html: Path
     session_csv: Path
-    workers: tuple
+    workers: tuple[WorkerOutput, ...]
 
 
 @contextlib.contextmanager
@@ -187,7 +187,7 @@ def swap_outputs(stage: Path, out_dir: Path) -> None:
 
 def _skipped_frames(
     session: Session, out_dir: Path, write_to: Path | None = None, bom: bool = False, window: Window | None = None
-) -> tuple:
+) -> tuple[SkippedFrames, ...]:
     """csv/frames_skipped.csv (under ``write_to``, default ``out_dir``) from the stored chunks of
     ``out_dir`` (those within ``window`` when given); the report's records of them."""
     rows = skipped_in_store(ResultStore(out_dir))
@@ -203,10 +203,10 @@ def write_report(
     out_dir: Path,
     scoring: ScoringSettings,
     models: Sequence[ModelUse],
-    csv_files: dict,
+    csv_files: Mapping[str, Sequence[tuple[str, str]]],
     ident: Any,
     progress: ProgressCallback | None,
-    skipped: tuple = (),
+    skipped: tuple[SkippedFrames, ...] = (),
     unused: Sequence[str] = (),
     window: Window | None = None,
 ) -> Path:

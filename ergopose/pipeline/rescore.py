@@ -150,7 +150,7 @@ def tracked_ids(folder: Path) -> list[str]:
     return sorted((str(w) for w in pc.unique(table.column("worker")).to_pylist()), key=names.tracker_number)
 
 
-def _models(folder: Path | None = None) -> tuple:
+def _models(folder: Path | None = None) -> tuple[ModelUse, ...]:
     """The pose models the report names: the ones the stored tracks were made with (their SHA-256
     in the results' manifest), else the detector and the default landmark model; no fetch."""
     by_digest = {card.file.sha256: card for card in MODEL_CARDS.values()}

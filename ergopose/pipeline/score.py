@@ -20,6 +20,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from ergopose.arrays import AnyArray
 from ergopose.atomic import atomic_path
 from ergopose.ergonomics import task_inputs as T
 from ergopose.ergonomics import uncertainty as U
@@ -41,7 +42,7 @@ from ergopose.session import Session
 CSV_DIR = "csv"
 
 #: Runs calls (each returning a list) somewhere, e.g. on a cluster, and returns their results in order.
-RunEach = Callable[[list], list]
+RunEach = Callable[[list[Callable[[], list[Any]]]], list[list[Any]]]
 
 _HIPS = [JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]]
 
@@ -101,7 +102,7 @@ def score_uncertainty(
     factors: pd.DataFrame,
     angle_settings: AngleSettings | None,
     scoring: ScoringSettings,
-    task_use: tuple[dict, pd.DataFrame] | None = None,
+    task_use: tuple[dict[str, AnyArray], pd.DataFrame] | None = None,
 ) -> pd.DataFrame:
     """Angle deviations, score probabilities and ranges, confidence and its cause per frame
     (:mod:`ergopose.ergonomics.uncertainty`): the joints resampled within the reconstruction's

@@ -70,7 +70,9 @@ class WorkerScorer:
     :func:`ergopose.pipeline.score.score_rows` with the session and worker bound).
     """
 
-    def __init__(self, score: Callable, sink: BlockSink, block_frames: int, context_frames: int) -> None:
+    def __init__(
+        self, score: Callable[[TrackFrames], pd.DataFrame], sink: BlockSink, block_frames: int, context_frames: int
+    ) -> None:
         if block_frames < 1 or context_frames < 0:
             raise ValueError("block_frames must be >= 1 and context_frames >= 0")
         self.score = score

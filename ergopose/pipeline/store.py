@@ -48,7 +48,7 @@ _CHECKSUM = "sha256"
 _INPUTS = "inputs"
 
 
-def file_fingerprint(path: str | os.PathLike, sample_bytes: int = 1 << 20) -> str:
+def file_fingerprint(path: str | os.PathLike[str], sample_bytes: int = 1 << 20) -> str:
     """SHA-256 over a file's size and its first and last ``sample_bytes`` (cheap for large videos)."""
     path = Path(path)
     size = path.stat().st_size
@@ -86,7 +86,7 @@ class DamagedPiece(Exception):
 class ResultStore:
     """The results folder of one assessment."""
 
-    def __init__(self, out_dir: str | os.PathLike):
+    def __init__(self, out_dir: str | os.PathLike[str]):
         self.root = Path(out_dir) / "pipeline"
         self.chunks_dir = self.root / "chunks"
         self.manifest_path = self.root / "manifest.json"
@@ -96,7 +96,7 @@ class ResultStore:
         self.damaged: list[tuple[Path, str]] = []
 
     @classmethod
-    def at(cls, root: str | os.PathLike) -> "ResultStore":
+    def at(cls, root: str | os.PathLike[str]) -> "ResultStore":
         """The store whose root folder is ``root`` (as passed to worker processes)."""
         return cls(Path(root).parent)
 
@@ -155,9 +155,10 @@ class ResultStore:
             write_text(self.manifest_path, json.dumps(manifest, indent=2, sort_keys=True, default=repr) + "\n")
         return reuse
 
-    def _read_manifest(self) -> dict | None:
+    def _read_manifest(self) -> dict[str, Any] | None:
         try:
-            return json.loads(self.manifest_path.read_text())
+            manifest: dict[str, Any] = json.loads(self.manifest_path.read_text())
+            return manifest
         except (OSError, ValueError):
             return None
 

@@ -46,7 +46,7 @@ class Tracks:
     (:class:`ergopose.pipeline.scoring.ShiftReferences`). Nothing per frame stays in memory."""
 
     path: Path
-    worker_summary: dict
+    worker_summary: dict[str, dict[str, Any]]
     references: Any  # ShiftReferences
     workers: tuple[int, ...]
     rows: int
@@ -54,7 +54,7 @@ class Tracks:
     recon: ReconSettings
     #: tracker numbers scored as one worker: {member: the group's first member}
     #: (ergopose.pipeline.names.Naming.groups); ``workers`` then holds the groups' first members
-    groups: dict = dataclasses.field(default_factory=dict)
+    groups: dict[int, int] = dataclasses.field(default_factory=dict)
     #: the part of the day assessed (``ergopose assess --start/--end``; stored in the table's
     #: metadata): scoring keeps the frames within it; None = every frame of the table
     window: Window | None = None
@@ -113,7 +113,7 @@ def track_session(
     )
 
 
-def stored_tracks(path: Path, recon: ReconSettings, groups: dict | None = None) -> Tracks:
+def stored_tracks(path: Path, recon: ReconSettings, groups: Mapping[int, int] | None = None) -> Tracks:
     """The Tracks of a stored tracks table (the tracking stage's output) without the video work: the
     whole-shift references are gathered again in one pass over the table, with the tracker numbers
     of ``groups`` merged (:func:`ergopose.pipeline.names.merge_rows`).
@@ -139,7 +139,7 @@ def stored_tracks(path: Path, recon: ReconSettings, groups: dict | None = None) 
     )
 
 
-def regroup(tracks: Tracks, groups: dict) -> Tracks:
+def regroup(tracks: Tracks, groups: dict[int, int]) -> Tracks:
     """``tracks`` with the tracker numbers of ``groups`` scored as one worker (the same object when
     there is nothing to merge)."""
     if groups == tracks.groups:

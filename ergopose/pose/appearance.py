@@ -19,6 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.records import APPEARANCE_DIMS  # (L*, a*, b*) of the upper body, then of the thighs
 
@@ -34,13 +35,14 @@ _LH, _RH = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
 _LK, _RK = JOINT_INDEX["left_knee"], JOINT_INDEX["right_knee"]
 
 
-def _torso_points(px: np.ndarray) -> np.ndarray:
+def _torso_points(px: np.ndarray) -> FloatArray:
     """(N, 33, 2) -> (N, S, 2) sample points inside the shoulders-hips quadrilateral."""
     u, v = np.meshgrid(_TORSO_STEPS, _TORSO_STEPS, indexing="ij")
     u, v = u.ravel()[None, :, None], v.ravel()[None, :, None]
     top = px[:, None, _LS] + u * (px[:, None, _RS] - px[:, None, _LS])
     bottom = px[:, None, _LH] + u * (px[:, None, _RH] - px[:, None, _LH])
-    return top + v * (bottom - top)
+    points: FloatArray = top + v * (bottom - top)
+    return points
 
 
 def _thigh_points(px: np.ndarray) -> np.ndarray:

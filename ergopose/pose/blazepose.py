@@ -29,6 +29,7 @@ from typing import Any, Sequence
 import cv2
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError, ModelError
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.pose.models import BLAZEPOSE_DETECTOR, ModelCard, ensure_model, landmark_card, model_card
@@ -37,10 +38,11 @@ from ergopose.progress import ProgressCallback
 DEFAULT_THREADS = 2
 
 
-def sigmoid(x: np.ndarray) -> np.ndarray:
+def sigmoid(x: np.ndarray) -> FloatArray:
     """The logistic function of network logits (float64, clipped to +-100 against overflow)."""
     x = np.clip(np.asarray(x, dtype=np.float64), -100.0, 100.0)
-    return 1.0 / (1.0 + np.exp(-x))
+    probability: FloatArray = 1.0 / (1.0 + np.exp(-x))
+    return probability
 
 
 # --------------------------------------------------------------------------------------------
@@ -145,8 +147,9 @@ class PersonDetection:
     ssd_box: np.ndarray
 
     @property
-    def hip_centre(self) -> np.ndarray:
-        return self.keypoints[0]
+    def hip_centre(self) -> FloatArray:
+        hip: FloatArray = self.keypoints[0]
+        return hip
 
     @property
     def radius(self) -> float:
@@ -390,9 +393,9 @@ class BlazePoseDetector:
 
     def __init__(
         self,
-        model_path: str | os.PathLike | None = None,
+        model_path: str | os.PathLike[str] | None = None,
         *,
-        model_dir: str | os.PathLike | None = None,
+        model_dir: str | os.PathLike[str] | None = None,
         num_threads: int = DEFAULT_THREADS,
         min_score: float = 0.5,
         iou_threshold: float = 0.3,
@@ -489,10 +492,10 @@ class BlazePoseLandmarker:
 
     def __init__(
         self,
-        model_path: str | os.PathLike | None = None,
+        model_path: str | os.PathLike[str] | None = None,
         *,
         model: str | None = None,
-        model_dir: str | os.PathLike | None = None,
+        model_dir: str | os.PathLike[str] | None = None,
         num_threads: int = DEFAULT_THREADS,
         refine: bool = True,
         world: bool = False,

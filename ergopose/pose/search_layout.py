@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 
@@ -137,7 +138,7 @@ def _directions(polar: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     )
 
 
-def person_size(camera: Camera, directions_cam: np.ndarray, sizing: SearchSizing) -> np.ndarray:
+def person_size(camera: Camera, directions_cam: np.ndarray, sizing: SearchSizing) -> FloatArray:
     """(...) angular size (radians) of a person whose body centre lies along each direction:
     standing on the floor (z = 0) where the ray meets the height of their centre, at most
     ``max_distance`` away horizontally (also where the ray does not come down to that height, or
@@ -156,7 +157,8 @@ def person_size(camera: Camera, directions_cam: np.ndarray, sizing: SearchSizing
     reach = np.minimum(reach, sizing.max_distance)
     vertical = np.arctan2(sizing.person_height - height, reach) - np.arctan2(-height, reach)
     across = 2.0 * np.arctan(0.5 * sizing.person_width / np.hypot(reach, drop))
-    return np.maximum(np.abs(vertical), across)
+    extent: FloatArray = np.maximum(np.abs(vertical), across)
+    return extent
 
 
 def pixel_density(camera: Camera, directions_cam: np.ndarray, step: float = 1e-4) -> np.ndarray:
@@ -175,7 +177,7 @@ def pixel_density(camera: Camera, directions_cam: np.ndarray, step: float = 1e-4
     return np.linalg.svd(jac, compute_uv=False)[..., -1]
 
 
-def required_half_fov(camera: Camera, directions_cam: np.ndarray, detector_px: int, sizing: SearchSizing) -> np.ndarray:
+def required_half_fov(camera: Camera, directions_cam: np.ndarray, detector_px: int, sizing: SearchSizing) -> FloatArray:
     """(...) the largest half field of view a search view holding a person at each direction may
     have (the module's rule): the person-size limit, not finer than the image, within the limits."""
     half_px = 0.5 * float(detector_px)
@@ -186,7 +188,8 @@ def required_half_fov(camera: Camera, directions_cam: np.ndarray, detector_px: i
         by_image = np.where(
             np.isfinite(density) & (density > 0), np.arctan(half_px / (sizing.max_upsampling * density)), 0.0
         )
-    return np.clip(np.maximum(by_size, by_image), sizing.min_half_fov, sizing.max_half_fov)
+    half_fov: FloatArray = np.clip(np.maximum(by_size, by_image), sizing.min_half_fov, sizing.max_half_fov)
+    return half_fov
 
 
 def person_radius(camera: Camera, directions_cam: np.ndarray, sizing: SearchSizing) -> np.ndarray:
@@ -233,7 +236,7 @@ def derive_layout(camera: Camera, detector_px: int, sizing: SearchSizing = Searc
     return SearchLayout(layout.rings, layout.covered, _outside_image(camera, layout, sizing))
 
 
-def _cone(axis: np.ndarray, radius: float, n: int = 400) -> np.ndarray:
+def _cone(axis: np.ndarray, radius: float, n: int = 400) -> FloatArray:
     """n directions spread evenly over the cone of ``radius`` around the unit ``axis``."""
     k = np.arange(n) + 0.5
     z = 1.0 - (1.0 - np.cos(radius)) * k / n
@@ -244,7 +247,8 @@ def _cone(axis: np.ndarray, radius: float, n: int = 400) -> np.ndarray:
     e1 = np.cross(helper, axis)
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
-    return local @ np.stack([e1, e2, axis])
+    points: FloatArray = local @ np.stack([e1, e2, axis])
+    return points
 
 
 def _outside_image(camera: Camera, layout: SearchLayout, sizing: SearchSizing) -> tuple[int, ...]:

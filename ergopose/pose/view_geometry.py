@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.geometry.camera import Camera, cross3
 from ergopose.geometry.views import upright_rotation
 
@@ -19,19 +20,22 @@ from ergopose.geometry.views import upright_rotation
 WORLD_UP = np.array([0.0, 0.0, 1.0])
 
 
-def unit(v: np.ndarray) -> np.ndarray:
+def unit(v: np.ndarray) -> FloatArray:
     """``v`` scaled to unit length along its last axis."""
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+    unit_v: FloatArray = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return unit_v
 
 
-def angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def angle_between(a: np.ndarray, b: np.ndarray) -> FloatArray:
     """Angles (radians) between unit vectors a (..., 3) and b (..., 3), accurate near 0."""
-    return 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+    angle: FloatArray = 2.0 * np.arctan2(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
+    return angle
 
 
-def world_up_cam(camera: Camera) -> np.ndarray:
+def world_up_cam(camera: Camera) -> FloatArray:
     """The world's vertical in the camera frame."""
-    return np.asarray(camera.rotation_world_from_cam, dtype=np.float64).T @ WORLD_UP
+    up_cam: FloatArray = np.asarray(camera.rotation_world_from_cam, dtype=np.float64).T @ WORLD_UP
+    return up_cam
 
 
 def upright_view_rotation(camera: Camera, direction_cam: np.ndarray) -> np.ndarray:
@@ -51,12 +55,13 @@ def roll_towards(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray |
     return float(np.arctan2(u[0], -u[1]))
 
 
-def rolled_view_rotation(camera: Camera, direction_cam: np.ndarray, roll: float) -> np.ndarray:
+def rolled_view_rotation(camera: Camera, direction_cam: np.ndarray, roll: float) -> FloatArray:
     """rotation_cam_from_view (3, 3) of the view along the unit ``direction_cam`` turned by
     ``roll`` (radians, clockwise on screen) from upright."""
     c, s = np.cos(roll), np.sin(roll)
     rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return upright_view_rotation(camera, direction_cam) @ rz
+    rotation: FloatArray = upright_view_rotation(camera, direction_cam) @ rz
+    return rotation
 
 
 def view_rotation(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None = None) -> np.ndarray:
@@ -87,7 +92,7 @@ def roll_from_upright(camera: Camera, direction_cam: np.ndarray, up_cam: np.ndar
 
 def bounded_up(
     camera: Camera, direction_cam: np.ndarray, up_cam: np.ndarray | None, max_roll: float, undefined_angle: float = 0.0
-) -> np.ndarray | None:
+) -> FloatArray | None:
     """The up direction of a view along ``direction_cam`` that follows ``up_cam`` (e.g. the body
     axis) but is rolled at most ``max_roll`` from world upright. None when ``up_cam`` is None;
     ``up_cam`` unchanged when the view is within ``undefined_angle`` of the world's vertical (no
@@ -101,4 +106,5 @@ def bounded_up(
         return None
     roll = float(np.clip(roll_towards(camera, d, up_cam), -max_roll, max_roll))
     # roll_towards of this vector is ``roll``: its image in the upright view is (sin r, -cos r).
-    return upright_view_rotation(camera, d) @ np.array([np.sin(roll), -np.cos(roll), 0.0])
+    up_view: FloatArray = upright_view_rotation(camera, d) @ np.array([np.sin(roll), -np.cos(roll), 0.0])
+    return up_view

@@ -47,16 +47,20 @@ docs/reconstruction.md, section 1.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Mapping, Sequence, cast
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ergopose.arrays import BoolArray, FloatArray, IntArray
 from ergopose.geometry.triangulation import triangulate_midpoint
 from ergopose.keypoints import MIRROR, NUM_JOINTS
 from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS
 from ergopose.recon.settings import ReconSettings
 from ergopose.records import Detections2D
+
+#: One camera's world rays (N, 33, 3) and view centres (N, 3), as Detections2D gives them.
+CameraRays = tuple[FloatArray, FloatArray]
 
 
 @dataclass(frozen=True)
@@ -129,7 +133,10 @@ def ray_closest_points(
 
 
 def pair_costs(
-    det_a: Detections2D, det_b: Detections2D, settings: ReconSettings, rays: tuple | None = None
+    det_a: Detections2D,
+    det_b: Detections2D,
+    settings: ReconSettings,
+    rays: tuple[CameraRays | None, CameraRays | None] | None = None,
 ) -> np.ndarray:
     """(Na, Nb) mean ray-to-ray distance in metres of every candidate pair; +inf if impossible.
 
@@ -140,7 +147,8 @@ def pair_costs(
         return np.full((na, nb), np.inf)
     if rays is None:
         rays = ((det_a.world_rays(), det_a.centres_world()), (det_b.world_rays(), det_b.centres_world()))
-    (ra, oa), (rb, ob) = rays  # (N, 33, 3), (N, 3)
+    # both cameras have detections here, so both have their rays (None only for a camera without)
+    (ra, oa), (rb, ob) = cast("tuple[CameraRays, CameraRays]", rays)  # (N, 33, 3), (N, 3)
     seen_a = det_a.confidence >= max(settings.min_confidence, 1e-12)
     seen_b = det_b.confidence >= max(settings.min_confidence, 1e-12)
     both = seen_a[:, None, :] & seen_b[None, :, :]  # (Na, Nb, 33)
@@ -299,9 +307,10 @@ class ViewAssociation:
     singles: np.ndarray
 
     @property
-    def n_cameras(self) -> np.ndarray:
+    def n_cameras(self) -> IntArray:
         """(K,) number of cameras in each set."""
-        return (self.groups >= 0).sum(axis=1)
+        counts: IntArray = (self.groups >= 0).sum(axis=1)
+        return counts
 
 
 def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None = None) -> ViewAssociation:
@@ -317,7 +326,7 @@ def associate_views(dets: Sequence[Detections2D], settings: ReconSettings | None
     cam_pairs = [(a, b) for a in range(C) for b in range(a + 1, C)]
     rays = [(d.world_rays(), d.centres_world()) if d.count else None for d in dets]
     costs = {(a, b): pair_costs(dets[a], dets[b], settings, (rays[a], rays[b])) for a, b in cam_pairs}
-    groups: list[np.ndarray] = []
+    groups: list[IntArray] = []
     group_cost: list[float] = []
     geo = _Views(dets, rays, settings) if C >= 3 else None
     if geo is not None:
@@ -373,7 +382,9 @@ class _Views:
     that index -1 means "not in the set": S (C, N+1, J) seen with min_confidence, R (C, N+1, J,
     3) unit world rays, O (C, N+1, 3) centres."""
 
-    def __init__(self, dets: Sequence[Detections2D], rays: list, settings: ReconSettings) -> None:
+    def __init__(
+        self, dets: Sequence[Detections2D], rays: Sequence[CameraRays | None], settings: ReconSettings
+    ) -> None:
         C = len(dets)
         self.counts = [d.count for d in dets]
         n = max(self.counts)
@@ -384,7 +395,8 @@ class _Views:
         for c, d in enumerate(dets):
             if d.count:
                 self.S[c, : d.count] = d.confidence >= min_conf
-                self.R[c, : d.count], self.O[c, : d.count] = rays[c]
+                # a camera with detections has its rays (None only for a camera without)
+                self.R[c, : d.count], self.O[c, : d.count] = cast(CameraRays, rays[c])
         self.cam = np.arange(C)[None, :]
 
     def check(self, mem: np.ndarray, settings: ReconSettings) -> tuple[np.ndarray, np.ndarray]:
@@ -414,13 +426,16 @@ class _Views:
         return view_dist, plausible
 
 
-def _set_cost(view_dist: np.ndarray) -> np.ndarray:
+def _set_cost(view_dist: np.ndarray) -> FloatArray:
     """Twice the mean over the member views of their distance (the scale of a pair's cost)."""
     member = ~np.isnan(view_dist)
-    return 2.0 * np.where(member, view_dist, 0.0).sum(axis=1) / np.maximum(member.sum(axis=1), 1)
+    cost: FloatArray = 2.0 * np.where(member, view_dist, 0.0).sum(axis=1) / np.maximum(member.sum(axis=1), 1)
+    return cost
 
 
-def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings) -> tuple[np.ndarray, np.ndarray]:
+def _multi_view_sets(
+    geo: _Views, costs: Mapping[tuple[int, int], FloatArray], settings: ReconSettings
+) -> tuple[np.ndarray, np.ndarray]:
     """Hypotheses of three or more views, one per candidate pair (module docstring).
 
     Returns (sets (H, C) int64 with -1 for cameras not in the set, cost (H,)); only sets of at
@@ -485,8 +500,13 @@ def _multi_view_sets(geo: _Views, costs: dict, settings: ReconSettings) -> tuple
 
 
 def _merge_sets(
-    groups: list, group_cost: list, used: list, geo: _Views, costs: dict, settings: ReconSettings
-) -> tuple[list, list]:
+    groups: list[IntArray],
+    group_cost: list[float],
+    used: Sequence[BoolArray],
+    geo: _Views,
+    costs: Mapping[tuple[int, int], FloatArray],
+    settings: ReconSettings,
+) -> tuple[list[IntArray], list[float]]:
     """Join sets (and single detections) of disjoint cameras that are one person.
 
     The seeds of :func:`_multi_view_sets` only grow with a camera that sees enough of the joints

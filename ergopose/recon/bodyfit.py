@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.keypoints import JOINT_INDEX, LIMBS, MIRROR, NUM_JOINTS
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.tracking import LimbHistogram
@@ -351,10 +352,13 @@ def _yaw_frames(X: np.ndarray) -> np.ndarray:
     return out
 
 
-def template_pose(pelvis_world: np.ndarray, rotation: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
+def template_pose(pelvis_world: np.ndarray, rotation: np.ndarray, scale: np.ndarray | float = 1.0) -> FloatArray:
     """(R, 3), (R, 3, 3) -> (R, 33, 3) the neutral pose placed at the pelvis, rotated and scaled."""
     scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (len(pelvis_world),))
-    return pelvis_world[:, None, :] + scale[:, None, None] * np.matmul(TEMPLATE_BODY, np.swapaxes(rotation, -1, -2))
+    pose: FloatArray = pelvis_world[:, None, :] + scale[:, None, None] * np.matmul(
+        TEMPLATE_BODY, np.swapaxes(rotation, -1, -2)
+    )
+    return pose
 
 
 def fit_bodies(
@@ -673,7 +677,7 @@ def _pelvis_guess(
     else 0.3 m below its other torso joints, else on the mean ray of the first camera that saw
     the person, at ``height_m`` above the floor. NaN when none of these exists."""
     X = points_world
-    out = 0.5 * (X[:, _LHIP] + X[:, _RHIP])
+    out: FloatArray = 0.5 * (X[:, _LHIP] + X[:, _RHIP])
     torso = np.array([JOINT_INDEX[n] for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")])
     ok = np.isfinite(X[:, torso]).all(axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):

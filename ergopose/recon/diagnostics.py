@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import linear_sum_assignment
 
+from ergopose.arrays import FloatArray
 from ergopose.keypoints import LIMB_INDEX, LIMBS, NUM_JOINTS
 from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.records import body_centres
@@ -80,7 +81,7 @@ class WorkerLimbDiagnostics:
     worker: str
     source: str
     frames: int
-    stats: dict
+    stats: dict[tuple[str, str], LengthStats]
 
     def get(self, limb: str, region: str = "all") -> LengthStats:
         return self.stats[(limb, region)]
@@ -115,14 +116,15 @@ def histogram_percentiles(
     nb = c.shape[1]
     top = np.broadcast_to(np.asarray(overflow_max_m, dtype=np.float64), lead).reshape(-1)
 
-    def value_at(j: np.ndarray) -> np.ndarray:
+    def value_at(j: np.ndarray) -> FloatArray:
         """Estimated value of the sorted item of index j (per row of ``rows``): placed evenly in its bin."""
         k = np.minimum(np.argmax(cum[rows] > j[:, None], axis=1), nb - 1)  # the bin holding item j
         below = np.where(k > 0, cum[rows, np.maximum(k - 1, 0)], 0.0)
         inbin = np.maximum(c[rows, k], 1.0)
         lo = k * bin_m
         width = np.where(k == nb - 1, np.fmax(top[rows] - lo, 0.0), bin_m)
-        return lo + np.clip((j - below + 0.5) / inbin, 0.0, 1.0) * width
+        values: FloatArray = lo + np.clip((j - below + 0.5) / inbin, 0.0, 1.0) * width
+        return values
 
     for qi in range(rank.shape[1]):  # five percentiles: a loop over q, vectorised over limbs and regions
         r = rank[rows, qi]

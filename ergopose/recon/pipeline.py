@@ -25,6 +25,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
@@ -333,10 +334,10 @@ class ShiftReconstruction:
             rows = pend.all()
             if rows is None:
                 continue
-            ident = self._identities_of(rows["track"])
-            decided = ident != -2
+            idents = self._identities_of(rows["track"])
+            decided = idents != -2
             moved = pend.split(~decided)
-            mi = ident[decided]
+            mi = idents[decided]
             keep = mi >= 0
             if "centre" in moved:
                 # Only frames up to the track's last observation belong to it.
@@ -546,7 +547,7 @@ def constrain_bone_lengths(
     return X
 
 
-def lens_angles_deg(cameras: Sequence[Camera] | None, points: np.ndarray, centres: np.ndarray) -> np.ndarray:
+def lens_angles_deg(cameras: Sequence[Camera] | None, points: np.ndarray, centres: np.ndarray) -> FloatArray:
     """(n, 33) the larger angle (degrees) off the cameras' axes of each joint (or, where the
     joint is NaN, of the row's centre (n, 3)); NaN without cameras."""
     n = points.shape[0]
@@ -555,7 +556,8 @@ def lens_angles_deg(cameras: Sequence[Camera] | None, points: np.ndarray, centre
     P = np.where(np.isfinite(points).all(axis=-1, keepdims=True), points, centres[:, None, :])
     ang = np.stack([cam.theta_of_points_world(P) for cam in cameras])
     with np.errstate(invalid="ignore"):
-        return np.degrees(np.max(ang, axis=0))
+        angles: FloatArray = np.degrees(np.max(ang, axis=0))
+        return angles
 
 
 def identity_names(workers: Iterable[int]) -> list[str]:

@@ -13,10 +13,11 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Iterator, Sequence, SupportsFloat
+from typing import Any, Callable, Iterable, Iterator, Sequence, SupportsFloat
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMBS
@@ -42,8 +43,8 @@ class SessionSummary:
     path: Path | None
     frames: int
     workers: tuple[str, ...]
-    stature_m: dict
-    limb_medians_m: dict
+    stature_m: dict[str, float]
+    limb_medians_m: dict[str, FloatArray]
     people_pairs: int
     people_single_view: int
     rows: int
@@ -61,9 +62,9 @@ def _chunks(frames: Iterable[Sequence[Detections2D]], size: int) -> Iterator[lis
         yield buf
 
 
-def worker_summary(shift: ShiftReconstruction) -> dict[str, dict]:
+def worker_summary(shift: ShiftReconstruction) -> dict[str, dict[str, Any]]:
     """{worker: {"stature_estimate_m", "limb_medians_m": {limb: metres}}} for the table metadata."""
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
     statures = shift.stature_estimates()
     for name, med in shift.limb_medians().items():
         out[name] = {
@@ -79,7 +80,7 @@ def _num(v: SupportsFloat | None) -> float | None:
 
 def reconstruct_session(
     frames: Iterable[Sequence[Detections2D]],
-    out_path: str | os.PathLike | None,
+    out_path: str | os.PathLike[str] | None,
     *,
     fps: float,
     cameras: Sequence[Camera] | None = None,

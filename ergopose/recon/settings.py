@@ -213,7 +213,7 @@ def from_table(table: ReconstructionTable) -> ReconSettings:
 
 
 def from_mapping(
-    values: Mapping[str, Any], source: str | os.PathLike | None = None, prefix: tuple[str, ...] = ()
+    values: Mapping[str, Any], source: str | os.PathLike[str] | None = None, prefix: tuple[str, ...] = ()
 ) -> ReconSettings:
     """Settings from a mapping of field names to values (as_dict's names; the tracks table stores
     them so); a problem raises one ConfigError naming the key, the value and what is allowed."""
@@ -225,7 +225,7 @@ def from_mapping(
     return dataclasses.replace(ReconSettings(), **record)
 
 
-def load_settings(path: str | os.PathLike | None) -> ReconSettings:
+def load_settings(path: str | os.PathLike[str] | None) -> ReconSettings:
     """Read a TOML settings file (top-level keys or a [reconstruction] table, in the table's keys
     and units); None gives the defaults."""
     if path is None:

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
 
+from ergopose.arrays import BoolArray, FloatArray, IntArray
 from ergopose.errors import InputError
 from ergopose.recon.settings import ReconSettings
 
@@ -124,7 +125,9 @@ class KalmanRTS:
         self.window_start = int(first_frame)
         self.S = 0
         self._alloc_state(0)
-        self._win: list[tuple] = []  # per frame: (x_f, P_f, cont, acc, gated, prev_meas)
+        self._win: list[
+            tuple[FloatArray, FloatArray, BoolArray, BoolArray, BoolArray, IntArray]
+        ] = []  # per frame: (x_f, P_f, cont, acc, gated, prev_meas)
         self.add_series(n_series)
 
     # --- state ------------------------------------------------------------------------------------

@@ -146,7 +146,7 @@ class TracksWriter:
 
     def __init__(
         self,
-        path: str | os.PathLike,
+        path: str | os.PathLike[str],
         *,
         fps: float,
         cameras: Sequence[str] = (),
@@ -200,7 +200,7 @@ class TracksWriter:
 
 
 def write_tracks(
-    path: str | os.PathLike,
+    path: str | os.PathLike[str],
     tf: TrackFrames,
     *,
     fps: float,
@@ -222,7 +222,7 @@ class TracksTable:
     ``metadata`` (the JSON dictionary described in the module docstring)."""
 
     data: pd.DataFrame
-    metadata: dict
+    metadata: dict[str, Any]
 
     @property
     def fps(self) -> float:
@@ -238,7 +238,7 @@ def _worker_key(name: str) -> tuple[str, int]:
     return (head, int(num)) if num.isdigit() else (str(name), 0)
 
 
-def read_metadata(path: str | os.PathLike) -> dict:
+def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
     """The table's ``ergopose.tracks`` metadata; InputError if the file is not a tracks table."""
     p = Path(path)
     try:
@@ -251,7 +251,7 @@ def read_metadata(path: str | os.PathLike) -> dict:
     raw = (file_meta.metadata or {}).get(METADATA_KEY)
     if raw is None:
         raise InputError("not an ergopose tracks table (no ergopose.tracks metadata)", path=p)
-    meta = json.loads(raw)
+    meta: dict[str, Any] = json.loads(raw)
     if meta.get("format") != FORMAT or int(meta.get("version", 0)) > FORMAT_VERSION:
         raise InputError(
             f"unsupported tracks table format {meta.get('format')!r} version {meta.get('version')!r}", path=p
@@ -263,7 +263,7 @@ def read_metadata(path: str | os.PathLike) -> dict:
 
 
 def read_tracks(
-    path: str | os.PathLike, *, workers: Sequence[str] | None = None, columns: Sequence[str] | None = None
+    path: str | os.PathLike[str], *, workers: Sequence[str] | None = None, columns: Sequence[str] | None = None
 ) -> TracksTable:
     """Read a tracks table (optionally only some workers and/or columns)."""
     meta = read_metadata(path)

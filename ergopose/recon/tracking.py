@@ -58,10 +58,12 @@ Single-view people never start tracks and are never triangulated. Frame times ar
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ergopose.arrays import FloatArray, IntArray
 from ergopose.errors import InputError
 from ergopose.keypoints import LIMB_INDEX, LIMBS
 from ergopose.pose.appearance import appearance_distance
@@ -128,13 +130,14 @@ def identity_name(number: int) -> str:
     return f"worker_{number}"
 
 
-def limb_lengths(points_world: np.ndarray) -> np.ndarray:
+def limb_lengths(points_world: np.ndarray) -> FloatArray:
     """(..., 33, 3) -> (..., L) length of every limb of keypoints.LIMBS, NaN where a joint is NaN."""
     X = np.asarray(points_world, dtype=np.float64)
-    return np.linalg.norm(X[..., LIMB_INDEX[:, 0], :] - X[..., LIMB_INDEX[:, 1], :], axis=-1)
+    lengths: FloatArray = np.linalg.norm(X[..., LIMB_INDEX[:, 0], :] - X[..., LIMB_INDEX[:, 1], :], axis=-1)
+    return lengths
 
 
-def _match_gain(cost: np.ndarray, gate: np.ndarray, fresh_gate: float) -> np.ndarray:
+def _match_gain(cost: np.ndarray, gate: np.ndarray, fresh_gate: float) -> FloatArray:
     """Log-likelihood gain of matching track t (rows) with person o (columns).
 
     Each track's predicted centre is taken as a 2D Gaussian with sigma = gate / 3 (its gate is 3
@@ -150,7 +153,8 @@ def _match_gain(cost: np.ndarray, gate: np.ndarray, fresh_gate: float) -> np.nda
     ref = 4.5 + 2.0 * np.log(fresh_gate / 3.0)
     with np.errstate(invalid="ignore"):
         nll = 0.5 * (cost / sigma) ** 2 + 2.0 * np.log(sigma)
-    return np.maximum(ref - nll, 1e-3)
+    gain: FloatArray = np.maximum(ref - nll, 1e-3)
+    return gain
 
 
 def _colour_cost(colour: np.ndarray) -> np.ndarray:
@@ -192,9 +196,10 @@ class LimbHistogram:
         self.counts += other.counts
 
     @property
-    def samples(self) -> np.ndarray:
+    def samples(self) -> IntArray:
         """(L,) number of samples per limb."""
-        return self.counts.sum(axis=1)
+        samples: IntArray = self.counts.sum(axis=1)
+        return samples
 
     def medians(self, min_samples: int = MIN_LIMB_SAMPLES) -> np.ndarray:
         """(L,) median length per limb (metres, linear within the 1 mm bin); NaN with too few samples."""
@@ -296,11 +301,11 @@ class _Track:
     identity: int | None = None
     hist: LimbHistogram = field(default_factory=LimbHistogram)
     look: Look = field(default_factory=Look)
-    pending_rows: list = field(default_factory=list)  # chunk rows not yet in hist
+    pending_rows: list[int] = field(default_factory=list)  # chunk rows not yet in hist
     group: int | None = None  # contact group whose decision is pending (provisional identity)
     hist_before: LimbHistogram | None = None  # a continuation's limb lengths before the separation
     look_before: Look | None = None  # and its colours
-    no_split_with: set = field(default_factory=set)  # identities it was resolved with, still close
+    no_split_with: set[int] = field(default_factory=set)  # identities it was resolved with, still close
 
 
 @dataclass
@@ -311,6 +316,10 @@ class _Identity:
     last_pos: np.ndarray
     track: int | None  # id of the live track following it, if any
     look: Look = field(default_factory=Look)
+
+
+#: An identity a new track could be: (signature distance m, the identity, gap s, colour distance).
+_Candidate = tuple[float, _Identity, float, float]
 
 
 @dataclass(frozen=True)
@@ -338,8 +347,8 @@ class TrackingResult:
 
     track: np.ndarray
     centres: np.ndarray
-    resolved: dict
-    ended: tuple
+    resolved: dict[int, int | None]
+    ended: tuple[TrackEnd, ...]
 
 
 class Tracker:
@@ -362,7 +371,7 @@ class Tracker:
         self._coast_frames = s.max_coast_s * self.fps
         self._tentative_coast_frames = min(s.max_coast_s, TENTATIVE_MAX_COAST_S) * self.fps
         self._window_frames = max(1, int(round(s.relink_window_s * self.fps)))
-        self.groups: dict[int, dict] = {}  # contact group id -> {"identities", "members", "ended"}
+        self.groups: dict[int, dict[str, Any]] = {}  # contact group id -> {"identities", "members", "ended"}
         self.next_group = 0
         self._min_frames = int(round(s.min_track_s * self.fps))
 
@@ -586,7 +595,7 @@ class Tracker:
         for t in self.tracks:
             self._flush(t)
 
-    def _end(self, t: _Track, resolved: dict, ended: list) -> None:
+    def _end(self, t: _Track, resolved: dict[int, int | None], ended: list[TrackEnd]) -> None:
         if t.group is not None:
             # A provisional continuation ends before its contact group is decided: it stays in
             # the decision; its identity is lost but reserved for the group meanwhile.
@@ -626,7 +635,7 @@ class Tracker:
         return t.look.mean()
 
     @staticmethod
-    def _by_colour(cands: list, colours: list[float]) -> tuple["_Identity | None", bool]:
+    def _by_colour(cands: list[_Candidate], colours: list[float]) -> tuple["_Identity | None", bool]:
         """What the clothes say about a new track: (the candidate identity whose colour is within
         APPEARANCE_SAME and APPEARANCE_MARGIN closer than every other candidate's, or None;
         whether it is someone new: further than APPEARANCE_NEW from every identity, all known)."""
@@ -638,7 +647,7 @@ class Tracker:
         new = bool(colours) and all(np.isfinite(c) and c > APPEARANCE_NEW for c in colours)
         return None, new
 
-    def _resolve(self, t: _Track, resolved: dict, ended: list, final: bool = False) -> bool:
+    def _resolve(self, t: _Track, resolved: dict[int, int | None], ended: list[TrackEnd], final: bool = False) -> bool:
         """Give a tentative track its identity (see the module docstring). Returns False (and
         leaves it tentative) while an identity it could be is waiting for a contact group's
         decision, unless ``final`` (the track ends): then those identities are left out."""
@@ -648,7 +657,7 @@ class Tracker:
         mine_look = t.look.mean()
         live = {x.id: x for x in self.tracks}
         reserved = self._reserved()
-        cands = []
+        cands: list[_Candidate] = []
         colours = []  # clothing-colour distance to every identity it could be or is followed now
         for ident in self.identities.values():
             if ident.number in reserved:
@@ -724,7 +733,7 @@ class Tracker:
 
     # --- contacts -----------------------------------------------------------------------------------
 
-    def _contacts(self, f: int, dt1: float, ended: list) -> None:
+    def _contacts(self, f: int, dt1: float, ended: list[TrackEnd]) -> None:
         """Split confirmed tracks that come within contact_distance_m of each other.
 
         Two people this close (passing each other, or a simulated body passing through another)
@@ -885,7 +894,7 @@ class Tracker:
         )
         return bool(np.isfinite(cost[[members.index(m) for m in live]]).all(axis=1).all())
 
-    def _resolve_group(self, gid: int, resolved: dict) -> None:
+    def _resolve_group(self, gid: int, resolved: dict[int, int | None]) -> None:
         """Confirm or cross over the identities of a contact group's continuations (live or
         ended), then make them final."""
         s = self.settings

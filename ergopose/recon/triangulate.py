@@ -19,6 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.triangulation import reject_outliers, triangulate_dlt
 from ergopose.keypoints import NUM_JOINTS
@@ -163,7 +164,7 @@ def _mean_over_cameras(look: np.ndarray) -> np.ndarray:
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
+def _mean_ray(rays: np.ndarray, used: np.ndarray) -> FloatArray:
     """Unit mean of the torso joints' rays (else of all used rays); NaN if none."""
     torso = np.zeros_like(used)
     torso[TORSO_JOINTS] = True
@@ -171,7 +172,8 @@ def _mean_ray(rays: np.ndarray, used: np.ndarray) -> np.ndarray:
     if not pick.any():
         return np.full(3, np.nan)
     r = rays[pick].sum(axis=0)
-    return r / np.linalg.norm(r)
+    direction: FloatArray = r / np.linalg.norm(r)
+    return direction
 
 
 def triangulate_pairs(
@@ -216,12 +218,13 @@ def triangulate_pairs(
     return points, err, views, conf, rejected, variance
 
 
-def view_focal_px(projections: np.ndarray) -> np.ndarray:
+def view_focal_px(projections: np.ndarray) -> FloatArray:
     """(..., 3, 4) projection matrices -> (...) focal length in pixels, sqrt(fx fy) = sqrt(|det M|)
     of M = P[:, :3] scaled so that its last row has unit length (P = K R [I | -c], K[2] = (0, 0, 1))."""
     M = projections[..., :3]
     scale = np.linalg.norm(M[..., 2, :], axis=-1)
-    return np.sqrt(np.abs(np.linalg.det(M))) / scale**1.5
+    focal: FloatArray = np.sqrt(np.abs(np.linalg.det(M))) / scale**1.5
+    return focal
 
 
 def point_variance(

@@ -120,7 +120,7 @@ def _blockwise(
     return out
 
 
-def _init_fields(obj_or_cls: Any) -> tuple:
+def _init_fields(obj_or_cls: Any) -> tuple[dataclasses.Field[Any], ...]:
     return tuple(f for f in dataclasses.fields(obj_or_cls) if f.init)
 
 
@@ -163,10 +163,10 @@ def finite_number(value: Any, field: str) -> float:
     """``value`` as a float; ConfigError naming ``field`` unless it is a real finite number."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ConfigError(f"expected a number, got {value!r}", field=field)
-    value = float(value)
-    if not np.isfinite(value):
-        raise ConfigError(f"expected a finite number, got {value!r}", field=field)
-    return value
+    number = float(value)
+    if not np.isfinite(number):
+        raise ConfigError(f"expected a finite number, got {number!r}", field=field)
+    return number
 
 
 def require_positive(kind: str, **values: float) -> None:

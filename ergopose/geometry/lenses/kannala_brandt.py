@@ -31,6 +31,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.errors import ConfigError
 from ergopose.geometry.lenses._radial import RadialLens
 
@@ -135,9 +136,9 @@ class KannalaBrandt(RadialLens):
     def rd_max(self) -> float:
         return self._rd_max
 
-    def _poly(self, theta: np.ndarray) -> np.ndarray:
+    def _poly(self, theta: np.ndarray) -> FloatArray:
         t2 = theta * theta
-        out = t2 * self.k4
+        out: FloatArray = t2 * self.k4
         out += self.k3
         out *= t2
         out += self.k2

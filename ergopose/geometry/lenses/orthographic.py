@@ -13,6 +13,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ergopose.arrays import FloatArray
 from ergopose.geometry.lenses._radial import RadialLens
 
 
@@ -45,5 +46,6 @@ class Orthographic(RadialLens):
         theta[beyond] = np.nan
         return theta
 
-    def _theta_of_rd(self, rd: np.ndarray) -> np.ndarray:
-        return np.arcsin(rd)  # NaN for rd > 1 (outside the image circle)
+    def _theta_of_rd(self, rd: np.ndarray) -> FloatArray:
+        theta: FloatArray = np.arcsin(rd)  # NaN for rd > 1 (outside the image circle)
+        return theta
