@@ -21,7 +21,7 @@ install: $(STAMP)
 	$(PY) -m pip install -q --no-deps --force-reinstall --no-build-isolation .
 
 # Lint and format check (ruff; `ruff format ergopose tests bench conftest.py` formats) and type
-# check (mypy, settings in pyproject.toml); tests/test_layers.py holds the import layers and runs
+# check (mypy --strict on the product, sim/ and evaluation/ relaxed: pyproject.toml); tests/test_layers.py holds the import layers and runs
 # with the tests.
 check: $(STAMP)
 	$(PY) -m ruff check ergopose tests bench conftest.py

@@ -113,7 +113,7 @@ def local_cluster(n_workers: int) -> LocalCluster:
     """The LocalCluster of ``local:N``: N one-thread worker processes, the dashboard on a free port,
     the workers' profiler off (:data:`LOCAL_CLUSTER_CONFIG`; a restarted worker keeps it off)."""
     with dask.config.set(LOCAL_CLUSTER_CONFIG):
-        return LocalCluster(  # type: ignore[no-untyped-call, unused-ignore]  # distributed's LocalCluster has no annotations
+        return LocalCluster(  # type: ignore[no-untyped-call]  # distributed's LocalCluster has no annotations
             n_workers=n_workers,
             threads_per_worker=1,
             processes=True,
@@ -133,10 +133,10 @@ def connect(
     with contextlib.ExitStack() as stack:
         if kind == "local":
             cluster = stack.enter_context(local_cluster(int(where)))
-            client = stack.enter_context(Client(cluster))  # type: ignore[no-untyped-call, unused-ignore]  # distributed's Client has no annotations
+            client = stack.enter_context(Client(cluster))  # type: ignore[no-untyped-call]  # distributed's Client has no annotations
         else:
             try:
-                client = stack.enter_context(Client(str(where), timeout="30s"))  # type: ignore[no-untyped-call, unused-ignore]  # distributed's Client has no annotations
+                client = stack.enter_context(Client(str(where), timeout="30s"))  # type: ignore[no-untyped-call]  # distributed's Client has no annotations
             except OSError as exc:
                 raise ConfigError(f"cannot reach the Dask scheduler at {where} ({exc})", field="--cluster") from None
         versions = set(client.run(_worker_version).values())
@@ -357,7 +357,7 @@ def _follow(
             owner[f] = st
     pending = [f for st in running for f in (*st.chunks, st.finish)]
     try:
-        for fut in as_completed(pending):  # type: ignore[no-untyped-call, unused-ignore]  # distributed's as_completed has no annotations
+        for fut in as_completed(pending):  # type: ignore[no-untyped-call]  # distributed's as_completed has no annotations
             st = owner[fut]
             if fut is not st.finish:
                 if fut.status == "finished":
@@ -371,7 +371,7 @@ def _follow(
             try:
                 result, notes = fut.result()
             except Exception as exc:
-                client.cancel([c for c in st.chunks if not c.done()])  # type: ignore[no-untyped-call, unused-ignore]  # Client.cancel has no annotations
+                client.cancel([c for c in st.chunks if not c.done()])  # type: ignore[no-untyped-call]  # Client.cancel has no annotations
                 _drop_copies(client, st)
                 outcomes[st.index] = SessionOutcome(session_dirs[st.index], run.out_dir, error=exc)
                 report(st.progress, "report", 0, 1, unit="step", message="failed")
@@ -384,5 +384,5 @@ def _follow(
             outcomes[st.index] = SessionOutcome(session_dirs[st.index], run.out_dir, result=result)
             report(st.progress, "report", 1, 1, unit="step")
     except BaseException:
-        client.cancel(pending)  # type: ignore[no-untyped-call, unused-ignore]  # Client.cancel has no annotations
+        client.cancel(pending)  # type: ignore[no-untyped-call]  # Client.cancel has no annotations
         raise

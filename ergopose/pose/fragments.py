@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ergopose.arrays import BoolArray, FloatArray
 from ergopose.keypoints import JOINT_INDEX, LIMB_INDEX
 
 #: The bones a fragment's keypoints are measured against: the skeleton's limbs and trunk, and the
@@ -36,7 +37,7 @@ BONES = np.concatenate(
 )
 
 
-def distance_to_bones(points_ray: np.ndarray, rays_cam: np.ndarray, good: np.ndarray) -> np.ndarray:
+def distance_to_bones(points_ray: FloatArray, rays_cam: FloatArray, good: BoolArray) -> FloatArray:
     """Angle (radians) from each of ``points_ray`` (N, 3), unit rays, to the nearest bone of a
     skeleton whose keypoint rays are ``rays_cam`` (33, 3) and whose usable keypoints are ``good``
     (33,) bool; a bone counts when both its ends are usable. The bone is the chord between its
@@ -51,7 +52,8 @@ def distance_to_bones(points_ray: np.ndarray, rays_cam: np.ndarray, good: np.nda
     t = np.clip((ap * ab[None]).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-18)[None], 0.0, 1.0)
     nearest = a[None] + t[..., None] * ab[None]  # (N, B, 3)
     cos = (nearest * points_ray[:, None, :]).sum(-1) / np.linalg.norm(nearest, axis=-1)
-    return np.arccos(np.clip(cos, -1.0, 1.0)).min(axis=1)
+    gaps: FloatArray = np.arccos(np.clip(cos, -1.0, 1.0)).min(axis=1)
+    return gaps
 
 
 def is_fragment(
