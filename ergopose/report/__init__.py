@@ -4,8 +4,11 @@
 - :mod:`ergopose.report.results`: the stored-results folder (save_results / load_results).
 - :mod:`ergopose.report.adapters`: other stages' records -> report input records.
 - :mod:`ergopose.report.page_types`: one typed context per template; :mod:`ergopose.report.pages`
-  builds them from the records with the sections of :mod:`ergopose.report.sections` and the
-  words and numbers of :mod:`ergopose.report.wording`.
+  builds them from the records with the sections of :mod:`ergopose.report.session_sections`
+  (session-level), :mod:`ergopose.report.worker_sections` (a worker's headline and tables),
+  :mod:`ergopose.report.timelines` (risk over time and over the floor) and
+  :mod:`ergopose.report.quality_section` (limb lengths), and the words and numbers of
+  :mod:`ergopose.report.wording`.
 - :mod:`ergopose.report.svg`: inline SVG figures; :mod:`ergopose.report.quality`: trust verdict.
 - :mod:`ergopose.report.render`: render_report(report_dir) writes the pages atomically.
 

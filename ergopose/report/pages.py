@@ -1,5 +1,6 @@
 """The page builders of the report: the context of each page template (ergopose.report.page_types)
-from the stored results, with its sections (ergopose.report.sections).
+from the stored results, with its sections (ergopose.report.session_sections, worker_sections,
+timelines and quality_section).
 
 ``build_worker_page``, ``build_index_page`` and ``build_print_page`` feed templates/worker.html.j2,
 templates/index.html.j2 and templates/print.html.j2; the names of ``__all__`` are the report
@@ -51,33 +52,20 @@ from ergopose.report.page_types import (
 )
 from ergopose.report.periods import MAX_PERIODS
 from ergopose.report.quality import Finding, Verdict, quality_verdict
-from ergopose.report.sections import (
+from ergopose.report.quality_section import quality_section
+from ergopose.report.session_sections import (
     PRINT_FILE,
     PRINT_PERIODS,
-    act_summary,
-    body_part_section,
     calibration_rows,
-    confidence_rows,
     csv_label,
     csv_link,
-    floor_section,
     glossary,
-    headline,
-    headline_figure,
-    hourly_section,
-    input_rows,
-    level_seconds,
-    level_segments,
     methods_section,
     print_link,
-    quality_section,
-    risk_figure,
     session_header,
-    task_inputs_line,
-    timeline_figures,
-    worst_moments,
     worst_note,
 )
+from ergopose.report.timelines import floor_section, hourly_section, risk_figure, timeline_figures
 from ergopose.report.wording import (
     CONFIDENCE_WORDS,
     METHOD_TITLES,
@@ -87,6 +75,18 @@ from ergopose.report.wording import (
     fmt_duration,
     fmt_percent,
     worker_page_name,
+)
+from ergopose.report.worker_sections import (
+    act_summary,
+    body_part_section,
+    confidence_rows,
+    headline,
+    headline_figure,
+    input_rows,
+    level_seconds,
+    level_segments,
+    task_inputs_line,
+    worst_moments,
 )
 
 FLAG_ORDER = FLAG_VERDICTS[-1:] + FLAG_VERDICTS[:-1]  # sort key: not measured last, worst first

@@ -200,7 +200,7 @@ def test_pages_and_results_are_readable_by_others(rendered_report):
 
 
 def test_short_times_and_ticks():
-    from ergopose.report.sections import _time_ticks
+    from ergopose.report.timelines import _time_ticks
     from ergopose.report.wording import Clock, fmt_duration
 
     assert fmt_duration(0.4) == "0.4 s" and fmt_duration(0) == "0 s" and fmt_duration(59.6) == "1 min 00 s"

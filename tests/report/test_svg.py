@@ -12,7 +12,7 @@ import pytest
 from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, pose_skeleton
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.report import svg
-from ergopose.report.sections import binned_scores
+from ergopose.report.timelines import binned_scores
 from ergopose.report.wording import BAND_COLOURS, LEVEL_COLOURS
 
 NS = "{http://www.w3.org/2000/svg}"
