@@ -26,6 +26,12 @@ MODELS: tuple[str, ...] = tuple(LANDMARK_MODELS)
 #: (fisheye) or across the image's width (pinhole).
 FOV_RANGE_DEG = {"fisheye": (100.0, 280.0), "pinhole": (10.0, 150.0)}
 DEFAULT_FOV_DEG = {"fisheye": 180.0, "pinhole": 60.0}
+#: The stage alone remembers each person's left/right labelling this long (seconds; weight halving
+#: time, ``PoseSettings.left_right_memory``): with one camera nothing downstream settles a run of
+#: frames the network labels the other way round. Measured on the Pose2Sim recording (cam_02: 34 of
+#: 100 frames crossed -> 0; re-rendered into virtual fisheye: 38 -> 22 %); `assess` does without,
+#: its reconstruction settles sides across cameras (docs/pose-in-fisheye.md).
+LEFT_RIGHT_MEMORY_S = 2.0
 
 HELP = """\
 Find the people in one video and write their 2D keypoints (33 body points per person, in the
@@ -129,7 +135,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"camera {_describe(camera)}", flush=True)
     landmarker = BlazePoseLandmarker(model=args.model, model_dir=args.model_dir, progress=progress)
     detector = BlazePoseDetector(model_dir=args.model_dir, progress=progress)
-    settings = PoseSettings(max_people=args.max_people).with_gates(landmarker.card.gates)
+    settings = PoseSettings(max_people=args.max_people, left_right_memory=LEFT_RIGHT_MEMORY_S * info.fps).with_gates(
+        landmarker.card.gates
+    )
     result = pose_video(args.video, camera, info.fps, start, stop, landmarker, detector, settings, progress)
     write_pose_csv(args.out, result.table)
     read = result.frames_read

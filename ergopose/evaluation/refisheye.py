@@ -271,6 +271,10 @@ MODES: dict[str, dict] = {
     "bounded30": dict(max_body_roll=np.radians(30.0)),
     "bounded60": dict(max_body_roll=np.radians(60.0)),
     "upright-no-lr": dict(max_body_roll=0.0, left_right_check=False),
+    "default": dict(),
+    "memory24": dict(left_right_memory=24.0),
+    "memory120": dict(left_right_memory=120.0),
+    "upright-memory120": dict(max_body_roll=0.0, left_right_memory=120.0),
 }
 
 

@@ -2,7 +2,8 @@
 
 Each person's skeleton is compared with their previous frame's: a skeleton whose left and right
 limbs match it the other way round is swapped back; when the network keeps the other labelling
-for most of the last ``left_right_window`` frames it is followed. Frames around such a change,
+for most of the last ``left_right_window`` frames it is followed (with ``left_right_memory``, only
+when the network has also given it in more of the remembered frames than the labelling in use). Frames around such a change,
 and limbs whose own left/right disagrees with the body's, are flagged (``left_right_uncertain``);
 with ``uncertain_confidence`` set their confidence is lowered too (``PoseSettings.left_right_check``).
 """
@@ -66,6 +67,20 @@ def swap_left_right(person: dict[str, Any]) -> None:
     person["left_right_swapped"] = True
 
 
+def _support(before: tuple[float, float], verdict: int | None, memory: float | None) -> tuple[float, float]:
+    """Frames in which the network gave a person's current labelling and the other one, each
+    frame's weight halving every ``memory`` frames (None: not kept)."""
+    if memory is None:
+        return before
+    fade = 0.5 ** (1.0 / memory) if memory > 0 else 0.0
+    keep, other = before[0] * fade, before[1] * fade
+    if verdict == 0:
+        keep += 1.0
+    elif verdict == 1:
+        other += 1.0
+    return keep, other
+
+
 class LeftRightCheck:
     """The left/right check of one camera's followed people; keeps their recent history.
 
@@ -124,6 +139,7 @@ class LeftRightCheck:
             votes: list[int | None] = []
             uncertain = False
             since_flip = window
+            support = (0.0, 0.0)
             if best is not None:
                 used.add(best[1])
                 track = tracks[best[1]]
@@ -131,10 +147,13 @@ class LeftRightCheck:
                 verdict = self.verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE)
                 votes = (track["votes"] + [verdict])[-window:]
                 against = sum(1 for v in votes if v == 1)
-                if against > window // 2:
+                support = _support(track["support"], verdict, s.left_right_memory)
+                if against > window // 2 and (s.left_right_memory is None or support[1] > support[0]):
                     # The network has labelled this person the other way round in most recent
-                    # frames: follow it (the votes flip with the track's labelling).
+                    # frames (and, with a memory, in more of the remembered frames than the way
+                    # the person is labelled now): follow it (the votes flip with the labelling).
                     votes = [None if v is None else 1 - v for v in votes]
+                    support = (support[1], support[0])
                     since_flip = 0
                 elif verdict == 1:
                     swap_left_right(p)
@@ -162,6 +181,7 @@ class LeftRightCheck:
                     "conf": conf,
                     "votes": votes,
                     "since_flip": since_flip,
+                    "support": support,
                     "missed": 0,
                 }
             )

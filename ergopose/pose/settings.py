@@ -95,6 +95,14 @@ class PoseSettings:
         ``left_right_window`` frames (then its labelling is followed); limbs whose own match
         disagrees with the whole body's, and frames where the recent labelling is split, get
         their confidence lowered to at most ``uncertain_confidence``.
+    left_right_memory: how long (frames; the weight of a frame halves every this many) the check
+        remembers which labelling the network gave a followed person: the network's other
+        labelling is followed only when it has more remembered support than the one in use (and
+        most of the last ``left_right_window`` frames), so a long run of mislabelled frames after
+        a longer run of right ones is corrected instead of followed. None: the window alone
+        decides (the stage before 2026-11-27). 120 frames is 2 s at the Pose2Sim recording's 60
+        fps and 10 s at the rig's 12 fps; measured in docs/pose-in-fisheye.md ("Left and right
+        with a memory").
     left_right_ratio: the cost of one labelling (sum of the angles between this frame's and
         the previous frame's keypoints of the same label) must be below this fraction of the
         other's for a decision; in between the frame does not vote.
@@ -152,6 +160,7 @@ class PoseSettings:
     left_right_check: bool = True
     left_right_ratio: float = 0.5
     left_right_window: int = 9
+    left_right_memory: float | None = None
     uncertain_confidence: float | None = None
     view_cache_px: float = 0.0
     max_people: int = 8
