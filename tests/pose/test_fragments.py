@@ -12,9 +12,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pose2sim_clip import Pose2SimClip
 
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.fragments import BONES, distance_to_bones, is_fragment
+from ergopose.pose.settings import PoseSettings
 
 RNG_SEED = 17
 
@@ -127,32 +129,13 @@ def test_real_frames_a_squeezed_skeleton_no_longer_replaces_the_person(shared_da
     reported beside the person in frames 12-17 and 24. Now the person is found in every frame
     (hips within half a torso of Pose2Sim's 3D result projected into the camera) and nothing else
     is reported."""
-    from ergopose.evaluation.pose_csv import frames_from_csv, trc_reference
-    from ergopose.evaluation.refisheye import score_frame
-    from ergopose.geometry.calibration_file import camera_for_video, read_any_calibration
-    from ergopose.pipeline.pose_video import pose_video
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-    from ergopose.pose.settings import PoseSettings
-    from ergopose.video import probe_video
-
-    root = shared_data / "pose2sim-demo"
-    video = root / "videos" / "cam04.mp4"
-    info = probe_video(video)
-    cameras, _ = read_any_calibration(root / "Calib_qualisys.toml")
-    camera = camera_for_video(next(c for c in cameras if c.name == "cam_04"), info.width, info.height)
-    landmarker = BlazePoseLandmarker(model_dir=fetched_model_dir[0])
-    detector = BlazePoseDetector(model_dir=fetched_model_dir[0])
-    frames = 30
-    reference = trc_reference(root, frames, camera)
+    clip = Pose2SimClip(shared_data, fetched_model_dir[0], number=4, frames=30)
     outcome = {}
     for name, ratio in (("before", 0.0), ("after", PoseSettings().fragment_ratio)):
-        settings = dataclasses.replace(PoseSettings(), fragment_ratio=ratio).with_gates(landmarker.card.gates)
-        result = pose_video(video, camera, info.fps, 0, frames, landmarker, detector, settings)
-        people = frames_from_csv(result.table, camera, frames)
-        found = [score_frame(reference["rays"][f], reference["conf"][f], people[f])["found"] for f in range(frames)]
-        outcome[name] = (found, [p.count for p in people])
+        scores = clip.scores(dataclasses.replace(PoseSettings(), fragment_ratio=ratio))
+        outcome[name] = ([s["found"] for s in scores], [s["people"] for s in scores])
     found, counts = outcome["before"]
     assert not all(found[25:28]) and max(counts) > 1, outcome["before"]
     found, counts = outcome["after"]
     assert all(found), found
-    assert counts == [1] * frames, counts
+    assert counts == [1] * clip.frames, counts

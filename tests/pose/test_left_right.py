@@ -15,7 +15,9 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pose2sim_clip import Pose2SimClip
 
+from ergopose.commands.pose import LEFT_RIGHT_MEMORY_S
 from ergopose.keypoints import JOINT_INDEX, MIRROR, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D
 from ergopose.pose.left_right import LeftRightCheck
@@ -93,30 +95,10 @@ def test_real_frames_cam_02_keeps_its_sides_with_the_pose_commands_memory(shared
     it. BlazePose labels the person's sides the other way round from frame 42 for most of the
     next 37 frames (against Pose2Sim's 3D result projected into the camera); without a memory the
     check follows it after 5 frames, with the command's 2 s memory every frame keeps its sides."""
-    from ergopose.commands.pose import LEFT_RIGHT_MEMORY_S
-    from ergopose.evaluation.pose_csv import frames_from_csv, trc_reference
-    from ergopose.evaluation.refisheye import score_frame
-    from ergopose.geometry.calibration_file import camera_for_video, read_any_calibration
-    from ergopose.pipeline.pose_video import pose_video
-    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
-    from ergopose.video import probe_video
-
-    root = shared_data / "pose2sim-demo"
-    video = root / "videos" / "cam02.mp4"
-    info = probe_video(video)
-    cameras, _ = read_any_calibration(root / "Calib_qualisys.toml")
-    camera = camera_for_video(next(c for c in cameras if c.name == "cam_02"), info.width, info.height)
-    landmarker = BlazePoseLandmarker(model_dir=fetched_model_dir[0])
-    detector = BlazePoseDetector(model_dir=fetched_model_dir[0])
-    frames = 80
-    reference = trc_reference(root, frames, camera)
+    clip = Pose2SimClip(shared_data, fetched_model_dir[0], number=2, frames=80)
     crossed = {}
-    for name, memory in (("none", None), ("command", LEFT_RIGHT_MEMORY_S * info.fps)):
-        settings = dataclasses.replace(PoseSettings(), left_right_memory=memory).with_gates(landmarker.card.gates)
-        people = frames_from_csv(
-            pose_video(video, camera, info.fps, 0, frames, landmarker, detector, settings).table, camera, frames
-        )
-        scores = [score_frame(reference["rays"][f], reference["conf"][f], people[f]) for f in range(frames)]
+    for name, memory in (("none", None), ("command", LEFT_RIGHT_MEMORY_S * clip.info.fps)):
+        scores = clip.scores(dataclasses.replace(PoseSettings(), left_right_memory=memory))
         assert all(s["found"] for s in scores), name
         crossed[name] = sum(bool(s["swapped"]) for s in scores)
     assert crossed["none"] >= 20 and crossed["command"] <= 2, crossed
