@@ -20,7 +20,7 @@ ISSUE_MAX_ERROR = 0.05
 MEASURED = {
     ("astronaut", 620.0): (24, 0.046),
     ("astronaut", 250.0): (24, 0.083),
-    ("camera", 620.0): (20, 0.217),
+    ("camera", 620.0): (21, 0.217),
     ("camera", 250.0): (23, 0.386),
 }
 MARGIN = 0.015
@@ -29,10 +29,10 @@ MARGIN = 0.015
 SHORTFALL = {
     ("astronaut", 250.0): "0.083 in one case (80 deg, straight down the 1024 x 768 image, whose bottom edge runs "
     "through the eyes); the other 23 within 0.039",
-    ("camera", 620.0): "not found in 4 of 24 (20 deg at 270 deg; 80 deg at 0, 90 and 270 deg: views lose the man "
-    "bent over his tripod as they re-focus); 14 of the 20 found above 0.05, up to 0.217",
+    ("camera", 620.0): "not found in 3 of 24 (80 deg at 0, 90 and 270 deg: the detector's cue views, rolled to its "
+    "body axis, hold the man bent over his tripod below the gate); 13 of the 21 found above 0.05, up to 0.217",
     ("camera", 250.0): "not found in 1 of 24 (80 deg straight up: 11 of the 25 keypoints outside the 1024 x 768 "
-    "frame); 18 of the 23 found above 0.05, up to 0.386",
+    "frame); 19 of the 23 found above 0.05, up to 0.386",
 }
 
 
