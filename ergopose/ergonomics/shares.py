@@ -8,7 +8,7 @@ the session summary CSV all take their shares from :func:`high_risk` (or
 - of the tracked time: the time the worker was tracked (frames x frame period);
 - of the scored time: the tracked time with a score of the method (tracked less unscored);
 - the unscored time of the method, beside them, whose causes the confidence split gives
-  (:class:`ergopose.ergonomics.aggregate.ConfidenceShare`).
+  (:class:`ergopose.ergonomics.shift_records.ConfidenceShare`).
 
 A share is NaN (printed "n/a") when its base is zero.
 """
@@ -77,7 +77,7 @@ def high_risk(method: str, tracked_s: float, seconds_by_level: Mapping[int, floa
 
 
 def shift_high_risk(summary: Any, method: str) -> HighRisk:  # a ShiftSummary (aggregate imports this module)
-    """The HighRisk of a method from a shift summary (ergopose.ergonomics.aggregate.ShiftSummary);
+    """The HighRisk of a method from a shift summary (ergopose.ergonomics.shift_records.ShiftSummary);
     without the method's level column nothing counts as scored."""
     d = summary.distributions.get(LEVEL_COLUMNS[method])
     if d is None:

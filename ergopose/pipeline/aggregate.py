@@ -21,7 +21,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from ergopose.arrays import FloatArray
-from ergopose.ergonomics.aggregate import ShiftSummary
+from ergopose.ergonomics.shift_records import ShiftSummary
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.pipeline.names import Naming, merge_rows, tracker_number
