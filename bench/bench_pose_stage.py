@@ -88,7 +88,8 @@ def _simulate(folder: Path) -> Path:
 
 def bench_view(session_dir: Path) -> None:
     from ergopose.pose.blazepose import BlazePoseLandmarker
-    from ergopose.evaluation.pose import EvaluationSettings, PersonGeometry
+    from ergopose.evaluation.pose_geometry import PersonGeometry
+    from ergopose.evaluation.pose_records import EvaluationSettings
     from ergopose.session import load_session
     from ergopose.sim.ground_truth import load_ground_truth
     from ergopose.geometry.regions import region_index

@@ -39,7 +39,7 @@ from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames  # noqa: E4
 from ergopose.recon.records import People3D  # noqa: E402
 from ergopose.recon.settings import ReconSettings  # noqa: E402
 from ergopose.sim.synthetic import WorkerScript, observe, rig, walk_workers  # noqa: E402
-from ergopose.recon.tracking import limb_lengths  # noqa: E402
+from ergopose.recon.track_signatures import limb_lengths  # noqa: E402
 
 FPS = 12.0
 MAJOR = [i for i, (n, _, _) in enumerate(LIMBS) if not n.endswith(("_foot", "_hand"))]

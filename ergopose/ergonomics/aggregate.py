@@ -29,35 +29,39 @@ Chunks: :class:`ShiftAccumulator` takes the shift in pieces (``add`` each chunk,
 gives exactly the answer of the whole series, because holds still open at the end of a chunk are
 carried into the next one. :func:`aggregate_shift` is the one-call form.
 
-Exposure (reference: rula-reba-reference.md, "Exposure over time"; docs/scoring.md):
-    ISO 11226:2000 -- static postures (a zone held longer than ``static_hold_s`` = 4 s):
-        trunk flexion 0-20 acceptable, 20-60 time-limited (unless supported), > 60 not recommended;
-        head inclination (trunk + neck flexion) 25-85 time-limited, > 85 not recommended;
-        neck flexion > 25 and neck extension not recommended;
-        upper arm elevation 0-20 acceptable, 20-60 time-limited (unless supported), > 60 not
-        recommended; raised shoulder not recommended.
-    EN 1005-4 -- movement frequency, split at 2 per minute (entries into the zone per observed
-        minute): upper arm 20-60 conditionally acceptable at >= 2/min; upper arm > 60 not
-        acceptable; trunk side bend or twist >= 10 degrees conditionally acceptable below 2/min,
-        not acceptable at >= 2/min.
+Exposure: the zones of ISO 11226 and EN 1005-4 and their verdicts (ergopose.ergonomics.exposure),
+followed over the shift as runs (ergopose.ergonomics.runs). The records of the summary:
+ergopose.ergonomics.shift_records.
 """
 
 from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
 
-from ergopose.arrays import FloatArray
 from ergopose.ergonomics.activity import check_time, frame_period
+from ergopose.ergonomics.exposure import exposure_finding, exposure_specs, exposure_zones, float_column
 from ergopose.ergonomics.posture import expand_sides
+from ergopose.ergonomics.runs import Runs, int_codes
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS, REPETITION_ANGLES
 from ergopose.ergonomics.settings import ScoringSettings
+from ergopose.ergonomics.shift_records import (
+    CauseTime,
+    ConfidenceShare,
+    Distribution,
+    Episode,
+    HourStats,
+    InputCertainty,
+    Repetitions,
+    SettingsInputTime,
+    ShiftSummary,
+    ValueTime,
+)
 from ergopose.ergonomics.task_inputs import COLUMN as TASK_INPUTS_COLUMN
 from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS, used_mask
 from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUP_JOINTS, INPUT_GROUPS
@@ -80,208 +84,6 @@ EPISODE_COLUMNS = {"rula_action_level": "rula_grand", "reba_risk_level": "reba_s
 #: Prefix of the per-frame action (repetition) columns: rep_<angle column> = 1 at each action.
 REPETITION_PREFIX = "rep_"
 
-ISO_VERDICTS = ("acceptable", "time-limited", "not recommended")
-EN_VERDICTS = ("acceptable", "conditionally acceptable", "not acceptable")
-
-
-# ------------------------------------------------------------------------------ the results
-
-
-@dataclass(frozen=True)
-class ValueTime:
-    """Time spent at one value (action level, band, score) over the shift.
-
-    percent: of the worker's observed time (all frames, including frames without a score).
-    holds: number of continuous holds; longest_hold_s and its start (NaN when never held).
-    """
-
-    value: int
-    frames: int
-    time_s: float
-    percent: float
-    holds: int
-    longest_hold_s: float
-    longest_hold_start_s: float
-
-
-@dataclass(frozen=True)
-class Distribution:
-    """The distribution over time of one score column (ordinal: no averages)."""
-
-    column: str
-    frames: int
-    time_s: float
-    missing_frames: int
-    missing_time_s: float
-    missing_percent: float
-    values: tuple[ValueTime, ...]
-
-    def at(self, value: int) -> ValueTime:
-        for v in self.values:
-            if v.value == value:
-                return v
-        return ValueTime(value, 0, 0.0, 0.0, 0, 0.0, math.nan)
-
-
-@dataclass(frozen=True)
-class HourStats:
-    """Time per value of one level column within one hour of the shift (hour 0 = first hour)."""
-
-    column: str
-    hour: int
-    observed_s: float
-    missing_s: float
-    time_by_value: Mapping[int, float]
-
-    def percent(self, value: int) -> float:
-        return 100.0 * self.time_by_value.get(value, 0.0) / self.observed_s if self.observed_s else 0.0
-
-
-@dataclass(frozen=True)
-class Episode:
-    """A continuous stretch at one level: the worst of the shift come first."""
-
-    column: str
-    level: int
-    start_s: float
-    end_s: float
-    duration_s: float
-    peak_score: int | None
-
-
-@dataclass(frozen=True)
-class Repetitions:
-    """Actions of one angle (rises and falls by at least the repetition amplitude)."""
-
-    angle: str
-    actions: int
-    per_minute: float
-    max_in_one_minute: int
-    minutes_at_or_above_4: int
-
-
-@dataclass(frozen=True)
-class ExposureFinding:
-    """One body part against ISO 11226 (static holds) or EN 1005-4 (movement frequency).
-
-    zone_time_s: observed time per zone name; static_*: holds longer than the static hold time
-    (ISO); entries/per_minute: movements into the flagged zone (EN). verdict: the worst zone
-    reached in the standard's sense (see the module doc); measured: False when the angles needed
-    were not in the frames (verdict "not measured").
-    """
-
-    standard: str
-    body_part: str
-    verdict: str
-    measured: bool
-    zone_time_s: Mapping[str, float]
-    static_time_s: Mapping[str, float]
-    static_holds: Mapping[str, int]
-    longest_static_hold_s: Mapping[str, float]
-    entries: int
-    per_minute: float
-
-
-@dataclass(frozen=True)
-class CauseTime:
-    """Time with one cause of low confidence or of no score: cause (ergopose.ergonomics.uncertainty.
-    CAUSES, or "not recorded"), frames, seconds, percent of the tracked time."""
-
-    cause: str
-    frames: int
-    time_s: float
-    percent: float
-
-
-@dataclass(frozen=True)
-class ConfidenceShare:
-    """One part of the tracked time: level "confident" (both scores scored with confidence), "low"
-    (scored with low confidence) or "unscored" (a score missing); frames, seconds, percent of the
-    tracked time, and the time per cause (empty for "confident"; causes with no time left out)."""
-
-    level: str
-    frames: int
-    time_s: float
-    percent: float
-    causes: tuple[CauseTime, ...]
-
-
-@dataclass(frozen=True)
-class InputCertainty:
-    """How well one body part's RULA/REBA inputs were measured over the shift.
-
-    body_part: in words (INPUT_GROUPS). angles: the angle columns. measured_frames: frames with
-    one of the angles measured. median_sd_rad: the median over those frames of the largest
-    standard deviation of its angles in the frame (radians; NaN when never measured or when the
-    frames carry no deviations). inferred_frames: frames in which one of its joints was placed by
-    the body model; known_frames: frames whose inferred flags were given (0 = unknown);
-    inferred_percent: inferred_frames of known_frames (NaN when unknown).
-    """
-
-    body_part: str
-    angles: tuple[str, ...]
-    measured_frames: int
-    median_sd_rad: float
-    inferred_frames: int
-    known_frames: int
-    inferred_percent: float
-
-
-@dataclass(frozen=True)
-class SettingsInputTime:
-    """A task input given by the settings and scored in place of a hidden measurement.
-
-    input: the posture column (ergopose.ergonomics.task_inputs.SETTINGS_INPUTS, e.g.
-    "left_wrist_flexion"); value_rad: the value used (radians); frames / time_s: the scored frames
-    and seconds in which it was used; percent: of the scored time (frames with a RULA or REBA grand
-    score).
-    """
-
-    input: str
-    value_rad: float
-    frames: int
-    time_s: float
-    percent: float
-
-
-@dataclass(frozen=True)
-class ShiftSummary:
-    """Everything reported for one worker over a shift (or any stretch of frames)."""
-
-    worker: str
-    frames: int
-    frame_period_s: float
-    observed_s: float
-    start_s: float
-    end_s: float
-    distributions: Mapping[str, Distribution]
-    hourly: tuple[HourStats, ...]
-    episodes: Mapping[str, tuple[Episode, ...]]
-    repetitions: tuple[Repetitions, ...]
-    exposure: tuple[ExposureFinding, ...]
-    confidence: tuple[ConfidenceShare, ...] = ()
-    inputs: tuple[InputCertainty, ...] = ()
-    from_settings: tuple[SettingsInputTime, ...] = ()
-    scored_frames: int = 0
-
-    def confidence_of(self, level: str) -> ConfidenceShare | None:
-        """The ConfidenceShare of a level ("confident", "low", "unscored"); None when the frames
-        carried no confidence column."""
-        for c in self.confidence:
-            if c.level == level:
-                return c
-        return None
-
-    def high_time_s(self, column: str, levels: Sequence[int] = (3, 4)) -> float:
-        """Seconds at the given levels of a level column (0 when the column is absent)."""
-        d = self.distributions.get(column)
-        return float(sum(d.at(v).time_s for v in levels)) if d is not None else 0.0
-
-    def scored_time_s(self, column: str) -> float:
-        """Seconds with a value in a level column (tracked time less its missing time)."""
-        d = self.distributions.get(column)
-        return float(self.observed_s - d.missing_time_s) if d is not None else 0.0
-
 
 #: Standard deviations of the inputs are counted in bins this wide (radians), _SD_BINS of them.
 _SD_BIN_RAD = float(np.deg2rad(0.01))
@@ -300,213 +102,6 @@ def nominal_frame_period(time_s: np.ndarray) -> float:
         return 0.0
     fps = round(1.0 / dt, 3)
     return 1.0 / fps if fps > 0 else dt
-
-
-# ---------------------------------------------------------------------- run accumulators
-
-
-class _Runs:
-    """Runs (holds) of an integer-coded series across chunks; -1 codes a missing frame."""
-
-    def __init__(self, period_s: float, max_gap_s: float, static_s: float | None = None, top: int = 0):
-        self.period = period_s
-        self.max_gap = max_gap_s
-        self.static_s = static_s
-        self.frames: dict[int, int] = {}
-        self.holds: dict[int, int] = {}
-        self.longest: dict[int, tuple[float, float]] = {}  # value -> (duration, -start) for max
-        self.static_time: dict[int, int] = {}  # frames inside static holds
-        self.static_holds: dict[int, int] = {}
-        self.top = top
-        # episodes: (-level, -duration, start, end, peak)
-        self.best: list[tuple[int, float, float, float, int | None]] = []
-        self.open: tuple[int, float, float, int, float] | None = None  # value, start, last, frames, peak
-
-    def add(self, t: np.ndarray, codes: np.ndarray, peaks: np.ndarray | None = None) -> None:
-        n = codes.size
-        if n == 0:
-            return
-        new = np.ones(n, dtype=bool)
-        new[1:] = (codes[1:] != codes[:-1]) | (np.diff(t) > self.max_gap)
-        first = np.flatnonzero(new)
-        last = np.append(first[1:] - 1, n - 1)
-        vals = codes[first]
-        starts = t[first]
-        ends = t[last]
-        counts = last - first + 1
-        if peaks is not None:
-            pk = np.maximum.reduceat(np.where(np.isnan(peaks), -np.inf, peaks), first)
-        else:
-            pk = np.full(first.size, -np.inf)
-        # join the run left open by the previous chunk
-        if self.open is not None:
-            ov, ostart, olast, oframes, opeak = self.open
-            if ov == vals[0] and t[0] - olast <= self.max_gap:
-                starts[0] = ostart
-                counts[0] += oframes
-                pk[0] = max(pk[0], opeak)
-            else:
-                self._close(
-                    np.array([ov]), np.array([ostart]), np.array([olast]), np.array([oframes]), np.array([opeak])
-                )
-        self._close(vals[:-1], starts[:-1], ends[:-1], counts[:-1], pk[:-1])
-        self.open = (int(vals[-1]), float(starts[-1]), float(ends[-1]), int(counts[-1]), float(pk[-1]))
-
-    def _close(
-        self, vals: np.ndarray, starts: np.ndarray, ends: np.ndarray, counts: np.ndarray, peaks: np.ndarray
-    ) -> None:
-        if vals.size == 0:
-            return
-        dur = ends - starts + self.period
-        for v in np.unique(vals):
-            sel = vals == v
-            v = int(v)
-            self.frames[v] = self.frames.get(v, 0) + int(counts[sel].sum())
-            self.holds[v] = self.holds.get(v, 0) + int(sel.sum())
-            d, s = dur[sel], starts[sel]
-            k = int(np.argmax(d))  # first of the longest: earliest start among ties
-            cand = (float(d[k]), -float(s[k]))
-            if v not in self.longest or cand > self.longest[v]:
-                self.longest[v] = cand
-            if self.static_s is not None:
-                st = d > self.static_s
-                self.static_time[v] = self.static_time.get(v, 0) + int(counts[sel][st].sum())  # frames
-                self.static_holds[v] = self.static_holds.get(v, 0) + int(st.sum())
-        if self.top:
-            keep = vals >= 0
-            if keep.any():
-                order = np.lexsort((starts[keep], -dur[keep], -vals[keep]))[: self.top]
-                for i in order:
-                    idx = np.flatnonzero(keep)[i]
-                    pk = peaks[idx]
-                    self.best.append(
-                        (
-                            -int(vals[idx]),
-                            -float(dur[idx]),
-                            float(starts[idx]),
-                            float(ends[idx] + self.period),
-                            None if np.isinf(pk) else int(pk),
-                        )
-                    )
-                self.best.sort()
-                del self.best[self.top :]
-
-    def finish(self) -> None:
-        if self.open is not None:
-            v, s, last, frames, pk = self.open
-            self.open = None
-            self._close(np.array([v]), np.array([s]), np.array([last]), np.array([frames]), np.array([pk]))
-
-
-def _codes(x: np.ndarray) -> np.ndarray:
-    """Float values (NaN = missing) as int64 codes, -1 = missing."""
-    out = np.full(x.shape, -1, dtype=np.int64)
-    ok = ~np.isnan(x)
-    out[ok] = x[ok].astype(np.int64)
-    return out
-
-
-def _zones(x: np.ndarray, edges: Sequence[float], upper_inclusive: Sequence[bool]) -> np.ndarray:
-    """Zone index per frame for angles x (radians) and edges (degrees): NaN where x is NaN.
-
-    upper_inclusive[k]: an angle exactly on edge k belongs to the zone above it.
-    """
-    z = np.zeros(x.shape, dtype=np.float64)
-    for e, up in zip(edges, upper_inclusive):
-        r = np.deg2rad(e)
-        z += (x >= r) if up else (x > r)
-    z[np.isnan(x)] = np.nan
-    return z
-
-
-# ----------------------------------------------------------------------------- exposure specs
-
-
-@dataclass(frozen=True)
-class _Exposure:
-    standard: str
-    body_part: str
-    zone_names: tuple[str, ...]
-    kind: str  # "iso" (static holds) or "en_arm" / "en_trunk" (frequency)
-
-
-def _exposure_specs() -> list[_Exposure]:
-    specs = [
-        _Exposure("ISO 11226", "trunk", ("0-20", "20-60", ">60"), "iso"),
-        _Exposure("ISO 11226", "head", ("<25", "25-85", ">85"), "iso"),
-        _Exposure("ISO 11226", "neck", ("acceptable", "-", "flexion>25 or extension"), "iso"),
-    ]
-    for side in ("left", "right"):
-        specs.append(_Exposure("ISO 11226", f"{side} upper arm", ("0-20", "20-60", ">60"), "iso"))
-        specs.append(_Exposure("ISO 11226", f"{side} shoulder", ("not raised", "-", "raised"), "iso"))
-    for side in ("left", "right"):
-        specs.append(_Exposure("EN 1005-4", f"{side} upper arm", ("0-20", "20-60", ">60"), "en_arm"))
-    specs.append(_Exposure("EN 1005-4", "trunk side bend or twist", ("<10", ">=10"), "en_trunk"))
-    return specs
-
-
-def _col(frames: pd.DataFrame, name: str) -> FloatArray | None:
-    if name in frames.columns:
-        column: FloatArray = frames[name].to_numpy(dtype=np.float64, na_value=np.nan)
-        return column
-    return None
-
-
-def _exposure_zones(frames: pd.DataFrame, s: ScoringSettings) -> dict[str, np.ndarray | None]:
-    """Zone index per frame for each exposure spec (None when the inputs are absent)."""
-    n = len(frames)
-    out: dict[str, np.ndarray | None] = {}
-    trunk = _col(frames, "trunk_flexion")
-    neck = _col(frames, "neck_flexion")
-    # ISO 11226: 0-20 acceptable (20 included), 20-60 time-limited (60 included), > 60 not recommended
-    out["ISO 11226|trunk"] = None if trunk is None else _zones(trunk, (20, 60), (False, False))
-    head = None if trunk is None or neck is None else trunk + neck
-    out["ISO 11226|head"] = None if head is None else _zones(head, (25, 85), (False, False))
-    if neck is None:
-        out["ISO 11226|neck"] = None
-    else:
-        with np.errstate(invalid="ignore"):
-            bad = (neck > np.deg2rad(25)) | (neck < -np.deg2rad(s.neck_extension_deg))
-        out["ISO 11226|neck"] = np.where(np.isnan(neck), np.nan, np.where(bad, 2.0, 0.0))
-    for side in ("left", "right"):
-        elev = _col(frames, f"{side}_upper_arm_elevation")
-        if elev is None:
-            flex = _col(frames, f"{side}_upper_arm_flexion")
-            abd = _col(frames, f"{side}_upper_arm_abduction")
-            if flex is not None and abd is not None:
-                elev = np.where(np.isnan(flex) | np.isnan(abd), np.nan, np.fmax(flex, abd))
-            else:
-                elev = flex
-        zones = None if elev is None else _zones(elev, (20, 60), (False, False))
-        out[f"ISO 11226|{side} upper arm"] = zones
-        out[f"EN 1005-4|{side} upper arm"] = zones
-        raised = _col(frames, f"{side}_shoulder_raised")
-        elevation = _col(frames, f"{side}_shoulder_elevation")
-        derived = None
-        if elevation is not None:
-            with np.errstate(invalid="ignore"):
-                derived = np.where(
-                    np.isnan(elevation), np.nan, (elevation > np.deg2rad(s.shoulder_raised_deg)).astype(np.float64)
-                )
-        if raised is None:
-            raised = derived
-        elif derived is not None:
-            raised = np.where(np.isnan(raised), derived, raised)
-        out[f"ISO 11226|{side} shoulder"] = None if raised is None else raised * 2.0
-    side_bend = _col(frames, "trunk_side_bend")
-    twist = _col(frames, "trunk_twist")
-    if side_bend is None and twist is None:
-        out["EN 1005-4|trunk side bend or twist"] = None
-    else:
-        parts = [np.abs(a) for a in (side_bend, twist) if a is not None]
-        worst = (
-            parts[0]
-            if len(parts) == 1
-            else np.where(np.isnan(parts[0]) | np.isnan(parts[1]), np.nan, np.fmax(parts[0], parts[1]))
-        )
-        out["EN 1005-4|trunk side bend or twist"] = _zones(worst, (10,), (True,))
-    assert all(v is None or v.shape == (n,) for v in out.values())
-    return out
 
 
 # --------------------------------------------------------------------------- the accumulator
@@ -541,8 +136,8 @@ class ShiftAccumulator:
         self.start_s = math.nan
         self.end_s = math.nan
         self.last_t: float | None = None
-        self.runs: dict[str, _Runs] = {}
-        self.exposure_runs: dict[str, _Runs] = {}
+        self.runs: dict[str, Runs] = {}
+        self.exposure_runs: dict[str, Runs] = {}
         self.hourly: dict[str, dict[tuple[int, int], int]] = {}
         self.hour_frames: dict[int, int] = {}
         self.rep_total: dict[str, int] = {}
@@ -582,7 +177,7 @@ class ShiftAccumulator:
             self.columns = cols
             for c in cols:
                 top = self.n_episodes if c in EPISODE_COLUMNS else 0
-                self.runs[c] = _Runs(self.period, self.s.max_gap_s, top=top)
+                self.runs[c] = Runs(self.period, self.s.max_gap_s, top=top)
         elif cols != self.columns:
             raise InputError("every chunk must carry the same score columns")
         self.frames += t.size
@@ -597,7 +192,7 @@ class ShiftAccumulator:
             self.hour_frames[h] = self.hour_frames.get(h, 0) + k
         for c in self.columns:
             x = frames[c].to_numpy(dtype=np.float64, na_value=np.nan)
-            codes = _codes(x)
+            codes = int_codes(x)
             peak = None
             if c in EPISODE_COLUMNS and EPISODE_COLUMNS[c] in frames.columns:
                 peak = frames[EPISODE_COLUMNS[c]].to_numpy(dtype=np.float64, na_value=np.nan)
@@ -610,7 +205,7 @@ class ShiftAccumulator:
                     hk = (k // 64, k % 64 - 1)
                     table[hk] = table.get(hk, 0) + cnt
 
-        zones = _exposure_zones(frames, self.s)
+        zones = exposure_zones(frames, self.s)
         for key, z in zones.items():
             present = z is not None
             if key in self.exposure_present and self.exposure_present[key] != present:
@@ -619,8 +214,8 @@ class ShiftAccumulator:
             if z is None:
                 continue
             if key not in self.exposure_runs:
-                self.exposure_runs[key] = _Runs(self.period, self.s.max_gap_s, static_s=self.static_hold_s)
-            self.exposure_runs[key].add(t, _codes(z))
+                self.exposure_runs[key] = Runs(self.period, self.s.max_gap_s, static_s=self.static_hold_s)
+            self.exposure_runs[key].add(t, int_codes(z))
 
         self._add_certainty(frames, inferred)
         self._add_task_inputs(frames)
@@ -653,11 +248,11 @@ class ShiftAccumulator:
         for g, (_, angles, _) in enumerate(INPUT_GROUPS):
             measured = np.zeros(len(frames), dtype=bool)
             for a in angles:
-                x = _col(frames, a)
+                x = float_column(frames, a)
                 if x is not None:
                     measured |= np.isfinite(x)
             self.input_measured[g] += int(measured.sum())
-            sds = [x for x in (_col(frames, f"{a}_sd") for a in angles) if x is not None]
+            sds = [x for x in (float_column(frames, f"{a}_sd") for a in angles) if x is not None]
             if sds:
                 sd = np.fmax.reduce(np.stack(sds), axis=0)
                 sd = sd[measured & np.isfinite(sd)]
@@ -670,7 +265,7 @@ class ShiftAccumulator:
 
     def _add_task_inputs(self, frames: pd.DataFrame) -> None:
         """Count the scored frames, and per task input and value those that used the settings."""
-        grand = [x for x in (_col(frames, "rula_grand"), _col(frames, "reba_score")) if x is not None]
+        grand = [x for x in (float_column(frames, "rula_grand"), float_column(frames, "reba_score")) if x is not None]
         if not grand:
             return
         scored = np.fmax.reduce(np.stack(grand), axis=0)
@@ -680,7 +275,7 @@ class ShiftAccumulator:
             return
         column = frames[TASK_INPUTS_COLUMN]
         for name in SETTINGS_INPUTS:
-            x = _col(frames, name)
+            x = float_column(frames, name)
             if x is None:
                 continue
             sel = used_mask(column, name) & scored
@@ -804,74 +399,10 @@ class ShiftAccumulator:
                 )
             )
 
-        exposure = []
-        for spec in _exposure_specs():
-            key = f"{spec.standard}|{spec.body_part}"
-            found = exposure_runs.get(key)
-            if found is None:
-                exposure.append(
-                    ExposureFinding(
-                        spec.standard,
-                        spec.body_part,
-                        "not measured",
-                        False,
-                        MappingProxyType({}),
-                        MappingProxyType({}),
-                        MappingProxyType({}),
-                        MappingProxyType({}),
-                        0,
-                        0.0,
-                    )
-                )
-                continue
-            r = found
-            names = spec.zone_names
-            zone_time = {names[v]: r.frames.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
-            static_time = {names[v]: r.static_time.get(v, 0) * period for v in range(len(names)) if names[v] != "-"}
-            static_holds = {names[v]: r.static_holds.get(v, 0) for v in range(len(names)) if names[v] != "-"}
-            longest = {
-                names[v]: (r.longest[v][0] if v in r.longest else 0.0) for v in range(len(names)) if names[v] != "-"
-            }
-            entries, per_minute = 0, 0.0
-            if spec.kind == "iso":
-                if static_holds.get(names[2], 0) > 0:
-                    verdict = ISO_VERDICTS[2]
-                elif names[1] != "-" and static_holds.get(names[1], 0) > 0:
-                    verdict = ISO_VERDICTS[1]
-                else:
-                    verdict = ISO_VERDICTS[0]
-            elif spec.kind == "en_arm":
-                entries = r.holds.get(1, 0)
-                per_minute = entries / minutes if minutes else 0.0
-                if r.frames.get(2, 0) > 0:
-                    verdict = EN_VERDICTS[2]
-                elif per_minute >= 2.0:
-                    verdict = EN_VERDICTS[1]
-                else:
-                    verdict = EN_VERDICTS[0]
-            else:  # en_trunk
-                entries = r.holds.get(1, 0)
-                per_minute = entries / minutes if minutes else 0.0
-                if per_minute >= 2.0:
-                    verdict = EN_VERDICTS[2]
-                elif entries > 0:
-                    verdict = EN_VERDICTS[1]
-                else:
-                    verdict = EN_VERDICTS[0]
-            exposure.append(
-                ExposureFinding(
-                    spec.standard,
-                    spec.body_part,
-                    verdict,
-                    True,
-                    MappingProxyType(zone_time),
-                    MappingProxyType(static_time),
-                    MappingProxyType(static_holds),
-                    MappingProxyType(longest),
-                    entries,
-                    per_minute,
-                )
-            )
+        exposure = [
+            exposure_finding(spec, exposure_runs.get(f"{spec.standard}|{spec.body_part}"), period, minutes)
+            for spec in exposure_specs()
+        ]
 
         return ShiftSummary(
             worker=self.worker,
@@ -927,24 +458,12 @@ def aggregate_session(
 
 
 __all__ = [
-    "ValueTime",
-    "Distribution",
-    "HourStats",
-    "Episode",
-    "Repetitions",
-    "ExposureFinding",
-    "ShiftSummary",
-    "CauseTime",
-    "ConfidenceShare",
-    "InputCertainty",
-    "SettingsInputTime",
     "NOT_RECORDED",
     "ShiftAccumulator",
     "aggregate_shift",
     "aggregate_session",
+    "nominal_frame_period",
     "DISTRIBUTION_COLUMNS",
     "EPISODE_COLUMNS",
     "REPETITION_PREFIX",
-    "ISO_VERDICTS",
-    "EN_VERDICTS",
 ]

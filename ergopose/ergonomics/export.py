@@ -26,7 +26,7 @@ import pyarrow.parquet as pq
 
 from ergopose.arrays import AnyArray, FloatArray
 from ergopose.atomic import atomic_path
-from ergopose.ergonomics.aggregate import REPETITION_PREFIX, ShiftSummary, aggregate_shift
+from ergopose.ergonomics.aggregate import REPETITION_PREFIX, aggregate_shift
 from ergopose.ergonomics.posture import (
     ANGLE_COLUMNS,
     DISTANCE_COLUMNS,
@@ -41,6 +41,7 @@ from ergopose.ergonomics.task_inputs import COLUMN as TASK_INPUTS_COLUMN
 from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS
 from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
 from ergopose.ergonomics.shares import LEVEL_COLUMNS, percent, shift_high_risk
+from ergopose.ergonomics.shift_records import ShiftSummary
 from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUPS, SD_ANGLES, SD_COLUMNS
 from ergopose.ergonomics.uncertainty import SCORE_COLUMNS as UNCERTAINTY_SCORE_COLUMNS
 
@@ -559,7 +560,7 @@ def _slug(text: str) -> str:
 
 
 #: The exposure columns of the session summary per finding (standard, body part): the zones
-#: reported, each (zone index of ergopose.ergonomics.aggregate, the zone in the standard's terms,
+#: reported, each (zone index of ergopose.ergonomics.exposure, the zone in the standard's terms,
 #: whether its static holds are reported too, whether its entries per minute are reported too).
 _ISO_LIMITED = ((1, "time_limited", True, False), (2, "not_recommended", True, False))
 _ISO_NOT_RECOMMENDED = ((2, "not_recommended", True, False),)
@@ -575,7 +576,7 @@ EXPOSURE_COLUMNS: dict[tuple[str, str], tuple[tuple[int, str, bool, bool], ...]]
     ("EN 1005-4", "right upper arm"): ((1, "20_60", False, True), (2, "over_60", False, False)),
     ("EN 1005-4", "trunk side bend or twist"): ((1, "10_or_more", False, True),),
 }
-#: the names of the zones of each finding, by index (ergopose.ergonomics.aggregate._exposure_specs)
+#: the names of the zones of each finding, by index (ergopose.ergonomics.exposure.exposure_specs)
 _ZONE_NAMES = {
     "trunk": ("0-20", "20-60", ">60"),
     "head": ("<25", "25-85", ">85"),

@@ -8,7 +8,7 @@ the session summary CSV all take their shares from :func:`high_risk` (or
 - of the tracked time: the time the worker was tracked (frames x frame period);
 - of the scored time: the tracked time with a score of the method (tracked less unscored);
 - the unscored time of the method, beside them, whose causes the confidence split gives
-  (:class:`ergopose.ergonomics.aggregate.ConfidenceShare`).
+  (:class:`ergopose.ergonomics.shift_records.ConfidenceShare`).
 
 A share is NaN (printed "n/a") when its base is zero.
 """
@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Mapping
+from typing import Mapping
+
+from ergopose.ergonomics.shift_records import ShiftSummary
 
 #: The level column of each method and the levels counted as high risk: RULA action level 3-4
 #: (investigate and change soon / immediately), REBA risk level 3-4 (high, very high).
@@ -76,8 +78,8 @@ def high_risk(method: str, tracked_s: float, seconds_by_level: Mapping[int, floa
     return HighRisk(method=method, tracked_s=float(tracked_s), high_s=high, unscored_s=float(unscored_s))
 
 
-def shift_high_risk(summary: Any, method: str) -> HighRisk:  # a ShiftSummary (aggregate imports this module)
-    """The HighRisk of a method from a shift summary (ergopose.ergonomics.aggregate.ShiftSummary);
+def shift_high_risk(summary: ShiftSummary, method: str) -> HighRisk:
+    """The HighRisk of a method from a shift summary;
     without the method's level column nothing counts as scored."""
     d = summary.distributions.get(LEVEL_COLUMNS[method])
     if d is None:

@@ -12,7 +12,8 @@ import numpy as np
 from ergopose.evaluation.loading import EvaluationInputs, round_or_nan
 from ergopose.keypoints import BLAZEPOSE33, LIMB_INDEX, LIMBS, NUM_JOINTS
 from ergopose.recon.diagnostics import REGIONS, lens_region, limb_diagnostics, region_errors, truth_for_workers
-from ergopose.recon.tracking import identity_name, limb_lengths
+from ergopose.recon.track_records import identity_name
+from ergopose.recon.track_signatures import limb_lengths
 
 #: Limbs whose true length varies less than this (coefficient of variation) count as rigid.
 RIGID_CV = 1e-3

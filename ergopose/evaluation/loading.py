@@ -19,7 +19,7 @@ from ergopose.pipeline.inputs import scoring_settings
 from ergopose.pipeline.names import load_names, resolve_naming
 from ergopose.recon.settings import ReconSettings, from_mapping
 from ergopose.recon.table import read_tracks, table_to_frames
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.sim.scene import LENS_REGIONS_DEG

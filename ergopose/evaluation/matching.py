@@ -11,7 +11,7 @@ from ergopose.evaluation.loading import EvaluationInputs, round_or_nan
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.recon.diagnostics import REGIONS, identity_switches, lens_region, match_workers
 from ergopose.recon.records import TORSO_JOINTS, body_centres
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 
 #: Body-centre distance (metres) within which a tracked row and a simulated worker are the same
 #: person in a frame (the default of ergopose.recon.diagnostics.match_workers).

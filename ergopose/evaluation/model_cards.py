@@ -47,8 +47,9 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ergopose.evaluation.pose import EvaluationSettings, PersonGeometry
 from ergopose.evaluation.pose_csv import trc_reference
+from ergopose.evaluation.pose_geometry import PersonGeometry
+from ergopose.evaluation.pose_records import EvaluationSettings
 from ergopose.evaluation.refisheye import DEFAULT_ROOT, LIMBS, read_frames
 from ergopose.geometry.calibration_file import camera_for_video, read_pose2sim_calibration
 from ergopose.keypoints import JOINT_INDEX

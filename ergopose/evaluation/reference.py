@@ -56,7 +56,7 @@ from ergopose.pipeline.scoring import take_rows
 from ergopose.pipeline.inputs import scoring_settings
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.table import read_tracks, table_to_frames
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 from ergopose.session import load_session
 
 #: A tracked row and the aligned reference are the same person within this mean joint distance (m).

@@ -18,7 +18,7 @@ from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kap
 from ergopose.evaluation.loading import EvaluationInputs, ResultsLayout, round_or_nan
 from ergopose.recon.diagnostics import REGIONS, lens_region
 from ergopose.recon.records import TORSO_JOINTS
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 
 #: The score columns compared and their scales (docs/csv-columns.md).
 SCORE_SCALES: dict[str, tuple[int, ...]] = {

@@ -21,7 +21,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from ergopose.arrays import FloatArray
-from ergopose.ergonomics.aggregate import ShiftSummary
+from ergopose.ergonomics.shift_records import ShiftSummary
 from ergopose.ergonomics.scoring import BODY_PART_COLUMNS
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.pipeline.names import Naming, merge_rows, tracker_number
@@ -30,7 +30,7 @@ from ergopose.pipeline.track import Tracks
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.diagnostics import WorkerLimbDiagnostics
 from ergopose.recon.table import table_to_frames
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 from ergopose.report import periods
 from ergopose.report.results import frames_table
 from ergopose.session import Session

@@ -49,7 +49,7 @@ from ergopose.session import Session, TaskFactors, WorkerInfo
 
 NAMES_FILE = "names.toml"
 NAMES_FORMAT_VERSION = 1
-#: The tracker's pseudonyms (ergopose.recon.tracking.identity_name).
+#: The tracker's pseudonyms (ergopose.recon.track_records.identity_name).
 PSEUDONYM = re.compile(r"^worker_(\d+)$")
 _HEADER = (
     "# Names of the tracked people of this session, written by 'ergopose workers --name'\n"

@@ -51,7 +51,7 @@ SESSION_CSV = "session_summary.csv"
 
 @dataclass(frozen=True)
 class WorkerOutput:
-    """One worker's results: id, shown name, the shift summary (ergopose.ergonomics.aggregate.
+    """One worker's results: id, shown name, the shift summary (ergopose.ergonomics.shift_records.
     ShiftSummary: tracked time, time at each level, the split by confidence with causes) and the
     CSV files written."""
 

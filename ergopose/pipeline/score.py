@@ -35,7 +35,7 @@ from ergopose.pipeline.scoring import WorkerScorer, block_sizes, scoring_rows, t
 from ergopose.pipeline.track import Tracks, read_track_parts
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.pipeline import TrackFrames
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 from ergopose.report.quality import reliable_frames
 from ergopose.session import Session
 

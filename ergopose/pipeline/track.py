@@ -35,7 +35,7 @@ from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames
 from ergopose.recon.session import worker_summary
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.table import TracksWriter, read_metadata, table_to_frames
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 from ergopose.session import Session
 
 

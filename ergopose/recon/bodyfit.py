@@ -53,7 +53,7 @@ import numpy as np
 from ergopose.arrays import FloatArray
 from ergopose.keypoints import JOINT_INDEX, LIMBS, MIRROR, NUM_JOINTS
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.tracking import LimbHistogram
+from ergopose.recon.track_signatures import LimbHistogram
 
 J = NUM_JOINTS
 

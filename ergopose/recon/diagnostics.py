@@ -34,7 +34,8 @@ from ergopose.keypoints import LIMB_INDEX, LIMBS, NUM_JOINTS
 from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.records import body_centres
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.tracking import identity_name, limb_lengths
+from ergopose.recon.track_records import identity_name
+from ergopose.recon.track_signatures import limb_lengths
 
 REGIONS = ("central", "outer", "edge")
 PERCENTILES = (5, 25, 50, 75, 95)

@@ -34,7 +34,9 @@ from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
 from ergopose.recon.triangulate import triangulate_observations
-from ergopose.recon.tracking import LimbHistogram, Tracker, TrackingResult, identity_name, limb_lengths
+from ergopose.recon.track_records import TrackingResult, identity_name
+from ergopose.recon.track_signatures import LimbHistogram, limb_lengths
+from ergopose.recon.tracking import Tracker
 
 #: Frames per smoothing block (the grid is frame // BLOCK_FRAMES).
 BLOCK_FRAMES = 1024

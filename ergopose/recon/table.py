@@ -55,7 +55,7 @@ from ergopose.atomic import atomic_path
 from ergopose.errors import InputError
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, NUM_JOINTS
 from ergopose.recon.pipeline import TrackFrames
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 
 FORMAT = "ergopose.tracks"
 FORMAT_VERSION = 2  # 2: inferred, std_x/y/z (the body model); version 1 files read with defaults

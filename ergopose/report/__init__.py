@@ -9,7 +9,10 @@
   :mod:`ergopose.report.timelines` (risk over time and over the floor) and
   :mod:`ergopose.report.quality_section` (limb lengths), and the words and numbers of
   :mod:`ergopose.report.wording`.
-- :mod:`ergopose.report.svg`: inline SVG figures; :mod:`ergopose.report.quality`: trust verdict.
+- inline SVG figures: :mod:`ergopose.report.charts` (bars, columns, box plots),
+  :mod:`ergopose.report.time_charts` (over the shift), :mod:`ergopose.report.heat_maps` (floor),
+  :mod:`ergopose.report.skeleton_drawing` (worst moments), on the primitives of
+  :mod:`ergopose.report.svg`; :mod:`ergopose.report.quality`: trust verdict.
 - :mod:`ergopose.report.render`: render_report(report_dir) writes the pages atomically.
 
 docs/reports.md describes the pages, the stored results and every rule the report applies.

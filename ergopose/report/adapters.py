@@ -300,7 +300,7 @@ def worker_summary(
     worst_limit: int = 6,
     holds_limit: int = 12,
 ) -> Any:
-    """A WorkerSummary from ergopose.ergonomics.aggregate.ShiftSummary.
+    """A WorkerSummary from ergopose.ergonomics.shift_records.ShiftSummary.
 
     timeline: every frame of the worker (time_s and the level and score columns: the report's
     frames table) to find the sustained periods of high risk (ergopose.report.periods); frames:

@@ -25,7 +25,7 @@ METHODS = ("rula", "reba")
 #: Lens regions of the quality section (ergopose.sim.scene.LENS_REGIONS_DEG), in order; "all" is
 #: the whole field of view.
 REGIONS = ("all", "central", "outer", "edge")
-#: Verdicts of ISO 11226 / EN 1005-4 flags (ergopose.ergonomics.aggregate), best to worst, then
+#: Verdicts of ISO 11226 / EN 1005-4 flags (ergopose.ergonomics.exposure), best to worst, then
 #: "not measured" (the angles needed were not available).
 FLAG_VERDICTS = (
     "acceptable",
@@ -331,7 +331,7 @@ class Hold:
 
 @dataclass(frozen=True)
 class Repetition:
-    """Repetitive movement of one joint angle (ergopose.ergonomics.aggregate.Repetitions).
+    """Repetitive movement of one joint angle (ergopose.ergonomics.shift_records.Repetitions).
 
     body_part: in words. angle: the posture-table angle ("left_upper_arm_flexion"). actions: rises
     and falls of the angle by at least ScoringSettings.repetition_amplitude_deg over the shift.

@@ -7,8 +7,9 @@ tests/report/test_templates.py holds each template to it: rendered from a fully 
 with jinja2.StrictUndefined, every field is used and no other name is.
 
 Text fields are plain text (the templates escape them); fields typed ``Markup`` hold inline SVG
-built by ergopose.report.svg, where every piece of text was escaped when the SVG was made. All
-numbers are already formatted for reading (units included), so templates do no arithmetic.
+built on ergopose.report.svg (by charts, time_charts, heat_maps and skeleton_drawing), where every
+piece of text was escaped when the SVG was made. All numbers are already formatted for reading
+(units included), so templates do no arithmetic.
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from urllib.parse import quote
 import pandas as pd
 
 from ergopose.ergonomics.shares import format_percent, high_risk
-from ergopose.report import svg
+from ergopose.report import charts
 from ergopose.report.context import FLAG_VERDICTS, SessionInfo, WorkerInfo, WorkerResults
 from ergopose.report.page_types import (
     BandRow,
@@ -271,11 +271,11 @@ def build_index_page(
         for res in workers:
             who = display_name(res.info.worker_id, res.info.name)
             stack.append(
-                svg.StackRow(
+                charts.StackRow(
                     who, level_segments(level_seconds(res.summary, m.name), res.summary.unscored_s.get(m.name, 0.0), m)
                 )
             )
-        fig = svg.stacked_bars(
+        fig = charts.stacked_bars(
             stack,
             title=f"{METHOD_TITLES[m.name]}: share of the tracked time at each level, per worker",
             desc="One bar per worker; segments are action levels, labelled; hatched grey is time "

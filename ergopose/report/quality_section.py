@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from ergopose.keypoints import LIMBS
-from ergopose.report import svg
+from ergopose.report import charts
 from ergopose.report.context import LimbStats, SessionInfo, WorkerResults
 from ergopose.report.page_types import Figure, LimbRow, QualitySection, RegionRow, RegionSpreadRow
 from ergopose.report.quality import SCORED_LIMBS, quality_verdict
@@ -41,12 +41,12 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
         for s in stats
     )
     boxes = [
-        svg.BoxRow(
+        charts.BoxRow(
             s.limb.replace("_", " "), 100 * s.p5_m, 100 * s.q1_m, 100 * s.median_m, 100 * s.q3_m, 100 * s.p95_m, s.n
         )
         for s in stats
     ]
-    limb_fig = svg.box_plots(
+    limb_fig = charts.box_plots(
         boxes,
         title=f"3D limb lengths over the shift, {who}",
         desc="Box plots per limb: box = middle half of the measured lengths, thick line = median, "
@@ -76,7 +76,7 @@ def quality_section(res: WorkerResults, session: SessionInfo, who: str) -> Quali
             r = freq.get((limb, reg))
             vals.append(100.0 * r.reconstructed / r.frames if r is not None and r.frames > 0 else float("nan"))
         panels.append((REGION_NAMES[reg], vals))
-    freq_fig = svg.bar_panels(
+    freq_fig = charts.bar_panels(
         [n.replace("_", " ") for n in limbs],
         panels,
         title=f"Reconstruction frequency per limb and lens region, {who}",

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.arrays import FloatArray, IntArray
-from ergopose.report import svg
+from ergopose.report import charts, heat_maps, time_charts
 from ergopose.report.context import SessionInfo, WorkerSummary
 from ergopose.report.page_types import Figure, HourRow, HourTable
 from ergopose.report.wording import (
@@ -80,7 +80,7 @@ def timeline_figures(
         starts, worst, med = binned_scores(t, frames[col], session.duration_s, bin_s, meth.score_high)
         colours = level_colours(meth)
         bands = [
-            svg.Band(
+            time_charts.Band(
                 lv.low - 0.5,
                 lv.high + 0.5,
                 colours[lv.level],
@@ -88,7 +88,7 @@ def timeline_figures(
             )
             for lv in meth.action_levels
         ]
-        fig = svg.score_timeline(
+        fig = time_charts.score_timeline(
             starts,
             bin_s,
             worst,
@@ -179,7 +179,7 @@ def risk_figure(
     """The shift by time of day: a strip per (label, frames, method or None for either)."""
     bin_s = choose_bin(session.duration_s)
     strips = [
-        svg.StripRow(
+        time_charts.StripRow(
             label,
             risk_shares(
                 f["time_s"].to_numpy(dtype=np.float64), risk_codes(f, m), session.duration_s, bin_s, session.fps
@@ -188,7 +188,7 @@ def risk_figure(
         for label, f, m in rows
     ]
     legend = risk_legend(session)
-    fig = svg.risk_strips(
+    fig = time_charts.risk_strips(
         strips,
         bin_s,
         x_ticks=_time_ticks(session.duration_s, clock),
@@ -225,9 +225,10 @@ def hourly_section(
             secs = {lt.level: lt.seconds for lt in h.levels}
             label = f"{clock(max(h.start_s, 0.0), seconds=False)}"
             segs = tuple(
-                svg.Segment(s.value / 60.0, s.colour, s.short, s.long) for s in level_segments(secs, h.unscored_s, meth)
+                charts.Segment(s.value / 60.0, s.colour, s.short, s.long)
+                for s in level_segments(secs, h.unscored_s, meth)
             )
-            cols.append(svg.StackColumn(label, segs))
+            cols.append(charts.StackColumn(label, segs))
             end = min(h.start_s + 3600.0, session.duration_s)
             rows.append(
                 HourRow(
@@ -237,7 +238,7 @@ def hourly_section(
                     + (_hour_cell(h.unscored_s),),
                 )
             )
-        fig = svg.stacked_columns(
+        fig = charts.stacked_columns(
             cols,
             title=f"{METHOD_TITLES[m]} action levels per hour, {who}",
             desc="One column per hour; segments are minutes at each action level (labelled), "
@@ -274,8 +275,8 @@ def floor_section(frames: pd.DataFrame, session: SessionInfo, who: str) -> tuple
     dt = 1.0 / session.fps
     edges = (np.linspace(fp.y_min, fp.y_max, ny + 1), np.linspace(fp.x_min, fp.x_max, nx + 1))
     presence, _, _ = np.histogram2d(y[ok], x[ok], bins=edges)
-    outlines = [svg.Outline(f.name, f.x0, f.y0, f.x1, f.y1, f.kind) for f in fp.furniture]
-    markers = [svg.Marker(c.name, c.x, c.y) for c in fp.cameras]
+    outlines = [heat_maps.Outline(f.name, f.x0, f.y0, f.x1, f.y1, f.kind) for f in fp.furniture]
+    markers = [heat_maps.Marker(c.name, c.x, c.y) for c in fp.cameras]
     figs = []
     for m, col in (("rula", "rula_action_level"), ("reba", "reba_risk_level")):
         meth = session.method(m)
@@ -285,7 +286,7 @@ def floor_section(frames: pd.DataFrame, session: SessionInfo, who: str) -> tuple
         names = " or ".join(x.label for x in meth.action_levels if x.level in HIGH_LEVELS[m])
         secs = grid * dt
         unit, scale = ("minutes", 60.0) if secs.size and float(secs.max()) >= 120.0 else ("seconds", 1.0)
-        fig = svg.heat_map(
+        fig = heat_maps.heat_map(
             secs / scale,
             (fp.x_min, fp.x_max, fp.y_min, fp.y_max),
             title=f"Where {who} worked at {METHOD_TITLES[m]} level {names}",

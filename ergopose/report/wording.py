@@ -11,7 +11,7 @@ from urllib.parse import quote
 
 from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
 from ergopose.ergonomics.shares import format_percent, percent
-from ergopose.report import svg
+from ergopose.report import heat_maps
 from ergopose.report.context import MethodInfo
 
 # ------------------------------------------------------------------------------- formatting
@@ -150,7 +150,7 @@ def level_colours(method: MethodInfo) -> dict[int, str]:
     """{action level: colour} of a method (its palette by number of levels, else heat colours)."""
     pal = LEVEL_COLOURS[len(method.action_levels)] if len(method.action_levels) in LEVEL_COLOURS else None
     if pal is None:
-        pal = tuple(svg.HEAT_COLOURS[min(i, 5)] for i in range(len(method.action_levels)))
+        pal = tuple(heat_maps.HEAT_COLOURS[min(i, 5)] for i in range(len(method.action_levels)))
     return {lv.level: pal[i] for i, lv in enumerate(method.action_levels)}
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.ergonomics.shares import format_percent, high_risk
-from ergopose.report import periods, svg
+from ergopose.report import charts, periods, skeleton_drawing
 from ergopose.report.context import (
     BandTime,
     MethodInfo,
@@ -185,7 +185,7 @@ def _settings_words(values: Sequence[SettingsValue]) -> str:
 
 def level_segments(
     secs: dict[int, float], unscored: float, method: MethodInfo, unit: str = "time"
-) -> tuple[svg.Segment, ...]:
+) -> tuple[charts.Segment, ...]:
     """One stacked-bar segment per action level of ``method`` (seconds at that level, coloured by
     ``level_colours``), then the unscored time."""
     colours = level_colours(method)
@@ -194,14 +194,14 @@ def level_segments(
         t = secs.get(lv.level, 0.0)
         short = lv.label if method.name == "rula" else str(lv.level)
         segs.append(
-            svg.Segment(
+            charts.Segment(
                 t,
                 colours[lv.level],
                 short,
                 f"{METHOD_TITLES[method.name]} level {lv.level} ({lv.label}): {fmt_duration(t)}",
             )
         )
-    segs.append(svg.Segment(unscored, None, "", f"not scored: {fmt_duration(unscored)}"))
+    segs.append(charts.Segment(unscored, None, "", f"not scored: {fmt_duration(unscored)}"))
     return tuple(segs)
 
 
@@ -209,12 +209,12 @@ def headline_figure(summary: WorkerSummary, session: SessionInfo, who: str) -> F
     rows = []
     for m in session.methods:
         rows.append(
-            svg.StackRow(
+            charts.StackRow(
                 METHOD_TITLES[m.name],
                 level_segments(level_seconds(summary, m.name), summary.unscored_s.get(m.name, 0.0), m),
             )
         )
-    fig = svg.stacked_bars(
+    fig = charts.stacked_bars(
         rows,
         title=f"Share of the tracked time at each action level, {who}",
         desc="Stacked bars, one per method; each segment is an action level, labelled with its "
@@ -257,7 +257,7 @@ def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, .
         for part, bands in parts.items():
             bands = sorted(bands, key=lambda b: b.score)
             segs = [
-                svg.Segment(
+                charts.Segment(
                     b.seconds,
                     band_colour(b.score),
                     str(b.score),
@@ -266,9 +266,9 @@ def body_part_section(summary: WorkerSummary, who: str) -> tuple[tuple[Figure, .
                 for b in bands
             ]
             rest = max(total - sum(b.seconds for b in bands), 0.0)
-            segs.append(svg.Segment(rest, None, "", f"{part} not measured: {fmt_duration(rest)}"))
-            stack.append(svg.StackRow(part, tuple(segs)))
-        fig = svg.stacked_bars(
+            segs.append(charts.Segment(rest, None, "", f"{part} not measured: {fmt_duration(rest)}"))
+            stack.append(charts.StackRow(part, tuple(segs)))
+        fig = charts.stacked_bars(
             stack,
             title=f"Time per posture band of each body part ({METHOD_TITLES[m]}), {who}",
             desc="One bar per body part; each segment is a posture band, labelled with its band "
@@ -312,7 +312,7 @@ def worst_moments(
             joints = np.full((33, 3), np.nan)
         else:
             joints = np.asarray(w.joints_world_m, dtype=np.float64)
-        fig = svg.skeleton_views(
+        fig = skeleton_drawing.skeleton_views(
             joints,
             title=f"Posture of {who} at {clock(w.peak_s)}",
             desc=f"Front and side view of the 3D skeleton at {clock(w.peak_s)}: {w.reason}. "

@@ -71,7 +71,7 @@ def write_results(session_dir: Path, out: Path, tracks, statures: dict | None = 
     from ergopose.pipeline.score import score_worker
     from ergopose.recon.settings import ReconSettings
     from ergopose.recon.table import TracksWriter
-    from ergopose.recon.tracking import identity_name
+    from ergopose.recon.track_records import identity_name
     from ergopose.session import load_session
 
     session = load_session(session_dir, check_videos=False)

@@ -16,7 +16,7 @@ from ergopose.evaluation.trc import read_trc
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.table import write_tracks
-from ergopose.recon.tracking import identity_name
+from ergopose.recon.track_records import identity_name
 
 
 def trc_joints(path) -> tuple[np.ndarray, np.ndarray]:

@@ -11,18 +11,11 @@ from ergopose.errors import ConfigError
 from ergopose.geometry.camera import ceiling_camera
 from ergopose.geometry.lenses.kannala_brandt import KannalaBrandt
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
-from ergopose.evaluation.pose import (
-    CONDITIONS,
-    EVAL_JOINTS,
-    FIT_JOINTS,
-    EvaluationSettings,
-    PersonGeometry,
-    PersonTrials,
-    _match_stage,
-    _summary,
-    evaluate_session,
-    score_prediction,
-)
+from ergopose.evaluation.pose import evaluate_session
+from ergopose.evaluation.pose_geometry import EVAL_JOINTS, FIT_JOINTS, PersonGeometry
+from ergopose.evaluation.pose_records import CONDITIONS, EvaluationSettings, PersonTrials
+from ergopose.evaluation.pose_report import region_summary
+from ergopose.evaluation.pose_scoring import TrialRows, match_stage, score_prediction
 from ergopose.pose.records import FrameDetections
 from ergopose.pose.settings import PoseSettings
 
@@ -296,11 +289,11 @@ def test_stage_matching_is_one_to_one_and_counts_false_positives(camera):
         [b.rays_cam, a.rays_cam @ shift.T, a.rays_cam @ (shift @ shift @ shift).T, hidden.rays_cam, ghost.rays_cam],
         [0.9, 0.8, 0.7, 0.9, 0.9],
     )
-    matches, false_positives = _match_stage([(0, a), (1, b)], [hidden], found, SETTINGS)
+    matches, false_positives = match_stage([(0, a), (1, b)], [hidden], found, SETTINGS)
     assert matches == {0: 1, 1: 0}
     # The second copy of a and the ghost are false positives; the hidden worker's detection is not.
     assert false_positives == 2
-    none, fp = _match_stage([(0, a)], [], FrameDetections.empty(0, 0), SETTINGS)
+    none, fp = match_stage([(0, a)], [], FrameDetections.empty(0, 0), SETTINGS)
     assert none == {} and fp == 0
 
 
@@ -323,14 +316,14 @@ def test_summary_counts_and_percentiles():
         joint_error_px=err,
         joint_error_torso=err / 10.0,
     )
-    s = _summary("view", "all", "outer", trials)
+    s = region_summary("view", "all", "outer", trials)
     assert (s.persons, s.found, s.joints) == (5, 2, 6)
     assert s.detection_rate == pytest.approx(0.4)
     values = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 10.0])
     assert s.error_px_median == pytest.approx(3.5)
     assert s.error_px_p90 == pytest.approx(np.percentile(values, 90))
     assert s.error_torso_median == pytest.approx(0.35)
-    empty = _summary("view", "all", "edge", trials.select(np.zeros(n, bool)))
+    empty = region_summary("view", "all", "edge", trials.select(np.zeros(n, bool)))
     assert empty.persons == 0 and np.isnan(empty.detection_rate) and np.isnan(empty.error_px_median)
 
 
@@ -341,15 +334,13 @@ def test_unknown_condition_is_a_config_error(tmp_path):
 
 
 def test_region_follows_the_configured_limits(camera):
-    from ergopose.evaluation.pose import _Rows
-
     # Hips 0.95 m up under a camera at 3 m: 57 degrees off-axis at 3.16 m from the axis.
     p = geometry(camera, standing_person(3.16, 0.0))
     assert np.degrees(p.theta) == pytest.approx(57.0, abs=0.2)
     nan = np.full(EVAL_JOINTS.size, np.nan)
     regions = []
     for limits in ((30.0, 60.0), (30.0, 55.0), (60.0, 70.0)):
-        rows = _Rows(limits)
+        rows = TrialRows(limits)
         rows.add(0, 0, 0, 0, p, 0.9, (False, 1.0, nan, nan))
         regions.append(int(rows.trials().region[0]))
     assert regions == [1, 2, 0]

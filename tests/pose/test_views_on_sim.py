@@ -12,15 +12,10 @@ import pytest
 from ergopose.cli import main as cli_main
 from ergopose.errors import InputError
 from ergopose.keypoints import JOINT_INDEX
-from ergopose.evaluation.pose import (
-    CONDITIONS,
-    EVAL_JOINTS,
-    FIT_JOINTS,
-    EvaluationSettings,
-    PersonGeometry,
-    evaluate_session,
-    render_markdown,
-)
+from ergopose.evaluation.pose import evaluate_session
+from ergopose.evaluation.pose_geometry import EVAL_JOINTS, FIT_JOINTS, PersonGeometry
+from ergopose.evaluation.pose_records import CONDITIONS, EvaluationSettings
+from ergopose.evaluation.pose_report import render_markdown
 from ergopose.session import load_session
 from ergopose.sim.ground_truth import load_ground_truth
 from ergopose.geometry.regions import REGION_NAMES, region_index

@@ -11,7 +11,7 @@ from ergopose.keypoints import LIMBS
 from ergopose.recon import diagnostics as D
 from ergopose.recon.pipeline import ShiftReconstruction, TrackFrames, constrain_bone_lengths
 from ergopose.recon.settings import ReconSettings
-from ergopose.recon.tracking import limb_lengths
+from ergopose.recon.track_signatures import limb_lengths
 from ergopose.recon.triangulate import reconstruct_frames
 from tests.recon.conftest import FPS
 

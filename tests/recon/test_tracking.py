@@ -15,7 +15,8 @@ from ergopose.recon.records import People3D
 from ergopose.recon.session import reconstruct_session
 from ergopose.recon.settings import ReconSettings
 from ergopose.sim.synthetic import WorkerScript, walk_workers
-from ergopose.recon.tracking import HIST_BIN_M, LimbHistogram, Tracker, limb_lengths, signature_distance
+from ergopose.recon.track_signatures import HIST_BIN_M, LimbHistogram, limb_lengths, signature_distance
+from ergopose.recon.tracking import Tracker
 from tests.recon.conftest import FPS
 
 
