@@ -31,11 +31,11 @@ check: $(STAMP)
 test: check install
 	$(PY) -m pytest -q
 
-# The edit-run loop: everything but the tests marked slow, browser or network: 943 of the 1,219
+# The edit-run loop: everything but the tests marked slow, browser or network: 1,000 of the 1,280
 # tests (the rest -- over about 1 s, or simulating, assessing or running the networks -- are marked
 # slow; make test still runs them all). Measured on a fresh clone on an idle 2-core machine
-# (2026-11-26): 56 s wall, 52 s of CPU, with PYTHONDONTWRITEBYTECODE set (about 9 s of it goes to
-# compiling the modules and rewriting the tests' asserts again, which __pycache__ saves).
+# (2026-11-27): 33 s wall, with PYTHONDONTWRITEBYTECODE set (part of it goes to compiling the
+# modules and rewriting the tests' asserts again, which __pycache__ saves).
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow and not browser and not network"
 
