@@ -10,7 +10,8 @@ import cv2
 import numpy as np
 
 from ergopose.errors import InputError
-from ergopose.evaluation.pose_geometry import EVAL_JOINTS, OUTSIDE_IMAGE, PersonGeometry, unit_vectors
+from ergopose.evaluation.pose_geometry import EVAL_JOINTS, PersonGeometry, unit_vectors
+from ergopose.sim.visibility import OUTSIDE_IMAGE
 from ergopose.evaluation.pose_records import CONDITIONS, EvaluationSettings, PersonTrials
 from ergopose.evaluation.pose_scoring import TrialRows, match_stage, score_prediction
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker

@@ -13,6 +13,9 @@ from ergopose.evaluation.pose_records import EvaluationSettings
 from ergopose.geometry.views import VirtualView
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.blazepose import Roi
+from ergopose.pose.fisheye import BODY_JOINTS
+from ergopose.recon.records import HIPS, SHOULDERS, TORSO_JOINTS
+from ergopose.sim.visibility import OUTSIDE_IMAGE, VISIBLE
 
 #: Keypoints whose errors are measured (the ones RULA/REBA angles are built from).
 EVAL_JOINT_NAMES: tuple[str, ...] = (
@@ -31,33 +34,8 @@ EVAL_JOINT_NAMES: tuple[str, ...] = (
 )
 EVAL_JOINTS = np.array([JOINT_INDEX[n] for n in EVAL_JOINT_NAMES])
 
-#: Keypoints that fit a view or crop to the body (the set the 2D stage fits its views to).
-FIT_JOINT_NAMES: tuple[str, ...] = (
-    "nose",
-    "left_shoulder",
-    "right_shoulder",
-    "left_elbow",
-    "right_elbow",
-    "left_wrist",
-    "right_wrist",
-    "left_hip",
-    "right_hip",
-    "left_knee",
-    "right_knee",
-    "left_ankle",
-    "right_ankle",
-    "left_heel",
-    "right_heel",
-    "left_foot_index",
-    "right_foot_index",
-)
-FIT_JOINTS = np.array([JOINT_INDEX[n] for n in FIT_JOINT_NAMES])
-
-HIP_JOINTS = np.array([JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]])
-SHOULDER_JOINTS = np.array([JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]])
-TORSO_JOINTS = np.concatenate([SHOULDER_JOINTS, HIP_JOINTS])
-VISIBLE = 0  # ground-truth visibility code of a joint the camera sees
-OUTSIDE_IMAGE = 4
+#: Keypoints that fit a view or crop to the body: the set the 2D stage fits its views to.
+FIT_JOINTS = BODY_JOINTS
 
 
 def unit_vectors(v: np.ndarray) -> np.ndarray:
@@ -72,7 +50,7 @@ def ray_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def hip_centre_ray(rays: np.ndarray) -> np.ndarray:
     """(..., 33, 3) unit rays -> (..., 3) unit ray of the hip centre (mean of the two hip rays)."""
-    return unit_vectors(rays[..., HIP_JOINTS, :].mean(axis=-2))
+    return unit_vectors(rays[..., HIPS, :].mean(axis=-2))
 
 
 @dataclass(frozen=True)
@@ -101,8 +79,8 @@ class PersonGeometry:
     def of(cls, camera, joints_world: np.ndarray, pixels: np.ndarray, visibility: np.ndarray) -> "PersonGeometry":
         points_cam = camera.points_world_to_cam(joints_world)
         rays = unit_vectors(points_cam)
-        hip_world = joints_world[HIP_JOINTS].mean(axis=0)
-        trunk = joints_world[SHOULDER_JOINTS].mean(axis=0) - hip_world
+        hip_world = joints_world[HIPS].mean(axis=0)
+        trunk = joints_world[SHOULDERS].mean(axis=0) - hip_world
         torso = float(np.linalg.norm(trunk))
         inclination = float(np.arccos(np.clip(trunk[2] / torso, -1.0, 1.0))) if torso > 0 else float("nan")
         distance = float(np.linalg.norm(camera.points_world_to_cam(hip_world)))
@@ -142,7 +120,7 @@ class PersonGeometry:
         view = self.view(camera, size, settings)
         r = view.rotation_cam_from_view
         hip = view.lens.project(self.hip_ray @ r)
-        shoulder = view.lens.project(unit_vectors(self.rays_cam[SHOULDER_JOINTS].mean(axis=0)) @ r)
+        shoulder = view.lens.project(unit_vectors(self.rays_cam[SHOULDERS].mean(axis=0)) @ r)
         d = shoulder - hip
         roll = float(np.arctan2(d[0], -d[1])) if np.all(np.isfinite(d)) and np.any(d != 0) else 0.0
         c, s = np.cos(roll), np.sin(roll)
@@ -166,8 +144,8 @@ class PersonGeometry:
 
     def rotated_roi(self, settings: EvaluationSettings):
         """Square on the true hip centre, rotated so hip -> shoulder points up (``rotated_crop``)."""
-        hip = self.pixels[HIP_JOINTS].mean(axis=0)
-        axis = self.pixels[SHOULDER_JOINTS].mean(axis=0) - hip
+        hip = self.pixels[HIPS].mean(axis=0)
+        axis = self.pixels[SHOULDERS].mean(axis=0) - hip
         rotation = float(np.arctan2(axis[0], -axis[1]))
         radius = float(np.max(np.linalg.norm(self._fit_pixels() - hip, axis=1)))
         return Roi(centre=hip, side=max(2.0 * settings.margin * radius, 4.0), rotation=rotation)

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ergopose.evaluation.pose_geometry import EVAL_JOINTS, VISIBLE, PersonGeometry, hip_centre_ray, ray_angles
+from ergopose.evaluation.pose_geometry import EVAL_JOINTS, PersonGeometry, hip_centre_ray, ray_angles
+from ergopose.sim.visibility import VISIBLE
 from ergopose.evaluation.pose_records import EvaluationSettings, PersonTrials
 from ergopose.geometry.regions import region_index
 

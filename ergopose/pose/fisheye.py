@@ -84,7 +84,7 @@ from ergopose.progress import ProgressCallback, warn
 
 _LEFT_HIP, _RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
 _LEFT_SHOULDER, _RIGHT_SHOULDER = JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]
-_BODY_JOINTS = np.array(
+BODY_JOINTS = np.array(
     [
         JOINT_INDEX[n]
         for n in (
@@ -109,7 +109,7 @@ _BODY_JOINTS = np.array(
     ]
 )
 
-_BODY_MASK = np.isin(np.arange(NUM_JOINTS), _BODY_JOINTS)
+_BODY_MASK = np.isin(np.arange(NUM_JOINTS), BODY_JOINTS)
 
 
 class FisheyePoseEstimator:
@@ -337,7 +337,7 @@ class FisheyePoseEstimator:
         hips = [j for j in (_LEFT_HIP, _RIGHT_HIP) if good[j]]
         if not hips:
             hips = [j for j in (_LEFT_SHOULDER, _RIGHT_SHOULDER) if good[j]]
-        body = _BODY_JOINTS[good[_BODY_JOINTS]]
+        body = BODY_JOINTS[good[BODY_JOINTS]]
         if not hips or body.size < 3:
             return None
         centre = unit(rays[hips].mean(axis=0))
@@ -355,7 +355,7 @@ class FisheyePoseEstimator:
         bearings = [self._body_bearing(p) for p in people]
         # The better detection of one person: the pose flag times the mean confidence of the body
         # keypoints (two views of one person often both have a flag near 1).
-        score = [float(p["kp"].presence) * float(np.mean(p["kp"].confidence[_BODY_JOINTS])) for p in people]
+        score = [float(p["kp"].presence) * float(np.mean(p["kp"].confidence[BODY_JOINTS])) for p in people]
         s = self.settings
         if s.merge_prefers_upright:
             # A plausible body axis first, then the view closest to upright, then confidence.
