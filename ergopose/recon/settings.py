@@ -90,8 +90,9 @@ class ReconSettings:
         fit_temporal_sigma_m: 0.03, fit_speed_m_s: 1.5 -- a joint may move
             fit_temporal_sigma_m + fit_speed_m_s x (time since the worker's previous fit)
             (one standard deviation) from its previous fitted position.
-        fit_pose_prior_sigma_m: 0.35 -- standard deviation of the neutral standing pose prior
-            (decides only what nothing else decides).
+        fit_pose_prior_sigma_m: 0.35 -- standard deviation of each link of the neutral pose
+            prior (metres; trunk upright, arms and legs hanging under the hips' heading, the
+            head in line with the current trunk; decides only what nothing else decides).
         fit_hand_prior_sigma_m: 0.05 -- standard deviation of the prior that a hand two cameras
             do not see continues its forearm (hand points against the forearm's line, metres);
             0 turns it off.

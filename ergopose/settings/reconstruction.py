@@ -93,7 +93,11 @@ class ReconstructionTable(Table):
         0.03, gt=0, description="a joint may move this much from its previous fit, plus ..."
     )
     fit_speed_m_s: float = Field(1.5, gt=0, description="... this speed times the time since the previous fit")
-    fit_pose_prior_sigma_m: float = Field(0.35, gt=0, description="standard deviation of the standing pose prior")
+    fit_pose_prior_sigma_m: float = Field(
+        0.35,
+        gt=0,
+        description="standard deviation of each link of the neutral pose prior (trunk, arms and legs as standing, the head in line with the trunk)",
+    )
     fit_hand_prior_sigma_m: float = Field(
         0.05,
         ge=0,

@@ -355,3 +355,97 @@ def test_a_hand_two_cameras_do_not_see_continues_its_forearm_and_a_seen_hand_kee
     fit = _fit(P, px, conf, bent, bent + rng.normal(0.0, 0.02, bent.shape))
     got = np.degrees(joint_angles(fit.points_world).to_frame()["left_wrist_flexion"].to_numpy())
     assert abs(np.median(got) - 45.0) < 4.0
+
+
+def _stooped_bodies(n, rng, trunk_flexion=1.2):
+    """n workers bent forward by ``trunk_flexion`` (radians), the head in line with the trunk
+    (neck flexion 0), arms hanging, at random headings."""
+    m = BodyMeasurements.from_stature(1.75)
+    posture = Posture(
+        trunk_flexion=np.full(n, trunk_flexion),
+        heading=rng.uniform(-np.pi, np.pi, n),
+        root_position=np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], axis=-1),
+    )
+    return pose_skeleton(m, place_on_floor(m, posture))
+
+
+def test_the_pose_prior_is_articulated_the_head_follows_the_trunk_and_the_template_is_its_own_fixed_point(rng):
+    """The prior's links turn with the hips' heading (trunk, arms, legs) or with the current trunk
+    (the head): TEMPLATE_BODY placed anywhere costs nothing, and a bent worker's head continues
+    the trunk (independent forward kinematics, ergopose.ergonomics.body)."""
+    n = 6
+    heading = rng.uniform(-np.pi, np.pi, n)
+    # The template's frame (x to the left hip, y forward, z up) is left-handed: world columns
+    # left, left x up (forward), up.
+    left = np.stack([np.cos(heading), np.sin(heading), np.zeros(n)], axis=-1)
+    body_to_world = np.stack([left, np.cross(left, [0.0, 0.0, 1.0]), np.broadcast_to([0.0, 0.0, 1.0], (n, 3))], -1)
+    placed = B.TEMPLATE_BODY @ np.swapaxes(body_to_world, 1, 2) + np.array([0.5, -0.3, 0.95])
+    assert np.allclose(B.PRIOR_LINK_MATRIX @ placed, B.prior_links(placed, np.ones(n)), atol=1e-12)
+    # Bent forward, the head's links are the trunk's turn of the template's; the legs still hang.
+    bent = _stooped_bodies(n, rng)
+    links = B.prior_links(bent, np.ones(n))
+    head = np.array([name.startswith("head_") for name, *_ in B._PRIOR_LINKS])
+    legs = np.array(["knee" in name or "ankle" in name for name, *_ in B._PRIOR_LINKS])
+    trunk_axis = 0.5 * (bent[:, 11] + bent[:, 12] - bent[:, 23] - bent[:, 24])
+    trunk_axis /= np.linalg.norm(trunk_axis, axis=-1, keepdims=True)
+    up_along = (links[:, head] * trunk_axis[:, None]).sum(axis=-1)  # each head link along the trunk
+    assert np.allclose(up_along, B._LINK_TEMPLATE[head, 2], atol=1e-9)
+    assert np.all(links[:, legs, 2] <= 1e-9)  # thighs and shanks point down, the feet level
+    assert np.allclose(links[:, legs & np.array(["knee" in name for name, *_ in B._PRIOR_LINKS]), :2], 0.0, atol=0.03)
+
+
+def test_a_bent_worker_whose_face_no_camera_sees_keeps_the_head_in_line_with_the_trunk(rng):
+    """Seen from above, a worker bent forward 70 deg hides the face. With no camera seeing the face
+    points and no previous pose, only the prior turns the head: it continues the trunk (neck
+    flexion near the true 0), not the standing pose's upright head."""
+    n = 8
+    truth = _stooped_bodies(n, rng)
+    P, px, conf = _views(truth, rng)
+    face = [JOINT_INDEX[name] for name in B._RIGID_PARTS[0][1]]
+    conf[:, :, face] = 0.0
+    px[:, :, face] = np.nan
+    start = truth + rng.normal(0.0, 0.03, truth.shape)
+    fit = _fit(P, px, conf, truth, start)
+    t = np.arange(n) / 12.0
+    neck = np.degrees(joint_angles(fit.points_world, t).to_frame()["neck_flexion"].to_numpy())
+    assert np.all(np.abs(neck) < 10.0), neck
+    err = np.linalg.norm(fit.points_world[:, face] - truth[:, face], axis=-1)
+    assert np.median(err) < 0.04
+
+
+def test_a_new_track_missing_a_hip_starts_from_the_template_turned_onto_what_was_triangulated(rng):
+    """A worker's first frame: the cameras did not both see the left hip, shoulder and the left
+    side of the face (NaN in the triangulation). Those joints start from the neutral pose turned
+    and moved onto the triangulated ones by a proper rotation (never its mirror image): near a
+    neutral standing worker's, the left ear on the left. The earlier start, a template faced by
+    the hip line with the missing hip put at the origin, put the left ear decimetres off (in the
+    simulator the face then settled as its mirror image for 50 frames)."""
+    m = BodyMeasurements.from_stature(1.75)
+    n = 8
+    heading = rng.uniform(-np.pi, np.pi, n)
+    root = np.stack([rng.uniform(0.3, 1.2, n), rng.uniform(-0.8, 0.8, n), np.zeros(n)], axis=-1)
+    truth = pose_skeleton(m, place_on_floor(m, Posture(heading=heading, root_position=root)))
+    hidden = [
+        JOINT_INDEX[name]
+        for name in ("left_hip", "left_shoulder", "left_ear", "left_eye", "left_eye_outer", "left_eye_inner")
+    ]
+    ear = JOINT_INDEX["left_ear"]
+    nothing = np.full((NUM_JOINTS, 3), np.nan)
+    old_ear = []
+    for r in range(n):
+        tri = truth[r].copy()
+        tri[hidden] = np.nan
+        placed = B._aligned_template(tri, nothing)
+        assert np.median(np.linalg.norm(placed - truth[r], axis=-1)) < 0.05
+        assert np.linalg.norm(placed[ear] - truth[r, ear]) < 0.06
+        pelvis = B._pelvis_guess(
+            tri[None], np.zeros((1, 1, 3, 4)), np.full((1, 1, NUM_JOINTS, 2), np.nan), np.zeros((1, 1, NUM_JOINTS))
+        )
+        before = B.template_pose(pelvis, B._yaw_frames(np.where(np.isfinite(tri), tri, 0.0)[None]))[0]
+        old_ear.append(np.linalg.norm(before[ear] - truth[r, ear]))
+    assert np.median(old_ear) > 0.15
+    # Fewer than four points, or points on a line: the fallback.
+    assert np.isnan(B._aligned_template(nothing, nothing)).all()
+    line = np.full((NUM_JOINTS, 3), np.nan)
+    line[:5] = np.linspace(0.0, 1.0, 5)[:, None] * np.array([1.0, 0.0, 0.0])
+    assert np.isnan(B._aligned_template(line, nothing)).all()
