@@ -934,8 +934,8 @@ class ShiftBodies:
         pelvis = np.where(np.isfinite(pelvis), pelvis, np.array([0.0, 0.0, 0.95]))
         facing = _yaw_frames(np.where(np.isfinite(tri), tri, 0.0))
         first = template_pose(pelvis, facing)
-        for k in np.flatnonzero(~have_prev):
-            first[k] = _aligned_template(tri[k], first[k])
+        for row in np.flatnonzero(~have_prev):
+            first[row] = _aligned_template(tri[row], first[row])
         start = np.where(have_prev[:, None, None], prev, first)
         start = np.where(np.isfinite(tri), tri, start)
         used_scale = np.array([self.noise.get(int(i), 1.0) for i in ids])
