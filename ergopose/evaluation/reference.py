@@ -51,6 +51,7 @@ from ergopose.evaluation.loading import ResultsLayout, json_ready, reported_ids,
 from ergopose.evaluation.scoring import SCORE_SCALES, angle_stats, read_frames_csv
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
+from ergopose.geometry.rigid import kabsch
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, LIMBS, NUM_JOINTS
 from ergopose.pipeline.scoring import take_rows
 from ergopose.pipeline.inputs import scoring_settings
@@ -150,17 +151,6 @@ def robust_kabsch(ref: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.n
         inliers = new
         r, t = kabsch(ref[inliers], target[inliers])
     return r, t, inliers
-
-
-def kabsch(ref: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation R and translation t minimising sum |R ref_i + t - target_i|^2 (no scale; det R = +1).
-    ref, target: (N, 3) paired points, N >= 3 not all on a line."""
-    mr, mt = ref.mean(axis=0), target.mean(axis=0)
-    h = (ref - mr).T @ (target - mt)
-    u, _, vt = np.linalg.svd(h)
-    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
-    r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return r, mt - r @ mr
 
 
 def _interpolate(

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ergopose.arrays import FloatArray
+from ergopose.geometry.rigid import kabsch
 from ergopose.keypoints import JOINT_INDEX, LIMBS, MIRROR, NUM_JOINTS
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.track_signatures import LimbHistogram
@@ -119,14 +120,23 @@ def _segment_defs() -> tuple[tuple[str, dict[int, float], dict[int, float], str]
 _SEGMENT_DEFS = _segment_defs()
 SEGMENTS: tuple[str, ...] = tuple(s[0] for s in _SEGMENT_DEFS)
 NUM_SEGMENTS = len(SEGMENTS)
+
+
+def _difference_matrix(defs: tuple[tuple[str, dict[int, float], dict[int, float], str], ...]) -> np.ndarray:
+    """(len(defs), 33) read-only: row k is point b minus point a of defs[k] = (name, a, b, kind),
+    so that the vectors are this matrix @ X."""
+    out = np.zeros((len(defs), J))
+    for k, (_, a, b, _) in enumerate(defs):
+        for j, w in a.items():
+            out[k, j] -= w
+        for j, w in b.items():
+            out[k, j] += w
+    out.setflags(write=False)
+    return out
+
+
 #: (S, 33) point b minus point a: segment vectors are SEGMENT_MATRIX @ X.
-SEGMENT_MATRIX = np.zeros((NUM_SEGMENTS, J))
-for _s, (_n, _a, _b, _k) in enumerate(_SEGMENT_DEFS):
-    for _j, _w in _a.items():
-        SEGMENT_MATRIX[_s, _j] -= _w
-    for _j, _w in _b.items():
-        SEGMENT_MATRIX[_s, _j] += _w
-SEGMENT_MATRIX.setflags(write=False)
+SEGMENT_MATRIX = _difference_matrix(_SEGMENT_DEFS)
 #: The segment terms of the normal matrix couple only the joint pairs (j, k) that share a segment:
 #: _PAIR_J, _PAIR_K list those pairs (j, k) and _PAIR_W (pairs, S) holds sum_s D[s, j] D[s, k] per
 #: segment, so the pairs' 3 x 3 blocks are _PAIR_W @ (the segments' 3 x 3 blocks) -- a few hundred
@@ -270,13 +280,7 @@ _PRIOR_LINKS: tuple[tuple[str, dict[int, float], dict[int, float], str], ...] = 
     *((f"head_{name}", _pt("left_shoulder", "right_shoulder"), _pt(name), "trunk") for name in _RIGID_PARTS[0][1]),
 )
 #: (E, 33): link vectors are PRIOR_LINK_MATRIX @ X.
-PRIOR_LINK_MATRIX = np.zeros((len(_PRIOR_LINKS), J))
-for _e, (_n, _a, _b, _f) in enumerate(_PRIOR_LINKS):
-    for _j, _w in _a.items():
-        PRIOR_LINK_MATRIX[_e, _j] -= _w
-    for _j, _w in _b.items():
-        PRIOR_LINK_MATRIX[_e, _j] += _w
-PRIOR_LINK_MATRIX.setflags(write=False)
+PRIOR_LINK_MATRIX = _difference_matrix(_PRIOR_LINKS)
 _LINK_TEMPLATE = PRIOR_LINK_MATRIX @ TEMPLATE_BODY  # (E, 3) body frame
 _LINK_IN_TRUNK = np.array([f == "trunk" for *_, f in _PRIOR_LINKS])
 _LINK_H = PRIOR_LINK_MATRIX.T @ PRIOR_LINK_MATRIX  # (33, 33)
@@ -790,14 +794,12 @@ def _aligned_template(points_world: np.ndarray, fallback: np.ndarray, min_points
     ok = np.isfinite(points_world).all(axis=-1)
     if ok.sum() < min_points:
         return fallback
-    a, b = _TEMPLATE_RIGHT_HANDED[ok], points_world[ok]
-    ca, cb = a.mean(axis=0), b.mean(axis=0)
-    u, sv, vt = np.linalg.svd((a - ca).T @ (b - cb))
+    b = points_world[ok]
+    sv = np.linalg.svd(b - b.mean(axis=0), compute_uv=False)
     if sv[1] < 1e-3 * max(sv[0], 1e-12):  # the points lie on a line: the turn about it is unknown
         return fallback
-    d = np.sign(np.linalg.det(u @ vt)) or 1.0
-    rot = u @ np.diag([1.0, 1.0, d]) @ vt  # body -> world, applied as a @ rot
-    out: np.ndarray = (_TEMPLATE_RIGHT_HANDED - ca) @ rot + cb
+    rot, shift = kabsch(_TEMPLATE_RIGHT_HANDED[ok], b)
+    out: np.ndarray = _TEMPLATE_RIGHT_HANDED @ rot.T + shift
     return out
 
 
