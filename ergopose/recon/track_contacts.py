@@ -17,17 +17,26 @@ from ergopose.recon.track_signatures import APPEARANCE_APART, APPEARANCE_MARGIN,
 #: people separated, and at most GROUP_MAX_WAIT_S in all (people working side by side).
 GROUP_MAX_WAIT = 4
 GROUP_MAX_WAIT_S = 60.0
+#: A continuation is compared with the group's identities over at least this many limbs
+#: known in it and in every identity. The gated triangulation gives the trunk's four limbs
+#: (shoulder and hip width, the trunk's sides) in about half of the frames and the others
+#: rarely (ORACLE, 2592 x 1944, 4 workers, 10 min: upper arms 5 %, thighs 2 %, shanks 0 %), so
+#: the relinking's MIN_COMMON_LIMBS (6) left most contacts undecided, and a single limb
+#: crossed two workers wrongly (docs/reconstruction.md, 3. Identities).
+GROUP_MIN_LIMBS = 3
 
 
 def group_costs(members: list[np.ndarray], identities: list[np.ndarray]) -> np.ndarray:
     """(M, I) RMS difference of limb medians between contact continuations and the group's
     identities, each row over the limbs known in that member and in every identity (so a row
-    compares the identities on equal terms); NaN rows when no such limb exists."""
+    compares the identities on equal terms); NaN rows with fewer than GROUP_MIN_LIMBS such
+    limbs (a single limb's median of a few seconds can be as far from its owner's as from
+    another worker's)."""
     known_all = np.all([np.isfinite(i) for i in identities], axis=0)
     out = np.full((len(members), len(identities)), np.nan)
     for r, m in enumerate(members):
         ok = np.isfinite(m) & known_all
-        if ok.any():
+        if ok.sum() >= GROUP_MIN_LIMBS:
             out[r] = [float(np.sqrt(np.mean((m[ok] - i[ok]) ** 2))) for i in identities]
     return out
 
@@ -40,16 +49,23 @@ def group_identities(members: list[Track]) -> list[int]:
     return [int(k) for k in out if k is not None]
 
 
-def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd]) -> None:
+def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd], resolved: dict[int, int | None]) -> None:
     """Split confirmed tracks that come within contact_distance_m of each other.
 
     Two people this close (passing each other, or a simulated body passing through another)
     can swap tracks without any geometric sign. Each track of a contact group ends here and a
     continuation carries on with the same identity, *provisionally*: its rows wait, and its
     limb lengths are collected apart. Once the live continuations have relink_window_s of 3D
-    data and a comparable limb (or after GROUP_MAX_WAIT windows), :func:`resolve_group`
+    data and comparable limbs (or after GROUP_MAX_WAIT windows), :func:`resolve_group`
     confirms the identities or crosses them over, if the body-measurement signatures say so
     by relink_margin_m. A continuation that ends first keeps its identity.
+
+    A provisional continuation that meets someone else before its group is decided (a third
+    worker walking into two who just passed each other, or the two meeting again after they
+    had separated) joins a new contact: its group is decided at once on what it has seen so
+    far (kept unless the evidence is already clear), and all of that group's live
+    continuations are split again with the others, so that the new group decides among every
+    identity that could have been exchanged.
     """
     s = state.settings
     for t in state.tracks:
@@ -60,7 +76,7 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd]) -> None:
                     near.add(o.identity)
             t.no_split_with = near
     # Only tracks seen in this frame: an extrapolated coasting track proves no contact.
-    live = [t for t in state.tracks if t.identity is not None and t.group is None and t.last_update_frame == f]
+    live = [t for t in state.tracks if t.identity is not None and t.last_update_frame == f]
     if len(live) < 2:
         return
     pos = np.array([t.pos[:2] for t in live])
@@ -75,8 +91,13 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd]) -> None:
         close &= ~apart
     for a in range(len(live)):
         for b in range(len(live)):
-            if close[a, b] and live[b].identity in live[a].no_split_with:
+            if not close[a, b]:
+                continue
+            ga, gb = live[a].group, live[b].group
+            if live[b].identity in live[a].no_split_with:
                 close[a, b] = False
+            elif ga is not None and ga == gb and state.groups[ga]["separated"] is None:
+                close[a, b] = False  # still together since their contact: the same contact
     if not close.any():
         return
     label = list(range(len(live)))
@@ -89,10 +110,19 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd]) -> None:
 
     for a, b in zip(*np.nonzero(close)):
         label[root(a)] = root(b)
+    # A pending group touched by the new contact takes all its live continuations into it.
+    touched = {live[i].group for i in np.flatnonzero(close.any(axis=1))} - {None}
+    for gid in touched:
+        idx = [i for i in range(len(live)) if live[i].group == gid]
+        for i in idx[1:]:
+            label[root(i)] = root(idx[0])
+    in_contact = close.any(axis=1)
     groups: dict[int, list[Track]] = {}
     for i in range(len(live)):
-        if close[i].any():
+        if in_contact[i] or live[i].group in touched:
             groups.setdefault(root(i), []).append(live[i])
+    for gid in sorted(g for g in touched if g is not None):
+        resolve_group(state, gid, resolved)
     gone = set()
     new_tracks = []
     for members in groups.values():
@@ -116,7 +146,7 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd]) -> None:
                 group=gid,
             )
             state.next_track += 1
-            assert t.identity is not None  # only confirmed tracks are split
+            assert t.identity is not None  # only tracks with an identity are split
             state.identities[t.identity].track = c.id
             conts.append(c)
         state.groups[gid] = {"members": conts, "start": f + 1, "separated": None}
@@ -179,10 +209,18 @@ def member_look(m: Track) -> np.ndarray:
     return both.mean()
 
 
+def group_colours(state: TrackerState, members: list[Track], idents: list[int]) -> np.ndarray:
+    """(M, I) clothing-colour distance between contact continuations and the group's
+    identities (NaN where either colour is unknown)."""
+    looks = np.array([state.identities[k].look.mean() for k in idents])
+    return np.array([appearance_distance(member_look(m), looks) for m in members]).reshape(len(members), len(idents))
+
+
 def group_ready(state: TrackerState, gid: int, f: int) -> bool:
     """Decide a contact group once its people have separated and every live continuation
-    has relink_window_s of 3D data since, with signatures that can be compared (a limb known
-    in the continuation and in every identity of the group); or after GROUP_MAX_WAIT windows
+    has relink_window_s of 3D data since, with clothing colours or signatures that can be
+    compared (GROUP_MIN_LIMBS limbs known in the continuation and in every identity of the
+    group); or after GROUP_MAX_WAIT windows
     since the separation, GROUP_MAX_WAIT_S since the contact, or when no continuation is
     alive any more."""
     g = state.groups[gid]
@@ -196,11 +234,51 @@ def group_ready(state: TrackerState, gid: int, f: int) -> bool:
     if any(m.frames_3d >= GROUP_MAX_WAIT * state.window_frames for m in live):
         return True
     members = g["members"]
+    rows = [members.index(m) for m in live]
+    idents = group_identities(members)
+    if np.isfinite(group_colours(state, members, idents)[rows]).all():
+        return True  # the clothes decide (resolve_group)
     cost = group_costs(
-        [member_medians(state, m) for m in members],
-        [state.identities[k].hist.medians() for k in group_identities(members)],
+        [member_medians(state, m) for m in members], [state.identities[k].hist.medians() for k in idents]
     )
-    return bool(np.isfinite(cost[[members.index(m) for m in live]]).all(axis=1).all())
+    return bool(np.isfinite(cost[rows]).all(axis=1).all())
+
+
+def assign_group(cost: np.ndarray, idents: list[int], margin: float) -> list[int]:
+    """The final identities of a contact group's continuations.
+
+    cost: (M, M) distance of every continuation (rows) to every identity of the group
+    (columns, the continuations' provisional identities ``idents`` in the same order); a row
+    with a NaN is a continuation with nothing to compare (it ended before it was seen apart).
+    The continuations that can be compared take the identities, any of the group's, that
+    minimise the total distance -- if that beats keeping them by ``margin`` per changed
+    identity; the others keep theirs where still free, else take those left over (a
+    continuation that ended unseen does not hold on to an identity that another
+    continuation's measurements claim)."""
+    final = list(idents)
+    rows = np.flatnonzero(np.isfinite(cost).all(axis=1))
+    if len(rows) == 0:
+        return final
+    sub = cost[rows]
+    r, c = linear_sum_assignment(sub)
+    now = float(sub[np.arange(len(rows)), rows].sum())
+    new = float(sub[r, c].sum())
+    changed = int(np.sum(c != rows[r]))
+    if not changed or new + margin * changed > now:
+        return final
+    for i, j in zip(r, c):
+        final[rows[i]] = idents[j]
+    free = [k for k in idents if k not in {idents[j] for j in c}]
+    others = [m for m in range(len(idents)) if m not in set(rows.tolist())]
+    for m in others:
+        if idents[m] in free:
+            free.remove(idents[m])
+        else:
+            final[m] = -1
+    for m in others:
+        if final[m] == -1:
+            final[m] = free.pop(0)
+    return final
 
 
 def resolve_group(state: TrackerState, gid: int, resolved: dict[int, int | None]) -> None:
@@ -213,25 +291,13 @@ def resolve_group(state: TrackerState, gid: int, resolved: dict[int, int | None]
     cost = group_costs(
         [member_medians(state, m) for m in members], [state.identities[k].hist.medians() for k in idents]
     )
-    colour = np.array(
-        [[float(appearance_distance(member_look(m), state.identities[k].look.mean())) for k in idents] for m in members]
-    )
+    colour = group_colours(state, members, idents)
     margin = s.relink_margin_m
     if np.isfinite(colour).all(axis=1).sum() >= 2:
         # The clothes decide where they are known (limb lengths from a pose network scatter
         # more than workers differ: docs/reconstruction.md, 3. Identities).
         cost, margin = colour, APPEARANCE_MARGIN
-    comparable = np.flatnonzero(np.isfinite(cost).all(axis=1))
-    final = list(idents)
-    if len(comparable) >= 2:
-        sub = cost[np.ix_(comparable, comparable)]
-        r, c = linear_sum_assignment(sub)
-        now = float(np.trace(sub))
-        new = float(sub[r, c].sum())
-        changed = int(np.sum(r != c))
-        if changed and new + margin * changed <= now:
-            for i, j in zip(r, c):
-                final[comparable[i]] = idents[comparable[j]]
+    final = assign_group(cost, idents, margin)
     alive = {t.id for t in state.tracks}
     for m, ident_no in zip(members, final):
         m.identity = ident_no

@@ -16,6 +16,7 @@ from ergopose.recon.session import reconstruct_session
 from ergopose.recon.settings import ReconSettings
 from ergopose.sim.synthetic import WorkerScript, walk_workers
 from ergopose.recon.track_signatures import HIST_BIN_M, LimbHistogram, limb_lengths, signature_distance
+from ergopose.recon.track_contacts import assign_group
 from ergopose.recon.tracking import Tracker
 from tests.recon.conftest import FPS
 
@@ -163,6 +164,53 @@ def test_people_meeting_and_turning_back_keep_their_identities(rng):
     same, identities, groups = kept(ReconSettings())
     assert same and identities == 2 and groups >= 1
     assert not kept(ReconSettings(contact_distance_m=0.0))[0]
+
+
+def test_a_third_worker_met_before_a_contact_is_decided_joins_the_decision(rng):
+    """Workers A and B meet and part (a contact: their identities wait for a decision). Before B
+    has been seen apart for relink_window_s, B meets C head-on, they stop 10 cm apart for a
+    second and turn back, which crosses the tracks of B and C over. The contact of B and C
+    must split them too and decide among all three identities; when it is left out (as it
+    was: a continuation waiting for a decision was never split again), C keeps B's identity."""
+    n = int(18 * FPS)
+    scripts = [
+        WorkerScript(1.60, np.array([[-2.0, 0.0], [-0.05, 0.0], [-2.0, -0.6]]), pause_s=(1.0, 2.5, 20.0)),
+        WorkerScript(
+            1.90, np.array([[2.0, 0.0], [0.05, 0.0], [0.05, 1.25], [0.6, -1.0]]), pause_s=(1.0, 2.5, 1.0, 20.0)
+        ),
+        WorkerScript(1.75, np.array([[0.05, 3.0], [0.05, 1.35], [0.6, 3.0]]), pause_s=(4.6, 1.0, 20.0)),
+    ]
+    truth = walk_workers(scripts, n, FPS)
+    people = _stored(truth, np.ones((n, 3), bool), rng, sigma=0.01)
+    f, p = np.nonzero(np.ones((n, 3), bool))
+    tr = Tracker(ReconSettings(), FPS)
+    res = tr.update(people, 0, n)
+    resolved = {**res.resolved, **tr.finish().resolved}
+    ident = np.array([resolved[t] for t in res.track])
+    first = [set(ident[(p == q) & (f < 12)]) for q in range(3)]
+    last = [set(ident[(p == q) & (f > n - 24)]) for q in range(3)]
+    assert all(len(x) == 1 for x in first + last) and len(set(ident)) == 3
+    assert last == first
+    assert tr.next_group == 2  # A-B, then A-B-C
+
+
+def test_a_contact_is_decided_by_the_continuations_that_were_seen():
+    """assign_group: continuations compared with every identity of their group; one that ended
+    unseen (a NaN row) gives up its identity to a continuation whose measurements claim it,
+    and takes the one left over; differences within the margin keep the identities."""
+    nan = np.nan
+    # Continuation 0 ended unseen; 1 and 2 fit identities 7 and 5 (the provisional 7, 5, 9).
+    cost = np.array([[nan, nan, nan], [0.004, 0.030, 0.020], [0.030, 0.003, 0.025]])
+    assert assign_group(cost, [7, 5, 9], margin=0.005) == [9, 7, 5]
+    # The same claims, but within the margin: nobody changes.
+    cost = np.array([[nan, nan, nan], [0.008, 0.010, 0.020], [0.030, 0.008, 0.010]])
+    assert assign_group(cost, [7, 5, 9], margin=0.005) == [7, 5, 9]
+    # Two seen continuations crossed over; the unseen one keeps its identity.
+    cost = np.array([[0.030, 0.004, nan], [0.004, 0.030, nan], [nan, nan, nan]])
+    cost[:2, 2] = 0.05
+    assert assign_group(cost, [1, 2, 3], margin=0.005) == [2, 1, 3]
+    # Nothing seen: nothing changes.
+    assert assign_group(np.full((2, 2), nan), [4, 6], margin=0.005) == [4, 6]
 
 
 def test_coasting_prediction_holds_the_height(rng):
