@@ -120,7 +120,10 @@ def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], 
         "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
         "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
         "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
-        "uncertain for the score."
+        "uncertain for the score. The measured uncertainty is what the cameras disagree on: a mistake the "
+        "pose network makes alike in every camera (a face seen from above, a knee hidden by the body) is "
+        "not in it, so 'with confidence' is the best case (on simulated workers the network's angle "
+        "errors were about 6 times the measured uncertainty; docs/reconstruction.md)."
     )
     return tuple(rows), note
 
