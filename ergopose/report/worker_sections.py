@@ -122,8 +122,9 @@ def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], 
         "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
         "uncertain for the score. The measured uncertainty is what the cameras disagree on: a mistake the "
         "pose network makes alike in every camera (a face seen from above, a knee hidden by the body) is "
-        "not in it, so 'with confidence' is the best case (on simulated workers the network's angle "
-        "errors were about 6 times the measured uncertainty; docs/reconstruction.md)."
+        "not in it, so 'with confidence' is the best case: on simulated workers the network's angle "
+        "errors were about 6 times the measured uncertainty, and on a real recording the angles differed "
+        "from another tool's 3D by 5 to 20 times it (docs/reconstruction.md)."
     )
     return tuple(rows), note
 
