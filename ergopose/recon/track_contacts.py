@@ -58,7 +58,8 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd], resolved:
     limb lengths are collected apart. Once the live continuations have relink_window_s of 3D
     data and comparable limbs (or after GROUP_MAX_WAIT windows), :func:`resolve_group`
     confirms the identities or crosses them over, if the body-measurement signatures say so
-    by relink_margin_m. A continuation that ends first keeps its identity.
+    by relink_margin_m (:func:`assign_group`: a continuation that ended unseen keeps its identity
+    unless another continuation's measurements claim it).
 
     A provisional continuation that meets someone else before its group is decided (a third
     worker walking into two who just passed each other, or the two meeting again after they
