@@ -78,6 +78,13 @@ class ScoringSettings:
         unknown_flags: "absent" -- an unknown flag adds nothing (the score is a lower bound and
             the rows are counted in rula_unknown_flags / reba_unknown_flags); "missing" -- the
             step score becomes missing.
+    How sure each frame's scores are (ergopose.ergonomics.uncertainty):
+        joint_sd_floor_m: 0.018 -- the pose network's own error at each joint (metres, per
+            coordinate), added in quadrature to the reconstruction's standard deviation when the
+            joints are drawn: the fit's covariance holds only what the cameras disagree on, and
+            on the real Pose2Sim recording the product's joints lie a median 39 mm from that
+            tool's 3D (half of that variance taken as ours: 39 / sqrt(2) / 1.54 = 18 mm per
+            coordinate; docs/scoring.md). 0 draws within the fit's deviations only.
     """
 
     rula_open_boundary: str = "higher"
@@ -112,6 +119,8 @@ class ScoringSettings:
     reba_twist_side_adjust: str = "single"
 
     unknown_flags: str = "absent"
+
+    joint_sd_floor_m: float = 0.018
 
     def __post_init__(self) -> None:
         validate(ScoringTable, dataclasses.asdict(self))

@@ -1,8 +1,11 @@
 """How sure each frame's angles and scores are: resampling the 3D joints within their uncertainty.
 
 The reconstruction gives every joint of every frame a standard deviation per world coordinate
-(the body fit's covariance, smoothed; the tracks table's ``std_x/y/z``). Here the joints are
-drawn ``SAMPLES`` times from independent normal distributions with those deviations; the joint
+(the body fit's covariance, smoothed; the tracks table's ``std_x/y/z``). That covariance holds
+only what the cameras disagree on; the scoring setting ``joint_sd_floor_m`` adds the pose
+network's own error (the same in every camera, an offset of each joint that lasts: see
+:func:`iter_samples`). Here the joints are drawn
+``SAMPLES`` times from independent normal distributions with those deviations; the joint
 angles and the RULA and REBA scores are computed for every draw exactly as for the estimate
 (the same angle and scoring code, task inputs and time windows). From the draws:
 
@@ -42,6 +45,7 @@ CONFIDENT_P = 0.6
 _TABLE_FRAMES = 1024
 _SEED = 20181001
 _TABLE: np.ndarray | None = None
+_OFFSETS: np.ndarray | None = None
 
 #: Angles that get a standard deviation column (the posture's angles, radians).
 SD_ANGLES = (
@@ -143,15 +147,37 @@ def _normals() -> np.ndarray:
     return _TABLE
 
 
-def iter_samples(points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray) -> Iterator[np.ndarray]:
+def _offsets() -> np.ndarray:
+    """(SAMPLES, 33, 3) standard normal offsets of the joints, one set per draw (seeded)."""
+    global _OFFSETS
+    if _OFFSETS is None:
+        rng = np.random.default_rng(_SEED + 1)
+        _OFFSETS = rng.standard_normal((SAMPLES, NUM_JOINTS, 3))
+        _OFFSETS.setflags(write=False)
+    return _OFFSETS
+
+
+def iter_samples(
+    points_world: np.ndarray, std_world: np.ndarray, frames: np.ndarray, floor_m: float = 0.0
+) -> Iterator[np.ndarray]:
     """(n, 33, 3) estimate and deviations -> the SAMPLES draws, one (n, 33, 3) array at a time (a
     NaN deviation counts as 0; a frame's draws depend on its frame number only): only one draw's
-    points are in memory at once (all at once would be SAMPLES x 792 bytes per frame)."""
+    points are in memory at once (all at once would be SAMPLES x 792 bytes per frame).
+
+    ``floor_m``: the keypoints' own error (metres per coordinate). Each draw moves every joint by
+    its own offset, the same in every frame: the network's errors are shared by the cameras and
+    last, so they shift a posture; drawn afresh in every frame they would be a jitter, which the
+    scoring would count as repeated actions and rapid changes that the estimate does not have.
+    A frame's spread is the same either way: its variance is the deviation's plus the floor's."""
     rows = np.asarray(frames, dtype=np.int64) % _TABLE_FRAMES
     sd = np.where(np.isfinite(std_world), std_world, 0.0)
     table = _normals()
+    offsets = _offsets()
     for k in range(SAMPLES):
-        yield points_world + sd * table[k, rows]
+        draw = points_world + sd * table[k, rows]
+        if floor_m > 0:
+            draw = draw + floor_m * offsets[k]
+        yield draw
 
 
 def angle_sd(estimate: pd.DataFrame, draws: list[pd.DataFrame]) -> pd.DataFrame:

@@ -32,6 +32,7 @@ from ergopose.errors import InputError
 from ergopose.evaluation.loading import ResultsLayout
 from ergopose.pipeline import assess
 from ergopose.pipeline.guard import fingerprint_of
+from ergopose.pipeline.inputs import scoring_settings
 from ergopose.pipeline.score import CSV_DIR
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import load_session
@@ -170,6 +171,9 @@ def run_oracle(
     t0 = time.perf_counter()
     with atomic_dir(layout.root) as tmp:
         run = assess.prepare_source(session, tmp, recon, CHUNK_FRAMES, label)
+        # No pose network, so none of its error (scoring's joint_sd_floor_m): the ORACLE's pixel
+        # noise is independent between the cameras and in the fit's covariance already.
+        run.scoring = scoring_settings(session).replace(joint_sd_floor_m=0.0)
         with run.store.lock():
             ranges, _, todo = assess.open_store(run, progress)
             assess.people_in_3d(run, todo, ranges, 0, 1, progress, source=OracleFrames(session, gt, options, progress))
@@ -192,7 +196,8 @@ def _readme(options: OracleOptions, session, workers: int, seconds: float) -> st
         f"noise ({options.noise_px:g} px on visible joints, {options.occluded_noise_px:g} px on hidden ones), "
         f"whole detections dropped with probability {options.person_dropout:g}\n"
         f"and single joints with probability {options.joint_dropout:g} (seed {options.seed}). Association, "
-        "triangulation, tracking,\nsmoothing, joint angles and scoring are ergopose's own. The figures measure "
+        "triangulation, tracking,\nsmoothing, joint angles and scoring are ergopose's own (the scores' probabilities "
+        "without the pose network's\nkeypoint error: joint_sd_floor_m = 0). The figures measure "
         "those stages, never\nergopose on video.\n\n"
         f"session: {session.path}\ntracked workers: {workers}\nrun time: {seconds:.1f} s\n\n"
         f'pipeline/{PREFIX}tracks.parquet   the tracks table (metadata source = "oracle")\n'

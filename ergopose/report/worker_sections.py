@@ -120,11 +120,10 @@ def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], 
         "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
         "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
         "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
-        "uncertain for the score. The measured uncertainty is what the cameras disagree on: a mistake the "
-        "pose network makes alike in every camera (a face seen from above, a knee hidden by the body) is "
-        "not in it, so 'with confidence' is the best case: on simulated workers the network's angle "
-        "errors were about 6 times the measured uncertainty, and on a real recording the angles differed "
-        "from another tool's 3D by 5 to 20 times it (docs/reconstruction.md)."
+        "uncertain for the score. The uncertainty is what the cameras disagree on plus the pose network's own "
+        "error at every joint (the scoring setting joint_sd_floor_m, measured on a real recording). Errors "
+        "that are the same in every frame, such as where the network puts the hips, are larger than that "
+        "for the trunk and the knees, so 'with confidence' is the best case (docs/scoring.md)."
     )
     return tuple(rows), note
 

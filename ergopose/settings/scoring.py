@@ -73,3 +73,11 @@ class ScoringTable(Table):
     unknown_flags: Literal["absent", "missing"] = Field(
         "absent", description="an unknown yes/no input adds nothing (a lower bound) or makes the step score missing"
     )
+
+    joint_sd_floor_m: float = Field(
+        0.018,
+        ge=0,
+        le=0.2,
+        description="the pose network's own error at each joint (metres, per coordinate), added to the measured "
+        "standard deviation when the scores' probabilities are drawn; 0: what the cameras disagree on only",
+    )

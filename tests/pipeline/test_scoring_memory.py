@@ -80,6 +80,18 @@ def test_draws_one_at_a_time_are_the_draws_of_all_at_once():
     # the same frame gets the same draws wherever it sits in a block
     part = list(U.iter_samples(rows.points_world[10:20], rows.std_world[10:20], frames[10:20]))
     assert np.array_equal(part[5], got[5][10:20], equal_nan=True)
+    # the keypoints' own error: an offset of each joint per draw, the same in every frame (no
+    # jitter), proportional to the floor, on top of the draw without it (also where the
+    # deviation is NaN)
+    floored = list(U.iter_samples(rows.points_world, rows.std_world, frames, floor_m=0.003))
+    double = list(U.iter_samples(rows.points_world, rows.std_world, frames, floor_m=0.006))
+    for a, b, base in zip(floored, double, got):
+        shift = a - base
+        assert np.allclose(shift, shift[:1]) and np.abs(shift).max() > 0
+        assert np.allclose(b - base, 2 * shift)
+    offsets = np.stack([a[0] - base[0] for a, base in zip(floored, got)]) / 0.003
+    assert 0.7 < offsets.std() < 1.3  # standard normal offsets (16 x 33 x 3 of them)
+    assert not np.allclose(floored[3][nan], rows.points_world[nan])
 
 
 def _peak_bytes(session, rows, scoring) -> int:
