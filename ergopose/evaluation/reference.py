@@ -503,7 +503,13 @@ def evaluate_reference(
             else np.full(len(ref_deg), np.nan)
         )
         d = (ours - ref_deg + 180.0) % 360.0 - 180.0
-        row = angle_stats(d)
+        sd_col = f"{c}_sd"
+        sd = (
+            pd.to_numeric(assessed_df[sd_col], errors="coerce").to_numpy(np.float64)
+            if sd_col in assessed_df.columns
+            else np.full(len(ref_deg), np.nan)
+        )
+        row = angle_stats(d, sd)
         row["missing_assessment"] = int((~np.isfinite(ours)).sum())
         row["missing_reference"] = int((~np.isfinite(ref_deg)).sum())
         if row["missing_reference"] == len(ref_deg):
@@ -647,6 +653,16 @@ def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
     }
 
 
+def _sd_cover(row: Mapping[str, Any]) -> str:
+    """How well the assessment's reported SDs cover the differences (empty without them)."""
+    if not row.get("sd_rows"):
+        return ""
+    return (
+        f"  within 1 / 2 of its SDs {row['within_one_sd_pct']:.0f} / {row['within_two_sd_pct']:.0f} % "
+        f"(median SD {row['median_sd_deg']:.1f})"
+    )
+
+
 def format_reference(ev: Mapping[str, Any]) -> str:
     """A short text summary for the terminal."""
     fr, al, an, sc = ev["frame_selection"], ev["alignment"], ev["angles"], ev["scores"]
@@ -668,7 +684,7 @@ def format_reference(ev: Mapping[str, Any]) -> str:
     lines.append("Angles (assessment - reference, degrees): mean absolute difference, bias, frames")
     for c, r in an["by_angle"].items():
         if r["n"]:
-            lines.append(f"  {c:<28} MAD {r['mae_deg']:6.2f}  bias {r['bias_deg']:+6.2f}  n {r['n']}")
+            lines.append(f"  {c:<28} MAD {r['mae_deg']:6.2f}  bias {r['bias_deg']:+6.2f}  n {r['n']}" + _sd_cover(r))
     skipped = [c for c, r in an["by_angle"].items() if not r["n"]]
     if skipped:
         lines.append(f"  not compared (not measured on one side): {', '.join(skipped)}")

@@ -116,6 +116,7 @@ def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
     columns = [c for c in ANGLE_COLUMNS if c in gt.postures.columns]
     built = _built_angles(gt, columns)
     diffs: dict[str, list[np.ndarray]] = {c: [] for c in columns}
+    sds: dict[str, list[np.ndarray]] = {c: [] for c in columns}
     regions: list[np.ndarray] = []
     rows = unmatched = 0
     for w, (csv, people) in csvs.items():
@@ -125,6 +126,12 @@ def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
         rows += len(frames)
         regions.append(_region_of_rows(inp, w, frames))
         for c in columns:
+            sd_col = f"{c}_sd"
+            sds[c].append(
+                pd.to_numeric(csv[sd_col], errors="coerce").to_numpy(np.float64)[ok]
+                if sd_col in csv.columns
+                else np.full(len(frames), np.nan)
+            )
             if c not in csv.columns:
                 diffs[c].append(np.full(len(frames), np.nan))
                 continue
@@ -136,7 +143,7 @@ def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
     pooled = []
     for c in columns:
         d = np.concatenate(diffs[c]) if diffs[c] else np.zeros(0)
-        row = angle_stats(d)
+        row = angle_stats(d, np.concatenate(sds[c]) if sds[c] else np.zeros(0))
         row["rmse_by_region_deg"] = {rg: angle_stats(d[reg == k])["rmse_deg"] for k, rg in enumerate(REGIONS)}
         per_angle[c] = row
         pooled.append(d[np.isfinite(d)])
@@ -160,22 +167,39 @@ def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
     }
 
 
-def angle_stats(d: np.ndarray) -> dict:
+def angle_stats(d: np.ndarray, sd: np.ndarray | None = None) -> dict:
     """Error statistics of one angle's differences ``d`` (degrees; NaN = missing): count, missing,
-    RMSE, mean absolute, bias and 95th percentile of the absolute error, rounded to 3 decimals."""
+    RMSE, mean absolute, bias and 95th percentile of the absolute error, rounded to 3 decimals.
+
+    sd: the standard deviations the assessment reported for the same rows (degrees, its steps
+    CSV's ``<angle>_sd``), or None. Then also how well they cover the errors, over the rows with
+    a difference and a positive deviation (0 is a value taken from the settings):
+    ``sd_rows``, ``median_sd_deg``, ``within_one_sd_pct`` and ``within_two_sd_pct`` (68 and 95 %
+    for normal errors with those deviations)."""
     n_all = len(d)
     v = d[np.isfinite(d)]
     if not len(v):
         nan = float("nan")
-        return {"n": 0, "missing": int(n_all), "rmse_deg": nan, "mae_deg": nan, "bias_deg": nan, "p95_abs_deg": nan}
-    return {
-        "n": int(len(v)),
-        "missing": int(n_all - len(v)),
-        "rmse_deg": round_or_nan(np.sqrt(np.mean(v * v)), 3),
-        "mae_deg": round_or_nan(np.abs(v).mean(), 3),
-        "bias_deg": round_or_nan(v.mean(), 3),
-        "p95_abs_deg": round_or_nan(np.percentile(np.abs(v), 95), 3),
-    }
+        out = {"n": 0, "missing": int(n_all), "rmse_deg": nan, "mae_deg": nan, "bias_deg": nan, "p95_abs_deg": nan}
+    else:
+        out = {
+            "n": int(len(v)),
+            "missing": int(n_all - len(v)),
+            "rmse_deg": round_or_nan(np.sqrt(np.mean(v * v)), 3),
+            "mae_deg": round_or_nan(np.abs(v).mean(), 3),
+            "bias_deg": round_or_nan(v.mean(), 3),
+            "p95_abs_deg": round_or_nan(np.percentile(np.abs(v), 95), 3),
+        }
+    if sd is not None:
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(d) & np.isfinite(sd) & (sd > 0)
+        z = np.abs(d[ok]) / sd[ok]
+        nan = float("nan")
+        out["sd_rows"] = int(ok.sum())
+        out["median_sd_deg"] = round_or_nan(np.median(sd[ok]), 3) if ok.any() else nan
+        out["within_one_sd_pct"] = round_or_nan(100.0 * np.mean(z <= 1.0), 2) if ok.any() else nan
+        out["within_two_sd_pct"] = round_or_nan(100.0 * np.mean(z <= 2.0), 2) if ok.any() else nan
+    return out
 
 
 # ------------------------------------------------------------------------------------------ scores

@@ -121,7 +121,14 @@ def format_evaluation(ev: dict) -> str:
     for name, row in a["by_angle"].items():
         lines.append(
             f"  {name:<26} RMSE {_f(row['rmse_deg'], '6.2f')}  bias {_f(row['bias_deg'], '+6.2f')}  "
-            f"n={row['n']}" + (f" missing={row['missing']}" if row["missing"] else "")
+            f"n={row['n']}"
+            + (f" missing={row['missing']}" if row["missing"] else "")
+            + (
+                f"  within 1 / 2 SD {_f(row['within_one_sd_pct'], '.0f')} / {_f(row['within_two_sd_pct'], '.0f')} %"
+                f" (median SD {_f(row['median_sd_deg'], '.1f')})"
+                if row.get("sd_rows")
+                else ""
+            )
         )
     s = ev["scores"]
     lines += ["", "RULA / REBA agreement with the scores of the true angles"]

@@ -14,6 +14,7 @@ import pytest
 from ergopose.errors import InputError
 from ergopose.evaluation.compare import evaluate_results
 from ergopose.evaluation.loading import ResultsLayout
+from ergopose.evaluation.scoring import angle_stats
 from ergopose.recon.diagnostics import REGIONS
 from ergopose.sim.ground_truth import load_ground_truth
 
@@ -282,3 +283,15 @@ def test_missing_inputs_are_named(perfect, small_session, tmp_path):
     shutil.rmtree(plain / "ground_truth")
     with pytest.raises(InputError, match="not a simulated session"):
         _evaluate(plain, src)
+
+
+def test_angle_stats_say_how_well_the_reported_sds_cover_the_errors():
+    d = np.array([1.0, -3.0, 0.5, 5.0, np.nan, 2.0])
+    sd = np.array([2.0, 2.0, 1.0, 1.0, 1.0, 0.0])  # a missing difference, and a value from the settings (SD 0)
+    r = angle_stats(d, sd)
+    assert r["sd_rows"] == 4
+    assert r["within_one_sd_pct"] == 50.0  # 1 <= 2 and 0.5 <= 1
+    assert r["within_two_sd_pct"] == 75.0  # and 3 <= 4
+    assert r["median_sd_deg"] == 1.5
+    assert r["n"] == 5 and r["bias_deg"] == pytest.approx(1.1)
+    assert "sd_rows" not in angle_stats(d)
