@@ -4,8 +4,8 @@ The reconstruction gives every joint of every frame a standard deviation per wor
 (the body fit's covariance, smoothed; the tracks table's ``std_x/y/z``). That covariance holds
 only what the cameras disagree on; the scoring setting ``joint_sd_floor_m`` adds the pose
 network's own error (the same in every camera, an offset of each joint that lasts: see
-:func:`iter_samples`). Here the joints are drawn
-``SAMPLES`` times from independent normal distributions with those deviations; the joint
+:func:`iter_samples`). Here the joints are drawn ``SAMPLES`` times from independent normal
+distributions with those deviations; the joint
 angles and the RULA and REBA scores are computed for every draw exactly as for the estimate
 (the same angle and scoring code, task inputs and time windows). From the draws:
 

@@ -32,7 +32,6 @@ from ergopose.errors import InputError
 from ergopose.evaluation.loading import ResultsLayout
 from ergopose.pipeline import assess
 from ergopose.pipeline.guard import fingerprint_of
-from ergopose.pipeline.inputs import scoring_settings
 from ergopose.pipeline.score import CSV_DIR
 from ergopose.progress import ProgressCallback, report
 from ergopose.session import load_session
@@ -173,7 +172,7 @@ def run_oracle(
         run = assess.prepare_source(session, tmp, recon, CHUNK_FRAMES, label)
         # No pose network, so none of its error (scoring's joint_sd_floor_m): the ORACLE's pixel
         # noise is independent between the cameras and in the fit's covariance already.
-        run.scoring = scoring_settings(session).replace(joint_sd_floor_m=0.0)
+        run.scoring = run.scoring.replace(joint_sd_floor_m=0.0)
         with run.store.lock():
             ranges, _, todo = assess.open_store(run, progress)
             assess.people_in_3d(run, todo, ranges, 0, 1, progress, source=OracleFrames(session, gt, options, progress))

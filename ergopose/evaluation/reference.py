@@ -48,7 +48,7 @@ from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError, InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
 from ergopose.evaluation.loading import ResultsLayout, json_ready, reported_ids, round_or_nan
-from ergopose.evaluation.scoring import SCORE_SCALES, angle_stats, read_frames_csv
+from ergopose.evaluation.scoring import SCORE_SCALES, angle_stats, read_frames_csv, reported_sd
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.geometry.rigid import kabsch
@@ -503,13 +503,7 @@ def evaluate_reference(
             else np.full(len(ref_deg), np.nan)
         )
         d = (ours - ref_deg + 180.0) % 360.0 - 180.0
-        sd_col = f"{c}_sd"
-        sd = (
-            pd.to_numeric(assessed_df[sd_col], errors="coerce").to_numpy(np.float64)
-            if sd_col in assessed_df.columns
-            else np.full(len(ref_deg), np.nan)
-        )
-        row = angle_stats(d, sd)
+        row = angle_stats(d, reported_sd(assessed_df, c))
         row["missing_assessment"] = int((~np.isfinite(ours)).sum())
         row["missing_reference"] = int((~np.isfinite(ref_deg)).sum())
         if row["missing_reference"] == len(ref_deg):

@@ -126,12 +126,7 @@ def angles_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
         rows += len(frames)
         regions.append(_region_of_rows(inp, w, frames))
         for c in columns:
-            sd_col = f"{c}_sd"
-            sds[c].append(
-                pd.to_numeric(csv[sd_col], errors="coerce").to_numpy(np.float64)[ok]
-                if sd_col in csv.columns
-                else np.full(len(frames), np.nan)
-            )
+            sds[c].append(reported_sd(csv, c)[ok])
             if c not in csv.columns:
                 diffs[c].append(np.full(len(frames), np.nan))
                 continue
@@ -193,13 +188,24 @@ def angle_stats(d: np.ndarray, sd: np.ndarray | None = None) -> dict:
     if sd is not None:
         with np.errstate(invalid="ignore"):
             ok = np.isfinite(d) & np.isfinite(sd) & (sd > 0)
-        z = np.abs(d[ok]) / sd[ok]
-        nan = float("nan")
         out["sd_rows"] = int(ok.sum())
-        out["median_sd_deg"] = round_or_nan(np.median(sd[ok]), 3) if ok.any() else nan
-        out["within_one_sd_pct"] = round_or_nan(100.0 * np.mean(z <= 1.0), 2) if ok.any() else nan
-        out["within_two_sd_pct"] = round_or_nan(100.0 * np.mean(z <= 2.0), 2) if ok.any() else nan
+        out.update(dict.fromkeys(("median_sd_deg", "within_one_sd_pct", "within_two_sd_pct"), float("nan")))
+        if ok.any():
+            z = np.abs(d[ok]) / sd[ok]
+            out["median_sd_deg"] = round_or_nan(np.median(sd[ok]), 3)
+            out["within_one_sd_pct"] = round_or_nan(100.0 * np.mean(z <= 1.0), 2)
+            out["within_two_sd_pct"] = round_or_nan(100.0 * np.mean(z <= 2.0), 2)
     return out
+
+
+def reported_sd(csv: pd.DataFrame, angle: str) -> np.ndarray:
+    """(rows,) the standard deviation the steps CSV reports for ``angle`` (degrees, its
+    ``<angle>_sd`` column; NaN where it has none)."""
+    column = f"{angle}_sd"
+    if column not in csv.columns:
+        return np.full(len(csv), np.nan)
+    values: np.ndarray = pd.to_numeric(csv[column], errors="coerce").to_numpy(np.float64)
+    return values
 
 
 # ------------------------------------------------------------------------------------------ scores

@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError
 from ergopose.pipeline import aggregate, detect, guard, names, publish, track
 from ergopose.pipeline import window as part_of_day
@@ -155,7 +156,7 @@ class PreparedRun:
     job: detect.DetectJob
     chunk_frames: int
     models: tuple[ModelUse, ...]
-    scoring: object
+    scoring: ScoringSettings
     t_start: float
     timings: dict[str, float] = field(default_factory=dict)
     window: part_of_day.Window | None = None

@@ -112,7 +112,7 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd], resolved:
     for a, b in zip(*np.nonzero(close)):
         label[root(a)] = root(b)
     # A pending group touched by the new contact takes all its live continuations into it.
-    touched = {live[i].group for i in np.flatnonzero(close.any(axis=1))} - {None}
+    touched = {g for i in np.flatnonzero(close.any(axis=1)) if (g := live[i].group) is not None}
     for gid in touched:
         idx = [i for i in range(len(live)) if live[i].group == gid]
         for i in idx[1:]:
@@ -122,7 +122,7 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd], resolved:
     for i in range(len(live)):
         if in_contact[i] or live[i].group in touched:
             groups.setdefault(root(i), []).append(live[i])
-    for gid in sorted(g for g in touched if g is not None):
+    for gid in sorted(touched):
         resolve_group(state, gid, resolved)
     gone = set()
     new_tracks = []
@@ -221,9 +221,8 @@ def group_ready(state: TrackerState, gid: int, f: int) -> bool:
     """Decide a contact group once its people have separated and every live continuation
     has relink_window_s of 3D data since, with clothing colours or signatures that can be
     compared (GROUP_MIN_LIMBS limbs known in the continuation and in every identity of the
-    group); or after GROUP_MAX_WAIT windows
-    since the separation, GROUP_MAX_WAIT_S since the contact, or when no continuation is
-    alive any more."""
+    group); or after GROUP_MAX_WAIT windows since the separation, GROUP_MAX_WAIT_S since the
+    contact, or when no continuation is alive any more."""
     g = state.groups[gid]
     live = live_members(state, gid)
     if not live or (f - g["start"]) >= GROUP_MAX_WAIT_S * state.fps:
@@ -269,16 +268,12 @@ def assign_group(cost: np.ndarray, idents: list[int], margin: float) -> list[int
         return final
     for i, j in zip(r, c):
         final[rows[i]] = idents[j]
-    free = [k for k in idents if k not in {idents[j] for j in c}]
-    others = [m for m in range(len(idents)) if m not in set(rows.tolist())]
+    taken = {idents[j] for j in c}
+    others = sorted(set(range(len(idents))) - set(rows.tolist()))
+    keep = {m for m in others if idents[m] not in taken}
+    left = [k for k in idents if k not in taken and k not in {idents[m] for m in keep}]
     for m in others:
-        if idents[m] in free:
-            free.remove(idents[m])
-        else:
-            final[m] = -1
-    for m in others:
-        if final[m] == -1:
-            final[m] = free.pop(0)
+        final[m] = idents[m] if m in keep else left.pop(0)
     return final
 
 

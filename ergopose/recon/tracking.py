@@ -45,11 +45,11 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    passing each other, standing together) can swap people without any geometric sign. Their
    tracks end and continuations carry on with the same identities, provisionally (their rows
    wait); once the people have separated again and each live continuation has
-   ``relink_window_s`` of 3D data since, with colours or GROUP_MIN_LIMBS limbs to compare (at most GROUP_MAX_WAIT
-   windows after the separation, GROUP_MAX_WAIT_S after the contact), the identities are
-   confirmed or crossed over by optimal assignment on the clothing colours where known (crossed
-   only if that beats keeping them by APPEARANCE_MARGIN per changed identity), else on the
-   signatures (by ``relink_margin_m``) (track_contacts.resolve_group). The continuations seen
+   ``relink_window_s`` of 3D data since, with colours or GROUP_MIN_LIMBS limbs to compare (at
+   most GROUP_MAX_WAIT windows after the separation, GROUP_MAX_WAIT_S after the contact), the
+   identities are confirmed or crossed over by optimal assignment on the clothing colours where
+   known (crossed only if that beats keeping them by APPEARANCE_MARGIN per changed identity),
+   else on the signatures (by ``relink_margin_m``) (track_contacts.resolve_group). The continuations seen
    apart may take any identity of the group; one that ended unseen keeps its own only if no
    other claims it. A continuation that meets someone else before its group is decided joins
    a new contact with all its group's live continuations: the old group is decided at once on

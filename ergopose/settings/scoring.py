@@ -78,6 +78,7 @@ class ScoringTable(Table):
         0.018,
         ge=0,
         le=0.2,
-        description="the pose network's own error at each joint (metres, per coordinate), added to the measured "
-        "standard deviation when the scores' probabilities are drawn; 0: what the cameras disagree on only",
+        description="the pose network's own error at each joint (metres, per coordinate): every draw of the "
+        "scores' probabilities moves each joint by a lasting offset of this size, on top of the measured "
+        "standard deviation; 0: what the cameras disagree on only",
     )
