@@ -34,6 +34,24 @@ SCORE_SCALES: dict[str, tuple[int, ...]] = {
 #: swing of exactly 20 degrees), where a reconstruction off by 1e-7 rad already flips the band.
 EDGE_NUDGE_RAD = 1e-6
 
+#: The angles of each body part (ANGLE_COLUMNS), for the agreement expected with one part exact.
+BODY_PART_ANGLES: dict[str, tuple[str, ...]] = {
+    "trunk": ("trunk_flexion", "trunk_side_bend", "trunk_twist"),
+    "neck": ("neck_flexion", "neck_side_bend", "neck_twist"),
+    "upper_arms": tuple(
+        f"{side}_{a}"
+        for side in ("left", "right")
+        for a in ("upper_arm_flexion", "upper_arm_abduction", "upper_arm_elevation", "shoulder_elevation")
+    ),
+    "elbows": ("left_elbow_flexion", "right_elbow_flexion"),
+    "wrists": tuple(f"{side}_wrist_{a}" for side in ("left", "right") for a in ("flexion", "deviation")),
+    "knees": ("left_knee_flexion", "right_knee_flexion"),
+}
+
+#: How many time shifts of the run's own angle errors give the expected exact agreement (the
+#: errors moved by 1/4, 2/4 and 3/4 of the shift with 3).
+EXPECTED_SHIFTS = 3
+
 
 # --------------------------------------------------------------------------------- steps CSV files
 
@@ -241,6 +259,61 @@ def ground_truth_scores(
     return score_posture(table, settings=scoring)
 
 
+def _store_errors(
+    out: np.ndarray, csv: pd.DataFrame, sel: np.ndarray, frames: np.ndarray, posture: pd.DataFrame
+) -> None:
+    """Write the rows' angle errors (steps CSV minus the true posture, radians, wrapped to [-pi, pi))
+    into ``out`` (F, len(ANGLE_COLUMNS)) at ``frames``; angles the CSV or the truth lacks stay NaN."""
+    for k, c in enumerate(ANGLE_COLUMNS):
+        if c not in csv.columns or c not in posture.columns:
+            continue
+        measured = np.radians(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[sel])
+        true = posture[c].to_numpy(np.float64)[frames]
+        out[frames, k] = (measured - true + np.pi) % (2 * np.pi) - np.pi
+
+
+def _expected_agreement(
+    inp: EvaluationInputs,
+    postures: Mapping[int, pd.DataFrame],
+    errors: Mapping[int, np.ndarray],
+    compared: Sequence[tuple[int, str, np.ndarray, pd.DataFrame]],
+    exact_part: str | None = None,
+) -> dict[str, float]:
+    """Exact agreement (%) per score of the true scores with those of the true angles plus the run's
+    own angle errors shifted in time by k/(EXPECTED_SHIFTS + 1) of the shift, k = 1..EXPECTED_SHIFTS,
+    over the compared frames: how much agreement angle errors of this size and persistence leave,
+    wherever in the work they fall. Errors of frames without a matched row are taken as 0, and
+    those of the angles of ``exact_part`` (a key of BODY_PART_ANGLES) too."""
+    if exact_part is not None:
+        zeroed = [j for j, c in enumerate(ANGLE_COLUMNS) if c in BODY_PART_ANGLES[exact_part]]
+        errors = {p: e.copy() for p, e in errors.items()}
+        for e in errors.values():
+            e[:, zeroed] = 0.0
+    hits: dict[str, list[np.ndarray]] = {c: [] for c in SCORE_SCALES}
+    gt, session = inp.gt, inp.session
+    F = gt.n_frames
+    for k in range(1, EXPECTED_SHIFTS + 1):
+        shift = (k * F) // (EXPECTED_SHIFTS + 1)
+        moved_scores: dict[tuple[int, str], pd.DataFrame] = {}
+        for p, worker, frames, truth in compared:
+            if (p, worker) not in moved_scores:
+                moved = postures[p].copy()
+                e = np.nan_to_num(np.roll(errors[p], shift, axis=0), nan=0.0)
+                for j, c in enumerate(ANGLE_COLUMNS):
+                    if c in moved.columns:
+                        moved[c] = (moved[c].to_numpy(np.float64) + e[:, j] + np.pi) % (2 * np.pi) - np.pi
+                moved_scores[(p, worker)] = ground_truth_scores(session, gt, p, worker, inp.scoring, moved)
+            for c in SCORE_SCALES:
+                t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)[frames]
+                m = moved_scores[(p, worker)][c].to_numpy(dtype=np.float64, na_value=np.nan)[frames]
+                ok = np.isfinite(t) & np.isfinite(m)
+                hits[c].append(t[ok] == m[ok])
+    return {
+        c: round_or_nan(100.0 * float(np.mean(np.concatenate(v))), 2) if v and sum(map(len, v)) else float("nan")
+        for c, v in hits.items()
+    }
+
+
 def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     gt, session = inp.gt, inp.session
     postures: dict[int, pd.DataFrame] = {}
@@ -267,12 +340,18 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
             scored[key] = (truth, nudged)
         return scored[key]
 
+    errors: dict[int, np.ndarray] = {}  # simulated worker -> (F, A) angle errors of its matched rows, radians
+    # (simulated worker, the id whose task factors apply, frames, true scores)
+    compared: list[tuple[int, str, np.ndarray, pd.DataFrame]] = []
     for w, (csv, people_all) in csvs.items():
         for p in np.unique(people_all[people_all >= 0]):
             p = int(p)
             sel = people_all == p
             truth, nudged = truth_of(p, inp.reported[identity_name(w)])
             frames = csv["frame"].to_numpy(np.int64)[sel]
+            errors.setdefault(p, np.full((gt.n_frames, len(ANGLE_COLUMNS)), np.nan))
+            _store_errors(errors[p], csv, sel, frames, postures[p])
+            compared.append((p, inp.reported[identity_name(w)], frames, truth))
             regions.append(_region_of_rows(inp, w, frames))
             for c in SCORE_SCALES:
                 t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)
@@ -294,9 +373,16 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
             "of the id the results use for the tracked "
             "worker id); frames where either score is missing are left out and counted; off_edge "
             f"repeats the agreement without the frames whose true score changes when every true angle "
-            f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge)"
+            f"moves by {EDGE_NUDGE_RAD:g} rad (truth_on_band_edge); expected_exact_agreement_pct is the "
+            "exact agreement of the true scores with the scores of the true angles plus this run's own "
+            f"angle errors moved in time ({EXPECTED_SHIFTS} shifts spread over the shift, "
+            "errors of unmatched frames 0; the other inputs true): the agreement errors of this size and "
+            "persistence give wherever they fall; expected_exact_agreement_with_exact_part_pct repeats it "
+            "with one body part's angle errors left out (BODY_PART_ANGLES): what that part's errors cost"
         )
     }
+    expected = _expected_agreement(inp, postures, errors, compared)
+    with_exact = {part: _expected_agreement(inp, postures, errors, compared, part) for part in BODY_PART_ANGLES}
     for c, scale in SCORE_SCALES.items():
         a = np.concatenate(pairs[c][0]) if pairs[c][0] else np.zeros(0)
         b = np.concatenate(pairs[c][1]) if pairs[c][1] else np.zeros(0)
@@ -323,6 +409,8 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
                 "kappa": round_or_nan(kappa_from_matrix(cm_off, "none"), 4),
                 "kappa_linear": round_or_nan(kappa_from_matrix(cm_off, "linear"), 4),
             },
+            "expected_exact_agreement_pct": expected[c],
+            "expected_exact_agreement_with_exact_part_pct": {part: e[c] for part, e in with_exact.items()},
             "exact_agreement_by_region_pct": {
                 rg: round_or_nan(100.0 * exact_agreement(confusion_matrix(a[reg == k], b[reg == k], scale)), 2)
                 for k, rg in enumerate(REGIONS)

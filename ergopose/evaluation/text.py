@@ -141,6 +141,20 @@ def format_evaluation(ev: dict) -> str:
             + (f"; {r['truth_on_band_edge']} with the true score on a band edge" if r["truth_on_band_edge"] else "")
             + ")"
         )
+    lines.append(
+        "  exact agreement that angle errors of this size leave (the truth plus this run's own angle errors "
+        "moved in time): "
+        + ", ".join(
+            f"{c} {_f(s[c].get('expected_exact_agreement_pct'), '.1f', ' %')}" for c in ("rula_grand", "reba_score")
+        )
+    )
+    for c in ("rula_grand", "reba_score"):
+        parts = s[c].get("expected_exact_agreement_with_exact_part_pct") or {}
+        if parts:
+            lines.append(
+                f"    {c} with one part's angles exact: "
+                + ", ".join(f"{part} {_f(v, '.1f', ' %')}" for part, v in parts.items())
+            )
     b = ev["bar"]
     lines += [
         "",

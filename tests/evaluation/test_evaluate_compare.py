@@ -14,7 +14,9 @@ import pytest
 from ergopose.errors import InputError
 from ergopose.evaluation.compare import evaluate_results
 from ergopose.evaluation.loading import ResultsLayout
-from ergopose.evaluation.scoring import angle_stats
+from ergopose.evaluation.loading import scoring_settings
+from ergopose.evaluation.scoring import angle_stats, ground_truth_posture, ground_truth_scores
+from ergopose.session import load_session
 from ergopose.recon.diagnostics import REGIONS
 from ergopose.sim.ground_truth import load_ground_truth
 
@@ -94,6 +96,11 @@ def test_perfect_reconstruction_limbs_angles_and_scores(perfect):
         assert s["within_one_pct"] == 100.0, c
         assert s["exact_agreement_pct"] >= 100.0 * (1 - s["truth_on_band_edge"] / s["pairs"]), c
     assert scores["rula_grand"]["kappa"] == 1.0 and scores["rula_action_level"]["exact_agreement_pct"] == 100.0
+    # Errors of 0.005 degree at most (the CSV's 2 decimals), moved in time, leave the scores exact
+    # but on band edges.
+    for c in ("rula_grand", "reba_score"):
+        s = scores[c]
+        assert s["expected_exact_agreement_pct"] >= 100.0 * (1 - s["truth_on_band_edge"] / s["pairs"]), c
 
 
 def test_reference_bar_table(perfect):
@@ -295,3 +302,40 @@ def test_angle_stats_say_how_well_the_reported_sds_cover_the_errors():
     assert r["median_sd_deg"] == 1.5
     assert r["n"] == 5 and r["bias_deg"] == pytest.approx(1.1)
     assert "sd_rows" not in angle_stats(d)
+
+
+def test_expected_agreement_is_that_of_the_truth_with_the_runs_angle_errors(perfect, small_session, gt, tmp_path):
+    # worker_1's trunk flexion 25 degrees too high in every frame: the same error wherever it is moved
+    # in time, so the expected agreement is that of the true posture with 25 degrees more trunk
+    # flexion for that worker, scored here directly, and exact for the other.
+    src, _ = perfect
+    out = tmp_path / "out"
+    shutil.copytree(src, out)
+    path = out / "csv" / "worker_1_steps.csv"
+    frames = pd.read_csv(path)
+    frames["trunk_flexion"] = frames["trunk_flexion"] + 25.0
+    frames.to_csv(path, index=False)
+    ev = _evaluate(small_session, out)
+
+    session = load_session(small_session, check_videos=False)
+    p = gt.worker_ids.index("w1")
+    posture = ground_truth_posture(gt, p)
+    moved = posture.copy()
+    moved["trunk_flexion"] = moved["trunk_flexion"] + np.radians(25.0)
+    truth = ground_truth_scores(session, gt, p, "worker_1", scoring_settings(session), posture)
+    bent = ground_truth_scores(session, gt, p, "worker_1", scoring_settings(session), moved)
+    for c in ("rula_grand", "reba_score"):
+        s = ev["scores"][c]
+        same = int(np.sum(truth[c].to_numpy() == bent[c].to_numpy()))
+        assert same < 0.9 * len(truth), c  # the error changes the score: the test can fail
+        # worker_2 is exact but on band edges (at most truth_on_band_edge frames)
+        expected = 100.0 * (same + s["pairs"] - len(truth)) / s["pairs"]
+        assert s["expected_exact_agreement_pct"] == pytest.approx(
+            expected, abs=100.0 * s["truth_on_band_edge"] / s["pairs"] + 0.01
+        ), c
+        # with the trunk exact nothing is left but band edges; with the knees exact, the trunk's cost stays
+        parts = s["expected_exact_agreement_with_exact_part_pct"]
+        assert parts["trunk"] >= 100.0 * (1 - s["truth_on_band_edge"] / s["pairs"]), c
+        assert parts["knees"] == s["expected_exact_agreement_pct"], c
+        # the scores in the CSV were left as they were: what was measured is still exact
+        assert s["exact_agreement_pct"] > s["expected_exact_agreement_pct"], c
