@@ -169,13 +169,18 @@ def detection_section(inp: EvaluationInputs) -> dict:
     reconstructed = np.zeros((F, P), bool)
     hit = match >= 0
     reconstructed[tf.frame[hit], match[hit]] = True
+    # Followed: the final positions (the body model's and the smoother's, whatever the cameras saw).
+    final_match = _per_frame_matches(tf, gt.joints_world, tf.points_world)
+    followed = np.zeros((F, P), bool)
+    followed[tf.frame[final_match >= 0], final_match[final_match >= 0]] = True
     has_raw = np.isfinite(tf.raw_points_world).all(axis=-1).any(axis=-1) if len(tf) else np.zeros(0, bool)
+    has_final = np.isfinite(tf.points_world).all(axis=-1).any(axis=-1) if len(tf) else np.zeros(0, bool)
     regions = _regions_of_people(gt, inp.recon.lens_region_limits_deg)
     per_camera = _regions_of_people(gt, inp.recon.lens_region_limits_deg, per_camera=True)
 
-    def rate(mask: np.ndarray) -> dict:
+    def rate(mask: np.ndarray, found: np.ndarray = reconstructed) -> dict:
         n = int(mask.sum())
-        k = int((mask & reconstructed).sum())
+        k = int((mask & found).sum())
         return {
             "worker_frames": n,
             "reconstructed": k,
@@ -187,13 +192,18 @@ def detection_section(inp: EvaluationInputs) -> dict:
             f"a worker is visible in a camera when at least {MIN_VISIBLE_TORSO} of its 4 torso joints "
             "are visible there (ground-truth visibility code 0); a worker-frame is reconstructed when a "
             "tracked row of that frame has a triangulated (raw) body centre within "
-            f"{MATCH_DISTANCE_M} m of the worker's true body centre (one-to-one per frame)"
+            f"{MATCH_DISTANCE_M} m of the worker's true body centre (one-to-one per frame); followed_*: the "
+            "same with the row's final body centre (body model and smoother: also the frames carried by one "
+            "camera, the previous pose or a short gap), the worker-frames the assessment has a posture for"
         ),
         "visible_in_both_cameras": rate(both),
         "detection_rate_pct": rate(both)["rate_pct"],
         "visible_in_one_camera": rate(one),
         "all_worker_frames": rate(np.ones((F, P), bool)),
         "by_region": {name: rate(both & (regions == k)) for k, name in enumerate(REGIONS)},
+        "followed_in_both_cameras": rate(both, followed),
+        "followed_by_region": {name: rate(both & (regions == k), followed) for k, name in enumerate(REGIONS)},
+        "followed_all_worker_frames": rate(np.ones((F, P), bool), followed),
         "by_camera_region": {
             camera: {name: rate(both & (per_camera[:, c] == k)) for k, name in enumerate(REGIONS)}
             for c, camera in enumerate(inp.session.camera_names)
@@ -201,5 +211,7 @@ def detection_section(inp: EvaluationInputs) -> dict:
         "tracked_rows": int(len(tf)),
         "tracked_rows_triangulated": int(has_raw.sum()),
         "tracked_rows_triangulated_unmatched": int((has_raw & ~hit).sum()),
+        "tracked_rows_with_a_position": int(has_final.sum()),
+        "tracked_rows_with_a_position_unmatched": int((has_final & (final_match < 0)).sum()),
     }
     return out

@@ -69,6 +69,13 @@ def format_evaluation(ev: dict) -> str:
             for r in REGIONS
         )
     )
+    fb, fr = d.get("followed_in_both_cameras"), d.get("followed_by_region")
+    if fb and fr:
+        lines.append(
+            f"  followed (final position, any number of cameras) {_f(fb['rate_pct'], '.1f', ' %')}; by region: "
+            + ", ".join(f"{r} {_f(fr[r]['rate_pct'], '.1f', ' %')}" for r in REGIONS)
+            + f"; rows near nobody {d['tracked_rows_with_a_position_unmatched']} of {d['tracked_rows_with_a_position']}"
+        )
     lines.append(
         f"  triangulated rows matched to nobody: {d['tracked_rows_triangulated_unmatched']} of "
         f"{d['tracked_rows_triangulated']}"

@@ -61,6 +61,7 @@ def test_perfect_reconstruction_scores_zero_error(perfect, gt):
     d = ev["detection"]
     assert d["detection_rate_pct"] == 100.0 and d["tracked_rows_triangulated_unmatched"] == 0
     assert d["all_worker_frames"]["rate_pct"] == 100.0
+    assert d["followed_all_worker_frames"]["rate_pct"] == 100.0 and d["tracked_rows_with_a_position_unmatched"] == 0
 
 
 def test_perfect_reconstruction_limbs_angles_and_scores(perfect):
@@ -339,3 +340,27 @@ def test_expected_agreement_is_that_of_the_truth_with_the_runs_angle_errors(perf
         assert parts["knees"] == s["expected_exact_agreement_pct"], c
         # the scores in the CSV were left as they were: what was measured is still exact
         assert s["exact_agreement_pct"] > s["expected_exact_agreement_pct"], c
+
+
+def test_followed_counts_final_positions_and_detection_the_triangulated_ones(small_session, gt, tmp_path):
+    # worker_1 not triangulated in every third frame (its final position kept, as the body model
+    # carries it), worker_2's final position 3 m up (near nobody) in every fifth frame.
+    tf = ground_truth_tracks(gt)
+    raw, final = tf.raw_points_world.copy(), tf.points_world.copy()
+    untriangulated = (tf.worker == 1) & (tf.frame % 3 == 0)
+    astray = (tf.worker == 2) & (tf.frame % 5 == 0)
+    raw[untriangulated] = np.nan
+    final[astray] += np.array([0.0, 0.0, 3.0])
+    out = write_results(
+        small_session, tmp_path / "out", dataclasses.replace(tf, raw_points_world=raw, points_world=final)
+    )
+    d = _evaluate(small_session, out)["detection"]
+    n = gt.n_frames * len(gt.worker_ids)
+    assert d["all_worker_frames"]["reconstructed"] == n - int(untriangulated.sum())
+    assert d["followed_all_worker_frames"]["reconstructed"] == n - int(astray.sum())
+    assert d["tracked_rows_with_a_position"] == n
+    assert d["tracked_rows_with_a_position_unmatched"] == int(astray.sum())
+    assert d["tracked_rows_triangulated_unmatched"] == 0
+    both = d["visible_in_both_cameras"]["worker_frames"]
+    assert d["followed_in_both_cameras"]["worker_frames"] == both > 0
+    assert sum(r["worker_frames"] for r in d["followed_by_region"].values()) == both
