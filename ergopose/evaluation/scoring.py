@@ -314,6 +314,44 @@ def _expected_agreement(
     }
 
 
+#: The scores whose shares of a worker's time are compared (the levels a report shows).
+SHARE_SCORES = ("rula_action_level", "reba_risk_level")
+
+
+def _time_shares(
+    by_worker: Mapping[int, Mapping[str, tuple[list[np.ndarray], list[np.ndarray]]]], worker_ids: Sequence[str]
+) -> dict[str, Any]:
+    """Per simulated worker and score of SHARE_SCORES: the share of its compared frames (both
+    scores known) at each level, measured and true, in %, and the largest difference over the
+    levels in percentage points; ``largest_difference_pp`` over every worker."""
+    out: dict[str, Any] = {}
+    for c in SHARE_SCORES:
+        scale = SCORE_SCALES[c]
+        workers: dict[str, Any] = {}
+        largest = float("nan")
+        for p in sorted(by_worker):
+            if c not in by_worker[p]:
+                continue
+            a = np.concatenate(by_worker[p][c][0])
+            b = np.concatenate(by_worker[p][c][1])
+            ok = np.isfinite(a) & np.isfinite(b)
+            n = int(ok.sum())
+            if n == 0:
+                continue
+            measured = [100.0 * float(np.mean(a[ok] == v)) for v in scale]
+            true = [100.0 * float(np.mean(b[ok] == v)) for v in scale]
+            diff = max(abs(x - y) for x, y in zip(measured, true))
+            workers[worker_ids[p]] = {
+                "frames": n,
+                "measured_pct": [round(x, 2) for x in measured],
+                "true_pct": [round(x, 2) for x in true],
+                "largest_difference_pp": round(diff, 2),
+            }
+            largest = diff if not np.isfinite(largest) else max(largest, diff)
+        out[c] = {"levels": list(scale), "by_worker": workers, "largest_difference_pp": round_or_nan(largest, 2)}
+    return out
+
+
 def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame, np.ndarray]]) -> dict:
     gt, session = inp.gt, inp.session
     postures: dict[int, pd.DataFrame] = {}
@@ -343,6 +381,8 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
     errors: dict[int, np.ndarray] = {}  # simulated worker -> (F, A) angle errors of its matched rows, radians
     # (simulated worker, the id whose task factors apply, frames, true scores)
     compared: list[tuple[int, str, np.ndarray, pd.DataFrame]] = []
+    # simulated worker -> score -> (measured, true) over its matched rows, for the time shares
+    by_worker: dict[int, dict[str, tuple[list[np.ndarray], list[np.ndarray]]]] = {}
     for w, (csv, people_all) in csvs.items():
         for p in np.unique(people_all[people_all >= 0]):
             p = int(p)
@@ -362,6 +402,9 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
                 pairs[c][0].append(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[sel])
                 pairs[c][1].append(t[frames])
                 pairs[c][2].append(edge[frames])
+                mine = by_worker.setdefault(p, {}).setdefault(c, ([], []))
+                mine[0].append(pairs[c][0][-1])
+                mine[1].append(t[frames])
     reg = np.concatenate(regions) if regions else np.zeros(0, np.int8)
     out: dict[str, Any] = {
         "definition": (
@@ -378,7 +421,9 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
             f"angle errors moved in time ({EXPECTED_SHIFTS} shifts spread over the shift, "
             "errors of unmatched frames 0; the other inputs true): the agreement errors of this size and "
             "persistence give wherever they fall; expected_exact_agreement_with_exact_part_pct repeats it "
-            "with one body part's angle errors left out (BODY_PART_ANGLES): what that part's errors cost"
+            "with one body part's angle errors left out (BODY_PART_ANGLES): what that part's errors cost; "
+            "time_shares: per simulated worker, the share of its compared frames at each RULA action level "
+            "and REBA risk level, measured and true (what a worker's report sums up)"
         )
     }
     expected = _expected_agreement(inp, postures, errors, compared)
@@ -417,6 +462,7 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
             },
         }
         out[c] = entry
+    out["time_shares"] = _time_shares(by_worker, [str(w) for w in gt.worker_ids])
     named = {w.worker_id for w in session.workers if w.periods or w.factors.given()}
     tracked = set(inp.reported.values())
     foreign = sorted(named - tracked)

@@ -162,6 +162,20 @@ def format_evaluation(ev: dict) -> str:
                 f"    {c} with one part's angles exact: "
                 + ", ".join(f"{part} {_f(v, '.1f', ' %')}" for part, v in parts.items())
             )
+    shares = s.get("time_shares") or {}
+    for c, sh in shares.items():
+        if not sh["by_worker"]:
+            continue
+        lines.append(
+            f"  {c}: share of each worker's time per level (levels {sh['levels'][0]}-{sh['levels'][-1]}), "
+            f"measured / true; largest difference {_f(sh['largest_difference_pp'], '.1f')} points"
+        )
+        for wid, r in sh["by_worker"].items():
+            lines.append(
+                f"    {wid:<6} "
+                + "  ".join(f"{m:.0f}/{t:.0f}" for m, t in zip(r["measured_pct"], r["true_pct"]))
+                + f" %  (n={r['frames']})"
+            )
     b = ev["bar"]
     lines += [
         "",

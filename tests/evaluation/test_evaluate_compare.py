@@ -364,3 +364,31 @@ def test_followed_counts_final_positions_and_detection_the_triangulated_ones(sma
     both = d["visible_in_both_cameras"]["worker_frames"]
     assert d["followed_in_both_cameras"]["worker_frames"] == both > 0
     assert sum(r["worker_frames"] for r in d["followed_by_region"].values()) == both
+
+
+def test_time_shares_per_worker_and_level(perfect, small_session, gt, tmp_path):
+    src, reference = perfect
+    sh = reference["scores"]["time_shares"]["rula_action_level"]
+    assert set(sh["by_worker"]) == {"w1", "w2"}
+    for r in sh["by_worker"].values():
+        assert r["measured_pct"] == r["true_pct"] and r["largest_difference_pp"] == 0.0
+        assert sum(r["true_pct"]) == pytest.approx(100.0, abs=0.05)
+    # worker_1's RULA action level one higher (capped at 4) in every other frame: its shares move
+    # by exactly what was changed, worker_2's stay.
+    out = tmp_path / "out"
+    shutil.copytree(src, out)
+    path = out / "csv" / "worker_1_steps.csv"
+    frames = pd.read_csv(path)
+    level = frames["rula_action_level"].to_numpy().copy()
+    before = [100.0 * np.mean(level == v) for v in (1, 2, 3, 4)]
+    level[::2] = np.minimum(level[::2] + 1, 4)
+    after = [100.0 * np.mean(level == v) for v in (1, 2, 3, 4)]
+    assert max(abs(a - b) for a, b in zip(after, before)) > 5.0  # the change shows: the test can fail
+    frames["rula_action_level"] = level
+    frames.to_csv(path, index=False)
+    sh = _evaluate(small_session, out)["scores"]["time_shares"]["rula_action_level"]
+    w1 = sh["by_worker"]["w1"]
+    assert w1["measured_pct"] == pytest.approx(after, abs=0.01)
+    assert w1["true_pct"] == pytest.approx(before, abs=0.01)
+    assert sh["by_worker"]["w2"]["largest_difference_pp"] == 0.0
+    assert sh["largest_difference_pp"] == pytest.approx(max(abs(a - b) for a, b in zip(after, before)), abs=0.01)
