@@ -112,6 +112,18 @@ class ReconSettings:
             (constant velocity) in m/s^2; for constant_acceleration the jerk in m/s^3 is this
             times process_noise_jerk_factor.
         process_noise_jerk_factor: 10.0 -- see above (1/s).
+        adaptive_noise: true -- (constant velocity) each joint of each worker gets the process
+            noise and the factor on its measurement variance that make its own track most likely:
+            a bank of filters, one per pair of adaptive_process_noise_m_s2 (1, 2, 4, 8, 16) and
+            adaptive_variance_scales (1, 2, 4, 8, 16: the fit's variance is never made smaller,
+            so the reported SDs stay at least the fit's), runs beside the smoother and sums each
+            joint's innovation log-likelihood over its three coordinates, weighing the evidence
+            of the last adaptive_memory_s (60 s, e-folding); the smoother uses the most likely
+            pair from the next frame on, and process_noise_m_s2 with the variance as given until
+            the joint has adaptive_min_s (5 s) of measurements. A gait's knees and a reach's
+            hands move faster than the trunk, and how much a joint's measurements scatter
+            depends on the cameras and the 2D source, which the fit's variance does not fully
+            carry (docs/reconstruction.md, section 4).
         reprojection_scale_px: 5.0 -- the variance of a triangulated point grows by the factor
             1 + (reprojection_error / reprojection_scale_px)^2.
         outlier_gate_chi2: 16.27 -- (raw triangulations only, body_model = false; the body
@@ -172,6 +184,11 @@ class ReconSettings:
     motion_model: str = "constant_velocity"
     process_noise_m_s2: float = 2.0
     process_noise_jerk_factor: float = 10.0
+    adaptive_noise: bool = True
+    adaptive_process_noise_m_s2: tuple[float, ...] = (1.0, 2.0, 4.0, 8.0, 16.0)
+    adaptive_variance_scales: tuple[float, ...] = (1.0, 2.0, 4.0, 8.0, 16.0)
+    adaptive_memory_s: float = 60.0
+    adaptive_min_s: float = 5.0
     reprojection_scale_px: float = 5.0
     outlier_gate_chi2: float = 16.27
     max_gated_run: int = 3
@@ -191,6 +208,8 @@ class ReconSettings:
     def as_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
         d["lens_region_limits_deg"] = list(self.lens_region_limits_deg)
+        d["adaptive_process_noise_m_s2"] = list(self.adaptive_process_noise_m_s2)
+        d["adaptive_variance_scales"] = list(self.adaptive_variance_scales)
         return d
 
 

@@ -25,6 +25,16 @@ y and innovation variance S = P_pred[0, 0] + r, exceeds ``outlier_gate_chi2`` is
 motion was real). A gap of more than ``max_fill_gap_s`` between accepted measurements also
 restarts it: the joint's track splits into independent segments.
 
+Adaptive noise (``adaptive_noise``, constant velocity only): a bank of filters, one per pair of
+``adaptive_process_noise_m_s2`` x ``adaptive_variance_scales``, runs beside the smoother on the
+measurements it accepts and restarts where it restarts; each joint's innovation
+log-likelihood per pair (summed over its coordinates, discounted with e-folding time
+``adaptive_memory_s``) chooses the process noise and the factor on the measurement variance its
+series use from the next frame on (``process_noise_m_s2`` and 1 until the joint has
+``adaptive_min_s`` of measurements; a joint whose filter restarts forgets it all). The window
+keeps each step's process noise, so the backward pass uses the model the forward pass used.
+docs/reconstruction.md, section 4.
+
 Smoother: the RTS backward pass (filterpy's ``rts_smoother``) within each segment,
 ``x_s[k] = x_f[k] + C_k (x_s[k+1] - F x_f[k])``, ``C_k = P_f[k] F^T (F P_f[k] F^T + Q)^-1``.
 Output: the smoothed position where a measurement was accepted, and inside gaps of at most
@@ -124,10 +134,20 @@ class KalmanRTS:
         self.next_frame = int(first_frame)
         self.window_start = int(first_frame)
         self.S = 0
+        # The adaptive noise (constant velocity only): a bank of G = |q| x |scale| filters per
+        # series, each joint's log-likelihood per pair, and the pair each series uses.
+        st = self.settings
+        self.adaptive = bool(st.adaptive_noise) and self.n == 2
+        self.q_bank = np.repeat(np.asarray(st.adaptive_process_noise_m_s2, float), len(st.adaptive_variance_scales))
+        self.s_bank = np.tile(np.asarray(st.adaptive_variance_scales, float), len(st.adaptive_process_noise_m_s2))
+        self.G = len(self.q_bank) if self.adaptive else 0
+        self.decay = float(np.exp(-1.0 / (self.fps * st.adaptive_memory_s)))
+        self.min_evidence = float(st.adaptive_min_s * self.fps)
+        self.q_default = float(st.process_noise_m_s2)
         self._alloc_state(0)
         self._win: list[
-            tuple[FloatArray, FloatArray, BoolArray, BoolArray, BoolArray, IntArray]
-        ] = []  # per frame: (x_f, P_f, cont, acc, gated, prev_meas)
+            tuple[FloatArray, FloatArray, BoolArray, BoolArray, BoolArray, IntArray, FloatArray]
+        ] = []  # per frame: (x_f, P_f, cont, acc, gated, prev_meas, process noise of the step into it)
         self.add_series(n_series)
 
     # --- state ------------------------------------------------------------------------------------
@@ -139,6 +159,26 @@ class KalmanRTS:
         self.init = np.zeros(s, bool)
         self.last_meas = np.full(s, _NEVER, np.int64)
         self.run = np.zeros(s, np.int64)
+        self.q = np.full(s, self.q_default)  # process noise each series uses (m/s^2)
+        self.scale = np.ones(s)  # factor on each series' measurement variance
+        G = self.G
+        self.xb = np.zeros((s, G, 2))  # the bank: state, covariance (a, b, c), initialised
+        self.Pb = np.zeros((s, G, 3))
+        self.initb = np.zeros((s, G), bool)
+        self.ll = np.zeros((s // self.spj, G))  # per joint and pair: discounted log-likelihood
+        self.evidence = np.zeros(s // self.spj)  # discounted number of frames measured
+
+    def _forget(self, joints: np.ndarray) -> None:
+        """Joints whose filters restart (after a gap longer than max_fill_gap_s, or a run of gated
+        measurements) forget what the adaptive noise learnt of them: their evidence and noise go
+        back to the defaults, as for a new series. A smoother slot given to another worker has
+        only such series, so reusing it gives the results a new slot would."""
+        series = (joints[:, None] * self.spj + np.arange(self.spj)).ravel()
+        self.q[series] = self.q_default
+        self.scale[series] = 1.0
+        self.initb[series] = False
+        self.ll[joints] = 0.0
+        self.evidence[joints] = 0.0
 
     def add_series(self, k: int) -> None:
         """Add k series (uninitialised; whole joints) at the end."""
@@ -152,6 +192,14 @@ class KalmanRTS:
         self.init = np.concatenate([self.init, np.zeros(k, bool)])
         self.last_meas = np.concatenate([self.last_meas, np.full(k, _NEVER, np.int64)])
         self.run = np.concatenate([self.run, np.zeros(k, np.int64)])
+        self.q = np.concatenate([self.q, np.full(k, self.q_default)])
+        self.scale = np.concatenate([self.scale, np.ones(k)])
+        G = self.G
+        self.xb = np.concatenate([self.xb, np.zeros((k, G, 2))])
+        self.Pb = np.concatenate([self.Pb, np.zeros((k, G, 3))])
+        self.initb = np.concatenate([self.initb, np.zeros((k, G), bool)])
+        self.ll = np.concatenate([self.ll, np.zeros((k // self.spj, G))])
+        self.evidence = np.concatenate([self.evidence, np.zeros(k // self.spj)])
         self._win = [
             (
                 np.concatenate([xf, np.full((k, n), np.nan)]),
@@ -160,8 +208,9 @@ class KalmanRTS:
                 np.concatenate([a, np.zeros(k, bool)]),
                 np.concatenate([g, np.zeros(k, bool)]),
                 np.concatenate([pm, np.full(k, _NEVER, np.int64)]),
+                np.concatenate([qw, np.full(k, self.q_default)]),
             )
-            for xf, Pf, c, a, g, pm in self._win
+            for xf, Pf, c, a, g, pm, qw in self._win
         ]
         self.S += k
 
@@ -184,11 +233,20 @@ class KalmanRTS:
         cv = n == 2
         dt = F[0, 1]
         q00, q01, q11 = Q[0, 0], Q[0, 1], Q[1, 1]
+        q_used = np.full(self.S, self.q_default)
         for t in range(z.shape[0]):
             k = self.next_frame
             zk, rk = z[t], var[t]
             has = np.isfinite(zk) & np.isfinite(rk) & (rk > 0)
             init = self.init
+            if self.adaptive:
+                restart = has & init & (((k - self.last_meas - 1) > max_gap) | (self.run >= max_run))
+                if restart.any():
+                    self._forget(np.unique(np.flatnonzero(restart) // spj))
+                # This frame's step with each series' chosen pair (chosen on the frames before).
+                q_used = self.q.copy()
+                q00, q01, q11 = _cv_q(dt, q_used)
+                rk = rk * self.scale
             # Predict the initialised series.
             if cv:  # the same arithmetic written out for 2 x 2 (several times faster)
                 x = np.empty_like(self.x)
@@ -248,8 +306,56 @@ class KalmanRTS:
             self.x, self.P, self.init = x, P, newinit
             self.last_meas = np.where(acc, k, np.where(fresh | newinit, self.last_meas, _NEVER))
             self.run = np.where(acc, 0, self.run + gated_now)
-            self._win.append((x, P, cont, acc, gated_now, self.last_meas.copy()))
+            self._win.append((x, P, cont, acc, gated_now, self.last_meas.copy(), q_used))
+            if self.adaptive:
+                self._bank_step(z[t], var[t], upd, fresh, dt)
             self.next_frame = k + 1
+
+    def _bank_step(self, zk: np.ndarray, rk: np.ndarray, upd: np.ndarray, fresh: np.ndarray, dt: float) -> None:
+        """Advance the bank of filters by one frame and choose each joint's pair for the next.
+
+        Every bank filter of a series takes the measurements the smoother accepted (``upd``) and
+        restarts where it restarted (``fresh``); a joint's log-likelihood per pair is the sum over
+        its coordinates of -(log(2 pi S) + y^2 / S) / 2, innovation y, innovation variance S."""
+        G, spj = self.G, self.spj
+        q00, q01, q11 = _cv_q(dt, self.q_bank)  # (G,)
+        a, b, c = self.Pb[..., 0], self.Pb[..., 1], self.Pb[..., 2]
+        x0 = self.xb[..., 0] + dt * self.xb[..., 1]
+        x1 = self.xb[..., 1]
+        bp = b + dt * c + q01
+        ap = a + dt * (b + bp - q01) + q00
+        cp = c + q11
+        r = rk[:, None] * self.s_bank[None, :]
+        use = upd[:, None] & self.initb
+        S_inn = np.where(use, ap + r, 1.0)
+        y = np.where(use, zk[:, None] - x0, 0.0)
+        ll = np.where(use, -0.5 * (np.log(2.0 * np.pi * S_inn) + y * y / S_inn), 0.0)
+        k0, k1 = np.where(use, ap / S_inn, 0.0), np.where(use, bp / S_inn, 0.0)
+        x0 = x0 + k0 * y
+        x1 = x1 + k1 * y
+        a_new = ap - k0 * ap
+        b_new = bp - k0 * bp
+        c_new = cp - k1 * bp
+        start = fresh[:, None] | (upd[:, None] & ~self.initb)
+        x0 = np.where(start, zk[:, None], x0)
+        x1 = np.where(start, 0.0, x1)
+        a_new = np.where(start, r, a_new)
+        b_new = np.where(start, 0.0, b_new)
+        c_new = np.where(start, INITIAL_VELOCITY_SIGMA**2, c_new)
+        self.xb = np.stack([x0, x1], axis=-1)
+        self.Pb = np.stack([a_new, b_new, c_new], axis=-1)
+        self.initb = self.initb | start
+        joint_ll = ll.reshape(-1, spj, G).sum(axis=1)
+        measured = np.any(np.all(use.reshape(-1, spj, G), axis=1), axis=1)  # joints that gave evidence
+        self.ll = self.ll * self.decay + joint_ll
+        self.evidence = self.evidence * self.decay + measured
+        best = np.argmax(self.ll, axis=1)
+        # (the discounted count of n frames is (1 - decay^n) / (1 - decay): at most half its ceiling)
+        ready = self.evidence >= min(self.min_evidence, 0.5 / (1.0 - self.decay))
+        q = np.where(ready, self.q_bank[best], self.q_default)
+        sc = np.where(ready, self.s_bank[best], 1.0)
+        self.q = np.repeat(q, spj)
+        self.scale = np.repeat(sc, spj)
 
     # --- backward ---------------------------------------------------------------------------------
 
@@ -276,12 +382,13 @@ class KalmanRTS:
         next_meas = np.where(self._win[-1][3], end - 1, _FUTURE)
         max_gap = self.max_gap
         for w in range(W - 1, -1, -1):
-            xf, Pf, cont, acc, g, prev = self._win[w]
+            xf, Pf, cont, acc, g, prev, _ = self._win[w]
             k = self.window_start + w
             if w < W - 1:
                 cont_next = self._win[w + 1][2]
                 if n == 2:
-                    x_new, P_new = _rts_step_cv(xf, Pf, xs, Ps, F[0, 1], Q)
+                    q_next = _cv_q(F[0, 1], self._win[w + 1][6]) if self.adaptive else (Q[0, 0], Q[0, 1], Q[1, 1])
+                    x_new, P_new = _rts_step_cv(xf, Pf, xs, Ps, F[0, 1], q_next)
                 else:
                     Pp = F @ Pf @ FT + Q
                     C = Pf @ FT @ np.linalg.inv(Pp)
@@ -305,17 +412,31 @@ class KalmanRTS:
         return Smoothed(np.arange(stop - T, stop), value, variance, measured, filled, gated)
 
 
+def _cv_q(dt: float, q: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Q00, Q01, Q11) of the constant-velocity model's process noise for white acceleration of
+    standard deviation q (m/s^2, an array or a number): filterpy's Q_discrete_white_noise(2, dt, q^2)."""
+    v = np.asarray(q, dtype=np.float64) ** 2
+    return 0.25 * dt**4 * v, 0.5 * dt**3 * v, dt**2 * v
+
+
 def _rts_step_cv(
-    xf: np.ndarray, Pf: np.ndarray, xs: np.ndarray, Ps: np.ndarray, dt: float, Q: np.ndarray
+    xf: np.ndarray,
+    Pf: np.ndarray,
+    xs: np.ndarray,
+    Ps: np.ndarray,
+    dt: float,
+    Q: tuple[np.ndarray | float, np.ndarray | float, np.ndarray | float],
 ) -> tuple[np.ndarray, np.ndarray]:
     """One RTS backward step for 2-state (constant velocity) series, written out per entry.
 
+    Q: (Q00, Q01, Q11) of the step from this frame to the next (numbers, or one per series).
     Returns x_f + C (x_s - F x_f) and P_f + C (P_s - P_pred) C^T with C = P_f F^T P_pred^-1.
     """
+    q00, q01, q11 = Q
     a, b, c = Pf[:, 0, 0], Pf[:, 0, 1], Pf[:, 1, 1]
-    bp = b + dt * c + Q[0, 1]
-    ap = a + dt * (b + bp - Q[0, 1]) + Q[0, 0]
-    cp = c + Q[1, 1]
+    bp = b + dt * c + q01
+    ap = a + dt * (b + bp - q01) + q00
+    cp = c + q11
     det = ap * cp - bp * bp
     # M = P_f F^T
     m00, m01 = a + dt * b, b

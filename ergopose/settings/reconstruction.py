@@ -124,6 +124,29 @@ class ReconstructionTable(Table):
     process_noise_jerk_factor: float = Field(
         10.0, gt=0, description="jerk = this x process_noise_m_s2 (constant acceleration)"
     )
+    adaptive_noise: bool = Field(
+        True,
+        description="choose each joint's process noise and measurement-variance scale per worker from the "
+        "likelihood of its own track (constant velocity only; false: process_noise_m_s2 and the variance as given)",
+    )
+    adaptive_process_noise_m_s2: Annotated[tuple[float, ...], BeforeValidator(_as_tuple)] = Field(
+        (1.0, 2.0, 4.0, 8.0, 16.0),
+        description="the process noises the adaptive smoother chooses from",
+        json_schema_extra={"allowed": "one or more positive numbers (m/s^2)"},
+    )
+    adaptive_variance_scales: Annotated[tuple[float, ...], BeforeValidator(_as_tuple)] = Field(
+        (1.0, 2.0, 4.0, 8.0, 16.0),
+        description="the factors on the measurement variance the adaptive smoother chooses from",
+        json_schema_extra={"allowed": "one or more positive numbers"},
+    )
+    adaptive_memory_s: float = Field(
+        60.0, gt=0, description="the adaptive smoother weighs the evidence of the last this many seconds (e-folding)"
+    )
+    adaptive_min_s: float = Field(
+        5.0,
+        ge=0,
+        description="a joint keeps process_noise_m_s2 and the variance as given until it has this much evidence",
+    )
     reprojection_scale_px: float = Field(
         5.0, gt=0, description="a point's variance grows with (reprojection error / this)^2"
     )
@@ -149,6 +172,13 @@ class ReconstructionTable(Table):
             if not getattr(self, lo) < getattr(self, hi):
                 raise ValueError(f"{lo} ({getattr(self, lo):g}) must be below {hi} ({getattr(self, hi):g})")
         return self
+
+    @field_validator("adaptive_process_noise_m_s2", "adaptive_variance_scales")
+    @classmethod
+    def _choices(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+        if not v or not all(math.isfinite(x) and x > 0 for x in v):
+            raise ValueError(f"expected one or more positive numbers, got {list(v)!r}")
+        return v
 
     @field_validator("lens_region_limits_deg")
     @classmethod

@@ -45,7 +45,8 @@ def _filterpy_reference(z: np.ndarray, var: np.ndarray, settings: ReconSettings)
 
 @pytest.mark.parametrize("model", ["constant_velocity", "constant_acceleration"])
 def test_equals_filterpy_kalman_and_rts(model, rng):
-    settings = ReconSettings(motion_model=model, outlier_gate_chi2=0.0, max_fill_gap_s=100.0)
+    # the fixed model (adaptive_noise chooses among such filters; tested below)
+    settings = ReconSettings(motion_model=model, outlier_gate_chi2=0.0, max_fill_gap_s=100.0, adaptive_noise=False)
     T, S = 240, 12
     truth = np.cumsum(np.cumsum(rng.normal(0, 0.01, (T, S)), axis=0), axis=0)
     var = rng.uniform(1e-4, 9e-4, (T, S))
@@ -136,3 +137,95 @@ def test_smoothing_reduces_error(rng):
     raw = np.sqrt(np.mean((z - truth) ** 2))
     sm = np.sqrt(np.mean((res.value - truth) ** 2))
     assert sm < 0.5 * raw
+
+
+def _cv_track(rng, q_m_s2: float, T: int, S: int) -> np.ndarray:
+    """Positions of S series moved by white acceleration of SD q held over each frame."""
+    dt = 1.0 / FPS
+    a = rng.normal(0.0, q_m_s2, (T, S))
+    v = np.cumsum(a * dt, axis=0)
+    return np.cumsum(v * dt - 0.5 * a * dt * dt, axis=0)
+
+
+def _log_likelihood(z: np.ndarray, r: np.ndarray, q: float) -> float:
+    """Innovation log-likelihood of one series under the constant-velocity filter, written out
+    per frame in plain Python (the reference for the bank): starts at the first measurement with
+    position variance r and velocity variance INITIAL_VELOCITY_SIGMA^2."""
+    from ergopose.recon.smoothing import INITIAL_VELOCITY_SIGMA
+
+    dt = 1.0 / FPS
+    x = v = a = b = c = None
+    total = 0.0
+    for zk, rk in zip(z, r):
+        if x is not None:  # predict
+            x, v = x + dt * v, v
+            a, b, c = (
+                a + 2 * dt * b + dt * dt * c + dt**4 / 4 * q * q,
+                b + dt * c + dt**3 / 2 * q * q,
+                c + dt * dt * q * q,
+            )
+        if not np.isfinite(zk):
+            continue
+        if x is None:
+            x, v, a, b, c = zk, 0.0, rk, 0.0, INITIAL_VELOCITY_SIGMA**2
+            continue
+        s_inn = a + rk
+        y = zk - x
+        total += -0.5 * (np.log(2 * np.pi * s_inn) + y * y / s_inn)
+        k0, k1 = a / s_inn, b / s_inn
+        x, v = x + k0 * y, v + k1 * y
+        a, b, c = a - k0 * a, b - k0 * b, c - k1 * b
+    return total
+
+
+def test_adaptive_bank_likelihood_equals_a_plain_filter(rng):
+    T = 300
+    truth = _cv_track(rng, 4.0, T, 3)
+    var = rng.uniform(0.5e-4, 2e-4, (T, 3))
+    z = truth + rng.normal(size=(T, 3)) * np.sqrt(2.0 * var)
+    z[rng.random(T) < 0.1] = np.nan  # whole joints missing
+    settings = ReconSettings(outlier_gate_chi2=0.0, max_fill_gap_s=100.0, adaptive_memory_s=1e9)
+    k = KalmanRTS(3, FPS, settings)
+    k.forward(z, var)
+    for g in range(k.G):
+        ref = sum(_log_likelihood(z[:, s], var[:, s] * k.s_bank[g], k.q_bank[g]) for s in range(3))
+        assert k.ll[0, g] == pytest.approx(ref, rel=1e-6)  # (a memory of 1e9 s still forgets 3e-8)
+
+
+@pytest.mark.parametrize(("q_true", "scale_true"), [(4.0, 2.0), (1.0, 1.0), (8.0, 4.0), (16.0, 1.0)])
+def test_adaptive_noise_finds_the_motion_and_the_variance(rng, q_true, scale_true):
+    """Series whose true process noise and measurement variance (a multiple of the one reported)
+    are known: the bank chooses them, and the adaptive smoother is closer to the truth than the
+    fixed one (process_noise_m_s2 = 2, the variance as reported)."""
+    T, S = 1200, 3
+    truth = _cv_track(rng, q_true, T, S)
+    var = np.full((T, S), 0.01**2)
+    z = truth + rng.normal(size=(T, S)) * np.sqrt(scale_true * var)
+    settings = ReconSettings(outlier_gate_chi2=0.0)
+    k = KalmanRTS(S, FPS, settings)
+    k.forward(z, var)
+    assert k.q[0] == q_true and k.scale[0] == scale_true
+    adaptive = k.smooth().value
+    fixed = smooth_series(z, var, FPS, settings.replace(adaptive_noise=False)).value
+    assert np.sqrt(np.mean((adaptive - truth) ** 2)) < np.sqrt(np.mean((fixed - truth) ** 2))
+
+
+def test_adaptive_noise_waits_for_evidence_and_forgets_when_the_filter_restarts(rng):
+    T = 240  # 20 s at 12 fps
+    truth = _cv_track(rng, 16.0, T, 3)
+    var = np.full((T, 3), 1e-4)
+    z = truth + rng.normal(size=(T, 3)) * 0.01
+    z[120:130] = np.nan  # a gap longer than max_fill_gap_s (6 frames): the filter restarts at 130
+    k = KalmanRTS(3, FPS, ReconSettings(outlier_gate_chi2=0.0, adaptive_min_s=5.0, max_fill_gap_s=0.5))
+    k.forward(z[:59], var[:59])  # less than 5 s of measurements: the defaults
+    assert k.q[0] == 2.0 and k.scale[0] == 1.0
+    k.forward(z[59:120], var[59:120])
+    assert k.q[0] == 16.0
+    k.forward(z[120:131], var[120:131])  # restarted: everything learnt is forgotten
+    assert k.q[0] == 2.0 and k.scale[0] == 1.0 and k.evidence[0] == 0.0
+    k.forward(z[131:], var[131:])
+    assert k.q[0] == 16.0
+    # the second segment alone, in a new filter, gives the same smoothed positions
+    alone = KalmanRTS(3, FPS, ReconSettings(outlier_gate_chi2=0.0, adaptive_min_s=5.0, max_fill_gap_s=0.5))
+    alone.forward(z[130:], var[130:])
+    assert np.array_equal(k.smooth().value[130:], alone.smooth().value)
