@@ -259,6 +259,12 @@ def ground_truth_scores(
     return score_posture(table, settings=scoring)
 
 
+def _wrap_rad(angle: np.ndarray) -> np.ndarray:
+    """Angles (radians) wrapped to [-pi, pi)."""
+    wrapped: np.ndarray = (angle + np.pi) % (2 * np.pi) - np.pi
+    return wrapped
+
+
 def _store_errors(
     out: np.ndarray, csv: pd.DataFrame, sel: np.ndarray, frames: np.ndarray, posture: pd.DataFrame
 ) -> None:
@@ -269,7 +275,7 @@ def _store_errors(
             continue
         measured = np.radians(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[sel])
         true = posture[c].to_numpy(np.float64)[frames]
-        out[frames, k] = (measured - true + np.pi) % (2 * np.pi) - np.pi
+        out[frames, k] = _wrap_rad(measured - true)
 
 
 def _expected_agreement(
@@ -301,7 +307,7 @@ def _expected_agreement(
                 e = np.nan_to_num(np.roll(errors[p], shift, axis=0), nan=0.0)
                 for j, c in enumerate(ANGLE_COLUMNS):
                     if c in moved.columns:
-                        moved[c] = (moved[c].to_numpy(np.float64) + e[:, j] + np.pi) % (2 * np.pi) - np.pi
+                        moved[c] = _wrap_rad(moved[c].to_numpy(np.float64) + e[:, j])
                 moved_scores[(p, worker)] = ground_truth_scores(session, gt, p, worker, inp.scoring, moved)
             for c in SCORE_SCALES:
                 t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)[frames]

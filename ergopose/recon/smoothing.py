@@ -252,13 +252,12 @@ class KalmanRTS:
                 x = np.empty_like(self.x)
                 x[:, 0] = self.x[:, 0] + dt * self.x[:, 1]
                 x[:, 1] = self.x[:, 1]
-                a, b, c = self.P[:, 0, 0], self.P[:, 0, 1], self.P[:, 1, 1]
                 P = np.empty_like(self.P)
-                bp = b + dt * c + q01
-                P[:, 0, 0] = a + dt * (b + bp - q01) + q00
+                ap, bp, cp = _cv_predict(self.P[:, 0, 0], self.P[:, 0, 1], self.P[:, 1, 1], dt, (q00, q01, q11))
+                P[:, 0, 0] = ap
                 P[:, 0, 1] = bp
                 P[:, 1, 0] = bp
-                P[:, 1, 1] = c + q11
+                P[:, 1, 1] = cp
             else:
                 x = self.x @ FT
                 P = F @ self.P @ FT + Q
@@ -318,13 +317,9 @@ class KalmanRTS:
         restarts where it restarted (``fresh``); a joint's log-likelihood per pair is the sum over
         its coordinates of -(log(2 pi S) + y^2 / S) / 2, innovation y, innovation variance S."""
         G, spj = self.G, self.spj
-        q00, q01, q11 = _cv_q(dt, self.q_bank)  # (G,)
-        a, b, c = self.Pb[..., 0], self.Pb[..., 1], self.Pb[..., 2]
         x0 = self.xb[..., 0] + dt * self.xb[..., 1]
         x1 = self.xb[..., 1]
-        bp = b + dt * c + q01
-        ap = a + dt * (b + bp - q01) + q00
-        cp = c + q11
+        ap, bp, cp = _cv_predict(self.Pb[..., 0], self.Pb[..., 1], self.Pb[..., 2], dt, _cv_q(dt, self.q_bank))
         r = rk[:, None] * self.s_bank[None, :]
         use = upd[:, None] & self.initb
         S_inn = np.where(use, ap + r, 1.0)
@@ -419,6 +414,16 @@ def _cv_q(dt: float, q: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.
     return 0.25 * dt**4 * v, 0.5 * dt**3 * v, dt**2 * v
 
 
+def _cv_predict(
+    a: np.ndarray, b: np.ndarray, c: np.ndarray, dt: float, Q: tuple[np.ndarray | float, ...]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The constant-velocity prediction F P F^T + Q of covariances P = [[a, b], [b, c]] (any
+    shapes that broadcast with Q = (Q00, Q01, Q11)), written out: (P00, P01, P11)."""
+    q00, q01, q11 = Q
+    bp = b + dt * c + q01
+    return a + dt * (b + bp - q01) + q00, bp, c + q11
+
+
 def _rts_step_cv(
     xf: np.ndarray,
     Pf: np.ndarray,
@@ -432,11 +437,8 @@ def _rts_step_cv(
     Q: (Q00, Q01, Q11) of the step from this frame to the next (numbers, or one per series).
     Returns x_f + C (x_s - F x_f) and P_f + C (P_s - P_pred) C^T with C = P_f F^T P_pred^-1.
     """
-    q00, q01, q11 = Q
     a, b, c = Pf[:, 0, 0], Pf[:, 0, 1], Pf[:, 1, 1]
-    bp = b + dt * c + q01
-    ap = a + dt * (b + bp - q01) + q00
-    cp = c + q11
+    ap, bp, cp = _cv_predict(a, b, c, dt, Q)
     det = ap * cp - bp * bp
     # M = P_f F^T
     m00, m01 = a + dt * b, b
