@@ -79,6 +79,10 @@ class ReconSettings:
             nothing takes the identity of a lost worker who could have walked to where it began
             (the closest signature, then the most recently lost) instead of a new one; with no
             such worker (everyone is being followed) it still gets a new one.
+        colour_relink: true -- a followed worker whose clothing colour over the last
+            relink_window_s matches a worker nobody follows (and clearly not the worker of its
+            identity) takes that worker's identity from the next frame on
+            (ergopose.recon.track_colour_relink); false: an identity, once given, holds.
     Body model (ergopose.recon.bodyfit: every worker-frame fitted to every camera at once)
         body_model: true -- fit the worker's body model (constant segment lengths, previous
             pose, pose prior) to all cameras' keypoints of every tracked worker-frame, with no
@@ -169,6 +173,7 @@ class ReconSettings:
     relink_max_signature_m: float = 0.03
     relink_margin_m: float = 0.005
     expected_workers: int = 0
+    colour_relink: bool = True
 
     body_model: bool = True
     fit_huber_k: float = 3.0

@@ -45,6 +45,8 @@ class Track:
     hist_before: LimbHistogram | None = None  # a continuation's limb lengths before the separation
     look_before: Look | None = None  # and its colours
     no_split_with: set[int] = field(default_factory=set)  # identities it was resolved with, still close
+    recent_frames: list[int] = field(default_factory=list)  # frames of its colours of the last relink window
+    recent_looks: list[np.ndarray] = field(default_factory=list)  # and those colours (track_colour_relink)
 
 
 @dataclass

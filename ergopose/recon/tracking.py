@@ -54,6 +54,12 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    other claims it. A continuation that meets someone else before its group is decided joins
    a new contact with all its group's live continuations: the old group is decided at once on
    what it has, and the new one among every identity involved (track_contacts.split_contacts).
+8. Clothes that say otherwise. A confirmed track whose clothing colour over the last
+   ``relink_window_s`` (RECENT_MIN_ROWS rows with a colour at least) lies within APPEARANCE_SAME of
+   an identity that no track has seen for a relink window, and APPEARANCE_MARGIN closer to it
+   than to its own identity's, ends; a track with that identity carries the person on from the
+   next frame (track_colour_relink; setting ``colour_relink``). Its rows so far keep the
+   identity they had.
 
 Single-view people never start tracks and are never triangulated. Frame times are frame / fps.
 
@@ -69,6 +75,7 @@ import numpy as np
 
 from ergopose.errors import InputError
 from ergopose.recon.records import People3D
+from ergopose.recon.track_colour_relink import better_identity, hand_on, note_look
 from ergopose.recon.track_contacts import group_ready, resolve_group, split_contacts, watch_separation
 from ergopose.recon.track_identities import resolve
 from ergopose.recon.track_matching import match_3d, match_single_view, predict, update_track
@@ -157,6 +164,7 @@ class Tracker(TrackerState):
                         t.last_3d_frame = f
                         t.pending_rows.append(row)
                         t.look.add(looks[row])
+                        note_look(t, f, looks[row], self.window_frames)
                         track_of[row] = t.id
                         matched_tracks.add(a)
                         used[b] = True
@@ -218,6 +226,11 @@ class Tracker(TrackerState):
                 cent_f.append(f)
                 cent_t.append(t.id)
                 cent_p.append(t.pos if t.last_update_frame == f else t.pos + t.vel * (f - t.last_update_frame) * dt1)
+            if s.colour_relink:
+                for t in [x for x in self.tracks if x.recent_frames and x.recent_frames[-1] == f]:
+                    number = better_identity(self, t, f)
+                    if number is not None:
+                        hand_on(self, t, number, f, resolved, ended)
         self.next_frame = stop_frame
         # Rows of tracks dropped during this call lose their track id.
         dropped = {tid for tid, ident in resolved.items() if ident is None}

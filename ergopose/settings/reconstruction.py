@@ -82,6 +82,12 @@ class ReconstructionTable(Table):
         "identities exist, a new track takes a lost worker's identity if that worker could "
         "have walked there, however its limb lengths compare",
     )
+    colour_relink: bool = Field(
+        True,
+        description="a followed worker whose clothing colour over the last relink_window_s "
+        "matches a worker nobody follows, and clearly not its own identity's, takes that "
+        "worker's identity from the next frame on",
+    )
 
     body_model: bool = Field(
         True, description="fit the worker's body model to all cameras (false: joint-by-joint triangulation)"

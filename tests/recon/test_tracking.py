@@ -338,3 +338,102 @@ def test_a_returning_worker_is_known_by_the_clothes(rng):
         assert len(before) == 1 and len(after) == 1
         assert (before == after) is expect_same
         assert len(tr.identities) == (2 if expect_same else 3)
+
+
+def _handover(rng, others_seen_s: float, switch_s: float = 13.0, colour_relink: bool = True):
+    """Worker 0 walks one path for 30 s; worker 1, of the same build, walks another and is seen
+    for the first ``others_seen_s`` seconds. From ``switch_s`` on, the person on worker 0's path
+    wears worker 1's blue shirt: worker 1 stepped into worker 0's place out of sight (worker 0
+    gone), which no geometry can show. Returns (rows' identities, person, frame, tracker)."""
+    n = int(30 * FPS)
+    scripts = [
+        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
+    ]
+    truth = walk_workers(scripts, n, FPS)
+    vis = np.ones((n, 2), bool)
+    vis[int(others_seen_s * FPS) :, 1] = False
+    f, p = np.nonzero(vis)
+    wearer = np.where((p == 0) & (f >= int(switch_s * FPS)), 1, p)
+    people = _dressed(_stored(truth, vis, rng), wearer, RED_AND_BLUE, rng)
+    tr = Tracker(ReconSettings(colour_relink=colour_relink), FPS)
+    res = tr.update(people, 0, n)
+    resolved = {**res.resolved, **tr.finish().resolved}
+    ident = np.array([resolved[t] for t in res.track])
+    return ident, p, f, tr
+
+
+def test_a_track_wearing_a_lost_workers_clothes_hands_the_person_on(rng):
+    """The blue worker, lost since 8 s (its track ended at 10 s, max_coast_s), turns up on the
+    red worker's path at 13 s. Without the colour check the red identity keeps the blue worker
+    for the rest of the shift (the rows after 13 s counted as the red worker's); with it, the
+    track hands the person on to the blue identity once a relink window of colours says so, and
+    the red identity is lost."""
+    ident, p, f, tr = _handover(rng, others_seen_s=8.0)
+    red = set(ident[(p == 0) & (f < 120)])
+    blue = set(ident[(p == 1) & (f < 96)])
+    assert len(red) == 1 and len(blue) == 1 and red != blue
+    late = (p == 0) & (f >= int(17 * FPS))
+    assert set(ident[late]) == blue
+    # Until the colours of a window say so, the rows stay with the red identity: the hand-on
+    # comes between 1 s (RECENT_MIN_ROWS) and relink_window_s after the change.
+    changed = f[(p == 0) & np.isin(ident, list(blue))].min()
+    assert int(14 * FPS) <= changed <= int(16 * FPS) + 1
+    assert len(tr.identities) == 2
+    # Without the check the red identity keeps the blue worker.
+    ident_off, *_ = _handover(np.random.default_rng(0), others_seen_s=8.0, colour_relink=False)
+    assert set(ident_off[late]) == red
+
+
+def test_a_followed_workers_colours_do_not_take_them_from_their_track(rng):
+    """The same change of shirt while the blue worker is still seen elsewhere: the blue identity
+    is being followed, so the colours alone do not move it; the red identity goes on (the two
+    tracks decide nothing about each other's person). And a worker whose shirt never changes
+    keeps one identity over the whole walk."""
+    ident, p, f, tr = _handover(rng, others_seen_s=30.0)
+    assert len(set(ident[p == 0])) == 1 and len(set(ident[p == 1])) == 1
+    assert len(tr.identities) == 2
+    ident, p, f, tr = _handover(rng, others_seen_s=8.0, switch_s=99.0)
+    assert len(set(ident[p == 0])) == 1
+    assert len(tr.identities) == 2
+
+
+def test_a_hand_on_gives_one_row_per_person_and_frame(rng):
+    """Through the whole reconstruction (tracking, identities, smoothing): the frame of the hand-on
+    has one row for the person on the red worker's path, the red identity's rows end there and the
+    blue identity's go on from the next frame, and the table holds no frame twice per identity."""
+    n = int(30 * FPS)
+    scripts = [
+        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
+    ]
+    truth = walk_workers(scripts, n, FPS)
+    vis = np.ones((n, 2), bool)
+    vis[int(8 * FPS) :, 1] = False
+    f, p = np.nonzero(vis)
+    wearer = np.where((p == 0) & (f >= int(13 * FPS)), 1, p)
+    people = _dressed(_stored(truth, vis, rng), wearer, RED_AND_BLUE, rng)
+    settings = ReconSettings(body_model=False)
+    shift = ShiftReconstruction(settings, FPS)
+    tf = TrackFrames.concat([shift.push(people, 0, n), shift.finish()])
+    assert len(np.unique(tf.frame * 10 + tf.worker)) == len(tf.frame)
+    # In uneven chunks, pickled between them (the hand-on's window spans a cut): the same table.
+    shift, parts = ShiftReconstruction(settings, FPS), []
+    cuts = [0, 100, 170, 171, 185, n]
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        parts.append(shift.push(people.take((people.frame >= a) & (people.frame < b)), a, b))
+        shift = pickle.loads(pickle.dumps(shift))
+    chunked = TrackFrames.concat(parts + [shift.finish()])
+    assert np.array_equal(chunked.worker, tf.worker) and np.array_equal(chunked.frame, tf.frame)
+    assert np.array_equal(chunked.points_world, tf.points_world, equal_nan=True)
+    first = tf.frame == 0
+    x0 = np.nanmean(tf.raw_points_world[first, :, 0], axis=1)  # worker 0 starts at x = -2
+    red_w = int(tf.worker[first][np.argmin(x0)])
+    blue_w = [w for w in tf.workers if w != red_w]
+    assert len(blue_w) == 1
+    red, blue = tf.worker_rows(red_w), tf.worker_rows(blue_w[0])
+    back = blue.frame[blue.frame > int(11 * FPS)]
+    assert len(back) and red.frame.max() + 1 == back.min()
+    assert back.max() == n - 1 and np.all(np.diff(back) == 1)
+    on_path = np.concatenate([red.frame[red.frame >= int(13 * FPS)], back])
+    assert np.array_equal(np.sort(on_path), np.arange(int(13 * FPS), n))
