@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ergopose.pose.appearance import appearance_distance
-from ergopose.recon.track_records import Track, TrackEnd, TrackerState
+from ergopose.recon.track_records import Track, TrackEnd, TrackerState, continuation
 from ergopose.records import APPEARANCE_DIMS
 from ergopose.recon.track_signatures import APPEARANCE_MARGIN, APPEARANCE_SAME
 
@@ -108,20 +108,8 @@ def hand_on(
         state.flush(old)
         state.release(old)
         ended.append(TrackEnd(old.id, old.first_frame, old.last_frame, old.identity))
-    new = Track(
-        id=state.next_track,
-        first_frame=f + 1,
-        first_pos=t.pos.copy(),
-        pos=t.pos.copy(),
-        vel=t.vel.copy(),
-        last_frame=f,
-        last_update_frame=t.last_update_frame,
-        last_3d_frame=t.last_3d_frame,
-        frames_3d=0,  # its 3D frames from now on (it is confirmed: the count decides nothing)
-        identity=number,
-        hist=ident.hist,
-        look=ident.look,
-    )
+    new = continuation(t, state.next_track, f, number)
+    new.hist, new.look = ident.hist, ident.look
     state.next_track += 1
     ident.track = new.id
     resolved[new.id] = number

@@ -10,7 +10,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ergopose.pose.appearance import appearance_distance
-from ergopose.recon.track_records import Track, TrackEnd, TrackerState
+from ergopose.recon.track_records import Track, TrackEnd, TrackerState, continuation
 from ergopose.recon.track_signatures import APPEARANCE_APART, APPEARANCE_MARGIN, LimbHistogram, Look
 
 #: A contact group waits at most this many relink windows for comparable limb data after the
@@ -134,18 +134,7 @@ def split_contacts(state: TrackerState, f: int, ended: list[TrackEnd], resolved:
             state.flush(t)
             ended.append(TrackEnd(t.id, t.first_frame, t.last_frame, t.identity))
             gone.add(t.id)
-            c = Track(
-                id=state.next_track,
-                first_frame=f + 1,
-                first_pos=t.pos.copy(),
-                pos=t.pos.copy(),
-                vel=t.vel.copy(),
-                last_frame=t.last_frame,
-                last_update_frame=t.last_update_frame,
-                last_3d_frame=t.last_3d_frame,
-                identity=t.identity,
-                group=gid,
-            )
+            c = continuation(t, state.next_track, f, t.identity, gid)
             state.next_track += 1
             assert t.identity is not None  # only tracks with an identity are split
             state.identities[t.identity].track = c.id

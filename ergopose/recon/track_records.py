@@ -49,6 +49,23 @@ class Track:
     recent_looks: list[np.ndarray] = field(default_factory=list)  # and those colours (track_colour_relink)
 
 
+def continuation(t: Track, track_id: int, f: int, identity: int | None, group: int | None = None) -> Track:
+    """A new track ``track_id`` that carries on the person of track ``t`` from frame f + 1: the
+    same position, velocity and last observations, with ``identity`` (and contact ``group``)."""
+    return Track(
+        id=track_id,
+        first_frame=f + 1,
+        first_pos=t.pos.copy(),
+        pos=t.pos.copy(),
+        vel=t.vel.copy(),
+        last_frame=t.last_frame,
+        last_update_frame=t.last_update_frame,
+        last_3d_frame=t.last_3d_frame,
+        identity=identity,
+        group=group,
+    )
+
+
 @dataclass
 class Identity:
     number: int

@@ -310,17 +310,22 @@ def test_clothes_keep_identities_where_body_measurements_cannot(rng):
     assert not kept(plain)[0]
 
 
+def _two_of_one_build(n: int) -> np.ndarray:
+    """(n, 2, 33, 3) two workers of 1.75 m walking apart on two paths, pausing 5 s at each end."""
+    scripts = [
+        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
+        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
+    ]
+    return walk_workers(scripts, n, FPS)
+
+
 def test_a_returning_worker_is_known_by_the_clothes(rng):
     """Two workers of the same build leave for 20 s; only one returns, far from where either left.
     Limb lengths cannot tell (a new identity, test_relink_uses_body_measurements_and_refuses_to_guess);
     the blue shirt gives the blue worker's identity back. A worker in a green shirt coming back
     instead is someone new."""
     n = int(40 * FPS)
-    scripts = [
-        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
-        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
-    ]
-    truth = walk_workers(scripts, n, FPS)
+    truth = _two_of_one_build(n)
     vis = np.ones((n, 2), bool)
     vis[int(10 * FPS) : int(30 * FPS), :] = False
     vis[int(30 * FPS) :, 0] = False  # worker 0 never comes back
@@ -340,24 +345,25 @@ def test_a_returning_worker_is_known_by_the_clothes(rng):
         assert len(tr.identities) == (2 if expect_same else 3)
 
 
-def _handover(rng, others_seen_s: float, switch_s: float = 13.0, colour_relink: bool = True):
+def _handover_people(rng, others_seen_s: float, switch_s: float = 13.0) -> tuple[People3D, np.ndarray, np.ndarray]:
     """Worker 0 walks one path for 30 s; worker 1, of the same build, walks another and is seen
     for the first ``others_seen_s`` seconds. From ``switch_s`` on, the person on worker 0's path
     wears worker 1's blue shirt: worker 1 stepped into worker 0's place out of sight (worker 0
-    gone), which no geometry can show. Returns (rows' identities, person, frame, tracker)."""
+    gone), which no geometry can show. Returns (the rows, each row's person, frame)."""
     n = int(30 * FPS)
-    scripts = [
-        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
-        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
-    ]
-    truth = walk_workers(scripts, n, FPS)
+    truth = _two_of_one_build(n)
     vis = np.ones((n, 2), bool)
     vis[int(others_seen_s * FPS) :, 1] = False
     f, p = np.nonzero(vis)
     wearer = np.where((p == 0) & (f >= int(switch_s * FPS)), 1, p)
-    people = _dressed(_stored(truth, vis, rng), wearer, RED_AND_BLUE, rng)
+    return _dressed(_stored(truth, vis, rng), wearer, RED_AND_BLUE, rng), p, f
+
+
+def _handover(rng, others_seen_s: float, switch_s: float = 13.0, colour_relink: bool = True):
+    """The tracker on :func:`_handover_people`: (rows' identities, person, frame, tracker)."""
+    people, p, f = _handover_people(rng, others_seen_s, switch_s)
     tr = Tracker(ReconSettings(colour_relink=colour_relink), FPS)
-    res = tr.update(people, 0, n)
+    res = tr.update(people, 0, int(30 * FPS))
     resolved = {**res.resolved, **tr.finish().resolved}
     ident = np.array([resolved[t] for t in res.track])
     return ident, p, f, tr
@@ -403,16 +409,7 @@ def test_a_hand_on_gives_one_row_per_person_and_frame(rng):
     has one row for the person on the red worker's path, the red identity's rows end there and the
     blue identity's go on from the next frame, and the table holds no frame twice per identity."""
     n = int(30 * FPS)
-    scripts = [
-        WorkerScript(1.75, np.array([[-2.0, -2.0], [-1.0, 2.0]]), pause_s=5.0),
-        WorkerScript(1.75, np.array([[2.0, -2.0], [1.0, 2.0]]), pause_s=5.0),
-    ]
-    truth = walk_workers(scripts, n, FPS)
-    vis = np.ones((n, 2), bool)
-    vis[int(8 * FPS) :, 1] = False
-    f, p = np.nonzero(vis)
-    wearer = np.where((p == 0) & (f >= int(13 * FPS)), 1, p)
-    people = _dressed(_stored(truth, vis, rng), wearer, RED_AND_BLUE, rng)
+    people, _, _ = _handover_people(rng, others_seen_s=8.0)
     settings = ReconSettings(body_model=False)
     shift = ShiftReconstruction(settings, FPS)
     tf = TrackFrames.concat([shift.push(people, 0, n), shift.finish()])
