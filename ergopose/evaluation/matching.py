@@ -91,6 +91,7 @@ def matching_section(inp: EvaluationInputs, person: np.ndarray) -> tuple[dict, d
     }
     majority = np.array([mapping.get(int(w), -1) for w in tf.worker], dtype=np.int64) if len(tf) else np.zeros(0, int)
     matched = person >= 0
+    split = _rows_by_id(tf.worker, person, gt.worker_ids)
     section = {
         "definition": (
             "per frame, tracked rows and simulated workers are paired one-to-one by body-centre distance "
@@ -115,9 +116,31 @@ def matching_section(inp: EvaluationInputs, person: np.ndarray) -> tuple[dict, d
         "rows": int(len(tf)),
         "rows_matched": int(matched.sum()),
         "rows_matched_to_another_worker_than_the_mapping": int((matched & (person != majority)).sum()),
+        "rows_by_id_per_ground_truth_worker": split,
+        "rows_on_the_workers_main_id_pct": _main_id_pct(split),
         "match_distance_m": MATCH_DISTANCE_M,
     }
     return section, mapping
+
+
+def _rows_by_id(worker: np.ndarray, person: np.ndarray, worker_ids: list[str]) -> dict[str, dict[str, int]]:
+    """{simulated worker: {tracked id: rows of that id paired with the worker}}, most rows first: how
+    a worker's time is split over ids (a worker split over two ids keeps every row in a report of
+    their own; a row on an id mapped to another worker is in someone else's)."""
+    out: dict[str, dict[str, int]] = {}
+    for k, gid in enumerate(worker_ids):
+        ids, counts = np.unique(worker[person == k], return_counts=True)
+        order = np.lexsort((ids, -counts))
+        out[gid] = {identity_name(int(ids[i])): int(counts[i]) for i in order}
+    return out
+
+
+def _main_id_pct(split: dict[str, dict[str, int]]) -> float:
+    """Share (%) of the matched rows that lie on their simulated worker's main id (the id holding
+    most of that worker's rows); NaN with no matched row."""
+    total = sum(sum(v.values()) for v in split.values())
+    main = sum(max(v.values()) for v in split.values() if v)
+    return 100.0 * main / total if total else float("nan")
 
 
 def _naming(inp: EvaluationInputs, person: np.ndarray) -> dict:

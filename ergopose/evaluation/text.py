@@ -53,6 +53,12 @@ def format_evaluation(ev: dict) -> str:
         lines.append(f"  naming: {note}")
     for gid, ids in m["tracked_ids_per_ground_truth_worker"].items():
         lines.append(f"    {gid}: {', '.join(ids) if ids else '(not tracked)'}")
+    split = m["rows_by_id_per_ground_truth_worker"]
+    lines.append(
+        f"  rows on each worker's main id: {_f(m['rows_on_the_workers_main_id_pct'], '.1f', ' %')}; a worker's "
+        "rows by id: "
+        + "; ".join(f"{gid} " + ", ".join(f"{i} {n}" for i, n in ids.items()) for gid, ids in split.items() if ids)
+    )
     if m["unmatched_tracked_workers"]:
         lines.append(f"    matched to nobody: {', '.join(m['unmatched_tracked_workers'])}")
     d = ev["detection"]

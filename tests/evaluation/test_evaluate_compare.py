@@ -206,6 +206,13 @@ def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, t
     # the ids' majority partners: a tie of half and half each, so both rows sets of one half are "wrong"
     assert m["rows_matched"] == 2 * gt.n_frames
     assert m["rows_matched_to_another_worker_than_the_mapping"] == pytest.approx(gt.n_frames, abs=2)
+    # each simulated worker's rows: half on one id, half on the other
+    split = m["rows_by_id_per_ground_truth_worker"]
+    assert sorted(split) == sorted(gt.worker_ids)
+    for ids in split.values():
+        assert sorted(ids) == ["worker_1", "worker_2"] and sum(ids.values()) == gt.n_frames
+        assert abs(ids["worker_1"] - ids["worker_2"]) <= 2
+    assert m["rows_on_the_workers_main_id_pct"] == pytest.approx(50.0, abs=0.2)
     assert ev["detection"]["detection_rate_pct"] == 100.0  # every person is still reconstructed
     # Frame by frame every row is matched to the right person: the geometry is exact ...
     assert ev["errors_3d"]["mpjpe_mm"] == 0.0
@@ -217,6 +224,24 @@ def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, t
     true_distance = np.linalg.norm(gt.joints_world[half:, 0] - gt.joints_world[half:, 1], axis=-1).mean()
     by_id = ev["errors_3d"]["final"]["by_track_identity"]["all"]["mean_mm"]
     assert by_id == pytest.approx(1000 * true_distance / 2, rel=0.02)
+
+
+def test_a_worker_split_over_two_ids_is_not_a_wrong_row(small_session, gt, tmp_path):
+    """Worker 1's track ends half way and a new id (3) carries the same person on: one sustained
+    switch and a worker on two ids, but no row in another worker's report."""
+    tf = ground_truth_tracks(gt)
+    half = gt.n_frames // 2
+    worker = np.where((tf.worker == 1) & (tf.frame >= half), 3, tf.worker)
+    out = write_results(small_session, tmp_path / "out", dataclasses.replace(tf, worker=worker))
+    m = _evaluate(small_session, out)["matching"]
+    assert m["identity_switches_sustained"] == 1
+    assert m["rows_matched_to_another_worker_than_the_mapping"] == 0
+    split = m["rows_by_id_per_ground_truth_worker"]
+    first = gt.worker_ids[int(np.unique(tf.worker)[0]) - 1]
+    assert split[first] == {"worker_3": gt.n_frames - half, "worker_1": half}
+    assert m["rows_on_the_workers_main_id_pct"] == pytest.approx(
+        100.0 * (2 * gt.n_frames - half) / (2 * gt.n_frames), abs=0.1
+    )
 
 
 def test_a_one_frame_flicker_is_a_switch_but_not_a_sustained_one(small_session, gt, tmp_path):
@@ -231,6 +256,9 @@ def test_a_one_frame_flicker_is_a_switch_but_not_a_sustained_one(small_session, 
     assert m["identity_switches"] == 4  # each person: to the other id and back
     assert m["identity_switches_sustained"] == 0 and m["sustained_min_frames"] == 12
     assert m["rows_matched_to_another_worker_than_the_mapping"] == 2
+    # one frame of each worker on the other id
+    assert m["rows_on_the_workers_main_id_pct"] == pytest.approx(100.0 * (2 * gt.n_frames - 2) / (2 * gt.n_frames))
+    assert all(len(ids) == 2 and min(ids.values()) == 1 for ids in m["rows_by_id_per_ground_truth_worker"].values())
 
 
 def test_known_offset_of_the_smoothed_positions(small_session, gt, tmp_path):
