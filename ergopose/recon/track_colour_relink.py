@@ -31,9 +31,15 @@ from ergopose.recon.track_records import Track, TrackEnd, TrackerState, continua
 from ergopose.records import APPEARANCE_DIMS
 from ergopose.recon.track_signatures import APPEARANCE_MARGIN, APPEARANCE_SAME
 
-#: A track's recent colour is known once this many of its rows in the window gave a colour for
-#: each part that is compared (1 s at 12 fps).
-RECENT_MIN_ROWS = 12
+#: A track's recent colour is known once rows worth this many seconds of frames (12 rows at
+#: 12 fps, 60 at 60 fps) in the window gave a colour for each part that is compared: the mean's
+#: noise then does not depend on the frame rate.
+RECENT_MIN_S = 1.0
+
+
+def recent_min_rows(fps: float) -> int:
+    """Rows with a colour a recent mean needs at ``fps`` (RECENT_MIN_S worth of frames)."""
+    return max(1, int(round(RECENT_MIN_S * fps)))
 
 
 def note_look(t: Track, f: int, look: np.ndarray, window_frames: int) -> None:
@@ -51,17 +57,17 @@ def note_look(t: Track, f: int, look: np.ndarray, window_frames: int) -> None:
         del t.recent_looks[:drop]
 
 
-def recent_look(t: Track) -> np.ndarray:
+def recent_look(t: Track, min_rows: int) -> np.ndarray:
     """(APPEARANCE_DIMS,) mean colour of the track's recent rows; NaN where fewer than
-    RECENT_MIN_ROWS gave it."""
-    if len(t.recent_looks) < RECENT_MIN_ROWS:
+    ``min_rows`` gave it."""
+    if len(t.recent_looks) < min_rows:
         return np.full(APPEARANCE_DIMS, np.nan)
     a = np.array(t.recent_looks)
     known = np.isfinite(a)
     count = known.sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.where(known, a, 0.0).sum(axis=0) / np.maximum(count, 1)
-    out: np.ndarray = np.where(count >= RECENT_MIN_ROWS, mean, np.nan)
+    out: np.ndarray = np.where(count >= min_rows, mean, np.nan)
     return out
 
 
@@ -71,7 +77,7 @@ def better_identity(state: TrackerState, t: Track, f: int) -> int | None:
     or coasting worker); None when the colours do not say so clearly."""
     if t.identity is None or t.group is not None:
         return None
-    look = recent_look(t)
+    look = recent_look(t, recent_min_rows(state.fps))
     if not np.isfinite(look).any():
         return None
     own = float(appearance_distance(look, state.identities[t.identity].look.mean()))

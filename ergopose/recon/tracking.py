@@ -55,9 +55,9 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
    a new contact with all its group's live continuations: the old group is decided at once on
    what it has, and the new one among every identity involved (track_contacts.split_contacts).
 8. Clothes that say otherwise. A confirmed track whose clothing colour over the last
-   ``relink_window_s`` (RECENT_MIN_ROWS rows with a colour at least) lies within APPEARANCE_SAME of
-   an identity that no track has seen for a relink window, and APPEARANCE_MARGIN closer to it
-   than to its own identity's, ends; a track with that identity carries the person on from the
+   ``relink_window_s`` (from RECENT_MIN_S worth of rows with a colour on) lies within
+   APPEARANCE_SAME of an identity that no track has seen for a relink window, and
+   APPEARANCE_MARGIN closer to it than to its own identity's, ends; a track with that identity carries the person on from the
    next frame (track_colour_relink; setting ``colour_relink``). Its rows so far keep the
    identity they had.
 

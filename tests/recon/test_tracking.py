@@ -17,6 +17,8 @@ from ergopose.recon.settings import ReconSettings
 from ergopose.sim.synthetic import WorkerScript, walk_workers
 from ergopose.recon.track_signatures import HIST_BIN_M, LimbHistogram, limb_lengths, signature_distance
 from ergopose.recon.track_contacts import assign_group
+from ergopose.recon.track_colour_relink import note_look, recent_look, recent_min_rows
+from ergopose.recon.track_records import Track
 from ergopose.recon.tracking import Tracker
 from tests.recon.conftest import FPS
 
@@ -382,13 +384,29 @@ def test_a_track_wearing_a_lost_workers_clothes_hands_the_person_on(rng):
     late = (p == 0) & (f >= int(17 * FPS))
     assert set(ident[late]) == blue
     # Until the colours of a window say so, the rows stay with the red identity: the hand-on
-    # comes between 1 s (RECENT_MIN_ROWS) and relink_window_s after the change.
+    # comes between 1 s (RECENT_MIN_S) and relink_window_s after the change.
     changed = f[(p == 0) & np.isin(ident, list(blue))].min()
     assert int(14 * FPS) <= changed <= int(16 * FPS) + 1
     assert len(tr.identities) == 2
     # Without the check the red identity keeps the blue worker.
     ident_off, *_ = _handover(np.random.default_rng(0), others_seen_s=8.0, colour_relink=False)
     assert set(ident_off[late]) == red
+
+
+def test_the_recent_colour_needs_a_second_of_rows_at_any_frame_rate(rng):
+    """30 rows of colour make a recent mean at 12 fps (2.5 s of frames) but not at 60 fps (0.5 s):
+    the mean a hand-on rests on averages as long at any frame rate."""
+    t = Track(
+        id=0, first_frame=0, first_pos=np.zeros(3), pos=np.zeros(3), vel=np.zeros(3), last_frame=0, last_update_frame=0
+    )
+    for f in range(30):
+        note_look(t, f, RED_AND_BLUE[1] + rng.normal(0.0, 3.0, 6), window_frames=180)
+    at12 = recent_look(t, recent_min_rows(12.0))
+    assert np.all(np.abs(at12 - RED_AND_BLUE[1]) < 3.0)
+    assert np.all(np.isnan(recent_look(t, recent_min_rows(60.0))))
+    # The window drops what is older than it.
+    note_look(t, 200, RED_AND_BLUE[0], window_frames=180)
+    assert t.recent_frames == list(range(21, 30)) + [200]
 
 
 def test_a_followed_workers_colours_do_not_take_them_from_their_track(rng):
