@@ -75,13 +75,12 @@ def format_evaluation(ev: dict) -> str:
             for r in REGIONS
         )
     )
-    fb, fr = d.get("followed_in_both_cameras"), d.get("followed_by_region")
-    if fb and fr:
-        lines.append(
-            f"  followed (final position, any number of cameras) {_f(fb['rate_pct'], '.1f', ' %')}; by region: "
-            + ", ".join(f"{r} {_f(fr[r]['rate_pct'], '.1f', ' %')}" for r in REGIONS)
-            + f"; rows near nobody {d['tracked_rows_with_a_position_unmatched']} of {d['tracked_rows_with_a_position']}"
-        )
+    fb, fr = d["followed_in_both_cameras"], d["followed_by_region"]
+    lines.append(
+        f"  followed (final position, any number of cameras) {_f(fb['rate_pct'], '.1f', ' %')}; by region: "
+        + ", ".join(f"{r} {_f(fr[r]['rate_pct'], '.1f', ' %')}" for r in REGIONS)
+        + f"; rows near nobody {d['tracked_rows_with_a_position_unmatched']} of {d['tracked_rows_with_a_position']}"
+    )
     lines.append(
         f"  triangulated rows matched to nobody: {d['tracked_rows_triangulated_unmatched']} of "
         f"{d['tracked_rows_triangulated']}"
@@ -158,18 +157,17 @@ def format_evaluation(ev: dict) -> str:
         "  exact agreement that angle errors of this size leave (the truth plus this run's own angle errors "
         "moved in time): "
         + ", ".join(
-            f"{c} {_f(s[c].get('expected_exact_agreement_pct'), '.1f', ' %')}" for c in ("rula_grand", "reba_score")
+            f"{c} {_f(s[c]['expected_exact_agreement_pct'], '.1f', ' %')}" for c in ("rula_grand", "reba_score")
         )
     )
     for c in ("rula_grand", "reba_score"):
-        parts = s[c].get("expected_exact_agreement_with_exact_part_pct") or {}
+        parts = s[c]["expected_exact_agreement_with_exact_part_pct"]
         if parts:
             lines.append(
                 f"    {c} with one part's angles exact: "
                 + ", ".join(f"{part} {_f(v, '.1f', ' %')}" for part, v in parts.items())
             )
-    shares = s.get("time_shares") or {}
-    for c, sh in shares.items():
+    for c, sh in s["time_shares"].items():
         if not sh["by_worker"]:
             continue
         lines.append(

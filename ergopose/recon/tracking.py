@@ -57,9 +57,9 @@ Per frame (in frame order; the state carries over from one chunk of frames to th
 8. Clothes that say otherwise. A confirmed track whose clothing colour over the last
    ``relink_window_s`` (from RECENT_MIN_S worth of rows with a colour on) lies within
    APPEARANCE_SAME of an identity that no track has seen for a relink window, and
-   APPEARANCE_MARGIN closer to it than to its own identity's, ends; a track with that identity carries the person on from the
-   next frame (track_colour_relink; setting ``colour_relink``). Its rows so far keep the
-   identity they had.
+   APPEARANCE_MARGIN closer to it than to its own identity's, ends; a track with that identity
+   carries the person on from the next frame (track_colour_relink; setting ``colour_relink``).
+   Its rows so far keep the identity they had.
 
 Single-view people never start tracks and are never triangulated. Frame times are frame / fps.
 
