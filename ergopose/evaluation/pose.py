@@ -41,8 +41,9 @@ The four oracle conditions (all but ``stage``) give the network the true
 position and size of the person, so they measure only the effect of what the network sees;
 ``stage`` measures the product.
 
-Found: presence (the network's pose flag) >= ``min_presence`` and the predicted hip centre
-within ``found_within_torso`` torso lengths of the true hip centre. Distances "in torso
+Found: presence (the network's pose flag) >= ``min_presence`` (for ``stage``: a detection the
+stage reported, which follows a person it has found down to ``PoseSettings.min_follow_presence``)
+and the predicted hip centre within ``found_within_torso`` torso lengths of the true hip centre. Distances "in torso
 lengths" are angles between rays from the camera, divided by the angle the torso subtends at
 the person's distance (3D shoulder-centre to hip-centre length / distance of the hip centre
 from the camera): the error perpendicular to the line of sight, in units of the person's own

@@ -4,6 +4,8 @@ on every frame; in the calling process or in a worker process of its own."""
 
 from __future__ import annotations
 
+import dataclasses
+
 from pathlib import Path
 
 import cv2
@@ -106,6 +108,11 @@ def evaluate_camera(
                 )
         if found is not None:
             matches, fp = match_stage(people, hidden, found, settings)
+            # The stage reports a person it follows down to its lower gate (new people need
+            # min_presence): what it reports has passed its own gate.
+            stage_scoring = dataclasses.replace(
+                settings, min_presence=min(settings.min_presence, settings.stage_settings().follow_presence)
+            )
             false_positives += fp
             for pos, (w, p) in enumerate(people):
                 j = matches.get(pos)
@@ -121,7 +128,7 @@ def evaluate_camera(
                         p,
                         float(found.presence[j]),
                         score_prediction(
-                            p, found.pixels_fisheye[j], found.rays_cam[j], float(found.presence[j]), settings
+                            p, found.pixels_fisheye[j], found.rays_cam[j], float(found.presence[j]), stage_scoring
                         ),
                     )
         report(

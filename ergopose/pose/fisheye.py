@@ -290,7 +290,8 @@ class FisheyePoseEstimator:
         image = view_map.apply(frame_bgr)
         kp = self.landmarker(image)
         self.landmark_runs += 1
-        if not kp.presence >= self.settings.min_presence:
+        s = self.settings
+        if not kp.presence >= (s.follow_presence if target.source == SOURCE_REFOCUS else s.min_presence):
             return None
         rays_cam = view.view_pixels_to_rays_cam(kp.pixels)
         alignment = getattr(kp, "alignment", None)

@@ -135,9 +135,12 @@ def test_evaluation_counts_every_visible_person_once_per_condition(evaluation, t
         expected_region = region_index(np.degrees([p.theta for _, _, _, p in people]))
         by_key = {(f, c, w): r for (f, c, w, _), r in zip(people, expected_region)}
         assert all(by_key[(f, c, w)] == r for f, c, w, r in zip(rows.frame, rows.camera, rows.worker, rows.region))
-    # Found means: the pose flag and the hips close enough; errors only for found people.
+    # Found means: the pose flag and the hips close enough; errors only for found people. The
+    # stage follows a person it has found down to its lower gate.
     settings = evaluation.settings
-    assert np.all(t.presence[t.found] >= settings.min_presence)
+    stage = t.condition == CONDITIONS.index("stage")
+    assert np.all(t.presence[t.found & ~stage] >= settings.min_presence)
+    assert np.all(t.presence[t.found & stage] >= settings.stage_settings().follow_presence)
     assert np.all(t.hip_error_torso[t.found] <= settings.found_within_torso)
     assert np.all(np.isnan(t.joint_error_px[~t.found]))
     # Summaries agree with the rows.
