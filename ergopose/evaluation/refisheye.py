@@ -275,6 +275,8 @@ MODES: dict[str, dict] = {
     "memory24": dict(left_right_memory=24.0),
     "memory120": dict(left_right_memory=120.0),
     "upright-memory120": dict(max_body_roll=0.0, left_right_memory=120.0),
+    "feet": dict(left_right_feet=True),
+    "memory120-feet": dict(left_right_memory=120.0, left_right_feet=True),
 }
 
 

@@ -79,7 +79,14 @@ from ergopose.pose.search import MotionCues, SearchViews
 from ergopose.pose.search_layout import SearchLayout
 from ergopose.pose.settings import PoseSettings
 from ergopose.pose.view_cache import ViewCache
-from ergopose.pose.view_geometry import angle_between, bounded_up, roll_from_upright, unit, upright_defined
+from ergopose.pose.view_geometry import (
+    angle_between,
+    bounded_up,
+    roll_from_upright,
+    unit,
+    upright_defined,
+    world_up_cam,
+)
 from ergopose.progress import ProgressCallback, warn
 
 _LEFT_HIP, _RIGHT_HIP = JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]
@@ -151,6 +158,7 @@ class FisheyePoseEstimator:
         self._targets: list[Target] = []
         self._lost: list[Target] = []
         self._left_right = LeftRightCheck(settings)
+        self._up_cam = world_up_cam(camera)
 
     # -- search and motion cues -------------------------------------------------------------
     def search_period(self, following: bool) -> int:
@@ -300,6 +308,7 @@ class FisheyePoseEstimator:
         person = {
             "kp": kp,
             "view": view,
+            "up_view": view.rotation_cam_from_view.T @ self._up_cam,
             "rays_cam": rays_cam,
             "source": target.source,
             "half_fov": target.half_fov,

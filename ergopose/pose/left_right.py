@@ -6,6 +6,8 @@ for most of the last ``left_right_window`` frames it is followed (with ``left_ri
 when the network has also given it in more of the remembered frames than the labelling in use). Frames around such a change,
 and limbs whose own left/right disagrees with the body's, are flagged (``left_right_uncertain``);
 with ``uncertain_confidence`` set their confidence is lowered too (``PoseSettings.left_right_check``).
+With ``left_right_feet``, each skeleton is first checked against its own feet (:func:`feet_verdict`):
+one camera frame can tell a mirrored labelling where the person's history cannot.
 """
 
 from __future__ import annotations
@@ -42,6 +44,56 @@ _LR_LIMB_PAIRS = {
     )
     for k, (check, joints) in _LR_LIMBS.items()
 }
+
+
+#: The points of the feet cue: the body's left-to-right axis (hips and shoulders) and each foot's
+#: heel-to-toe direction.
+_FEET_BODY = np.array([JOINT_INDEX[n] for n in ("left_hip", "left_shoulder", "right_hip", "right_shoulder")])
+_FEET_FEET = np.array([JOINT_INDEX[n] for n in ("left_heel", "left_foot_index", "right_heel", "right_foot_index")])
+
+
+def feet_verdict(
+    pixels_view: np.ndarray, confidence: np.ndarray, up_view: np.ndarray | None, settings: PoseSettings
+) -> int | None:
+    """What a skeleton's feet say of its left and right in a view that looks down (or up) at the
+    person: 0 the labelling agrees with them, 1 it is mirrored, None cannot tell.
+
+    A standing person's left-to-right axis L and their toes' direction F (heel to toe) are both
+    horizontal, and L x F points down, whichever way the person faces. Seen from above, the image
+    of L therefore turns towards the image of F clockwise on screen (image y down: the 2D cross
+    product L_x F_y - L_y F_x is positive); seen from below, counter-clockwise. A skeleton whose left
+    and right are exchanged flips L and not F. The cue is used only when the view looks down or
+    up by at least ``left_right_feet_pitch`` (a level view sees L x F edge-on), every point it
+    needs is confident, and the turn is clear in both feet (|sin| of the angle between the images
+    of L and of each foot at least ``left_right_feet_sin``; a foot seen end-on, or one lifted and
+    pointing down, gives none).
+
+    pixels_view: (33, 2) keypoints in the view's pixels; confidence: (33,); up_view: (3,) the
+    world's up direction in the view's frame (x right, y down, z forward), None: unknown.
+    """
+    s = settings
+    if up_view is None or not s.left_right_feet:
+        return None
+    look = float(up_view[2])  # > 0: the view looks up at the person, < 0: down
+    if abs(look) < np.sin(s.left_right_feet_pitch):
+        return None
+    needed = np.concatenate([_FEET_BODY, _FEET_FEET])
+    px = np.asarray(pixels_view, dtype=np.float64)
+    if not (np.isfinite(px[needed]).all() and np.all(np.asarray(confidence)[needed] >= s.min_keypoint_confidence)):
+        return None
+    b = px[_FEET_BODY]
+    axis = (b[0] + b[1]) - (b[2] + b[3])  # right to left
+    f = px[_FEET_FEET]
+    feet = np.stack([f[1] - f[0], f[3] - f[2]])  # heel to toe, left and right foot
+    cross = axis[0] * feet[:, 1] - axis[1] * feet[:, 0]
+    norms = np.linalg.norm(axis) * np.linalg.norm(feet, axis=1)
+    if not np.all(norms > 0):
+        return None
+    sin = cross / norms
+    if not (np.all(np.abs(sin) >= s.left_right_feet_sin) and np.sign(sin[0]) == np.sign(sin[1])):
+        return None
+    expected = 1.0 if look < 0 else -1.0
+    return 0 if np.sign(sin[0]) == expected else 1
 
 
 def _lowered(confidence: np.ndarray, joints: np.ndarray, ceiling: float) -> np.ndarray:
@@ -126,6 +178,10 @@ class LeftRightCheck:
         tracks, used, kept = self.tracks, set(), []
         window = max(1, int(s.left_right_window))
         for p in people:
+            feet = feet_verdict(p["kp"].pixels, p["kp"].confidence, p.get("up_view"), s)
+            if feet == 1:
+                # The feet say the network's left and right are mirrored: put them right.
+                swap_left_right(p)
             centre, radius, _ = p["bearing"]
             best = None
             for k, t in enumerate(tracks):
@@ -140,7 +196,17 @@ class LeftRightCheck:
             uncertain = False
             since_flip = window
             support = (0.0, 0.0)
-            if best is not None:
+            if best is not None and feet is not None:
+                # The feet decided this frame's left and right: the person's history (which may
+                # have followed the network's mirrored labelling) starts again from here, and a
+                # memory's support is counted for the labelling the feet chose.
+                used.add(best[1])
+                track = tracks[best[1]]
+                support = track["support"]
+                if self.verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE) == 1:
+                    support = (support[1], support[0])
+                support = _support(support, 0, s.left_right_memory)
+            elif best is not None:
                 used.add(best[1])
                 track = tracks[best[1]]
                 since_flip = track["since_flip"] + 1
@@ -162,7 +228,7 @@ class LeftRightCheck:
                 uncertain = against >= 2 or since_flip < window
             conf = p["kp"].confidence.copy()
             rays = p["rays_cam"]
-            if best is not None:
+            if best is not None and feet is None:
                 # Limbs whose own left and right disagree with the body's are not trusted.
                 for check, joints in _LR_LIMB_PAIRS.values():
                     if self.verdict(tracks[best[1]], rays, conf, check) == 1 and s.uncertain_confidence is not None:

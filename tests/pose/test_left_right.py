@@ -20,7 +20,7 @@ from pose2sim_clip import Pose2SimClip
 from ergopose.commands.pose import LEFT_RIGHT_MEMORY_S
 from ergopose.keypoints import JOINT_INDEX, MIRROR, NUM_JOINTS
 from ergopose.pose.blazepose import Keypoints2D
-from ergopose.pose.left_right import LeftRightCheck
+from ergopose.pose.left_right import LeftRightCheck, feet_verdict
 from ergopose.pose.settings import PoseSettings
 
 L_SH, R_SH = JOINT_INDEX["left_shoulder"], JOINT_INDEX["right_shoulder"]
@@ -94,11 +94,111 @@ def test_real_frames_cam_02_keeps_its_sides_with_the_pose_commands_memory(shared
     """cam_02 of the Pose2Sim recording, frames 0-79, through the 2D stage as `ergopose pose` runs
     it. BlazePose labels the person's sides the other way round from frame 42 for most of the
     next 37 frames (against Pose2Sim's 3D result projected into the camera); without a memory the
-    check follows it after 5 frames, with the command's 2 s memory every frame keeps its sides."""
+    check follows it after 5 frames, with the command's 2 s memory every frame keeps its sides; the
+    feet (``left_right_feet``, not the default) alone put most of those frames right."""
     clip = Pose2SimClip(shared_data, fetched_model_dir[0], number=2, frames=80)
     crossed = {}
-    for name, memory in (("none", None), ("command", LEFT_RIGHT_MEMORY_S * clip.info.fps)):
-        scores = clip.scores(dataclasses.replace(PoseSettings(), left_right_memory=memory))
+    memory = LEFT_RIGHT_MEMORY_S * clip.info.fps
+    for name, changes in (
+        ("none", {}),
+        ("feet", dict(left_right_feet=True)),
+        ("command", dict(left_right_memory=memory)),
+        ("command+feet", dict(left_right_memory=memory, left_right_feet=True)),
+    ):
+        scores = clip.scores(dataclasses.replace(PoseSettings(), **changes))
         assert all(s["found"] for s in scores), name
         crossed[name] = sum(bool(s["swapped"]) for s in scores)
-    assert crossed["none"] >= 20 and crossed["command"] <= 2, crossed
+    assert crossed["none"] >= 20 and crossed["command"] <= 2 and crossed["command+feet"] <= 2, crossed
+    # The feet alone (measured, not the default), frame by frame, put most of the network's
+    # mirrored frames right.
+    assert crossed["feet"] <= crossed["none"] // 2, crossed
+
+
+# --- the feet ------------------------------------------------------------------------------------
+
+_UP = np.array([0.0, 0.0, 1.0])
+
+
+def _standing_person(facing_deg: float) -> dict[str, np.ndarray]:
+    """World points (metres, z up) of a person standing at the origin facing ``facing_deg``
+    (from +x towards +y): hips, shoulders, heels and toes (the feet turned out by 10 degrees)."""
+    a = np.radians(facing_deg)
+    forward = np.array([np.cos(a), np.sin(a), 0.0])
+    left = np.cross(_UP, forward)
+    out = {}
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        out[f"{side}_hip"] = sign * 0.1 * left + 0.9 * _UP
+        out[f"{side}_shoulder"] = sign * 0.18 * left + 1.4 * _UP
+        b = np.radians(10.0) * sign  # toes turned out
+        toe_dir = np.cos(b) * forward + np.sin(b) * left
+        out[f"{side}_heel"] = sign * 0.1 * left - 0.05 * forward + 0.03 * _UP
+        out[f"{side}_foot_index"] = out[f"{side}_heel"] + 0.22 * toe_dir
+    return out
+
+
+def _view_of(points: dict[str, np.ndarray], camera_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pinhole view (x right, y down, z forward) from ``camera_world`` aimed at the hips: (33, 2)
+    pixels, (33,) confidences (1 for the points given) and the world's up in the view's frame."""
+    target = 0.5 * (points["left_hip"] + points["right_hip"])
+    z = (target - camera_world) / np.linalg.norm(target - camera_world)
+    x = np.cross(z, _UP)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    rotation_view_from_world = np.stack([x, y, z])
+    pixels = np.full((NUM_JOINTS, 2), np.nan)
+    conf = np.zeros(NUM_JOINTS)
+    for name, p in points.items():
+        v = rotation_view_from_world @ (p - camera_world)
+        pixels[JOINT_INDEX[name]] = 500.0 * v[:2] / v[2] + 128.0
+        conf[JOINT_INDEX[name]] = 0.9
+    return pixels, conf, rotation_view_from_world @ _UP
+
+
+def _mirrored(pixels, conf):
+    return pixels[MIRROR], conf[MIRROR]
+
+
+FEET = dataclasses.replace(PoseSettings(), left_right_feet=True)
+
+
+# A ceiling camera looking down; a camera on the floor looking up (it sees the feet nearly
+# edge-on, so they decide less often).
+@pytest.mark.parametrize("height, share", [(3.0, 0.6), (0.0, 0.3)])
+def test_the_feet_tell_a_mirrored_skeleton_whichever_way_the_person_faces(height, share):
+    decided = 0
+    for facing in range(0, 360, 30):
+        person = _standing_person(float(facing))
+        for azimuth in range(0, 360, 45):
+            a = np.radians(azimuth)
+            camera = np.array([2.5 * np.cos(a), 2.5 * np.sin(a), height])
+            pixels, conf, up_view = _view_of(person, camera)
+            right = feet_verdict(pixels, conf, up_view, FEET)
+            wrong = feet_verdict(*_mirrored(pixels, conf), up_view, FEET)
+            assert right in (0, None) and wrong in (1, None), (facing, azimuth, right, wrong)
+            assert (right is None) == (wrong is None)
+            decided += right == 0
+    # Undecided only where a foot is seen nearly end-on or along the body's axis.
+    assert decided >= share * 12 * 8, decided
+
+
+def test_the_feet_do_not_vote_in_a_level_view_without_their_points_or_when_off():
+    person = _standing_person(30.0)
+    level = np.array([2.5, 0.0, 0.9])  # at hip height: the view's axis is horizontal
+    pixels, conf, up_view = _view_of(person, level)
+    assert abs(up_view[2]) < 1e-9 and feet_verdict(pixels, conf, up_view, FEET) is None
+    above = np.array([2.5, 0.0, 3.0])
+    pixels, conf, up_view = _view_of(person, above)
+    assert feet_verdict(pixels, conf, up_view, FEET) == 0
+    assert feet_verdict(pixels, conf, up_view, PoseSettings()) is None  # the default: off
+    assert feet_verdict(pixels, conf, None, FEET) is None
+    low = conf.copy()
+    low[JOINT_INDEX["left_heel"]] = 0.1
+    assert feet_verdict(pixels, low, up_view, FEET) is None
+    # A lifted foot pointing down turns the way the person faces: seen from behind it disagrees
+    # with the standing foot and the feet give no vote; seen from the front both agree.
+    lifted = dict(person)
+    lifted["right_foot_index"] = person["right_heel"] + np.array([0.0, 0.0, -0.22])
+    facing = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0)), 0.0])
+    behind, front = -2.5 * facing + [0.0, 0.0, 3.0], 2.5 * facing + [0.0, 0.0, 3.0]
+    assert feet_verdict(*_view_of(lifted, behind), FEET) is None
+    assert feet_verdict(*_view_of(lifted, front), FEET) == 0
