@@ -43,11 +43,11 @@ position and size of the person, so they measure only the effect of what the net
 
 Found: presence (the network's pose flag) >= ``min_presence`` (for ``stage``: a detection the
 stage reported, which follows a person it has found down to ``PoseSettings.min_follow_presence``)
-and the predicted hip centre within ``found_within_torso`` torso lengths of the true hip centre. Distances "in torso
-lengths" are angles between rays from the camera, divided by the angle the torso subtends at
-the person's distance (3D shoulder-centre to hip-centre length / distance of the hip centre
-from the camera): the error perpendicular to the line of sight, in units of the person's own
-torso. This does not shrink when the torso is foreshortened (a person seen from above).
+and the predicted hip centre within ``found_within_torso`` torso lengths of the true hip centre.
+Distances "in torso lengths" are angles between rays from the camera, divided by the angle the
+torso subtends at the person's distance (3D shoulder-centre to hip-centre length / distance of
+the hip centre from the camera): the error perpendicular to the line of sight, in units of the
+person's own torso. This does not shrink when the torso is foreshortened (a person seen from above).
 
 Keypoint error: for every found person, each of the 12 limb keypoints (shoulders, elbows,
 wrists, hips, knees, ankles) that the camera sees (ground-truth visibility 0) gives one error

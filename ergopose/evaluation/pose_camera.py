@@ -5,7 +5,6 @@ on every frame; in the calling process or in a worker process of its own."""
 from __future__ import annotations
 
 import dataclasses
-
 from pathlib import Path
 
 import cv2
@@ -50,6 +49,11 @@ def evaluate_camera(
     stage = None
     if "stage" in want:
         stage = FisheyePoseEstimator(camera, camera_index, landmarker, detector, settings.stage_settings())
+    # The stage reports a person it follows down to its lower gate (new people need
+    # min_presence): what it reports has passed its own gate.
+    stage_scoring = dataclasses.replace(
+        settings, min_presence=min(settings.min_presence, settings.stage_settings().follow_presence)
+    )
     rows = TrialRows(settings.region_limits_deg)
     false_positives = 0
     stage_frames = 0
@@ -108,11 +112,6 @@ def evaluate_camera(
                 )
         if found is not None:
             matches, fp = match_stage(people, hidden, found, settings)
-            # The stage reports a person it follows down to its lower gate (new people need
-            # min_presence): what it reports has passed its own gate.
-            stage_scoring = dataclasses.replace(
-                settings, min_presence=min(settings.min_presence, settings.stage_settings().follow_presence)
-            )
             false_positives += fp
             for pos, (w, p) in enumerate(people):
                 j = matches.get(pos)

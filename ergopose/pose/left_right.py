@@ -64,9 +64,10 @@ def feet_verdict(
     product L_x F_y - L_y F_x is positive); seen from below, counter-clockwise. A skeleton whose left
     and right are exchanged flips L and not F. The cue is used only when the view looks down or
     up by at least ``left_right_feet_pitch`` (a level view sees L x F edge-on), every point it
-    needs is confident, and the turn is clear in both feet (|sin| of the angle between the images
-    of L and of each foot at least ``left_right_feet_sin``; a foot seen end-on, or one lifted and
-    pointing down, gives none).
+    needs is confident, and the turn is clear and the same in both feet (|sin| of the angle
+    between the images of L and of each foot at least ``left_right_feet_sin``: a foot seen end-on
+    gives none; a lifted foot pointing down turns the way the person faces, and counts only when
+    the other foot agrees).
 
     pixels_view: (33, 2) keypoints in the view's pixels; confidence: (33,); up_view: (3,) the
     world's up direction in the view's frame (x right, y down, z forward), None: unknown.
