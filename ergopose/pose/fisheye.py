@@ -308,7 +308,8 @@ class FisheyePoseEstimator:
         person = {
             "kp": kp,
             "view": view,
-            "up_view": view.rotation_cam_from_view.T @ self._up_cam,
+            # The world's up in the view, for the feet check (only when it runs).
+            "up_view": view.rotation_cam_from_view.T @ self._up_cam if self.settings.left_right_feet else None,
             "rays_cam": rays_cam,
             "source": target.source,
             "half_fov": target.half_fov,

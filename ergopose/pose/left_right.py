@@ -197,19 +197,18 @@ class LeftRightCheck:
             uncertain = False
             since_flip = window
             support = (0.0, 0.0)
-            if best is not None and feet is not None:
+            track = None if best is None else tracks[best[1]]
+            if best is not None:
+                used.add(best[1])
+            if track is not None and feet is not None:
                 # The feet decided this frame's left and right: the person's history (which may
                 # have followed the network's mirrored labelling) starts again from here, and a
                 # memory's support is counted for the labelling the feet chose.
-                used.add(best[1])
-                track = tracks[best[1]]
                 support = track["support"]
                 if self.verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE) == 1:
                     support = (support[1], support[0])
                 support = _support(support, 0, s.left_right_memory)
-            elif best is not None:
-                used.add(best[1])
-                track = tracks[best[1]]
+            elif track is not None:
                 since_flip = track["since_flip"] + 1
                 verdict = self.verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE)
                 votes = (track["votes"] + [verdict])[-window:]
@@ -229,10 +228,10 @@ class LeftRightCheck:
                 uncertain = against >= 2 or since_flip < window
             conf = p["kp"].confidence.copy()
             rays = p["rays_cam"]
-            if best is not None and feet is None:
+            if track is not None and feet is None:
                 # Limbs whose own left and right disagree with the body's are not trusted.
                 for check, joints in _LR_LIMB_PAIRS.values():
-                    if self.verdict(tracks[best[1]], rays, conf, check) == 1 and s.uncertain_confidence is not None:
+                    if self.verdict(track, rays, conf, check) == 1 and s.uncertain_confidence is not None:
                         p["kp"] = replace(
                             p["kp"], confidence=_lowered(p["kp"].confidence, joints, s.uncertain_confidence)
                         )
