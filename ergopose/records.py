@@ -158,6 +158,22 @@ class Detections2D:
         )
         return Detections2D(self.camera, self.frame, self.time_s, px, conf, self.projection, rays, self.appearance)
 
+    def subset(self, people: np.ndarray) -> "Detections2D":
+        """The detections of ``people`` ((N,) bool or indices) only, in their order."""
+        keep = np.asarray(people)
+        rays = None if self.rays_world is None else self.rays_world[keep]
+        look = None if self.appearance is None else self.appearance[keep]
+        return Detections2D(
+            self.camera,
+            self.frame,
+            self.time_s,
+            self.pixels_view[keep],
+            self.confidence[keep],
+            self.projection[keep],
+            rays,
+            look,
+        )
+
     @classmethod
     def empty(cls, camera: str, frame: int, time_s: float) -> "Detections2D":
         """No people in this camera's frame."""

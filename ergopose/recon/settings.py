@@ -51,6 +51,10 @@ class ReconSettings:
             different people usually does not).
         trunk_min_length_m, trunk_max_length_m: 0.25, 0.8 -- mid-hip to mid-shoulder distance
             of a pair must lie within these bounds (where both are seen).
+        min_person_scale: 0.4 -- a camera's detection whose keypoints span less than this
+            fraction of the angle a standing person with hips on its hip rays would span is not
+            used (a skeleton squeezed into the visible part of a partly hidden person;
+            :mod:`ergopose.recon.person_scale`); 0: every detection is used.
     Tracking of identities
         track_gate_m: 0.6 -- largest distance between a track's predicted body centre and a
             person's triangulated centre for a match, at one frame of coasting.
@@ -161,6 +165,7 @@ class ReconSettings:
     torso_max_z_m: float = 2.3
     trunk_min_length_m: float = 0.25
     trunk_max_length_m: float = 0.8
+    min_person_scale: float = 0.4
 
     track_gate_m: float = 0.6
     track_gate_growth_m_per_s: float = 1.5

@@ -1,6 +1,7 @@
 """Association and triangulation of a run of frames: Detections2D per camera -> People3D.
 
-Per frame, the people of the C cameras (any C >= 1) are grouped into sets of at most one
+Per frame, a camera's detections that are not the size of a person where their hips are are
+left out (:mod:`ergopose.recon.person_scale`); the people of the C cameras (any C >= 1) are grouped into sets of at most one
 detection per camera (:func:`ergopose.recon.associate.associate_views`; with two cameras these
 are the pairs of :func:`~ergopose.recon.associate.associate`). Every set of two or more cameras
 is triangulated with the weighted DLT in its virtual views
@@ -25,6 +26,7 @@ from ergopose.geometry.triangulation import reject_outliers, triangulate_dlt
 from ergopose.keypoints import NUM_JOINTS
 from ergopose.progress import ProgressCallback, report
 from ergopose.recon.associate import associate_views, canonical_sides
+from ergopose.recon.person_scale import keep_person_sized
 from ergopose.recon.records import TORSO_JOINTS, People3D, body_centres
 from ergopose.recon.settings import ReconSettings
 from ergopose.records import APPEARANCE_DIMS, Detections2D
@@ -69,7 +71,7 @@ def reconstruct_frames(
         if last is not None and a.frame <= last:
             raise InputError(f"frame indices must increase (frame {a.frame} after {last})", field="frames")
         last = a.frame
-        dets = canonical_sides(dets, settings)
+        dets = canonical_sides([keep_person_sized(d, settings.min_person_scale) for d in dets], settings)
         assoc = associate_views(dets, settings)
         g = assoc.groups
         if len(g):

@@ -46,6 +46,11 @@ class ReconstructionTable(Table):
     torso_max_z_m: float = Field(2.3, description="highest plausible height of an associated person's torso joints")
     trunk_min_length_m: float = Field(0.25, gt=0, description="shortest plausible mid-hip to mid-shoulder distance")
     trunk_max_length_m: float = Field(0.8, gt=0, description="longest plausible mid-hip to mid-shoulder distance")
+    min_person_scale: float = Field(
+        0.4,
+        ge=0,
+        description="a detection spanning less than this fraction of a standing person there is not used; 0: off",
+    )
 
     track_gate_m: float = Field(
         0.6, gt=0, description="largest distance of a person from a track's prediction for a match"

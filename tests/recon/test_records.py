@@ -97,3 +97,19 @@ def test_project_all_marks_outside_image(cameras):
     X = np.stack([np.broadcast_to(inside, (33, 3)), np.broadcast_to(outside, (33, 3))])[None]
     px = project_all(cameras, X)
     assert np.isfinite(px[0, 0, 0]).all() and np.isnan(px[0, 0, 1]).all()
+
+
+def test_a_subset_keeps_the_chosen_people_whole(cameras, rng):
+    truth = walk_workers(crossing_scripts(), 1, FPS)[0]  # (4, 33, 3)
+    cam = cameras[0]
+    px = cam.project_world(truth)
+    det = detections_from_fisheye(cam, 5, 5 / FPS, px, rng.uniform(0.5, 1.0, px.shape[:2]))
+    det = Detections2D(
+        det.camera, det.frame, det.time_s, det.pixels_view, det.confidence, det.projection,
+        det.world_rays(), rng.uniform(0, 100, (4, 6)),
+    )  # fmt: skip
+    part = det.subset(np.array([True, False, True, False]))
+    assert part.count == 2 and (part.camera, part.frame, part.time_s) == (det.camera, det.frame, det.time_s)
+    for name in ("pixels_view", "confidence", "projection", "rays_world", "appearance"):
+        assert np.allclose(getattr(part, name), getattr(det, name)[[0, 2]], rtol=0, atol=1e-12), name
+    assert det.subset(np.array([3, 1])).count == 2 and det.subset(np.zeros(4, bool)).count == 0
