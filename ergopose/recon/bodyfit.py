@@ -224,6 +224,11 @@ _FOOT = np.array(
     ]
 )
 _FLOOR_SIGMA_M = 0.02
+#: The sole points (heels and toes) and how high above the floor the lowest of them may lie
+#: before the floor-contact prior pulls (metres; a standing foot's heel keypoint lies about 0.1 m
+#: up in the real Pose2Sim recording).
+_SOLE = np.array([JOINT_INDEX[n] for n in ("left_heel", "right_heel", "left_foot_index", "right_foot_index")])
+FLOOR_CONTACT_BAND_M = 0.15
 
 #: The hand's long axis continues the forearm: per side, mid(index, pinky) - wrist - k (wrist -
 #: elbow) = 0 with k = hand / forearm length of the neutral pose (a linear term in X), standard
@@ -338,6 +343,7 @@ class FitOptions:
     speed_m_s: float = 1.5
     pose_prior_sigma_m: float = 0.35
     hand_prior_sigma_m: float = 0.05
+    floor_contact_sigma_m: float = 0.05
     turn_rate_rad_s: float = 4.0
     iterations: int = 10
     max_prior_gap_s: float = 2.0
@@ -352,6 +358,7 @@ class FitOptions:
             speed_m_s=settings.fit_speed_m_s,
             pose_prior_sigma_m=settings.fit_pose_prior_sigma_m,
             hand_prior_sigma_m=settings.fit_hand_prior_sigma_m,
+            floor_contact_sigma_m=settings.fit_floor_contact_sigma_m,
             turn_rate_rad_s=settings.fit_turn_rate_rad_s,
             iterations=settings.fit_iterations,
             max_prior_gap_s=settings.max_coast_s,
@@ -514,6 +521,14 @@ def fit_bodies(
     hand_H = np.einsum("rs,sj,sk->rjk", w_hand, HAND_PRIOR, HAND_PRIOR)  # (R, J, J)
     for a in range(3):
         H_const[:, :, a, :, a] += hand_H
+    # Floor contact, for a worker one camera sees: the lowest heel or toe within
+    # FLOOR_CONTACT_BAND_M of the floor (one camera's rays leave the distance to the body to its
+    # size, which the keypoints tell poorly).
+    one_camera = (conf > 0).any(axis=2).sum(axis=1) < 2  # (R,)
+    w_contact = np.where(
+        one_camera & (opt.floor_contact_sigma_m > 0), 1.0 / max(opt.floor_contact_sigma_m, 1e-9) ** 2, 0.0
+    )
+    rows = np.arange(R)
     P_uv = P[:, :, None, :2, :3]  # (R, C, 1, 2, 3)
     P_w = P[:, :, None, 2:3, :3]  # (R, C, 1, 1, 3)
     P_t = np.swapaxes(P, -1, -2)  # (R, C, 4, 3)
@@ -546,6 +561,8 @@ def fit_bodies(
         dp = np.matmul(PRIOR_LINK_MATRIX, X) - prior_links(X, scale)  # (R, E, 3)
         dt = X - prev0
         zf = np.minimum(X[:, _FOOT, 2], 0.0)
+        low = np.argmin(X[:, _SOLE, 2], axis=1)  # (R,)
+        zc = np.maximum(X[rows, _SOLE[low], 2] - FLOOR_CONTACT_BAND_M, 0.0)
         dturn = d - d_prev
         dh = np.matmul(HAND_PRIOR, X)  # (R, 2, 3)
         cost = (
@@ -556,6 +573,7 @@ def fit_bodies(
             + (w_turn * (dturn * dturn).sum(axis=-1)).sum(axis=1)
             + w_prev * (dt * dt).sum(axis=(1, 2))
             + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M**2
+            + w_contact * zc * zc
         )
         return dict(
             dsafe=dsafe,
@@ -569,6 +587,8 @@ def fit_bodies(
             dp=dp,
             dt=dt,
             zf=zf,
+            low=low,
+            zc=zc,
             dturn=dturn,
             dh=dh,
             cost=cost,
@@ -600,6 +620,9 @@ def fit_bodies(
         fl = np.where(X[:, _FOOT, 2] < 0.0, 1.0 / _FLOOR_SIGMA_M**2, 0.0)
         H[:, _FOOT, 2, _FOOT, 2] += fl
         g[:, _FOOT, 2] += fl * r["zf"]
+        sole = _SOLE[r["low"]]
+        H[rows, sole, 2, sole, 2] += np.where(r["zc"] > 0, w_contact, 0.0)
+        g[rows, sole, 2] += w_contact * r["zc"]
         return H.reshape(R, n, n), g.reshape(R, n)
 
     r = residuals(X)

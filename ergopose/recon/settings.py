@@ -104,6 +104,11 @@ class ReconSettings:
         fit_hand_prior_sigma_m: 0.05 -- standard deviation of the prior that a hand two cameras
             do not see continues its forearm (hand points against the forearm's line, metres);
             0 turns it off.
+        fit_floor_contact_sigma_m: 0.05 -- for a worker only one camera sees, the lowest heel or
+            toe is pulled to within bodyfit.FLOOR_CONTACT_BAND_M (0.15 m) of the floor with this
+            standard deviation (metres; one camera's rays leave the distance to the body to its
+            size, which the keypoints tell poorly); 0 turns it off (work areas with platforms or
+            stairs seen by one camera).
         fit_turn_rate_rad_s: 4.0 -- each segment's vector may change by fit_temporal_sigma_m +
             this x its length x the time since the previous fit (one standard deviation): a
             small rigid part (a hand, the head) keeps its orientation from frame to frame instead
@@ -186,6 +191,7 @@ class ReconSettings:
     fit_speed_m_s: float = 1.5
     fit_pose_prior_sigma_m: float = 0.35
     fit_hand_prior_sigma_m: float = 0.05
+    fit_floor_contact_sigma_m: float = 0.05
     fit_turn_rate_rad_s: float = 4.0
     fit_iterations: int = 10
     side_lock_break_s: float = 0.5

@@ -115,6 +115,12 @@ class ReconstructionTable(Table):
         description="standard deviation of the prior that a hand two "
         "cameras do not see continues its forearm (metres; 0: off)",
     )
+    fit_floor_contact_sigma_m: float = Field(
+        0.05,
+        ge=0,
+        description="a worker one camera sees keeps a heel or toe within 0.15 m of the floor, "
+        "with this standard deviation (metres; 0: off)",
+    )
     fit_turn_rate_deg_s: float = Field(
         math.degrees(4.0), gt=0, description="how fast a segment may turn between fits (one standard deviation)"
     )
