@@ -1,9 +1,10 @@
 """Association and triangulation of a run of frames: Detections2D per camera -> People3D.
 
 Per frame, a camera's detections that are not the size of a person where their hips are are
-left out (:mod:`ergopose.recon.person_scale`); the people of the C cameras (any C >= 1) are grouped into sets of at most one
-detection per camera (:func:`ergopose.recon.associate.associate_views`; with two cameras these
-are the pairs of :func:`~ergopose.recon.associate.associate`). Every set of two or more cameras
+left out (:mod:`ergopose.recon.person_scale`); the people of the C cameras (any C >= 1) are
+grouped into sets of at most one detection per camera
+(:func:`ergopose.recon.associate.associate_views`; with two cameras these are the pairs of
+:func:`~ergopose.recon.associate.associate`). Every set of two or more cameras
 is triangulated with the weighted DLT in its virtual views
 (:func:`ergopose.geometry.triangulation.reject_outliers`, weights = 2D confidence, keypoints
 below ``min_confidence`` excluded), all sets of all frames in one vectorised call. Outliers:
