@@ -55,6 +55,7 @@ import numpy as np
 from ergopose.arrays import FloatArray
 from ergopose.geometry.rigid import kabsch
 from ergopose.keypoints import JOINT_INDEX, LIMBS, MIRROR, NUM_JOINTS
+from ergopose.recon.person_scale import HIPS_M
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.track_signatures import LimbHistogram
 
@@ -774,7 +775,7 @@ def _pelvis_guess(
     projections: np.ndarray,
     pixels_view: np.ndarray,
     confidence: np.ndarray,
-    height_m: float = 0.95,
+    height_m: float = HIPS_M,
 ) -> np.ndarray:
     """(R, 3) where to put a body nothing is known about yet: the mid-hip of the triangulation,
     else 0.3 m below its other torso joints, else on the mean ray of the first camera that saw

@@ -28,6 +28,7 @@ import numpy as np
 
 from ergopose.arrays import FloatArray
 from ergopose.keypoints import JOINT_INDEX
+from ergopose.pose.view_geometry import angle_between, unit
 from ergopose.records import Detections2D
 
 #: Height above the floor (metres) of a standing person's mid-hip point and the top of their head
@@ -36,18 +37,6 @@ HIPS_M = 0.95
 HEAD_TOP_M = 1.70
 
 _HIPS = np.array([JOINT_INDEX["left_hip"], JOINT_INDEX["right_hip"]])
-
-
-def _angle(a: np.ndarray, b: np.ndarray) -> FloatArray:
-    """Angle (radians) between the unit vectors a and b (last axis)."""
-    out: FloatArray = np.arccos(np.clip((a * b).sum(axis=-1), -1.0, 1.0))
-    return out
-
-
-def _unit(v: np.ndarray) -> FloatArray:
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out: FloatArray = v / np.linalg.norm(v, axis=-1, keepdims=True)
-    return out
 
 
 def person_scale(det: Detections2D) -> FloatArray:
@@ -61,20 +50,19 @@ def person_scale(det: Detections2D) -> FloatArray:
     rays = det.world_rays()  # (N, 33, 3) unit, NaN where not found
     seen = (det.confidence > 0) & np.isfinite(rays).all(axis=-1)
     origin = det.centres_world()  # (N, 3)
-    hips = _unit(rays[:, _HIPS].mean(axis=1))  # (N, 3)
+    hips = unit(rays[:, _HIPS].mean(axis=1))  # (N, 3); NaN without the hips
     drop = -hips[:, 2]
     ok = seen[:, _HIPS].all(axis=1) & (drop > 1e-3) & (origin[:, 2] > HIPS_M) & (seen.sum(axis=1) >= 2)
     if not ok.any():
         return out
     hips, origin, r, s = hips[ok], origin[ok], rays[ok], seen[ok]
     hips_world = origin + hips * ((origin[:, 2] - HIPS_M) / drop[ok])[:, None]
-    top = _unit(hips_world + np.array([0.0, 0.0, HEAD_TOP_M - HIPS_M]) - origin)
-    soles = _unit(hips_world - np.array([0.0, 0.0, HIPS_M]) - origin)
-    expected = _angle(top, soles)  # (n,)
+    top = unit(hips_world + np.array([0.0, 0.0, HEAD_TOP_M - HIPS_M]) - origin)
+    soles = unit(hips_world - np.array([0.0, 0.0, HIPS_M]) - origin)
+    expected = angle_between(top, soles)  # (n,)
     r = np.where(s[..., None], r, 0.0)
-    cos = np.einsum("njk,nmk->njm", r, r)
     pair = s[:, :, None] & s[:, None, :]
-    spanned = np.arccos(np.clip(np.where(pair, cos, 1.0), -1.0, 1.0)).max(axis=(1, 2))
+    spanned = np.where(pair, angle_between(r[:, :, None], r[:, None, :]), 0.0).max(axis=(1, 2))
     out[ok] = spanned / expected
     return out
 
