@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 from ergopose.cli_progress import ProgressBars
@@ -15,7 +16,7 @@ from ergopose.geometry.image_circle import nominal_fisheye_camera, nominal_pinho
 from ergopose.pipeline.pose_video import circle_from_video, pose_video, write_pose_csv
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.settings import PoseSettings
-from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS
+from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS, ConfidenceGates
 from ergopose.progress import warn
 from ergopose.progress import ProgressCallback
 from ergopose.video import probe_video
@@ -33,6 +34,20 @@ DEFAULT_FOV_DEG = {"fisheye": 180.0, "pinhole": 60.0}
 #: its reconstruction settles sides across cameras (docs/pose-in-fisheye.md).
 LEFT_RIGHT_MEMORY_S = 2.0
 
+
+def stage_settings(gates: ConfidenceGates | None, fps: float, max_people: int) -> PoseSettings:
+    """The 2D stage as this command runs it: the model card's gates, the left/right memory
+    (``LEFT_RIGHT_MEMORY_S``), and a person whose sides the left/right check doubts passed on with
+    the confidence of every left/right keypoint lowered to the card's ``min_keypoint_confidence``
+    (below its triangulation gate: not a confident pose; the CSV's ``left_right_uncertain`` says
+    why). Measured on the Pose2Sim recording re-rendered into virtual fisheye cameras
+    (docs/pose-command.md, "Doubted sides"): cam_02's confident frames with left and right
+    crossed 21.9 -> 13.2 %, the three other cameras unchanged (no frame doubted). gates: None
+    (a card without its own) keeps the stage's default gates."""
+    settings = PoseSettings(max_people=max_people, left_right_memory=LEFT_RIGHT_MEMORY_S * fps).with_gates(gates)
+    return replace(settings, uncertain_confidence=settings.min_keypoint_confidence)
+
+
 HELP = """\
 Find the people in one video and write their 2D keypoints (33 body points per person, in the
 video's own pixels, with a confidence) to a CSV file: the first stage of 'ergopose assess' run
@@ -49,8 +64,10 @@ image's width (default 60), looking level. Keypoints from an approximate camera 
 that guess; calibrate the cameras for an assessment (docs/calibration.md).
 
 The CSV has one row per frame, person and keypoint: frame, time_s, person (numbered within the
-frame), joint (name), x_px, y_px, confidence (0-1). A keypoint that falls outside the lens has
-empty x_px and y_px. Frames where nobody was found have no rows. See docs/pose-command.md."""
+frame), joint (name), x_px, y_px, confidence (0-1), left_right_uncertain (1 when the person's left
+and right are in doubt in that frame; their left/right keypoints then carry a lowered
+confidence). A keypoint that falls outside the lens has empty x_px and y_px. Frames where nobody
+was found have no rows. See docs/pose-command.md."""
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
@@ -135,9 +152,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"camera {_describe(camera)}", flush=True)
     landmarker = BlazePoseLandmarker(model=args.model, model_dir=args.model_dir, progress=progress)
     detector = BlazePoseDetector(model_dir=args.model_dir, progress=progress)
-    settings = PoseSettings(max_people=args.max_people, left_right_memory=LEFT_RIGHT_MEMORY_S * info.fps).with_gates(
-        landmarker.card.gates
-    )
+    settings = stage_settings(landmarker.card.gates, info.fps, args.max_people)
     result = pose_video(args.video, camera, info.fps, start, stop, landmarker, detector, settings, progress)
     write_pose_csv(args.out, result.table)
     read = result.frames_read
@@ -146,6 +161,12 @@ def run(args: argparse.Namespace) -> int:
         f"({100.0 * result.frames_with_people / max(read, 1):.1f} %), at most {int(result.people.max())} at once; "
         f"{len(result.table)} keypoint rows"
     )
+    doubted = result.uncertain_person_frames
+    if doubted:
+        print(
+            f"  left and right doubted in {doubted} person-frames: their left/right keypoints carry lowered "
+            "confidence (column left_right_uncertain)"
+        )
     if result.capped_frames:
         print(f"  max_people = {args.max_people} reached in {result.capped_frames} frames")
     print(f"wrote {args.out}")

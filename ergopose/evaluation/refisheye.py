@@ -277,6 +277,11 @@ MODES: dict[str, dict] = {
     "upright-memory120": dict(max_body_roll=0.0, left_right_memory=120.0),
     "feet": dict(left_right_feet=True),
     "memory120-feet": dict(left_right_memory=120.0, left_right_feet=True),
+    # As `ergopose pose` runs the stage with the default (full) model at the recording's 60 fps
+    # (ergopose.commands.pose.stage_settings): doubted sides lowered to the card's keypoint gate.
+    "memory120-lowered": dict(left_right_memory=120.0, uncertain_confidence=0.3),
+    # The same at the simulator's 12 fps (2 s = 24 frames), for --sim.
+    "memory24-lowered": dict(left_right_memory=24.0, uncertain_confidence=0.3),
 }
 
 

@@ -28,7 +28,16 @@ from ergopose.progress import ProgressCallback, report, warn
 from ergopose.video import read_frames, read_frames_checked
 
 #: The CSV's columns, in order.
-POSE_COLUMNS: tuple[str, ...] = ("frame", "time_s", "person", "joint", "x_px", "y_px", "confidence")
+POSE_COLUMNS: tuple[str, ...] = (
+    "frame",
+    "time_s",
+    "person",
+    "joint",
+    "x_px",
+    "y_px",
+    "confidence",
+    "left_right_uncertain",
+)
 
 #: Frames sampled through the video for the image circle's maximum image.
 CIRCLE_SAMPLES = 24
@@ -53,6 +62,12 @@ class PoseVideoResult:
     @property
     def frames_read(self) -> int:
         return int(np.count_nonzero(self.people >= 0))
+
+    @property
+    def uncertain_person_frames(self) -> int:
+        """Person-frames with a keypoint whose side the stage doubted (``left_right_uncertain``)."""
+        t = self.table
+        return int(t.loc[t["left_right_uncertain"] == 1, ["frame", "person"]].drop_duplicates().shape[0])
 
     @property
     def frames_with_people(self) -> int:
@@ -85,7 +100,7 @@ def pose_video(
     stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings, progress=progress)
     count = stop - start
     people = np.zeros(count, np.int64)
-    frames, persons, pixels, confidence = [], [], [], []
+    frames, persons, pixels, confidence, uncertain = [], [], [], [], []
     for k, (index, image, problem) in enumerate(read_frames_checked(path, start, stop)):
         if image is None:
             people[k] = -1  # why: problem, one of ergopose.video.SKIP_CODES
@@ -97,13 +112,15 @@ def pose_video(
                 persons.append(np.arange(found.count, dtype=np.int64))
                 pixels.append(found.pixels_fisheye)
                 confidence.append(found.confidence)
+                doubted = found.left_right_uncertain
+                uncertain.append(np.zeros((found.count, NUM_JOINTS), bool) if doubted is None else doubted)
         report(progress, "pose", k + 1, count, unit="frame")
     skipped = int(np.count_nonzero(people < 0))
     if skipped == count:
         raise InputError(f"none of the {count} frames could be decoded", path=path)
     if skipped:
         warn(progress, f"{camera.name}: {skipped} of {count} frames could not be decoded and were skipped")
-    table = _table(frames, persons, pixels, confidence, fps)
+    table = _table(frames, persons, pixels, confidence, uncertain, fps)
     return PoseVideoResult(table, people, start, stop, stage.capped_frames)
 
 
@@ -112,19 +129,23 @@ def _table(
     persons: list[np.ndarray],
     pixels: list[np.ndarray],
     confidence: list[np.ndarray],
+    uncertain: list[np.ndarray],
     fps: float,
 ) -> pd.DataFrame:
     if not frames:
         return pd.DataFrame(
             {
                 c: pd.Series(dtype=t)
-                for c, t in zip(POSE_COLUMNS, ("int64", "float64", "int64", "str", "float64", "float64", "float64"))
+                for c, t in zip(
+                    POSE_COLUMNS, ("int64", "float64", "int64", "str", "float64", "float64", "float64", "int64")
+                )
             }
         )
     frame = np.concatenate(frames)
     person = np.concatenate(persons)
     xy = np.concatenate(pixels)  # (P, 33, 2)
     conf = np.concatenate(confidence)  # (P, 33)
+    doubted = np.concatenate(uncertain).astype(np.int64)  # (P, 33)
     rows = frame.size * NUM_JOINTS
     return pd.DataFrame(
         {
@@ -135,6 +156,7 @@ def _table(
             "x_px": np.round(xy[..., 0].reshape(rows), 2),
             "y_px": np.round(xy[..., 1].reshape(rows), 2),
             "confidence": np.round(np.where(np.isfinite(xy).all(axis=-1), conf, 0.0).reshape(rows), 4),
+            "left_right_uncertain": doubted.reshape(rows),
         },
         columns=list(POSE_COLUMNS),
     )

@@ -468,6 +468,9 @@ class FisheyePoseEstimator:
             view_direction_cam=np.stack([v.rotation_cam_from_view[:, 2] for v in views]),
             view_half_fov=np.array([p["half_fov"] for p in people]),
             source=np.array([p["source"] for p in people], dtype=np.int64),
+            left_right_uncertain=(
+                np.stack([p["left_right_uncertain"] for p in people]) if self.settings.left_right_check else None
+            ),
         )
 
     def __call__(self, frame_bgr: np.ndarray, frame_index: int) -> FrameDetections:

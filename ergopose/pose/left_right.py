@@ -3,9 +3,10 @@
 Each person's skeleton is compared with their previous frame's: a skeleton whose left and right
 limbs match it the other way round is swapped back; when the network keeps the other labelling
 for most of the last ``left_right_window`` frames it is followed (with ``left_right_memory``, only
-when the network has also given it in more of the remembered frames than the labelling in use). Frames around such a change,
-and limbs whose own left/right disagrees with the body's, are flagged (``left_right_uncertain``);
-with ``uncertain_confidence`` set their confidence is lowered too (``PoseSettings.left_right_check``).
+when the network has also given it in more of the remembered frames than the labelling in use). The keypoints of frames around such a
+change, and of limbs whose own left/right disagrees with the body's, are flagged
+(``left_right_uncertain``, per keypoint); with ``uncertain_confidence`` set their confidence is
+lowered too (``PoseSettings.left_right_check``).
 With ``left_right_feet``, each skeleton is first checked against its own feet (:func:`feet_verdict`):
 one camera frame can tell a mirrored labelling where the person's history cannot.
 """
@@ -228,17 +229,19 @@ class LeftRightCheck:
                 uncertain = against >= 2 or since_flip < window
             conf = p["kp"].confidence.copy()
             rays = p["rays_cam"]
+            doubted = np.zeros(len(conf), dtype=bool)
             if track is not None and feet is None:
                 # Limbs whose own left and right disagree with the body's are not trusted.
                 for check, joints in _LR_LIMB_PAIRS.values():
-                    if self.verdict(track, rays, conf, check) == 1 and s.uncertain_confidence is not None:
-                        p["kp"] = replace(
-                            p["kp"], confidence=_lowered(p["kp"].confidence, joints, s.uncertain_confidence)
-                        )
-            if uncertain and s.uncertain_confidence is not None:
-                paired = _LR_PAIRS.ravel()
-                p["kp"] = replace(p["kp"], confidence=_lowered(p["kp"].confidence, paired, s.uncertain_confidence))
-            p["left_right_uncertain"] = uncertain
+                    if self.verdict(track, rays, conf, check) == 1:
+                        doubted[joints] = True
+            if uncertain:
+                doubted[_LR_PAIRS.ravel()] = True
+            if s.uncertain_confidence is not None and doubted.any():
+                p["kp"] = replace(
+                    p["kp"], confidence=_lowered(p["kp"].confidence, np.flatnonzero(doubted), s.uncertain_confidence)
+                )
+            p["left_right_uncertain"] = doubted
             kept.append(
                 {
                     "centre": centre,

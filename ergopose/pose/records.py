@@ -68,6 +68,11 @@ class FrameDetections:
         points to view pixels), for triangulation in the views (the paper's DLT).
     view_direction_cam: (N, 3) and view_half_fov: (N,) the views' axes and half fields of view.
     source: (N,) int, SOURCE_REFOCUS / SOURCE_MOTION / SOURCE_SEARCH (what aimed the view).
+    left_right_uncertain: (N, 33) bool, the left/right check doubts the side of this keypoint:
+        every left/right keypoint of a person whose labelling the network split over the last
+        frames or changed less than a window ago, and the keypoints of an arm or leg pair whose
+        own left/right disagrees with the body's (``PoseSettings.left_right_check``); None: not
+        checked.
     """
 
     camera_index: int
@@ -81,6 +86,7 @@ class FrameDetections:
     view_direction_cam: np.ndarray
     view_half_fov: np.ndarray
     source: np.ndarray
+    left_right_uncertain: np.ndarray | None = None
 
     @property
     def count(self) -> int:

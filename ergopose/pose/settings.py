@@ -127,6 +127,12 @@ class PoseSettings:
     left_right_ratio: the cost of one labelling (sum of the angles between this frame's and
         the previous frame's keypoints of the same label) must be below this fraction of the
         other's for a decision; in between the frame does not vote.
+    uncertain_confidence: None (the default, as ``assess`` runs the stage): a skeleton whose
+        sides the check doubts is flagged (``FrameDetections.left_right_uncertain``) and keeps its
+        confidences, since the reconstruction settles sides across cameras and a lowered torso
+        falls under its association gate. A number: the confidence of the doubted keypoints is
+        lowered to at most this; ``ergopose pose`` (one camera, nothing downstream) uses the model
+        card's ``min_keypoint_confidence`` (:func:`ergopose.commands.pose.stage_settings`).
     view_cache_px: 0 (default): every person view's map is built for exactly the view
         requested (about 1 ms). Above 0: maps are cached and a view that differs from the one
         requested by at most this many view pixels anywhere is reused (direction, roll and

@@ -77,6 +77,7 @@ def _run(capsys, *args) -> tuple[int, str, list[str]]:
 
 def _check_keypoints(table: pd.DataFrame, truth: list[dict]) -> None:
     assert tuple(table.columns) == POSE_COLUMNS
+    assert set(table["left_right_uncertain"]) <= {0, 1}
     found = sorted(set(table["frame"]))
     assert len(found) >= 0.8 * FRAMES, f"person found in {len(found)} of {FRAMES} frames"
     assert np.allclose(table["time_s"], table["frame"] / FPS, atol=1e-4)
@@ -340,3 +341,38 @@ def test_pose_refuses_an_unknown_model(walking_video, tmp_path, capsys):
         cli.main(["pose", str(video), "--out", str(tmp_path / "k.csv"), "--model", "giant"])
     assert exc.value.code == 2
     assert "invalid choice: 'giant'" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_command_passes_doubted_sides_on_lowered_and_flagged(camera, walking_video, landmarker, detector):
+    """The network labels the person the other way round from its 8th run on, for good: the
+    left/right check doubts the frames of the change (docs/pose-command.md, "Doubted sides").
+    As the command runs the stage, those keypoints carry ``left_right_uncertain`` = 1 and a
+    confidence of at most the card's keypoint gate, below its triangulation gate; only left/right
+    keypoints are doubted, and the others keep the network's confidences."""
+    from test_upright_views import _SwappingLandmarker
+
+    from ergopose.commands.pose import stage_settings
+    from ergopose.keypoints import MIRROR
+    from ergopose.pipeline.pose_video import pose_video
+
+    video, _ = walking_video
+    gates = landmarker.card.gates
+    settings = stage_settings(gates, FPS, 8)
+    assert settings.uncertain_confidence == gates.min_keypoint_confidence < gates.min_triangulation_confidence
+    swapping = _SwappingLandmarker(landmarker, range(8, 10_000))
+    result = pose_video(video, camera, FPS, 0, FRAMES, swapping, detector, settings)
+    table = result.table
+    assert tuple(table.columns) == POSE_COLUMNS
+    paired = {name for i, name in enumerate(JOINT_INDEX) if MIRROR[i] != i}
+    flagged = table[table["left_right_uncertain"] == 1]
+    assert len(flagged), "no keypoint doubted"
+    assert set(flagged["joint"]) <= paired  # the nose, say, has no side to doubt
+    assert flagged["confidence"].max() <= gates.min_keypoint_confidence + 1e-9
+    # Whole people doubted (every left/right keypoint), and counted in the command's summary.
+    whole = [
+        k for k, g in table.groupby(["frame", "person"]) if g[g["joint"].isin(paired)]["left_right_uncertain"].all()
+    ]
+    assert whole and result.uncertain_person_frames >= len(whole)
+    trusted = table[(table["left_right_uncertain"] == 0) & table["joint"].isin(paired)]
+    assert trusted["confidence"].max() > 0.5

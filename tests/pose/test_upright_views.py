@@ -182,9 +182,10 @@ class _SwappingLandmarker:
         )
 
 
-def _run(camera, landmarker, frame, joints, settings, frames):
+def _run(camera, landmarker, frame, joints, settings, frames, flags=None):
     """Left shoulder in the right place (True) or on the right shoulder (False) per frame, and
-    the reported confidence of the left wrist."""
+    the reported confidence of the left wrist; ``flags``, a list, gets each frame's
+    ``left_right_uncertain`` of the left wrist."""
     stage = FisheyePoseEstimator(camera, 0, landmarker, None, settings)
     hip = _unit(camera.lens.unproject((joints["left_hip"] + joints["right_hip"]) / 2))
     stage._targets = [Target(hip, np.radians(20.0), SOURCE_REFOCUS)]
@@ -197,6 +198,8 @@ def _run(camera, landmarker, frame, joints, settings, frames):
         to_right = np.linalg.norm(px[L_SH] - joints["right_shoulder"])
         correct.append(bool(to_left < to_right))
         wrist_conf.append(float(found.confidence[0, L_WR]))
+        if flags is not None:
+            flags.append(bool(found.left_right_uncertain[0, L_WR]))
     return correct, wrist_conf
 
 
@@ -216,13 +219,21 @@ def test_a_left_right_swap_in_a_sequence_is_put_back(camera, landmarker):
     )
     assert [not c for c in before] == [f in swaps for f in range(10)]  # passed on unchecked
     lowering = PoseSettings(uncertain_confidence=0.1)
-    after, conf = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, lowering, 10)
+    flags: list[bool] = []
+    after, conf = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, lowering, 10, flags)
     assert all(after), after
     # Two swaps in the recent frames: the frames after the second are flagged uncertain (and,
     # with uncertain_confidence set, lowered; by default they keep their confidence).
     assert conf[2] > 0.5 and conf[7] <= lowering.uncertain_confidence
-    _, conf_default = _run(camera, _SwappingLandmarker(landmarker, swaps), frame, joints, PoseSettings(), 10)
+    # The flag is passed on with the frame's detections, and marks exactly the lowered frames.
+    assert flags == [c <= lowering.uncertain_confidence for c in conf], (flags, conf)
+    assert not any(flags[:6]) and flags[7]
+    flags_default: list[bool] = []
+    _, conf_default = _run(
+        camera, _SwappingLandmarker(landmarker, swaps), frame, joints, PoseSettings(), 10, flags_default
+    )
     assert min(conf_default) > 0.5, conf_default
+    assert flags_default == flags  # flagged all the same
 
 
 @pytest.mark.slow
