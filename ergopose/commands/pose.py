@@ -64,10 +64,10 @@ image's width (default 60), looking level. Keypoints from an approximate camera 
 that guess; calibrate the cameras for an assessment (docs/calibration.md).
 
 The CSV has one row per frame, person and keypoint: frame, time_s, person (numbered within the
-frame), joint (name), x_px, y_px, confidence (0-1), left_right_uncertain (1 when the person's left
-and right are in doubt in that frame; their left/right keypoints then carry a lowered
-confidence). A keypoint that falls outside the lens has empty x_px and y_px. Frames where nobody
-was found have no rows. See docs/pose-command.md."""
+frame), joint (name), x_px, y_px, confidence (0-1), left_right_uncertain (1 on a keypoint whose
+side, left or right, is in doubt in that frame; its confidence is then lowered). A keypoint that
+falls outside the lens has empty x_px and y_px. Frames where nobody was found have no rows. See
+docs/pose-command.md."""
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:

@@ -38,8 +38,9 @@ The paper's steps 1-3 for one camera. Per frame:
    skeleton whose left and right limbs match it the other way round is swapped back; when the
    network keeps the other labelling for most of the last ``left_right_window`` frames it is
    followed. Frames around such a change, and limbs whose own left/right disagrees with the
-   body's, are flagged (``left_right_uncertain``); with ``uncertain_confidence`` set their
-   confidence is lowered too. By default it is not: one camera's history cannot tell which
+   body's, are flagged per keypoint (``FrameDetections.left_right_uncertain``); with
+   ``uncertain_confidence`` set their confidence is lowered too (``ergopose pose`` does). By
+   default it is not: one camera's history cannot tell which
    labelling is right, while the reconstruction can (the other cameras, the worker's previous
    fitted body limb by limb: docs/reconstruction.md, "Left and right"), and a lowered
    torso takes the person out of the association altogether (measured on the real recording,

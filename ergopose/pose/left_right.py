@@ -3,10 +3,10 @@
 Each person's skeleton is compared with their previous frame's: a skeleton whose left and right
 limbs match it the other way round is swapped back; when the network keeps the other labelling
 for most of the last ``left_right_window`` frames it is followed (with ``left_right_memory``, only
-when the network has also given it in more of the remembered frames than the labelling in use). The keypoints of frames around such a
-change, and of limbs whose own left/right disagrees with the body's, are flagged
-(``left_right_uncertain``, per keypoint); with ``uncertain_confidence`` set their confidence is
-lowered too (``PoseSettings.left_right_check``).
+when the network has also given it in more of the remembered frames than the labelling in use).
+The keypoints of frames around such a change, and of limbs whose own left/right disagrees with
+the body's, are flagged (``left_right_uncertain``, per keypoint); with ``uncertain_confidence``
+set their confidence is lowered too (``PoseSettings.left_right_check``).
 With ``left_right_feet``, each skeleton is first checked against its own feet (:func:`feet_verdict`):
 one camera frame can tell a mirrored labelling where the person's history cannot.
 """
