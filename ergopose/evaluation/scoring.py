@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.uncertainty import CONFIDENT_P
 from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
 from ergopose.errors import InputError
@@ -51,6 +52,59 @@ BODY_PART_ANGLES: dict[str, tuple[str, ...]] = {
 #: How many time shifts of the run's own angle errors give the expected exact agreement (the
 #: errors moved by 1/4, 2/4 and 3/4 of the shift with 3).
 EXPECTED_SHIFTS = 3
+
+#: Bin edges of a frame's reported score probability (the steps CSV's ``rula_grand_p`` and
+#: ``reba_score_p``) for the reliability table; the last bin includes 1.
+PROBABILITY_BINS: tuple[float, ...] = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
+
+
+def probability_reliability(probability: np.ndarray, measured: np.ndarray, truth: np.ndarray) -> dict[str, Any]:
+    """How well a score's reported probability predicts that it is the true score.
+
+    probability: (n,) the reported probability of each frame's score (the share of the uncertainty
+    draws that give it, ergopose.ergonomics.uncertainty); measured, truth: (n,) the reported and the
+    true score. Frames where any of the three is missing are left out. Per bin of PROBABILITY_BINS:
+    frames, their mean reported probability and their exact agreement (%). ``calibration_gap_pp``: the
+    frame-weighted mean over the bins of |exact agreement - mean probability| in percentage points (0:
+    a frame reported at p agrees with the truth a share p of the time). ``confident`` / ``others``: the
+    exact agreement of the frames at or above CONFIDENT_P (the steps CSV's ``confident``, as far as
+    this score goes) and below it.
+    """
+    p = np.asarray(probability, dtype=np.float64)
+    a = np.asarray(measured, dtype=np.float64)
+    b = np.asarray(truth, dtype=np.float64)
+    ok = np.isfinite(p) & np.isfinite(a) & np.isfinite(b)
+    p, agree = p[ok], (a[ok] == b[ok]).astype(np.float64)
+    edges = np.asarray(PROBABILITY_BINS)
+    which = np.clip(np.searchsorted(edges, p, side="right") - 1, 0, len(edges) - 2)
+    frames, mean_p, exact = [], [], []
+    gap = 0.0
+    for k in range(len(edges) - 1):
+        sel = which == k
+        n = int(sel.sum())
+        frames.append(n)
+        mean_p.append(round_or_nan(float(p[sel].mean()), 3) if n else float("nan"))
+        exact.append(round_or_nan(100.0 * float(agree[sel].mean()), 2) if n else float("nan"))
+        if n:
+            gap += n * abs(float(agree[sel].mean()) - float(p[sel].mean()))
+    high = p >= CONFIDENT_P
+
+    def share(sel: np.ndarray) -> dict[str, Any]:
+        n = int(sel.sum())
+        return {
+            "frames": n,
+            "exact_agreement_pct": round_or_nan(100.0 * float(agree[sel].mean()), 2) if n else float("nan"),
+        }
+
+    return {
+        "bins": [[float(lo), float(hi)] for lo, hi in zip(edges[:-1], edges[1:])],
+        "frames": frames,
+        "mean_probability": mean_p,
+        "exact_agreement_pct": exact,
+        "calibration_gap_pp": round_or_nan(100.0 * gap / len(p), 2) if len(p) else float("nan"),
+        "confident": share(high),
+        "others": share(~high),
+    }
 
 
 # --------------------------------------------------------------------------------- steps CSV files
@@ -363,6 +417,7 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
     postures: dict[int, pd.DataFrame] = {}
     scored: dict[tuple[int, int], tuple[pd.DataFrame, list[pd.DataFrame]]] = {}
     pairs: dict[str, tuple[list, list, list]] = {c: ([], [], []) for c in SCORE_SCALES}
+    probabilities: dict[str, list[np.ndarray]] = {c: [] for c in SCORE_SCALES}
     regions = []
 
     def truth_of(p: int, worker: str):
@@ -408,6 +463,12 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
                 pairs[c][0].append(pd.to_numeric(csv[c], errors="coerce").to_numpy(np.float64)[sel])
                 pairs[c][1].append(t[frames])
                 pairs[c][2].append(edge[frames])
+                pcol = f"{c}_p"
+                probabilities[c].append(
+                    pd.to_numeric(csv[pcol], errors="coerce").to_numpy(np.float64)[sel]
+                    if pcol in csv.columns
+                    else np.full(int(sel.sum()), np.nan)
+                )
                 mine = by_worker.setdefault(p, {}).setdefault(c, ([], []))
                 mine[0].append(pairs[c][0][-1])
                 mine[1].append(t[frames])
@@ -467,6 +528,9 @@ def scores_section(inp: EvaluationInputs, csvs: Mapping[int, tuple[pd.DataFrame,
                 for k, rg in enumerate(REGIONS)
             },
         }
+        probs = np.concatenate(probabilities[c]) if probabilities[c] else np.zeros(0)
+        if np.isfinite(probs).any():
+            entry["reported_probability"] = probability_reliability(probs, a, b)
         out[c] = entry
     out["time_shares"] = _time_shares(by_worker, [str(w) for w in gt.worker_ids])
     named = {w.worker_id for w in session.workers if w.periods or w.factors.given()}

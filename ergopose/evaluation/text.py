@@ -161,6 +161,23 @@ def format_evaluation(ev: dict) -> str:
         )
     )
     for c in ("rula_grand", "reba_score"):
+        rel = s[c].get("reported_probability")
+        if not rel:
+            continue
+        lines.append(
+            f"  {c}: the reported probability against exact agreement: "
+            + ", ".join(
+                f"p {lo:.1f}-{hi:.1f}: {_f(e, '.0f', ' %')} (mean p {_f(m, '.2f')}, n={n})"
+                for (lo, hi), n, m, e in zip(
+                    rel["bins"], rel["frames"], rel["mean_probability"], rel["exact_agreement_pct"]
+                )
+                if n
+            )
+            + f"; gap {_f(rel['calibration_gap_pp'], '.1f')} points; confident frames "
+            f"{_f(rel['confident']['exact_agreement_pct'], '.1f', ' %')} (n={rel['confident']['frames']}), "
+            f"the others {_f(rel['others']['exact_agreement_pct'], '.1f', ' %')} (n={rel['others']['frames']})"
+        )
+    for c in ("rula_grand", "reba_score"):
         parts = s[c]["expected_exact_agreement_with_exact_part_pct"]
         if parts:
             lines.append(

@@ -117,7 +117,7 @@ def score_uncertainty(
     # one draw at a time, and of each only what is read after it (memory: a block of a shift is
     # scored at once, and all draws' points together were 25 kB per frame)
     assert rows.std_world is not None  # TrackFrames.__post_init__ fills it
-    for pts in U.iter_samples(rows.points_world, rows.std_world, rows.frame, scoring.joint_sd_floor_m):
+    for pts in U.iter_samples(rows.points_world, rows.std_world, scoring.joint_sd_floor_m):
         a = joint_angles(pts, rows.time_s, angle_settings).to_frame().reset_index(drop=True)
         del pts
         if task_use is not None:

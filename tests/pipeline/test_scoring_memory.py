@@ -63,34 +63,48 @@ def _rows(n: int, seed: int = 0) -> TrackFrames:
 
 def test_draws_one_at_a_time_are_the_draws_of_all_at_once():
     rows = _rows(50)
-    frames = rows.frame + 2000  # past the table's length: indexed modulo
-    # all draws at once, as the scoring made them before (one table row per frame number)
+    # all draws at once: each joint coordinate moved by its deviation times a number of its own per
+    # draw, the same in every frame
     sd = np.where(np.isfinite(rows.std_world), rows.std_world, 0.0)
-    every = rows.points_world[None] + sd[None] * U._normals()[:, frames % U._TABLE_FRAMES]
-    one = U.iter_samples(rows.points_world, rows.std_world, frames)
+    every = rows.points_world[None] + sd[None] * U._normals()[:, None]
+    one = U.iter_samples(rows.points_world, rows.std_world)
     assert not isinstance(one, (list, tuple, np.ndarray))  # made on demand
     got = list(one)
     assert len(got) == U.SAMPLES == len(every)
     for k, draw in enumerate(got):
         assert draw.shape == rows.points_world.shape
         assert np.array_equal(draw, every[k], equal_nan=True)
+    # the numbers are moment-matched: over the draws, every joint coordinate's have mean 0 and SD 1,
+    # so a coordinate's draws spread by exactly its deviation
+    z = U._normals()
+    assert z.shape == (U.SAMPLES, 33, 3)
+    assert np.allclose(z.mean(axis=0), 0.0, atol=1e-12) and np.allclose(z.std(axis=0), 1.0)
+    spread = np.stack(got).std(axis=0)
+    ok = np.isfinite(rows.std_world)
+    assert np.allclose(spread[ok], rows.std_world[ok])
+    # lasting, not a jitter: the deviations here are the same 1 cm in every frame, so each draw
+    # moves a joint coordinate by the same amount in every frame where it has one
+    offset = np.stack(got) - rows.points_world[None]
+    ok_all = np.broadcast_to(ok, offset.shape)
+    assert np.allclose(offset[ok_all].reshape(-1), (0.01 * np.broadcast_to(z[:, None], offset.shape))[ok_all])
     # a NaN deviation counts as 0: that coordinate is the estimate in every draw
     nan = ~np.isfinite(rows.std_world)
     assert np.array_equal(got[3][nan], rows.points_world[nan])
     # the same frame gets the same draws wherever it sits in a block
-    part = list(U.iter_samples(rows.points_world[10:20], rows.std_world[10:20], frames[10:20]))
+    part = list(U.iter_samples(rows.points_world[10:20], rows.std_world[10:20]))
     assert np.array_equal(part[5], got[5][10:20], equal_nan=True)
     # the keypoints' own error: an offset of each joint per draw, the same in every frame (no
     # jitter), proportional to the floor, on top of the draw without it (also where the
-    # deviation is NaN)
-    floored = list(U.iter_samples(rows.points_world, rows.std_world, frames, floor_m=0.003))
-    double = list(U.iter_samples(rows.points_world, rows.std_world, frames, floor_m=0.006))
+    # deviation is NaN), and independent of the deviation's numbers
+    floored = list(U.iter_samples(rows.points_world, rows.std_world, floor_m=0.003))
+    double = list(U.iter_samples(rows.points_world, rows.std_world, floor_m=0.006))
     for a, b, base in zip(floored, double, got):
         shift = a - base
         assert np.allclose(shift, shift[:1]) and np.abs(shift).max() > 0
         assert np.allclose(b - base, 2 * shift)
     offsets = np.stack([a[0] - base[0] for a, base in zip(floored, got)]) / 0.003
     assert 0.7 < offsets.std() < 1.3  # standard normal offsets (16 x 33 x 3 of them)
+    assert abs(np.corrcoef(offsets.ravel(), z.ravel())[0, 1]) < 0.2
     assert not np.allclose(floored[3][nan], rows.points_world[nan])
 
 
