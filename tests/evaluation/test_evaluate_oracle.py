@@ -68,6 +68,15 @@ def test_exact_oracle_reconstructs_the_ground_truth(exact_run):
     assert ev["errors_3d"]["final"]["mpjpe_mm"] < 22.0
     assert ev["detection"]["detection_rate_pct"] >= 98.0
     assert ev["limbs"]["error"]["rmse_mm"] < 15.0
+    # Every compared frame carries its score's probability. The RULA grand scores the pipeline
+    # calls confident are the true score (exact keypoints); REBA's probability does not tell right
+    # from wrong (docs/scoring.md, "Each draw lasts"), so only its count is checked.
+    for c in ("rula_grand", "reba_score"):
+        rel = ev["scores"][c]["reported_probability"]
+        assert sum(rel["frames"]) == ev["scores"][c]["pairs"], c
+    rel = ev["scores"]["rula_grand"]["reported_probability"]
+    assert rel["confident"]["frames"] > 0 and rel["confident"]["exact_agreement_pct"] >= 90.0, rel
+    assert rel["others"]["exact_agreement_pct"] < rel["confident"]["exact_agreement_pct"] - 20.0, rel  # 36 / 97 %
 
 
 def test_pixel_noise_costs_accuracy(small_session, exact_run, tmp_path):
