@@ -19,6 +19,11 @@ MATCH_DISTANCE_M = 0.5
 #: A worker counts as visible in a camera when at least this many of the four torso joints
 #: (shoulders, hips) are visible there (the association's association_min_joints default).
 MIN_VISIBLE_TORSO = 2
+#: A tracked row near nobody (beyond MATCH_DISTANCE_M of every worker) whose body centre lies
+#: within this of a worker no other row of the frame is matched to is that worker's own row,
+#: placed badly; beyond it from every worker, or on a worker another row already follows, the
+#: row is a false person.
+MISPLACED_DISTANCE_M = 1.0
 
 
 #: An identity switch is "sustained" when the new id then holds for this long (seconds of matched
@@ -200,6 +205,7 @@ def detection_section(inp: EvaluationInputs) -> dict:
     has_final = np.isfinite(tf.points_world).all(axis=-1).any(axis=-1) if len(tf) else np.zeros(0, bool)
     regions = _regions_of_people(gt, inp.recon.lens_region_limits_deg)
     per_camera = _regions_of_people(gt, inp.recon.lens_region_limits_deg, per_camera=True)
+    near_nobody = rows_near_nobody(tf.frame, tf.points_world, gt.joints_world, has_final & (final_match < 0), followed)
 
     def rate(mask: np.ndarray, found: np.ndarray = reconstructed) -> dict:
         n = int(mask.sum())
@@ -236,5 +242,42 @@ def detection_section(inp: EvaluationInputs) -> dict:
         "tracked_rows_triangulated_unmatched": int((has_raw & ~hit).sum()),
         "tracked_rows_with_a_position": int(has_final.sum()),
         "tracked_rows_with_a_position_unmatched": int((has_final & (final_match < 0)).sum()),
+        "rows_near_nobody": near_nobody,
+        "false_people_pct": round_or_nan(100.0 * near_nobody["false_people"] / has_final.sum(), 2)
+        if has_final.any()
+        else float("nan"),
     }
     return out
+
+
+def rows_near_nobody(
+    frames: np.ndarray, points_world: np.ndarray, truth_world: np.ndarray, near_nobody: np.ndarray, followed: np.ndarray
+) -> dict:
+    """What the tracked rows near nobody are (definitions in docs/evaluation.md, "Detection").
+
+    frames: (n,) each row's frame; points_world: (n, 33, 3) the rows' final positions;
+    truth_world: (F, P, 33, 3) the simulated workers' joints; near_nobody: (n,) the rows with a
+    position matched to no worker; followed: (F, P) worker-frames a row is matched to.
+    Each row near nobody is *far* (no worker's body centre within MISPLACED_DISTANCE_M), a
+    *second row* (its nearest worker is followed by another row of the frame) or *misplaced* (the
+    only row near that worker, 0.5-1 m from them). False people: far and second rows.
+    """
+    idx = np.flatnonzero(near_nobody)
+    centres = body_centres(points_world[idx])  # (k, 3)
+    truth = body_centres(truth_world[frames[idx]])  # (k, P, 3)
+    with np.errstate(invalid="ignore"):
+        dist = np.linalg.norm(truth - centres[:, None, :], axis=-1)  # (k, P)
+    dist = np.where(np.isfinite(dist), dist, np.inf)
+    nearest = np.argmin(dist, axis=1) if dist.shape[1] else np.zeros(len(idx), np.int64)
+    nearest_m = dist[np.arange(len(idx)), nearest] if dist.shape[1] else np.full(len(idx), np.inf)
+    far = ~(nearest_m <= MISPLACED_DISTANCE_M)
+    second = ~far & followed[frames[idx], nearest]
+    misplaced = ~far & ~second
+    return {
+        "rows": int(len(idx)),
+        "far_from_every_worker": int(far.sum()),
+        "second_row_on_a_followed_worker": int(second.sum()),
+        "misplaced_rows_of_a_worker": int(misplaced.sum()),
+        "false_people": int(far.sum() + second.sum()),
+        "misplaced_distance_m": MISPLACED_DISTANCE_M,
+    }

@@ -81,6 +81,14 @@ def format_evaluation(ev: dict) -> str:
         + ", ".join(f"{r} {_f(fr[r]['rate_pct'], '.1f', ' %')}" for r in REGIONS)
         + f"; rows near nobody {d['tracked_rows_with_a_position_unmatched']} of {d['tracked_rows_with_a_position']}"
     )
+    nn = d.get("rows_near_nobody")
+    if nn is not None and nn["rows"]:
+        lines.append(
+            f"  rows near nobody: false people {nn['false_people']} ({_f(d['false_people_pct'], '.2f', ' %')} of the rows "
+            f"with a position: {nn['far_from_every_worker']} more than {nn['misplaced_distance_m']:g} m from every "
+            f"worker, {nn['second_row_on_a_followed_worker']} a second row on a worker already followed); "
+            f"{nn['misplaced_rows_of_a_worker']} a worker's only row placed 0.5-{nn['misplaced_distance_m']:g} m off"
+        )
     lines.append(
         f"  triangulated rows matched to nobody: {d['tracked_rows_triangulated_unmatched']} of "
         f"{d['tracked_rows_triangulated']}"

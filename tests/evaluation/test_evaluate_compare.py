@@ -388,6 +388,11 @@ def test_followed_counts_final_positions_and_detection_the_triangulated_ones(sma
     assert d["followed_all_worker_frames"]["reconstructed"] == n - int(astray.sum())
     assert d["tracked_rows_with_a_position"] == n
     assert d["tracked_rows_with_a_position_unmatched"] == int(astray.sum())
+    # 3 m above the worker is more than 1 m from everyone: each is a false person
+    nn = d["rows_near_nobody"]
+    assert nn["far_from_every_worker"] == nn["false_people"] == int(astray.sum()) > 0
+    assert nn["second_row_on_a_followed_worker"] == nn["misplaced_rows_of_a_worker"] == 0
+    assert d["false_people_pct"] == pytest.approx(100.0 * astray.sum() / n, abs=0.01)
     assert d["tracked_rows_triangulated_unmatched"] == 0
     both = d["visible_in_both_cameras"]["worker_frames"]
     assert d["followed_in_both_cameras"]["worker_frames"] == both > 0
@@ -420,3 +425,38 @@ def test_time_shares_per_worker_and_level(perfect, small_session, gt, tmp_path):
     assert w1["true_pct"] == pytest.approx(before, abs=0.01)
     assert sh["by_worker"]["w2"]["largest_difference_pp"] == 0.0
     assert sh["largest_difference_pp"] == pytest.approx(max(abs(a - b) for a, b in zip(after, before)), abs=0.01)
+
+
+def test_rows_near_nobody_are_told_apart_by_hand_counted_rows():
+    """Two workers 3 m apart over 3 frames, and rows near nobody placed by hand: 0.7 m from worker
+    A with no other row on A (misplaced), 0.6 m from A while another row follows A (a second row),
+    1.5 m from A (far from everyone), 0.8 m above B while another row follows B (a second row)."""
+    from ergopose.evaluation.matching import rows_near_nobody
+
+    def body(x, y, z):
+        return np.tile([x, y, z], (33, 1)).astype(float)
+
+    truth = np.stack([np.stack([body(0, 0, 1), body(3, 0, 1)])] * 3)  # (3 frames, 2 workers, 33, 3)
+    followed = np.array([[False, True], [True, True], [False, True]])
+    rows = [
+        (0, body(0.7, 0, 1), True),  # misplaced: A followed by nobody in frame 0
+        (0, body(3, 0, 1), False),  # B's own row, matched
+        (1, body(0, 0.6, 1), True),  # a second row: A is followed in frame 1
+        (2, body(1.5, 0, 1), True),  # far: 1.5 m from A, 1.5 m from B
+        (2, body(3, 0, 1.8), True),  # a second row on B
+    ]
+    frames = np.array([r[0] for r in rows])
+    points = np.stack([r[1] for r in rows])
+    near = np.array([r[2] for r in rows])
+    out = rows_near_nobody(frames, points, truth, near, followed)
+    assert out == {
+        "rows": 4,
+        "far_from_every_worker": 1,
+        "second_row_on_a_followed_worker": 2,
+        "misplaced_rows_of_a_worker": 1,
+        "false_people": 3,
+        "misplaced_distance_m": 1.0,
+    }
+    # No rows near nobody: nothing to tell apart.
+    none = rows_near_nobody(frames, points, truth, np.zeros(len(rows), bool), followed)
+    assert none["rows"] == none["false_people"] == 0
