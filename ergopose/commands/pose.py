@@ -33,6 +33,9 @@ DEFAULT_FOV_DEG = {"fisheye": 180.0, "pinhole": 60.0}
 #: 100 frames crossed -> 0; re-rendered into virtual fisheye: 38 -> 22 %); `assess` does without,
 #: its reconstruction settles sides across cameras (docs/pose-in-fisheye.md).
 LEFT_RIGHT_MEMORY_S = 2.0
+#: Views turned from upright by more than this (degrees) are run again upright to check the
+#: person's sides (a second network run for such views).
+UPRIGHT_CHECK_DEG = 10.0
 
 
 def stage_settings(gates: ConfidenceGates | None, fps: float, max_people: int) -> PoseSettings:
@@ -42,9 +45,16 @@ def stage_settings(gates: ConfidenceGates | None, fps: float, max_people: int) -
     (below its triangulation gate: not a confident pose; the CSV's ``left_right_uncertain`` says
     why). Measured on the Pose2Sim recording re-rendered into virtual fisheye cameras
     (docs/pose-command.md, "Doubted sides"): cam_02's confident frames with left and right
-    crossed 21.9 -> 13.2 %, the three other cameras unchanged (no frame doubted). gates: None
-    (a card without its own) keeps the stage's default gates."""
-    settings = PoseSettings(max_people=max_people, left_right_memory=LEFT_RIGHT_MEMORY_S * fps).with_gates(gates)
+    crossed 21.9 -> 13.2 %, the three other cameras unchanged (no frame doubted). A view turned
+    more than ``UPRIGHT_CHECK_DEG`` from upright is run again upright, and the frame's sides are
+    doubted when the two views label them the other way round
+    (``PoseSettings.left_right_upright_check``; docs/pose-in-fisheye.md, "A second, upright view"). gates: None (a card without its own)
+    keeps the stage's default gates."""
+    settings = PoseSettings(
+        max_people=max_people,
+        left_right_memory=LEFT_RIGHT_MEMORY_S * fps,
+        left_right_upright_check=math.radians(UPRIGHT_CHECK_DEG),
+    ).with_gates(gates)
     return replace(settings, uncertain_confidence=settings.min_keypoint_confidence)
 
 

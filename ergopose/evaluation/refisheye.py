@@ -282,6 +282,15 @@ MODES: dict[str, dict] = {
     "memory120-lowered": dict(left_right_memory=120.0, uncertain_confidence=0.3),
     # The same at the simulator's 12 fps (2 s = 24 frames), for --sim.
     "memory24-lowered": dict(left_right_memory=24.0, uncertain_confidence=0.3),
+    # With a second, upright view for every view turned more than 10 degrees (left_right_upright_check):
+    # `ergopose pose` since 2026-11-28 (at 60 and at 12 fps), and the stage as assess runs it.
+    "memory120-upright-check-lowered": dict(
+        left_right_memory=120.0, left_right_upright_check=np.radians(10.0), uncertain_confidence=0.3
+    ),
+    "memory24-upright-check-lowered": dict(
+        left_right_memory=24.0, left_right_upright_check=np.radians(10.0), uncertain_confidence=0.3
+    ),
+    "upright-check": dict(left_right_upright_check=np.radians(10.0)),
 }
 
 

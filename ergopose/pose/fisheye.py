@@ -66,7 +66,7 @@ import numpy as np
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.fragments import is_fragment
-from ergopose.pose.left_right import LeftRightCheck
+from ergopose.pose.left_right import DECIDING_PAIRS, LeftRightCheck
 from ergopose.pose.records import (
     SOURCE_MOTION,
     SOURCE_REFOCUS,
@@ -151,6 +151,10 @@ class FisheyePoseEstimator:
         #: Detector and landmark network runs so far (the stage's cost, for benches and reports).
         self.detector_runs = 0
         self.landmark_runs = 0
+        #: Views turned from upright run again upright (``left_right_upright_check``), and of
+        #: those the ones whose upright skeleton had the sides the other way round (doubted).
+        self.upright_checks = 0
+        self.upright_disputed = 0
         self.search = SearchViews(camera, None if detector is None else detector.input_size, settings)
         #: The search layout (None without a detector).
         self.search_layout: SearchLayout | None = self.search.layout
@@ -306,7 +310,8 @@ class FisheyePoseEstimator:
         alignment = getattr(kp, "alignment", None)
         if alignment is not None:
             alignment = view.view_pixels_to_rays_cam(alignment)
-        person = {
+        view_roll = roll_from_upright(self.camera, target.direction_cam, up_cam)
+        person: dict[str, Any] = {
             "kp": kp,
             "view": view,
             # The world's up in the view, for the feet check (only when it runs).
@@ -316,9 +321,37 @@ class FisheyePoseEstimator:
             "half_fov": target.half_fov,
             "alignment_rays": alignment,
             "rechecked": False,
-            "view_roll": roll_from_upright(self.camera, target.direction_cam, up_cam),
+            "view_roll": view_roll,
         }
         person["body_roll"] = self._body_roll(person)
+        if (
+            s.left_right_upright_check is not None
+            and s.left_right_check
+            and up_cam is not None
+            and abs(view_roll) > s.left_right_upright_check
+        ):
+            return self._upright_check(frame_bgr, target, person)
+        return person
+
+    def _upright_check(self, frame_bgr: np.ndarray, target: Target, person: dict[str, Any]) -> dict[str, Any]:
+        """``person`` (found in a view turned from upright), its sides doubted when the network on the
+        upright view gives the person's left and right the other way round
+        (``PoseSettings.left_right_upright_check``)."""
+        self.upright_checks += 1
+        upright = self._landmarks(frame_bgr, target, None)
+        if upright is None:
+            return person
+        verdict = self._left_right.verdict(
+            {"rays": person["rays_cam"], "conf": person["kp"].confidence},
+            upright["rays_cam"],
+            upright["kp"].confidence,
+            DECIDING_PAIRS,
+        )
+        if verdict == 1:
+            # The two views label the person's sides the other way round: which one is right
+            # cannot be told from here, so this frame's sides are doubted.
+            self.upright_disputed += 1
+            person["views_disagree"] = True
         return person
 
     def _body_roll(self, person: dict[str, Any]) -> float:

@@ -34,6 +34,8 @@ _LR_DECIDE = np.array(
     ],
     dtype=np.int64,
 )
+#: The pairs that decide which way round two skeletons of one person are labelled.
+DECIDING_PAIRS = _LR_DECIDE
 _LR_LIMBS = {
     "arms": (("elbow", "wrist"), ("elbow", "wrist", "pinky", "index", "thumb")),
     "legs": (("knee", "ankle"), ("knee", "ankle", "heel", "foot_index")),
@@ -181,6 +183,9 @@ class LeftRightCheck:
         window = max(1, int(s.left_right_window))
         for p in people:
             feet = feet_verdict(p["kp"].pixels, p["kp"].confidence, p.get("up_view"), s)
+            # A turned and an upright view of this frame labelled the sides the other way round
+            # (left_right_upright_check): the network's labelling here is no vote.
+            disputed = bool(p.get("views_disagree", False))
             if feet == 1:
                 # The feet say the network's left and right are mirrored: put them right.
                 swap_left_right(p)
@@ -212,9 +217,10 @@ class LeftRightCheck:
             elif track is not None:
                 since_flip = track["since_flip"] + 1
                 verdict = self.verdict(track, p["rays_cam"], p["kp"].confidence, _LR_DECIDE)
-                votes = (track["votes"] + [verdict])[-window:]
+                vote = None if disputed else verdict
+                votes = (track["votes"] + [vote])[-window:]
                 against = sum(1 for v in votes if v == 1)
-                support = _support(track["support"], verdict, s.left_right_memory)
+                support = _support(track["support"], vote, s.left_right_memory)
                 if against > window // 2 and (s.left_right_memory is None or support[1] > support[0]):
                     # The network has labelled this person the other way round in most recent
                     # frames (and, with a memory, in more of the remembered frames than the way
@@ -235,7 +241,7 @@ class LeftRightCheck:
                 for check, joints in _LR_LIMB_PAIRS.values():
                     if self.verdict(track, rays, conf, check) == 1:
                         doubted[joints] = True
-            if uncertain:
+            if uncertain or (disputed and feet is None):
                 doubted[_LR_PAIRS.ravel()] = True
             if s.uncertain_confidence is not None and doubted.any():
                 p["kp"] = replace(

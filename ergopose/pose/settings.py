@@ -120,6 +120,15 @@ class PoseSettings:
         docs/pose-in-fisheye.md, "Left and right from the feet": on the real recording's
         re-rendered cameras it cuts the crossed frames three times over but makes one clean camera
         cross 4.9 % of its frames, and on the simulator's toeless mannequin feet it swaps most).
+    left_right_upright_check: a person view turned more than this (radians) from upright is run
+        again upright, and when the two views give the person's left and right the other way
+        round, the frame's left/right keypoints are doubted (``left_right_uncertain``, lowered
+        with ``uncertain_confidence``) and the frame is no vote in the left/right check: the
+        network reads sides from the crop's roll and framing more than from the person (issue
+        19). The keypoints stay the turned view's. Costs a second network run per such view.
+        None (the default, as ``assess`` runs the stage): never; ``ergopose pose`` uses 10
+        degrees (:func:`ergopose.commands.pose.stage_settings`). Measured in
+        docs/pose-in-fisheye.md, "A second, upright view".
     left_right_feet_pitch: the view must look down (or up) by at least this (radians) for the
         feet to vote.
     left_right_feet_sin: both feet must turn clearly: |sin| of the angle between the images of
@@ -190,6 +199,7 @@ class PoseSettings:
     left_right_window: int = 9
     left_right_memory: float | None = None
     left_right_feet: bool = False
+    left_right_upright_check: float | None = None
     left_right_feet_pitch: float = np.radians(10.0)
     left_right_feet_sin: float = 0.5
     uncertain_confidence: float | None = None

@@ -202,3 +202,38 @@ def test_the_feet_do_not_vote_in_a_level_view_without_their_points_or_when_off()
     behind, front = -2.5 * facing + [0.0, 0.0, 3.0], 2.5 * facing + [0.0, 0.0, 3.0]
     assert feet_verdict(*_view_of(lifted, behind), FEET) is None
     assert feet_verdict(*_view_of(lifted, front), FEET) == 0
+
+
+# --- a second, upright view ----------------------------------------------------------------------
+
+
+def _disputed_labels_out(network_swapped: list[bool], disputed: list[bool]) -> tuple[list[bool], list[bool]]:
+    """Per frame: left at +x (the truth) as passed on, and the frame's sides flagged, with the
+    frames whose upright view disagreed marked as the estimator marks them."""
+    check = LeftRightCheck(dataclasses.replace(PoseSettings(), left_right_memory=120.0))
+    out, flagged = [], []
+    for t, (swapped, d) in enumerate(zip(network_swapped, disputed)):
+        person = _person(t, swapped)
+        if d:
+            person["views_disagree"] = True
+        (p,) = check([person])
+        out.append(bool(p["rays_cam"][L_SH, 0] > p["rays_cam"][R_SH, 0]))
+        flagged.append(bool(p["left_right_uncertain"][L_SH] and p["left_right_uncertain"][R_SH]))
+    return out, flagged
+
+
+def test_a_disputed_frame_is_doubted_and_does_not_vote():
+    """The network starts right, then gives the other labelling for 26 frames, each of them
+    disputed by the upright view: every such frame is doubted and swapped back to the person's
+    labelling, and the labelling is never followed (the disputed frames give it no vote), where
+    the check alone, without a memory, follows it after 5 of 9 frames."""
+    network = [False] * 10 + [True] * 26 + [False] * 10
+    disputed = [False] * 10 + [True] * 26 + [False] * 10
+    out, flagged = _disputed_labels_out(network, disputed)
+    assert all(out), out
+    assert all(flagged[10:36]) and not any(flagged[:10]), flagged
+    plain = _labels_out(dataclasses.replace(PoseSettings(), left_right_memory=None), network)
+    assert not all(plain[10:36]), plain
+    # Undisputed frames are not flagged for it.
+    _, steady = _disputed_labels_out([False] * 20, [False] * 20)
+    assert not any(steady), steady

@@ -297,3 +297,52 @@ def test_on_real_frames_a_view_that_starts_upside_down_comes_upright(shared_data
                 assert R._angle(hips, hip_v) < 0.5 * torso
     assert min(rolls["before"]) > 120.0, rolls
     assert max(rolls["after"]) <= np.degrees(PoseSettings().max_body_roll) + 1e-6, rolls
+
+
+@pytest.mark.slow
+def test_on_real_frames_a_second_upright_view_puts_the_sides_right(shared_data, fetched_model_dir):
+    """Real people: cam_02 of the Pose2Sim recording re-rendered into a virtual fisheye (the
+    person 45 degrees off the lens axis, 250 px/rad), through the 2D stage as `ergopose pose`
+    runs it, with and without its second, upright view (``left_right_upright_check``). Against
+    the recording's OpenPose keypoints, the frames passed on as confident with left and right
+    crossed: a fifth without the check (the network reads the sides wrongly from views turned
+    to the body axis), a few with it (the frames where the upright view disagrees are doubted
+    instead), and more frames confident; the check ran where views were turned."""
+    from ergopose.commands.pose import stage_settings
+    from ergopose.evaluation import refisheye as R
+    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
+
+    root = shared_data / "pose2sim-demo"
+    model_dir = fetched_model_dir[0]
+    real = R.load_cameras(root)[1]
+    frames = R.read_frames(root, 2, 100)
+    ref = R.openpose_reference(root, 2, len(frames), real)
+    ok = (ref["conf"][:, R.HIPS] > 0).all(axis=1)
+    hip = R._unit(np.nanmedian(R._unit(ref["rays"][ok][:, R.HIPS].mean(axis=1)), axis=0))
+    vf = R.virtual_fisheye(real, hip, np.radians(45.0), 0.0, 250.0)
+    view_map = R.build_map(
+        vf.camera.lens, (vf.camera.width, vf.camera.height), real.lens, vf.rotation_real_from_virtual
+    )
+    landmarker = BlazePoseLandmarker(model_dir=model_dir)
+    detector = BlazePoseDetector(model_dir=model_dir)
+    command = stage_settings(landmarker.card.gates, 60.0, 8)
+    assert command.left_right_upright_check is not None
+    crossed, confident, checks = {}, {}, {}
+    for name, settings in (("without", dataclasses.replace(command, left_right_upright_check=None)), ("with", command)):
+        stage = FisheyePoseEstimator(vf.camera, 0, landmarker, detector, settings)
+        scores = []
+        for f, image in enumerate(frames):
+            found = stage.process(view_map.apply(image), f)
+            if ok[f]:
+                scores.append(R.score_frame(ref["rays"][f] @ vf.rotation_real_from_virtual, ref["conf"][f], found))
+        assert all(s["found"] for s in scores), name
+        judged = [s["swapped"] for s in scores if s["swapped"] is not None]
+        crossed[name], confident[name] = sum(judged), len(judged)
+        checks[name] = (stage.upright_checks, stage.upright_disputed)
+    assert checks["without"] == (0, 0) and checks["with"][1] > 0, checks
+    # Measured: 6 of 28 confident frames crossed without the check, 2 of 41 with it (the other
+    # frames are withheld: their sides doubted, their confidence lowered); 78 views checked, 28
+    # of them disputed.
+    assert crossed["without"] >= 0.15 * confident["without"], (crossed, confident)
+    assert crossed["with"] <= 0.1 * confident["with"], (crossed, confident)
+    assert confident["with"] >= confident["without"] + 10, (crossed, confident)
