@@ -48,7 +48,7 @@ from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError, InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
 from ergopose.evaluation.loading import ResultsLayout, json_ready, reported_ids, round_or_nan
-from ergopose.evaluation.scoring import SCORE_SCALES, angle_stats, read_frames_csv, reported_sd
+from ergopose.evaluation.scoring import EXPECTED_SHIFTS, SCORE_SCALES, angle_stats, read_frames_csv, reported_sd
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.geometry.rigid import kabsch
@@ -493,6 +493,7 @@ def evaluate_reference(
 
     by_angle = {}
     pooled = []
+    differences: dict[str, np.ndarray] = {}
     for c in ANGLE_COLUMNS:
         if c not in posture.columns:
             continue
@@ -503,6 +504,7 @@ def evaluate_reference(
             else np.full(len(ref_deg), np.nan)
         )
         d = (ours - ref_deg + 180.0) % 360.0 - 180.0
+        differences[c] = d
         row = angle_stats(d, reported_sd(assessed_df, c))
         row["missing_assessment"] = int((~np.isfinite(ours)).sum())
         row["missing_reference"] = int((~np.isfinite(ref_deg)).sum())
@@ -533,9 +535,9 @@ def evaluate_reference(
         ),
         "settings_source": str(session.settings_path) if session is not None else "defaults (no --session)",
     }
-    for c in list(SCORE_SCALES) + list(PART_SCALES):
-        if c not in ref_scores.columns:
-            continue
+    compared_scores = [c for c in list(SCORE_SCALES) + list(PART_SCALES) if c in ref_scores.columns]
+    expected = expected_reference_agreement(posture, factors, differences, ref_scores, compared_scores, scoring)
+    for c in compared_scores:
         a = (
             pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64)
             if c in assessed_df.columns
@@ -551,6 +553,13 @@ def evaluate_reference(
                 lo, hi = min(lo, int(seen.min())), max(hi, int(seen.max()))
             scale = tuple(range(lo, hi + 1))
         scores[c] = _agreement(a, b, scale)
+        scores[c]["expected_exact_agreement_pct"] = expected[c]
+    scores["expected_definition"] = (
+        "expected_exact_agreement_pct: exact agreement of the reference's scores with those of the "
+        "reference's angles plus this run's own angle differences shifted in time by k/"
+        f"{EXPECTED_SHIFTS + 1} of the compared frames, k = 1..{EXPECTED_SHIFTS} (a missing "
+        "difference counts as 0): how much agreement differences of this size leave wherever they fall"
+    )
     parts = {c: scores[c]["exact_agreement_pct"] for c in PART_SCALES if c in scores}
     scores["parts_exact_agreement_pct"] = parts
 
@@ -628,6 +637,41 @@ def evaluate_reference(
     return json_ready(out)
 
 
+def expected_reference_agreement(
+    posture: pd.DataFrame,
+    factors: pd.DataFrame,
+    differences_deg: Mapping[str, np.ndarray],
+    ref_scores: pd.DataFrame,
+    columns: Sequence[str],
+    scoring: ScoringSettings | None,
+) -> dict[str, float]:
+    """Exact agreement (%) per score of ``columns`` between the reference's scores and the scores of
+    the reference's angles (``posture``, radians) plus the run's own differences to them
+    (``differences_deg``, per angle, degrees, NaN: not measured, taken as 0) shifted in time by
+    k/(EXPECTED_SHIFTS + 1) of the frames, k = 1..EXPECTED_SHIFTS, with the same task inputs
+    (``factors``): how much exact agreement differences of this size and persistence leave, however
+    close the reference's angles lie to the scoring's band edges."""
+    n = len(posture)
+    hits: dict[str, list[np.ndarray]] = {c: [] for c in columns}
+    for k in range(1, EXPECTED_SHIFTS + 1):
+        shift = (k * n) // (EXPECTED_SHIFTS + 1)
+        moved = posture.copy()
+        for c, d in differences_deg.items():
+            if c in moved.columns:
+                e = np.nan_to_num(np.roll(np.radians(np.asarray(d, dtype=np.float64)), shift), nan=0.0)
+                moved[c] = (moved[c].to_numpy(np.float64) + e + np.pi) % (2.0 * np.pi) - np.pi
+        moved_scores = score_posture(pd.concat([moved, factors], axis=1), settings=scoring)
+        for c in columns:
+            t = pd.to_numeric(ref_scores[c], errors="coerce").to_numpy(np.float64)
+            m = pd.to_numeric(moved_scores[c], errors="coerce").to_numpy(np.float64)
+            ok = np.isfinite(t) & np.isfinite(m)
+            hits[c].append(t[ok] == m[ok])
+    return {
+        c: round_or_nan(100.0 * float(np.mean(np.concatenate(v))), 2) if sum(map(len, v)) else float("nan")
+        for c, v in hits.items()
+    }
+
+
 def _agreement(a: np.ndarray, b: np.ndarray, scale: Sequence[int]) -> dict:
     both = np.isfinite(a) & np.isfinite(b)
     cm = confusion_matrix(a, b, scale)
@@ -682,7 +726,10 @@ def format_reference(ev: Mapping[str, Any]) -> str:
     skipped = [c for c, r in an["by_angle"].items() if not r["n"]]
     if skipped:
         lines.append(f"  not compared (not measured on one side): {', '.join(skipped)}")
-    lines.append("Scores: exact agreement %, within one %, kappa (linear), pairs")
+    lines.append(
+        "Scores: exact agreement %, within one %, kappa (linear), pairs; expected: the exact agreement "
+        "that this run's angle differences leave (moved in time)"
+    )
     for c in list(SCORE_SCALES) + list(PART_SCALES):
         if c in sc and isinstance(sc[c], dict):
             r = sc[c]
@@ -690,6 +737,11 @@ def format_reference(ev: Mapping[str, Any]) -> str:
                 lines.append(
                     f"  {c:<22} {r['exact_agreement_pct']:6.1f} {r['within_one_pct']:6.1f} "
                     f"{(r['kappa_linear'] if r['kappa_linear'] is not None else float('nan')):7.3f}  {r['pairs']}"
+                    + (
+                        f"  expected {r['expected_exact_agreement_pct']:.1f}"
+                        if "expected_exact_agreement_pct" in r
+                        else ""
+                    )
                 )
             else:
                 lines.append(

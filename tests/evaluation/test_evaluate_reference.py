@@ -13,7 +13,13 @@ from reference_helpers import make_results, trc_joints
 
 from ergopose import cli
 from ergopose.errors import ConfigError
-from ergopose.evaluation.reference import _interpolate, evaluate_reference, kabsch, parse_axes
+from ergopose.evaluation.reference import (
+    _interpolate,
+    evaluate_reference,
+    expected_reference_agreement,
+    kabsch,
+    parse_axes,
+)
 from ergopose.keypoints import JOINT_INDEX
 
 TRC = "pose2sim-demo/pose-3d/S00_P00_T01_BalancingTrial_0-100.trc"
@@ -62,6 +68,8 @@ def test_against_itself_everything_agrees(trc, world, tmp_path, capsys):
     assert ev["scores"]["rula_grand"]["pairs"] == 0
     for part in ("rula_trunk", "reba_trunk", "left_rula_upper_arm", "right_reba_lower_arm", "reba_legs"):
         assert ev["scores"][part]["pairs"] == 100 and ev["scores"][part]["exact_agreement_pct"] == 100.0
+        # Differences of a hundredth of a degree leave every score where it is, wherever they fall.
+        assert ev["scores"][part]["expected_exact_agreement_pct"] == 100.0
     assert any("cannot be scored" in n for n in ev["notes"])
 
 
@@ -200,3 +208,35 @@ def test_our_triangulation_of_pose2sims_keypoints_against_its_trc(shared_data, t
     assert math.degrees(math.acos(min(1.0, cos))) < 1.0
     # Same pairs with the axis order given: no fit, the same median.
     assert evaluate_reference(out, trc, axes="z,x,y")["alignment"]["residual_median_mm"] < 2.0
+
+
+def test_expected_agreement_of_a_constant_difference_is_the_agreement_it_leaves(world):
+    """A difference that is the same in every frame does not change when moved in time: the
+    expected agreement is then exactly the agreement of the reference's scores with the scores of
+    its angles plus that difference (computed here directly, without moving anything). A
+    difference in one half of the frames only moves with the shifts, and the trunk of this real
+    recording stands near RULA's upright band edges (5 deg), so 7 deg changes some scores."""
+    import pandas as pd
+
+    from ergopose.ergonomics.angles import joint_angles
+    from ergopose.ergonomics.scoring import score_posture
+
+    posture = joint_angles(world, np.arange(len(world)) / 60.0).to_frame().reset_index(drop=True)
+    factors = pd.DataFrame(index=posture.index)
+    reference = score_posture(posture, settings=None)
+    parts = ["rula_trunk", "reba_trunk", "left_rula_upper_arm"]
+    seven = np.full(len(posture), 7.0)
+    moved = posture.copy()
+    moved["trunk_flexion"] = moved["trunk_flexion"] + math.radians(7.0)
+    direct = score_posture(moved, settings=None)
+    expected = expected_reference_agreement(posture, factors, {"trunk_flexion": seven}, reference, parts, None)
+    for c in ("rula_trunk", "reba_trunk"):
+        agree = 100.0 * float(np.mean(direct[c].to_numpy() == reference[c].to_numpy()))
+        assert expected[c] == pytest.approx(agree, abs=1e-9), c
+        assert expected[c] < 100.0, c  # the difference does change scores here: the test can fail
+    assert expected["left_rula_upper_arm"] == 100.0  # the trunk's difference leaves the arm alone
+    # NaN differences count as none.
+    none = expected_reference_agreement(
+        posture, factors, {"trunk_flexion": np.full(len(posture), np.nan)}, reference, parts, None
+    )
+    assert all(v == 100.0 for v in none.values())
