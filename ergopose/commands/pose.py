@@ -177,6 +177,11 @@ def run(args: argparse.Namespace) -> int:
             f"  left and right doubted in {doubted} person-frames: their left/right keypoints carry lowered "
             "confidence (column left_right_uncertain)"
         )
+    if result.upright_checks:
+        print(
+            f"  {result.upright_checks} person views turned from upright checked in an upright view; "
+            f"{result.upright_disputed} of them gave the sides the other way round (those sides doubted)"
+        )
     if result.capped_frames:
         print(f"  max_people = {args.max_people} reached in {result.capped_frames} frames")
     print(f"wrote {args.out}")

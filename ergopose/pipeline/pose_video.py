@@ -51,6 +51,9 @@ class PoseVideoResult:
     people: (frames,) int, people found per frame of the range; -1 a frame that could not be read.
     start, stop: the frames processed, start .. stop-1.
     capped_frames: frames where the stage reached ``max_people``.
+    upright_checks, upright_disputed: person views turned from upright that were run again
+        upright (``PoseSettings.left_right_upright_check``), and of those the ones whose upright
+        view labelled the sides the other way round (their sides doubted).
     """
 
     table: pd.DataFrame
@@ -58,6 +61,8 @@ class PoseVideoResult:
     start: int
     stop: int
     capped_frames: int
+    upright_checks: int = 0
+    upright_disputed: int = 0
 
     @property
     def frames_read(self) -> int:
@@ -121,7 +126,9 @@ def pose_video(
     if skipped:
         warn(progress, f"{camera.name}: {skipped} of {count} frames could not be decoded and were skipped")
     table = _table(frames, persons, pixels, confidence, uncertain, fps)
-    return PoseVideoResult(table, people, start, stop, stage.capped_frames)
+    return PoseVideoResult(
+        table, people, start, stop, stage.capped_frames, stage.upright_checks, stage.upright_disputed
+    )
 
 
 def _table(

@@ -10,6 +10,7 @@ two frames of the real Pose2Sim recording.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -376,3 +377,36 @@ def test_the_command_passes_doubted_sides_on_lowered_and_flagged(camera, walking
     assert whole and result.uncertain_person_frames >= len(whole)
     trusted = table[(table["left_right_uncertain"] == 0) & table["joint"].isin(paired)]
     assert trusted["confidence"].max() > 0.5
+
+
+@pytest.mark.slow
+def test_the_upright_check_is_counted_and_costs_a_network_run_per_check(camera, walking_video, landmarker, detector):
+    """As the command runs the stage, every person view turned more than the check's angle from
+    upright is run a second time upright: with the check at 0 degrees every turned view is
+    checked, each check is one more run of the network, and the result counts the checks and the
+    disputes; without it nothing is checked."""
+    from ergopose.commands.pose import stage_settings
+    from ergopose.pipeline.pose_video import pose_video
+
+    video, _ = walking_video
+
+    class Counting:
+        def __init__(self, inner):
+            self.inner, self.runs = inner, 0
+            self.input_size, self.card = inner.input_size, inner.card
+
+        def __call__(self, image):
+            self.runs += 1
+            return self.inner(image)
+
+    command = stage_settings(landmarker.card.gates, FPS, 8)
+    runs, results = {}, {}
+    for name, check in (("without", None), ("every turned view", 0.0)):
+        counting = Counting(landmarker)
+        settings = dataclasses.replace(command, left_right_upright_check=check)
+        results[name] = pose_video(video, camera, FPS, 0, FRAMES, counting, detector, settings)
+        runs[name] = counting.runs
+    assert results["without"].upright_checks == results["without"].upright_disputed == 0
+    checked = results["every turned view"]
+    assert checked.upright_checks > 0 and 0 <= checked.upright_disputed <= checked.upright_checks
+    assert runs["every turned view"] == runs["without"] + checked.upright_checks, runs
