@@ -49,8 +49,11 @@ class ReconSettings:
         torso_min_z_m, torso_max_z_m: -0.2, 2.3 -- the torso joints of a pair, triangulated
             from the two rays, must lie between these heights (a ghost pair made of two
             different people usually does not).
-        trunk_min_length_m, trunk_max_length_m: 0.25, 0.8 -- mid-hip to mid-shoulder distance
-            of a pair must lie within these bounds (where both are seen).
+        trunk_min_length_m, trunk_max_length_m: 0.25, 1.0 -- mid-hip to mid-shoulder distance
+            of a pair must lie within these bounds (where both are seen). The upper bound was 0.8
+            until 2026-11-28: the network's keypoints of one worker seen by two cameras make a
+            trunk of 0.83-1.28 m (median 0.95) in a few per cent of worker-frames, and those
+            pairs were refused (docs/reconstruction.md, "Two cameras").
         min_person_scale: 0.4 -- a camera's detection whose keypoints span less than this
             fraction of the angle a standing person with hips on its hip rays would span is not
             used (a skeleton squeezed into the visible part of a partly hidden person;
@@ -169,7 +172,7 @@ class ReconSettings:
     torso_min_z_m: float = -0.2
     torso_max_z_m: float = 2.3
     trunk_min_length_m: float = 0.25
-    trunk_max_length_m: float = 0.8
+    trunk_max_length_m: float = 1.0
     min_person_scale: float = 0.4
 
     track_gate_m: float = 0.6

@@ -45,7 +45,7 @@ class ReconstructionTable(Table):
     torso_min_z_m: float = Field(-0.2, description="lowest plausible height of an associated person's torso joints")
     torso_max_z_m: float = Field(2.3, description="highest plausible height of an associated person's torso joints")
     trunk_min_length_m: float = Field(0.25, gt=0, description="shortest plausible mid-hip to mid-shoulder distance")
-    trunk_max_length_m: float = Field(0.8, gt=0, description="longest plausible mid-hip to mid-shoulder distance")
+    trunk_max_length_m: float = Field(1.0, gt=0, description="longest plausible mid-hip to mid-shoulder distance")
     min_person_scale: float = Field(
         0.4,
         ge=0,
