@@ -48,8 +48,8 @@ def stage_settings(gates: ConfidenceGates | None, fps: float, max_people: int) -
     crossed 21.9 -> 13.2 %, the three other cameras unchanged (no frame doubted). A view turned
     more than ``UPRIGHT_CHECK_DEG`` from upright is run again upright, and the frame's sides are
     doubted when the two views label them the other way round
-    (``PoseSettings.left_right_upright_check``; docs/pose-in-fisheye.md, "A second, upright view"). gates: None (a card without its own)
-    keeps the stage's default gates."""
+    (``PoseSettings.left_right_upright_check``; docs/pose-in-fisheye.md, "A second, upright
+    view"). gates: None (a card without its own) keeps the stage's default gates."""
     settings = PoseSettings(
         max_people=max_people,
         left_right_memory=LEFT_RIGHT_MEMORY_S * fps,

@@ -48,7 +48,14 @@ from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.errors import ConfigError, InputError
 from ergopose.evaluation.agreement import confusion_matrix, exact_agreement, kappa_from_matrix, within_one
 from ergopose.evaluation.loading import ResultsLayout, json_ready, reported_ids, round_or_nan
-from ergopose.evaluation.scoring import EXPECTED_SHIFTS, SCORE_SCALES, angle_stats, read_frames_csv, reported_sd
+from ergopose.evaluation.scoring import (
+    EXPECTED_SHIFTS,
+    SCORE_SCALES,
+    angle_stats,
+    moved_posture,
+    read_frames_csv,
+    reported_sd,
+)
 from ergopose.evaluation.markers import is_surface_marker, map_markers
 from ergopose.evaluation.trc import TrcData, read_trc
 from ergopose.geometry.rigid import kabsch
@@ -652,14 +659,13 @@ def expected_reference_agreement(
     (``factors``): how much exact agreement differences of this size and persistence leave, however
     close the reference's angles lie to the scoring's band edges."""
     n = len(posture)
+    errors = np.full((n, len(ANGLE_COLUMNS)), np.nan)
+    for j, c in enumerate(ANGLE_COLUMNS):
+        if c in differences_deg:
+            errors[:, j] = np.radians(np.asarray(differences_deg[c], dtype=np.float64))
     hits: dict[str, list[np.ndarray]] = {c: [] for c in columns}
     for k in range(1, EXPECTED_SHIFTS + 1):
-        shift = (k * n) // (EXPECTED_SHIFTS + 1)
-        moved = posture.copy()
-        for c, d in differences_deg.items():
-            if c in moved.columns:
-                e = np.nan_to_num(np.roll(np.radians(np.asarray(d, dtype=np.float64)), shift), nan=0.0)
-                moved[c] = (moved[c].to_numpy(np.float64) + e + np.pi) % (2.0 * np.pi) - np.pi
+        moved = moved_posture(posture, errors, (k * n) // (EXPECTED_SHIFTS + 1))
         moved_scores = score_posture(pd.concat([moved, factors], axis=1), settings=scoring)
         for c in columns:
             t = pd.to_numeric(ref_scores[c], errors="coerce").to_numpy(np.float64)

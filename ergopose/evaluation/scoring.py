@@ -319,6 +319,17 @@ def _wrap_rad(angle: np.ndarray) -> np.ndarray:
     return wrapped
 
 
+def moved_posture(posture: pd.DataFrame, errors: np.ndarray, shift: int) -> pd.DataFrame:
+    """``posture`` (radians) with each angle of ANGLE_COLUMNS plus its column of ``errors`` (F,
+    len(ANGLE_COLUMNS), radians; NaN: none) rolled by ``shift`` frames, wrapped to [-pi, pi)."""
+    moved = posture.copy()
+    e = np.nan_to_num(np.roll(errors, shift, axis=0), nan=0.0)
+    for j, c in enumerate(ANGLE_COLUMNS):
+        if c in moved.columns:
+            moved[c] = _wrap_rad(moved[c].to_numpy(np.float64) + e[:, j])
+    return moved
+
+
 def _store_errors(
     out: np.ndarray, csv: pd.DataFrame, sel: np.ndarray, frames: np.ndarray, posture: pd.DataFrame
 ) -> None:
@@ -357,11 +368,7 @@ def _expected_agreement(
         moved_scores: dict[tuple[int, str], pd.DataFrame] = {}
         for p, worker, frames, truth in compared:
             if (p, worker) not in moved_scores:
-                moved = postures[p].copy()
-                e = np.nan_to_num(np.roll(errors[p], shift, axis=0), nan=0.0)
-                for j, c in enumerate(ANGLE_COLUMNS):
-                    if c in moved.columns:
-                        moved[c] = _wrap_rad(moved[c].to_numpy(np.float64) + e[:, j])
+                moved = moved_posture(postures[p], errors[p], shift)
                 moved_scores[(p, worker)] = ground_truth_scores(session, gt, p, worker, inp.scoring, moved)
             for c in SCORE_SCALES:
                 t = truth[c].to_numpy(dtype=np.float64, na_value=np.nan)[frames]

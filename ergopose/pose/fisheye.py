@@ -66,7 +66,7 @@ import numpy as np
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pose.fragments import is_fragment
-from ergopose.pose.left_right import DECIDING_PAIRS, LeftRightCheck
+from ergopose.pose.left_right import LeftRightCheck
 from ergopose.pose.records import (
     SOURCE_MOTION,
     SOURCE_REFOCUS,
@@ -292,7 +292,11 @@ class FisheyePoseEstimator:
             or abs(person["view_roll"]) < 1e-6
         ):
             return person
-        again = self._landmarks(frame_bgr, target, None)
+        again: dict[str, Any] | None
+        if "upright_view_person" in person:  # the upright check already ran the upright view
+            again = person["upright_view_person"]
+        else:
+            again = self._landmarks(frame_bgr, target, None)
         if again is None or abs(again["body_roll"]) > s.recheck_roll:
             return None
         again["rechecked"] = True
@@ -339,15 +343,13 @@ class FisheyePoseEstimator:
         (``PoseSettings.left_right_upright_check``)."""
         self.upright_checks += 1
         upright = self._landmarks(frame_bgr, target, None)
+        # Kept for the body-axis re-check (_run_view), which would run the same upright view.
+        person["upright_view_person"] = upright
         if upright is None:
             return person
-        verdict = self._left_right.verdict(
-            {"rays": person["rays_cam"], "conf": person["kp"].confidence},
-            upright["rays_cam"],
-            upright["kp"].confidence,
-            DECIDING_PAIRS,
-        )
-        if verdict == 1:
+        if self._left_right.labelled_the_other_way(
+            person["rays_cam"], person["kp"].confidence, upright["rays_cam"], upright["kp"].confidence
+        ):
             # The two views label the person's sides the other way round: which one is right
             # cannot be told from here, so this frame's sides are doubted.
             self.upright_disputed += 1

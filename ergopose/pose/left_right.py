@@ -34,8 +34,6 @@ _LR_DECIDE = np.array(
     ],
     dtype=np.int64,
 )
-#: The pairs that decide which way round two skeletons of one person are labelled.
-DECIDING_PAIRS = _LR_DECIDE
 _LR_LIMBS = {
     "arms": (("elbow", "wrist"), ("elbow", "wrist", "pinky", "index", "thumb")),
     "legs": (("knee", "ankle"), ("knee", "ankle", "heel", "foot_index")),
@@ -173,6 +171,14 @@ class LeftRightCheck:
         if same < s.left_right_ratio * swap:
             return 0
         return None
+
+    def labelled_the_other_way(
+        self, rays_a: np.ndarray, conf_a: np.ndarray, rays_b: np.ndarray, conf_b: np.ndarray
+    ) -> bool:
+        """Whether two skeletons of one person in one frame (two views of it; rays (33, 3) in one
+        camera frame, confidences (33,)) label the person's left and right the other way round,
+        by the comparison :meth:`verdict` makes between frames."""
+        return self.verdict({"rays": rays_a, "conf": conf_a}, rays_b, conf_b, _LR_DECIDE) == 1
 
     def __call__(self, people: list[dict[str, Any]]) -> list[dict[str, Any]]:
         """Keep each person's left and right consistent with their previous frames (see
