@@ -14,6 +14,7 @@ from ergopose.pose.models import (
     ENV_NPM_REGISTRY,
     LANDMARK_MODELS,
     MODEL_CARDS,
+    POSE_COMMAND_MODEL,
     NpmSource,
     corrupt_message,
     fetch_models,
@@ -33,7 +34,8 @@ pip), the lite and heavy landmark models from the @mediapipe/pose 0.5.1675469404
 tarball on the npm registry (downloaded over HTTPS; ${ENV_NPM_REGISTRY} names a mirror). Each
 download is checked against its pinned digest and only the model files are kept, each checked
 against its pinned SHA-256. 'ergopose assess' and 'ergopose pose' choose the landmark model with
---model {"|".join(LANDMARK_MODELS)} (default {DEFAULT_LANDMARK_MODEL}) and fetch it on first use.
+--model {"|".join(LANDMARK_MODELS)} (default: {DEFAULT_LANDMARK_MODEL} for assess, {POSE_COMMAND_MODEL} for pose) and fetch it on
+first use.
 Your own ONNX models: put NAME.onnx and a card NAME.toml in the cache's '{USER_ONNX_FOLDER}'
 folder (docs/models.md)."""
 
@@ -119,6 +121,12 @@ def _user_state(card: OnnxPoseCard) -> str:
     return "ok" if sha256_file(card.file) == card.sha256 else "corrupt"
 
 
+def _default_of(short: str) -> str:
+    """Which commands use a landmark model when none is named."""
+    users = [cmd for cmd, model in (("assess", DEFAULT_LANDMARK_MODEL), ("pose", POSE_COMMAND_MODEL)) if model == short]
+    return f", the default of {' and '.join(users)}" if users else ""
+
+
 def run_list(args: argparse.Namespace) -> int:
     model_dir = resolve_model_dir(args.model_dir)
     out = sys.stdout
@@ -127,7 +135,7 @@ def run_list(args: argparse.Namespace) -> int:
         status = model_status(name, model_dir)
         w, h = card.input_size
         short = next((k for k, v in LANDMARK_MODELS.items() if v == name), None)
-        label = f"  (--model {short}{', the default' if short == DEFAULT_LANDMARK_MODEL else ''})" if short else ""
+        label = f"  (--model {short}{_default_of(short)})" if short else ""
         out.write(f"{name}  [{status.state}]{label}\n")
         out.write(f"  {card.title}\n")
         out.write(f"  file     {status.path}\n")

@@ -16,7 +16,7 @@ from ergopose.geometry.image_circle import nominal_fisheye_camera, nominal_pinho
 from ergopose.pipeline.pose_video import circle_from_video, pose_video, write_pose_csv
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.settings import PoseSettings
-from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, LANDMARK_MODELS, ConfidenceGates
+from ergopose.pose.models import LANDMARK_MODELS, POSE_COMMAND_MODEL, ConfidenceGates
 from ergopose.progress import warn
 from ergopose.progress import ProgressCallback
 from ergopose.video import probe_video
@@ -124,8 +124,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument(
         "--model",
         choices=MODELS,
-        default=DEFAULT_LANDMARK_MODEL,
-        help=f"the pose model (default {DEFAULT_LANDMARK_MODEL}; 'ergopose models list', docs/models.md)",
+        default=POSE_COMMAND_MODEL,
+        help=f"the pose model (default {POSE_COMMAND_MODEL}, which keeps people's left and right best; 'assess' "
+        "uses full for speed; 'ergopose models list', docs/models.md)",
     )
     p.add_argument(
         "--model-dir",

@@ -268,6 +268,11 @@ LANDMARK_MODELS: dict[str, str] = {
 }
 #: The landmark model used when none is named (chosen by measurement: docs/models.md).
 DEFAULT_LANDMARK_MODEL = "full"
+#: The landmark model of `ergopose pose` (the 2D stage alone, on one video) when none is named:
+#: no real-time budget binds it, and heavy keeps a person's left and right where full crosses
+#: them (the Pose2Sim recording re-rendered into virtual fisheye cameras; docs/models.md,
+#: "Choosing a model"). `assess` keeps DEFAULT_LANDMARK_MODEL.
+POSE_COMMAND_MODEL = "heavy"
 
 #: The gates of each card: full's are the stage's and the reconstruction's since the first
 #: release; lite's and heavy's were set from python -m ergopose.evaluation.model_cards (the same

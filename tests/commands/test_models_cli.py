@@ -11,7 +11,7 @@ import zipfile
 import pytest
 
 from ergopose import cli
-from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, MODEL_CARDS
+from ergopose.pose.models import DEFAULT_LANDMARK_MODEL, MODEL_CARDS, POSE_COMMAND_MODEL
 
 
 def _run(capsys, *argv):
@@ -37,8 +37,11 @@ def test_list_on_an_empty_cache_shows_the_cards(tmp_path, capsys):
     assert out.count("Apache-2.0") == 4 and "mediapipe==0.10.14 wheel (PyPI)" in out
     assert out.count("@mediapipe/pose@0.5.1675469404 package tarball (npm)") == 2
     # The landmark cards say which --model picks them and which is the default, and their gates.
-    assert "blazepose_landmark_heavy  [missing]  (--model heavy)" in out
-    assert f"(--model {DEFAULT_LANDMARK_MODEL}, the default)" in out
+    # (assess: full, for its real-time budget; pose: heavy, which keeps left and right best).
+    assert DEFAULT_LANDMARK_MODEL == "full" and POSE_COMMAND_MODEL == "heavy"
+    assert "blazepose_landmark_heavy  [missing]  (--model heavy, the default of pose)" in out
+    assert "blazepose_landmark_full  [missing]  (--model full, the default of assess)" in out
+    assert "blazepose_landmark_lite  [missing]  (--model lite)\n" in out
     assert out.count("  gates    person when the pose flag >= ") == 3
 
 

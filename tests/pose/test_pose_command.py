@@ -28,6 +28,7 @@ from ergopose.geometry.image_circle import find_image_circle, max_image
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.pose_video import POSE_COLUMNS
 from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.models import POSE_COMMAND_MODEL
 from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressEvent
 
@@ -168,25 +169,36 @@ def _score_against_ground_truth(table: pd.DataFrame, gt, camera_index: int) -> t
     return counted, found, np.asarray(errors)
 
 
+#: Share of the frames in which `ergopose pose` finds the simulated worker, per model: full finds
+#: it in 36 of 36 frames (35 of 36 from the image circle); heavy, the command's default, places
+#: the rendered mannequin's hips too far off to count in 21 and 18 of them (found 15 and 18 of 36;
+#: docs/models.md, "The model of `ergopose pose`"): a shortfall on the simulator's figures, not a
+#: target.
+SIMULATED_FOUND = {"full": 0.9, "heavy": 0.35}
+
+
 @pytest.mark.slow
+@pytest.mark.parametrize("model", ["full", None])
 @pytest.mark.parametrize("calibrated", [True, False])
-def test_pose_on_a_simulated_session_video(tiny_session, fetched_model_dir, tmp_path, capsys, calibrated):
+def test_pose_on_a_simulated_session_video(tiny_session, fetched_model_dir, tmp_path, capsys, calibrated, model):
     """The simulator's rendered workshop (3 s, 2 workers, 1024 x 768 fisheye): against the ground
-    truth's projected joints. Measured: the worker found in 36 of 36 frames (35 of 36 from the
-    image circle), limb keypoints a median 0.15 torso lengths off, p90 0.65 (0.55)."""
+    truth's projected joints, with full and with the command's default (heavy). Measured: full
+    finds the worker in 36 of 36 frames (35 of 36 from the image circle), limb keypoints a
+    median 0.15 torso lengths off, p90 0.65 (0.55); heavy in 15 (18) of 36, median 0.17."""
     from ergopose.sim.ground_truth import load_ground_truth
 
     out = tmp_path / "cam_1.csv"
     camera = ["--camera", tiny_session / "calibration.toml"] if calibrated else ["--fov-deg", "190"]
+    chosen = [] if model is None else ["--model", model]
     code, stdout, lines = _run(
-        capsys, "pose", tiny_session / "cam_1.mp4", *camera, "--out", out, "--model-dir", fetched_model_dir[0]
+        capsys, "pose", tiny_session / "cam_1.mp4", *camera, "--out", out, "--model-dir", fetched_model_dir[0], *chosen
     )
     assert code == 0, lines
     counted, found, errors = _score_against_ground_truth(
         pd.read_csv(out), load_ground_truth(tiny_session / "ground_truth"), 0
     )
     assert counted >= 30
-    assert found >= 0.9 * counted, (found, counted)
+    assert found >= SIMULATED_FOUND[model or POSE_COMMAND_MODEL] * counted, (found, counted)
     assert np.median(errors) < 0.25, np.median(errors)
 
 
@@ -312,7 +324,7 @@ def test_pose_on_real_pose2sim_frames(shared_data, fetched_model_dir, tmp_path, 
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("model", ["lite", "heavy"])
+@pytest.mark.parametrize("model", ["lite", "full"])
 def test_pose_with_another_model_card(model, camera, walking_video, fetched_model_dir, tmp_path, capsys):
     """--model picks the landmark card; the person is found and placed as with the default."""
     video, truth = walking_video

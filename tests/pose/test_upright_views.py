@@ -346,3 +346,42 @@ def test_on_real_frames_a_second_upright_view_puts_the_sides_right(shared_data, 
     assert crossed["without"] >= 0.15 * confident["without"], (crossed, confident)
     assert crossed["with"] <= 0.1 * confident["with"], (crossed, confident)
     assert confident["with"] >= confident["without"] + 10, (crossed, confident)
+
+
+@pytest.mark.slow
+def test_on_real_frames_the_pose_commands_model_keeps_the_sides(shared_data, fetched_model_dir):
+    """The same re-rendered frames (cam_02, 45 degrees off the lens axis, 250 px/rad) through the
+    2D stage as `ergopose pose` runs it by default: the heavy landmark model
+    (``POSE_COMMAND_MODEL``) with its own gates. It reads the person's sides where full crosses
+    them, so nearly every frame is passed on as confident and almost none is crossed. Measured:
+    0 of 98 confident frames crossed (full, in the test above: 2 of 41)."""
+    from ergopose.commands.pose import stage_settings
+    from ergopose.evaluation import refisheye as R
+    from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
+    from ergopose.pose.models import POSE_COMMAND_MODEL
+
+    root = shared_data / "pose2sim-demo"
+    model_dir = fetched_model_dir[0]
+    real = R.load_cameras(root)[1]
+    frames = R.read_frames(root, 2, 100)
+    ref = R.openpose_reference(root, 2, len(frames), real)
+    ok = (ref["conf"][:, R.HIPS] > 0).all(axis=1)
+    hip = R._unit(np.nanmedian(R._unit(ref["rays"][ok][:, R.HIPS].mean(axis=1)), axis=0))
+    vf = R.virtual_fisheye(real, hip, np.radians(45.0), 0.0, 250.0)
+    view_map = R.build_map(
+        vf.camera.lens, (vf.camera.width, vf.camera.height), real.lens, vf.rotation_real_from_virtual
+    )
+    landmarker = BlazePoseLandmarker(model=POSE_COMMAND_MODEL, model_dir=model_dir)
+    assert landmarker.card.name == "blazepose_landmark_heavy"
+    stage = FisheyePoseEstimator(
+        vf.camera, 0, landmarker, BlazePoseDetector(model_dir=model_dir), stage_settings(landmarker.card.gates, 60.0, 8)
+    )
+    scores = []
+    for f, image in enumerate(frames):
+        found = stage.process(view_map.apply(image), f)
+        if ok[f]:
+            scores.append(R.score_frame(ref["rays"][f] @ vf.rotation_real_from_virtual, ref["conf"][f], found))
+    assert all(s["found"] for s in scores)
+    judged = [s["swapped"] for s in scores if s["swapped"] is not None]
+    assert len(judged) >= 0.9 * len(scores), (len(judged), len(scores))
+    assert sum(judged) <= 0.02 * len(judged), (sum(judged), len(judged))
