@@ -103,7 +103,9 @@ class PoseSettings:
         round is swapped back, unless the network has said so in most of the last
         ``left_right_window`` frames (then its labelling is followed); limbs whose own match
         disagrees with the whole body's, and frames where the recent labelling is split, get
-        their confidence lowered to at most ``uncertain_confidence``.
+        their confidence lowered to at most ``uncertain_confidence``. "The previous frame" is
+        the last one whose labelling could be told, when the frame just before could not
+        (:data:`ergopose.pose.left_right.UNCLEAR_HOLD_FRAMES`).
     left_right_memory: how long (frames; the weight of a frame halves every this many) the check
         remembers which labelling the network gave a followed person: the network's other
         labelling is followed only when it has more remembered support than the one in use (and
