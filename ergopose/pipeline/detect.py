@@ -23,6 +23,7 @@ from ergopose.geometry.camera import Camera
 from ergopose.pose.appearance import appearance_fisheye
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.fisheye import FisheyePoseEstimator
+from ergopose.pose.handoff import pass_cues
 from ergopose.pose.records import FrameDetections
 from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressCallback, report
@@ -157,17 +158,22 @@ def _video_2d(
         index = frames[0][0]
         time_s = index / job.fps
         per_camera = []
+        found_now = []
         for c, ((_, image, problem), stage, cam) in enumerate(zip(frames, stages, job.cameras)):
             if image is None:
                 counts[k, c] = SKIP_CODES[problem]
                 if np.count_nonzero(counts[:, c] < 0) > limit:
                     raise _too_many_bad(job, c, start, stop, counts[: k + 1, c])
                 per_camera.append(FrameDetections.empty(c, index).to_recon(cam, time_s))
+                found_now.append(FrameDetections.empty(c, index))
                 continue
             found = stage.process(image, index)
             counts[k, c] = found.count
+            found_now.append(found)
             look = appearance_fisheye(image, found.pixels_fisheye, found.confidence)
             per_camera.append(found.to_recon(cam, time_s, look))
+        if job.pose.other_camera_every > 0:
+            pass_cues(stages, found_now, job.cameras, job.pose.min_keypoint_confidence)
         frames_2d.append(per_camera)
         report(progress, "pose", k + 1, stop - start, unit="frame")
     return frames_2d, counts

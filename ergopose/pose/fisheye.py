@@ -15,7 +15,9 @@ The paper's steps 1-3 for one camera. Per frame:
    working distance spans enough detector pixels), a few views per frame so that a whole pass
    costs at most ``search_views_per_frame`` detector runs per frame on average; and on the
    frame after a followed person's view gave up, the detector runs on the search views around
-   that place. Each cue
+   that place. In a session of several cameras, the places where the other cameras found
+   people in the previous frame that no view of this camera holds are cues too
+   (:meth:`FisheyePoseEstimator.take_cues`, :mod:`ergopose.pose.handoff`). Each cue
    is a bearing (a ray in the camera frame), an angular size and, from the detector, the body
    axis.
 2. *Views.* Each target gets a virtual pinhole view (256 x 256 by default) aimed along its
@@ -47,7 +49,8 @@ The paper's steps 1-3 for one camera. Per frame:
    docs/evaluation.md).
 
 The target is a direction and an angular radius, both in the camera frame, so nothing here
-depends on the world or on the other camera.
+depends on the world or on the other cameras: what they pass on arrives as directions in this
+camera's frame.
 
 This module holds the estimator, which runs these steps per frame; the parts live beside it:
 the settings (``pose/settings.py``), the records (``pose/records.py``: targets, a frame's
@@ -69,6 +72,7 @@ from ergopose.pose.fragments import is_fragment
 from ergopose.pose.left_right import LeftRightCheck
 from ergopose.pose.records import (
     SOURCE_MOTION,
+    SOURCE_OTHER_CAMERA,
     SOURCE_REFOCUS,
     SOURCE_SEARCH,
     Detector,
@@ -162,6 +166,7 @@ class FisheyePoseEstimator:
         self._frames_seen = 0
         self._targets: list[Target] = []
         self._lost: list[Target] = []
+        self._handed: list[Target] = []
         self._left_right = LeftRightCheck(settings)
         self._up_cam = world_up_cam(camera)
 
@@ -192,6 +197,23 @@ class FisheyePoseEstimator:
             for ray, radius in self._motion(frame_bgr, self._frames_seen)
         ]
 
+    def take_cues(self, directions_cam: np.ndarray, radii: np.ndarray) -> None:
+        """Places where another camera saw people (:mod:`ergopose.pose.handoff`), for the next
+        frame: (M, 3) unit directions in this camera's frame and (M,) angular radii of the bodies
+        (NaN rows are ignored). The next :meth:`process` looks there with upright views, when
+        its frame is one of every ``other_camera_every`` and no view already holds the place."""
+        directions_cam = np.asarray(directions_cam, dtype=np.float64).reshape(-1, 3)
+        radii = np.asarray(radii, dtype=np.float64).reshape(-1)
+        ok = np.isfinite(directions_cam).all(axis=1) & np.isfinite(radii)
+        self._handed = [
+            Target(d, self._half_fov(float(r)), SOURCE_OTHER_CAMERA) for d, r in zip(directions_cam[ok], radii[ok])
+        ]
+
+    def _inside_a_view(self, cue: Target, targets: Sequence[Target]) -> bool:
+        """A place another camera passed on lies inside a view already planned (the other
+        camera's floor point is rougher than a cue of this camera's own)."""
+        return any(angle_between(cue.direction_cam, t.direction_cam) < t.half_fov for t in targets)
+
     # -- per frame ---------------------------------------------------------------------------
     def _half_fov(self, body_radius: float) -> float:
         s = self.settings
@@ -212,6 +234,9 @@ class FisheyePoseEstimator:
         motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
         self._frames_seen += 1
         lost, self._lost = self._lost, []
+        handed, self._handed = self._handed, []
+        if s.other_camera_every <= 0 or seen % s.other_camera_every:
+            handed = []
         which = self.search.scheduled(period, seen)
         if lost and s.search_where_lost and self.detector is not None:
             # A view lost its person: the detector looks again around there at once.
@@ -219,6 +244,9 @@ class FisheyePoseEstimator:
             which = which + [i for i in near if i not in which]
         cues = (motion if motion_now else []) + (self._search_cues(frame_bgr, which) if which else [])
         targets += [c for c in cues if not self._covered(c, targets)]
+        for c in handed:  # one view per place, however many cameras passed it on
+            if not self._inside_a_view(c, targets):
+                targets.append(c)
         views = len(targets)
         targets = targets[: 4 * s.max_people]
         results = [self._run_view(frame_bgr, t) for t in targets]

@@ -15,8 +15,8 @@ from ergopose.pose.blazepose import Keypoints2D, PersonDetection
 from ergopose.records import Detections2D
 
 #: Where a person's view came from (FrameDetections.source).
-SOURCE_REFOCUS, SOURCE_MOTION, SOURCE_SEARCH = 0, 1, 2
-SOURCE_NAMES = ("refocus", "motion", "search")
+SOURCE_REFOCUS, SOURCE_MOTION, SOURCE_SEARCH, SOURCE_OTHER_CAMERA = 0, 1, 2, 3
+SOURCE_NAMES = ("refocus", "motion", "search", "other camera")
 
 
 class Landmarker(Protocol):
@@ -67,7 +67,8 @@ class FrameDetections:
     projection: (N, 3, 4) each view's projection matrix P = K [I|0] [R^T 0; 0 1] W^-1 (world
         points to view pixels), for triangulation in the views (the paper's DLT).
     view_direction_cam: (N, 3) and view_half_fov: (N,) the views' axes and half fields of view.
-    source: (N,) int, SOURCE_REFOCUS / SOURCE_MOTION / SOURCE_SEARCH (what aimed the view).
+    source: (N,) int, SOURCE_REFOCUS / SOURCE_MOTION / SOURCE_SEARCH / SOURCE_OTHER_CAMERA (what
+        aimed the view; :mod:`ergopose.pose.handoff` for the last).
     left_right_uncertain: (N, 33) bool, the left/right check doubts the side of this keypoint:
         every left/right keypoint of a person whose labelling the network split over the last
         frames or changed less than a window ago, and the keypoints of an arm or leg pair whose

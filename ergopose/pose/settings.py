@@ -150,6 +150,9 @@ class PoseSettings:
         field of view quantised; :class:`~ergopose.pose.view_cache.ViewCache`). People move, so few requests repeat:
         measured on a simulated session, 5 % of views reused at 0.5 px and 6 % at 2 px, with
         no measurable gain in speed, against about 1 MB of maps per cached view.
+    other_camera_every: a person another camera of the session found and no view of this
+        camera holds is looked for where they should appear (:mod:`ergopose.pose.handoff`), in
+        one of every this many frames; 0: never (each camera searches alone).
     max_people: most people tracked per camera. A frame where the stage reaches it is counted
         (``FisheyePoseEstimator.capped_frames``) and told once per estimator through its progress
         callback, naming the camera and the setting: more people than this are not followed.
@@ -207,6 +210,7 @@ class PoseSettings:
     uncertain_confidence: float | None = None
     view_cache_px: float = 0.0
     max_people: int = 8
+    other_camera_every: int = 2
 
     def with_gates(self, gates: ConfidenceGates | None) -> "PoseSettings":
         """These settings with a landmark model card's confidence gates

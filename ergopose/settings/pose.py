@@ -57,6 +57,11 @@ class PoseTable(Table):
     search_where_lost: bool = Field(True, description="search again where a followed person was lost")
     coast_frames: int = Field(2, ge=0, description="frames a person not found is still looked for in the same view")
     max_people: int = Field(8, gt=0, description="most people followed per camera (more are counted and reported)")
+    other_camera_every: int = Field(
+        2,
+        ge=0,
+        description="look where another camera sees a person this camera does not, every this many frames (0: never)",
+    )
     min_presence: float = Field(0.5, ge=0, le=1, description="a view whose pose flag is below this holds no person")
     min_keypoint_confidence: float = Field(
         0.3, ge=0, le=1, description="keypoints below this do not steer the next view"
