@@ -201,7 +201,7 @@ class FisheyePoseEstimator:
         """Places where another camera saw people (:mod:`ergopose.pose.handoff`), for the next
         frame: (M, 3) unit directions in this camera's frame and (M,) angular radii of the bodies
         (NaN rows are ignored). The next :meth:`process` looks there with upright views, when
-        its frame is one of every ``other_camera_every`` and no view already holds the place."""
+        it :attr:`wants_cues` and no view already holds the place."""
         directions_cam = np.asarray(directions_cam, dtype=np.float64).reshape(-1, 3)
         radii = np.asarray(radii, dtype=np.float64).reshape(-1)
         ok = np.isfinite(directions_cam).all(axis=1) & np.isfinite(radii)
@@ -209,10 +209,12 @@ class FisheyePoseEstimator:
             Target(d, self._half_fov(float(r)), SOURCE_OTHER_CAMERA) for d, r in zip(directions_cam[ok], radii[ok])
         ]
 
-    def _inside_a_view(self, cue: Target, targets: Sequence[Target]) -> bool:
-        """A place another camera passed on lies inside a view already planned (the other
-        camera's floor point is rougher than a cue of this camera's own)."""
-        return any(angle_between(cue.direction_cam, t.direction_cam) < t.half_fov for t in targets)
+    @property
+    def wants_cues(self) -> bool:
+        """Whether the next :meth:`process` looks at the places other cameras pass on (one frame in
+        ``other_camera_every``; never when it is 0)."""
+        every = self.settings.other_camera_every
+        return every > 0 and self._frames_seen % every == 0
 
     # -- per frame ---------------------------------------------------------------------------
     def _half_fov(self, body_radius: float) -> float:
@@ -228,15 +230,13 @@ class FisheyePoseEstimator:
         s = self.settings
         targets = list(self._targets)
         seen = self._frames_seen
+        handed, self._handed = (self._handed if self.wants_cues else []), []
         period = self.search_period(bool(targets))
         # Motion cues at the search interval, however long a pass over the search views takes.
         motion_now = seen % (s.search_every if targets else s.idle_search_every) == 0
         motion = self._motion_cues(frame_bgr)  # the background model learns on every frame
         self._frames_seen += 1
         lost, self._lost = self._lost, []
-        handed, self._handed = self._handed, []
-        if s.other_camera_every <= 0 or seen % s.other_camera_every:
-            handed = []
         which = self.search.scheduled(period, seen)
         if lost and s.search_where_lost and self.detector is not None:
             # A view lost its person: the detector looks again around there at once.
@@ -244,8 +244,10 @@ class FisheyePoseEstimator:
             which = which + [i for i in near if i not in which]
         cues = (motion if motion_now else []) + (self._search_cues(frame_bgr, which) if which else [])
         targets += [c for c in cues if not self._covered(c, targets)]
-        for c in handed:  # one view per place, however many cameras passed it on
-            if not self._inside_a_view(c, targets):
+        for c in handed:  # one view per place, however many cameras passed it on; the other
+            # camera's floor point is rougher than this camera's own cues: a place inside any
+            # planned view counts as held
+            if not self._covered(c, targets, fraction=1.0):
                 targets.append(c)
         views = len(targets)
         targets = targets[: 4 * s.max_people]
@@ -301,11 +303,11 @@ class FisheyePoseEstimator:
             return None
         return bounded_up(self.camera, direction_cam, body_up_cam, s.max_body_roll, s.upright_undefined_angle)
 
-    def _covered(self, cue: Target, targets: Sequence[Target]) -> bool:
-        for t in targets:
-            if angle_between(cue.direction_cam, t.direction_cam) < self.settings.same_person_angle * t.half_fov:
-                return True
-        return False
+    def _covered(self, cue: Target, targets: Sequence[Target], fraction: float | None = None) -> bool:
+        """A target's view already looks at the cue's place: the cue lies within ``fraction``
+        (default ``same_person_angle``) of a target's half field of view from its axis."""
+        f = self.settings.same_person_angle if fraction is None else fraction
+        return any(angle_between(cue.direction_cam, t.direction_cam) < f * t.half_fov for t in targets)
 
     def _run_view(self, frame_bgr: np.ndarray, target: Target) -> dict[str, Any] | None:
         """The network on the target's view; a detection whose body axis points away from world

@@ -28,8 +28,10 @@ from typing import Protocol, Sequence
 import numpy as np
 
 from ergopose.geometry.camera import Camera
+from ergopose.geometry.rays import ray_at_height
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pose.records import FrameDetections
+from ergopose.pose.view_geometry import angle_between
 
 #: Height above the floor of the ankle and heel keypoints of a person standing (metres).
 FOOT_HEIGHT_M = 0.08
@@ -40,8 +42,8 @@ HIP_HEIGHT_M = 0.9
 #: (metres), enough for a standing worker with the arms out.
 BODY_HEIGHT_M = 1.8
 BODY_RADIUS_M = 0.4
-#: A ray must point down by at least this (its world z component) to meet the floor in front of
-#: the camera; a ray near the horizon places the person anywhere along it.
+#: A ray's world z component must be at least this in size to meet the floor in front of the
+#: camera; a ray near the horizon places the person anywhere along it.
 MIN_DOWN = 0.1
 #: Farthest a floor point may lie from the camera, horizontally (metres).
 MAX_RANGE_M = 30.0
@@ -51,14 +53,15 @@ _HIPS = [JOINT_INDEX[j] for j in ("left_hip", "right_hip")]
 
 
 def _meet_plane(origin_world: np.ndarray, rays_world: np.ndarray, height_m: float) -> np.ndarray:
-    """(..., 3) points where rays from ``origin_world`` meet the plane z = height_m; NaN where a
-    ray does not point down by ``MIN_DOWN`` or meets it beyond ``MAX_RANGE_M``."""
-    down = -rays_world[..., 2]
-    ok = down >= MIN_DOWN
-    t = np.where(ok, (origin_world[2] - height_m) / np.where(ok, down, 1.0), np.nan)
-    points = origin_world + t[..., None] * rays_world
-    far = np.linalg.norm(points[..., :2] - origin_world[:2], axis=-1) > MAX_RANGE_M
-    return np.where((ok & ~far & (t > 0))[..., None], points, np.nan)
+    """(..., 3) points where rays from ``origin_world`` meet the plane z = height_m
+    (:func:`ergopose.geometry.rays.ray_at_height`); NaN where a ray is within ``MIN_DOWN`` of
+    horizontal, meets the plane behind the camera or beyond ``MAX_RANGE_M``."""
+    flat = rays_world.reshape(-1, 3)
+    points, t = ray_at_height(np.broadcast_to(origin_world, flat.shape), flat, np.array([height_m]), MIN_DOWN)
+    points, t = points[0], t[0]
+    with np.errstate(invalid="ignore"):
+        ok = (t > 0) & (np.linalg.norm(points[:, :2] - origin_world[:2], axis=-1) <= MAX_RANGE_M)
+    return np.where(ok[:, None], points, np.nan).reshape(rays_world.shape)
 
 
 def floor_points_world(found: FrameDetections, camera: Camera, min_confidence: float) -> np.ndarray:
@@ -102,8 +105,7 @@ def cues_in_camera(camera: Camera, floor_world: np.ndarray) -> tuple[np.ndarray,
     edge_cam = camera.points_world_to_cam(floor_world[:, None, :] + offsets[None])  # (M, 6, 3)
     direction = centre_cam / np.linalg.norm(centre_cam, axis=-1, keepdims=True)
     edges = edge_cam / np.linalg.norm(edge_cam, axis=-1, keepdims=True)
-    cosines = np.clip(np.einsum("mk,mjk->mj", direction, edges), -1.0, 1.0)
-    radius = np.arccos(cosines).max(axis=1) if m else np.zeros(0)
+    radius = angle_between(direction[:, None, :], edges).max(axis=1) if m else np.zeros(0)
     # The column's middle must be where the camera sees: in front of it and on its lit image.
     ok = np.isfinite(direction).all(axis=1) & np.isfinite(radius)
     ok &= camera.lit(camera.lens.project(np.where(ok[:, None], direction, np.array([0.0, 0.0, 1.0]))))
@@ -112,6 +114,9 @@ def cues_in_camera(camera: Camera, floor_world: np.ndarray) -> tuple[np.ndarray,
 
 class TakesCues(Protocol):
     """A camera's 2D stage that can be told where to look (``FisheyePoseEstimator.take_cues``)."""
+
+    @property
+    def wants_cues(self) -> bool: ...
 
     def take_cues(self, directions_cam: np.ndarray, radii: np.ndarray) -> None: ...
 
@@ -122,11 +127,14 @@ def pass_cues(
     """Tell each camera's stage where the other cameras found people in this frame (for its next
     frame): every person of every other camera placed on the floor (:func:`floor_points_world`)
     and seen from this camera (:func:`cues_in_camera`). The stage itself skips the places one of
-    its views already holds."""
-    if len(stages) < 2:
+    its views already holds; a stage whose next frame takes no cues (``wants_cues``) is told
+    nothing, and when none takes them nothing is computed."""
+    if len(stages) < 2 or not any(stage.wants_cues for stage in stages):
         return
     floors = [floor_points_world(f, cam, min_confidence) for f, cam in zip(found, cameras)]
     for b, (stage, camera) in enumerate(zip(stages, cameras)):
+        if not stage.wants_cues:
+            continue
         points = [floors[a] for a in range(len(floors)) if a != b]
         floor_world = np.concatenate(points) if points else np.zeros((0, 3))
         floor_world = floor_world[np.isfinite(floor_world).all(axis=1)]

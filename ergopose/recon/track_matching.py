@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ergopose.arrays import FloatArray
+from ergopose.geometry.rays import ray_at_height
 from ergopose.pose.appearance import appearance_distance
 from ergopose.recon.associate import gated_assignment
 from ergopose.recon.track_records import Track
@@ -48,16 +49,6 @@ def colour_cost(colour: np.ndarray) -> np.ndarray:
     """Negative log-likelihood of clothing-colour distances (APPEARANCE_SIGMA); 0 where unknown."""
     with np.errstate(invalid="ignore"):
         return np.where(np.isfinite(colour), 0.5 * (colour / APPEARANCE_SIGMA) ** 2, 0.0)
-
-
-def ray_at_height(origin: np.ndarray, ray: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Points of rays o + t d (R rays) at heights z (T tracks): (T, R, 3) and t (T, R).
-
-    A nearly horizontal ray (|d_z| < 0.05) does not fix a point at a height: t is NaN there."""
-    dz = ray[:, 2]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = (z[:, None] - origin[None, :, 2]) / np.where(np.abs(dz) >= 0.05, dz, np.nan)[None, :]
-    return origin[None] + t[..., None] * ray[None], t
 
 
 def predict(

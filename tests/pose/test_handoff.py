@@ -132,6 +132,8 @@ def test_a_place_the_camera_cannot_see_gives_no_view():
 
 
 class _Listener:
+    wants_cues = True
+
     def __init__(self):
         self.cues = None
 
