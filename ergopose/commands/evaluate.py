@@ -161,6 +161,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         metavar="PX",
         help="ORACLE pixel noise on joints a camera cannot see (default 6)",
     )
+    o.add_argument(
+        "--own-body-seen",
+        action="store_true",
+        help="ORACLE: report the joints behind the worker's own body like visible ones (--noise-px, a visible "
+        "joint's confidence) instead of as hidden: the true joints plus noise; furniture and other workers still hide",
+    )
     o.add_argument("--oracle-seed", type=int, default=0, metavar="N", help="ORACLE random seed (default 0)")
     b = p.add_argument_group("reference bar")
     b.add_argument(
@@ -197,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
             joint_dropout=args.joint_dropout,
             occluded_noise_px=args.occluded_noise_px,
             seed=args.oracle_seed,
+            own_body_hides=not args.own_body_seen,
         )
         print(options.banner(), flush=True)
         layout = run_oracle(args.session, args.results, options, progress=progress)

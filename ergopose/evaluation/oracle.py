@@ -56,6 +56,9 @@ class OracleOptions:
     joint_dropout: probability that a single visible joint is missing.
     occluded_noise_px: pixel noise on joints the camera cannot see (reported with low confidence).
     seed: the ORACLE's random source.
+    own_body_hides: joints behind the worker's own body count as hidden (True) or are reported
+        like visible ones (False: issue 13's "true joints + noise";
+        :attr:`ergopose.sim.oracle.OracleSource.own_body_hides`).
     """
 
     noise_px: float = 2.0
@@ -63,9 +66,13 @@ class OracleOptions:
     joint_dropout: float = 0.02
     occluded_noise_px: float = 6.0
     seed: int = 0
+    own_body_hides: bool = True
 
     def banner(self) -> str:
-        return f"ORACLE 2D (simulated ground truth projected with {self.noise_px:g} px noise) — not the pose network"
+        seen = "" if self.own_body_hides else "; joints behind the worker's own body reported as seen"
+        return (
+            f"ORACLE 2D (simulated ground truth projected with {self.noise_px:g} px noise{seen}) — not the pose network"
+        )
 
     def as_dict(self) -> dict:
         return {
@@ -74,6 +81,7 @@ class OracleOptions:
             "joint_dropout": self.joint_dropout,
             "occluded_noise_px": self.occluded_noise_px,
             "seed": self.seed,
+            "own_body_hides": self.own_body_hides,
             "banner": self.banner(),
         }
 
@@ -101,6 +109,7 @@ class OracleFrames:
             occluded_noise_px=options.occluded_noise_px,
             person_dropout=options.person_dropout,
             joint_dropout=options.joint_dropout,
+            own_body_hides=options.own_body_hides,
             seed=options.seed,
         )
 

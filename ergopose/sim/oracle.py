@@ -21,7 +21,7 @@ import pandas as pd
 
 from ergopose.keypoints import BLAZEPOSE33, NUM_JOINTS
 from ergopose.sim.ground_truth import GroundTruth
-from ergopose.sim.visibility import OUTSIDE_IMAGE, VISIBLE
+from ergopose.sim.visibility import OUTSIDE_IMAGE, SELF_OCCLUDED, VISIBLE
 
 ORACLE_SOURCE = "oracle"
 
@@ -33,7 +33,8 @@ class OracleObservations:
     pixels_fisheye: (F, C, W, 33, 2) float64 fisheye pixels; NaN where the oracle reports
         nothing (joint outside the image, detection or joint dropped).
     confidence: (F, C, W, 33) float32 in [0, 1]; 0 where pixels are NaN.
-    visibility: (F, C, W, 33) bool, the ground truth: the camera sees the joint.
+    visibility: (F, C, W, 33) bool, the joints the oracle reports as seen: those the ground truth
+        codes visible, and with ``own_body_hides`` False also those behind the worker's own body.
     detected: (F, C, W) bool, the oracle reports this worker in this camera frame.
     frames: (F,) frame indices into the session; times_s: (F,) their times.
     worker_ids, camera_names: the W workers and C cameras, in ground-truth order.
@@ -90,6 +91,11 @@ class OracleSource:
     person_dropout: probability that a worker goes undetected in a camera frame.
     joint_dropout: probability that a single visible joint is missing.
     report_occluded: report hidden joints (with low confidence) rather than leaving them out.
+    own_body_hides: a joint the ground truth codes hidden by the worker's own body (the ray from
+        the camera crosses more of the worker's own limb than the allowance of
+        :mod:`ergopose.sim.visibility`) counts as hidden (True) or as seen (False: ``noise_px`` and
+        a visible joint's confidence -- issue 13's "true joints + noise"; furniture, walls, bars
+        and other workers still hide). The random draws are the same either way.
     seed: the random source; the same seed gives the same observations.
     """
 
@@ -99,6 +105,7 @@ class OracleSource:
     person_dropout: float = 0.02
     joint_dropout: float = 0.02
     report_occluded: bool = True
+    own_body_hides: bool = True
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -132,6 +139,8 @@ class OracleSource:
             u_joint[k] = rng.random((c, w, NUM_JOINTS))
             u_conf[k] = rng.random((c, w, NUM_JOINTS))
         visible = codes == VISIBLE
+        if not self.own_body_hides:
+            visible = visible | (codes == SELF_OCCLUDED)
         hidden = ~visible & (codes != OUTSIDE_IMAGE)
         sigma = np.where(visible, self.noise_px, self.occluded_noise_px)[..., None]
         pixels = truth + noise * sigma

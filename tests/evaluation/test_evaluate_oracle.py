@@ -103,17 +103,20 @@ def test_oracle_through_the_command_line(small_session, tmp_path, capsys):
             "0.5",
             "--dropout",
             "0.01",
+            "--own-body-seen",
             "--bar-draws",
             "5",
         ]
     )
     assert code == 0
     text = capsys.readouterr().out
-    assert (
-        text.splitlines()[0] == "ORACLE 2D (simulated ground truth projected with 0.5 px noise) — not the pose network"
+    assert text.splitlines()[0] == (
+        "ORACLE 2D (simulated ground truth projected with 0.5 px noise; joints behind the worker's own body "
+        "reported as seen) — not the pose network"
     )
     data = json.loads((out / "oracle" / "evaluation.json").read_text())
     assert data["oracle"]["noise_px"] == 0.5 and data["oracle"]["person_dropout"] == 0.01
+    assert data["oracle"]["own_body_hides"] is False
     assert data["source"].startswith("ORACLE 2D")
     assert not (out / "evaluation.json").exists()  # nothing outside OUT/oracle/
 

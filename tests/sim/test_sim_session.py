@@ -201,6 +201,33 @@ def test_oracle_observations(sessions):
     assert (frame["source"] == "oracle").all() and len(frame) == 72 * 2 * 2 * 33
 
 
+def test_oracle_can_report_the_joints_behind_the_own_body_as_seen(sessions):
+    from ergopose.sim.visibility import OCCLUDED_BY_SCENE, OUTSIDE_IMAGE, SELF_OCCLUDED, VISIBLE
+
+    gt = load_ground_truth(sessions[0])
+    codes = gt.visibility
+    behind = codes == SELF_OCCLUDED
+    assert behind.sum() > 500  # a ceiling camera sees most limbs through their own flesh
+    options = dict(noise_px=2.0, occluded_noise_px=6.0, person_dropout=0.0, joint_dropout=0.0, seed=5)
+    hides = OracleSource(gt, **options).observe()
+    seen = OracleSource(gt, own_body_hides=False, **options).observe()
+    # Joints behind the own body: hidden by default (low confidence, 6 px), seen with the option.
+    assert (hides.confidence[behind] <= 0.4).all() and (seen.confidence[behind] >= 0.75).all()
+    assert not hides.visibility[behind].any() and seen.visibility[behind].all()
+    err = (seen.pixels_fisheye - gt.pixels)[behind]
+    assert 1.7 < err[np.isfinite(err).all(axis=1)].std() < 2.3
+    err = (hides.pixels_fisheye - gt.pixels)[behind]
+    assert 5.2 < err[np.isfinite(err).all(axis=1)].std() < 6.8
+    # Everything else is the same draw: visible joints alike, and whatever else hides still hides.
+    visible = codes == VISIBLE
+    assert np.array_equal(seen.pixels_fisheye[visible], hides.pixels_fisheye[visible], equal_nan=True)
+    assert np.array_equal(seen.confidence[visible], hides.confidence[visible])
+    other = (codes != VISIBLE) & (codes != SELF_OCCLUDED) & (codes != OUTSIDE_IMAGE)
+    assert np.array_equal(seen.pixels_fisheye[other], hides.pixels_fisheye[other], equal_nan=True)
+    assert (seen.confidence[other] <= 0.4).all()
+    assert (codes == OCCLUDED_BY_SCENE).any() or other.sum() == 0
+
+
 def test_oracle_into_a_virtual_view(sessions):
     from ergopose.geometry.views import VirtualView
 
