@@ -31,8 +31,15 @@ def test_options_and_layout():
         "joint_dropout": 0.02,
         "occluded_noise_px": 6.0,
         "seed": 4,
+        "own_body_hides": True,
         "banner": o.banner(),
     }
+    seen = OracleOptions(noise_px=1.5, own_body_hides=False)
+    assert seen.banner() == (
+        "ORACLE 2D (simulated ground truth projected with 1.5 px noise; joints behind the worker's own body "
+        "reported as seen) — not the pose network"
+    )
+    assert seen.as_dict()["own_body_hides"] is False
     layout = oracle_layout(Path("out"))
     assert layout.root == Path("out/oracle")
     assert layout.tracks == Path("out/oracle/pipeline/ORACLE_tracks.parquet")
