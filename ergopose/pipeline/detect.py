@@ -164,8 +164,9 @@ def _video_2d(
                 counts[k, c] = SKIP_CODES[problem]
                 if np.count_nonzero(counts[:, c] < 0) > limit:
                     raise _too_many_bad(job, c, start, stop, counts[: k + 1, c])
-                per_camera.append(FrameDetections.empty(c, index).to_recon(cam, time_s))
-                found_now.append(FrameDetections.empty(c, index))
+                nobody = FrameDetections.empty(c, index)
+                per_camera.append(nobody.to_recon(cam, time_s))
+                found_now.append(nobody)
                 continue
             found = stage.process(image, index)
             counts[k, c] = found.count
