@@ -228,10 +228,16 @@ def warp_photo(
     px_per_rad: float,
     size: tuple[int, int],
     camera_height: float = 3.0,
+    whole_image: bool = False,
 ) -> PhotoFisheye:
     """Render ``photo`` into a ceiling fisheye (module docstring): the photo pixel ``centre_px``
     lands ``off_axis`` radians from the lens axis in image direction ``direction`` (radians from
-    image +x towards +y), the photo's up there along the world's up."""
+    image +x towards +y), the photo's up there along the world's up.
+
+    The map is built over the box of fisheye pixels the photo can light (:func:`_footprint`; a
+    quarter of the time of a 2048 x 2048 case went to the whole image's map), the rest stays
+    black; ``whole_image`` builds it over every pixel. Both give the same image to the bit: the
+    box's lens is the fisheye's with its principal point moved by whole pixels (tested)."""
     width, height = int(size[0]), int(size[1])
     cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
     lens = Equidistant(px_per_rad, px_per_rad, cx, cy)
@@ -256,9 +262,44 @@ def warp_photo(
     x = np.cross(y, body)
     cam_from_photo = np.stack([x, y, body], axis=1)
     photo_lens = Rectilinear(float(focal_px), float(focal_px), float(centre_px[0]), float(centre_px[1]))
-    view_map = build_map(lens, (width, height), photo_lens, cam_from_photo.T)
-    image = view_map.apply(photo, exact=True)
+    box = (0, 0, width, height) if whole_image else _footprint(photo.shape, photo_lens, cam_from_photo, camera)
+    x0, y0, x1, y1 = box
+    image = np.zeros((height, width) + photo.shape[2:], photo.dtype)
+    if x1 > x0 and y1 > y0:
+        box_lens = Equidistant(px_per_rad, px_per_rad, cx - x0, cy - y0)
+        view_map = build_map(box_lens, (x1 - x0, y1 - y0), photo_lens, cam_from_photo.T)
+        image[y0:y1, x0:x1] = view_map.apply(photo, exact=True)
     return PhotoFisheye(camera, image, photo_lens, cam_from_photo.T)
+
+
+def _footprint(
+    shape: tuple[int, ...], photo_lens: Rectilinear, cam_from_photo: np.ndarray, camera: Camera, margin: int = 2
+) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1): the fisheye pixels [x0, x1) x [y0, y1) that bilinear sampling of a photo
+    of this shape can light: the box around the image of the photo's border, widened by a photo
+    pixel (the sampling blends the edge with the black beyond) and ``margin`` fisheye pixels (the
+    border is sampled at 257 points a side). The whole image where a border point has no
+    fisheye pixel."""
+    h, w = int(shape[0]), int(shape[1])
+    t = np.linspace(0.0, 1.0, 257)
+    left, right, top, bottom = -1.5, w + 0.5, -1.5, h + 0.5
+    xs, ys = left + (right - left) * t, top + (bottom - top) * t
+    border_photo = np.concatenate(
+        [
+            np.stack([xs, np.full_like(xs, top)], axis=1),
+            np.stack([xs, np.full_like(xs, bottom)], axis=1),
+            np.stack([np.full_like(ys, left), ys], axis=1),
+            np.stack([np.full_like(ys, right), ys], axis=1),
+        ]
+    )
+    border_fisheye = camera.lens.project(photo_lens.unproject(border_photo) @ cam_from_photo.T)
+    if not np.isfinite(border_fisheye).all():
+        return 0, 0, camera.width, camera.height
+    lo = np.floor(border_fisheye.min(axis=0)).astype(int) - margin
+    hi = np.ceil(border_fisheye.max(axis=0)).astype(int) + margin + 1
+    x0, y0 = max(0, int(lo[0])), max(0, int(lo[1]))
+    x1, y1 = min(camera.width, int(hi[0])), min(camera.height, int(hi[1]))
+    return x0, y0, max(x0, x1), max(y0, y1)
 
 
 # --------------------------------------------------------------------------------------------
