@@ -20,8 +20,10 @@ publish                :mod:`ergopose.pipeline.publish`      ``Outputs`` (CSV fi
 output folder, the pose models), :func:`open_store` (which chunks are stored already),
 :func:`people_in_3d` (the chunks of video through the first stages, in as many processes as
 there are cores, each chunk stored at once: an interrupted run continues with the chunks it had
-not finished), then :func:`finish` (the stages after it, from the stored chunks). A Dask cluster
-runs the same functions (:mod:`ergopose.pipeline.cluster`).
+not finished; meanwhile this process tracks the stored chunks in frame order,
+:func:`start_tracking`), then :func:`finish` (the end of the tracking and the stages after it,
+from the stored chunks). A Dask cluster runs the same functions, tracking after its 2D work
+(:mod:`ergopose.pipeline.cluster`).
 
 The stages after the chunks are recomputed from the stored chunks on every run; they are
 deterministic, so a resumed run writes the same bytes as an uninterrupted one.
@@ -141,8 +143,9 @@ def assess(
         raise ConfigError(f"expected at least 1 process, got {processes}", field="processes")
     with guard.output_faults(run.out_dir), run.store.lock():
         ranges, done, todo = open_store(run, progress)
-        people_in_3d(run, todo, ranges, len(done), processes, progress)
-        return finish(run, ranges, len(done), progress)
+        with start_tracking(run, ranges, progress) as tracking:
+            people_in_3d(run, todo, ranges, len(done), processes, progress, tracking=tracking)
+            return finish(run, ranges, len(done), progress, tracking=tracking)
 
 
 @dataclass
@@ -263,6 +266,16 @@ def prepare_source(
     )
 
 
+def start_tracking(
+    run: PreparedRun, ranges: Sequence[tuple[int, int]], progress: ProgressCallback | None
+) -> track.SessionTracking:
+    """The stage *track and smooth* of this run, to be fed the chunks as they are stored (a
+    context manager: :class:`ergopose.pipeline.track.SessionTracking`)."""
+    return track.SessionTracking(
+        run.session, run.store, ranges, run.job.recon, progress, window=run.window, meta=run.source
+    )
+
+
 def people_in_3d(
     run: PreparedRun,
     todo: Sequence[tuple[int, int]],
@@ -271,14 +284,28 @@ def people_in_3d(
     processes: int,
     progress: ProgressCallback | None,
     source: detect.Source2D | None = None,
+    tracking: track.SessionTracking | None = None,
 ) -> None:
     """Stages *find people*, *2D* and *body model* for every chunk still to do, each chunk stored
     as it finishes (:func:`ergopose.pipeline.detect.detect_chunk`). source: where the 2D records
     come from (None: the pose networks on the session's videos, in ``processes`` processes; else
-    in this process)."""
+    in this process). tracking: the run's tracking (:func:`start_tracking`), given the stored
+    chunks in frame order while the worker processes compute the others: the main process
+    would otherwise wait for them, and track every chunk afterwards with the other cores idle."""
     t0 = time.perf_counter()
     if source is None:
-        _run_chunks(run.job, run.store, todo, ranges, already, processes, progress)
+        stored = {start for start, _ in ranges} - {start for start, _ in todo}
+
+        def on_stored(start: int) -> None:
+            stored.add(start)
+            if tracking is not None:
+                tracking.push_stored(stored)
+
+        if tracking is not None:
+            tracking.push_stored(stored)  # the chunks of an earlier, interrupted run
+        _run_chunks(run.job, run.store, todo, ranges, already, processes, progress, on_stored)
+        if tracking is not None:
+            run.timings["tracking_during_pose"] = tracking.seconds
     else:
         total = sum(stop - start for start, stop in ranges)
         done = total - sum(stop - start for start, stop in todo)
@@ -296,10 +323,12 @@ def finish(
     reused: int,
     progress: ProgressCallback | None,
     run_each: RunEach | None = None,
+    tracking: track.SessionTracking | None = None,
 ) -> AssessResult:
     """The stages after the chunks, from the stored chunks (:func:`after_people`), and what the
-    run wrote (run_each: see :func:`ergopose.pipeline.aggregate.score_tracks`)."""
-    tracks, outputs = after_people(run, ranges, progress, run_each)
+    run wrote (run_each: see :func:`ergopose.pipeline.aggregate.score_tracks`; tracking: the
+    run's tracking begun during the 2D stage, :func:`people_in_3d`)."""
+    tracks, outputs = after_people(run, ranges, progress, run_each, tracking=tracking)
     return AssessResult(
         session=run.session.path,
         report_dir=run.out_dir,
@@ -328,15 +357,22 @@ def after_people(
     progress: ProgressCallback | None,
     run_each: RunEach | None = None,
     publisher: Publisher = publish.publish,
+    tracking: track.SessionTracking | None = None,
 ) -> tuple[track.Tracks, Any]:
-    """The stages after the chunks, from the stored chunks: track and smooth, then score,
-    aggregate and publish (:func:`score_and_publish`). Returns the tracks and what ``publisher``
-    wrote."""
+    """The stages after the chunks, from the stored chunks: track and smooth (the rest of it when
+    ``tracking`` began during the 2D stage), then score, aggregate and publish
+    (:func:`score_and_publish`). Returns the tracks and what ``publisher`` wrote.
+
+    Timings: ``tracking`` the whole stage's time, ``tracking_after_pose`` the part after the 2D
+    stage (all of it without ``tracking``)."""
     t0 = time.perf_counter()
-    tracks = track.track_session(
-        run.session, run.store, ranges, run.job.recon, progress, window=run.window, meta=run.source
-    )
-    run.timings["tracking"] = time.perf_counter() - t0
+    if tracking is None:
+        with start_tracking(run, ranges, progress) as tracking:
+            tracks = tracking.finish()
+    else:
+        tracks = tracking.finish()
+    run.timings["tracking_after_pose"] = time.perf_counter() - t0
+    run.timings["tracking"] = tracking.seconds
 
     t0 = time.perf_counter()
     outputs = score_and_publish(
@@ -392,7 +428,10 @@ def _run_chunks(
     already: int,
     processes: int,
     progress: ProgressCallback | None,
+    on_stored: Callable[[int], None] | None = None,
 ) -> None:
+    """The chunks ``todo`` through the 2D stage in ``processes`` processes, each stored by its
+    process; ``on_stored(start)`` in this process after each one is stored."""
     total_frames = sum(stop - start for start, stop in ranges)  # the chunks of this run (a window: some)
     done_frames = sum(stop - start for start, stop in ranges) - sum(stop - start for start, stop in todo)
     msg = f"{already} of {len(ranges)} chunks already done" if already else ""
@@ -404,6 +443,8 @@ def _run_chunks(
             chunk_task(job, str(store.root), start, stop)
             done_frames += stop - start
             report(progress, "pose", done_frames, total_frames, unit="frame")
+            if on_stored is not None:
+                on_stored(start)
         return
     # 'spawn': every worker starts clean (no forked LiteRT or OpenCV thread state).
     ctx = multiprocessing.get_context("spawn")
@@ -414,6 +455,8 @@ def _run_chunks(
                 start, stop = fut.result()
                 done_frames += stop - start
                 report(progress, "pose", done_frames, total_frames, unit="frame")
+                if on_stored is not None:
+                    on_stored(start)
         except BaseException:
             for f in futures:
                 f.cancel()

@@ -8,9 +8,11 @@ In: the chunks of :class:`ergopose.pipeline.detect.ChunkResult` (``People3D``). 
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping, Sequence
+from types import TracebackType
+from typing import Any, Container, Iterator, Mapping, Sequence
 
 import numpy as np
 import pyarrow as pa
@@ -74,43 +76,129 @@ def track_session(
     ranges: consecutive chunks (all of the session, or those around ``window``: the part of the
     day assessed, stored in the table's metadata for the scoring). meta: more entries of the table's
     metadata (how the 2D records were made, when not by the pose networks)."""
-    shift = ShiftReconstruction(
-        recon, fps=session.fps, cameras=session.calibrated_cameras, first_frame=ranges[0][0] if ranges else 0
-    )
-    refs = ShiftReferences(recon)
-    with TracksWriter(
-        store.tracks_path, fps=session.fps, cameras=session.camera_names, settings=recon.as_dict()
-    ) as writer:
-        if window is not None:
-            writer.meta["window"] = window.as_dict()
-        writer.meta.update(meta or {})
-        for k, (start, stop) in enumerate(ranges):
-            chunk = store.load_chunk(start, stop)
-            if chunk is None:
-                raise InputError(
-                    f"the stored chunk of frames {start}-{stop - 1} is missing or unreadable; run the assessment again",
-                    path=store.chunk_path(start),
-                )
-            part = shift.push(chunk.people, start, stop)
-            writer.write(part)
-            refs.add(part)
-            report(progress, "tracking", k + 1, len(ranges) + 1, unit="chunk")
-        part = shift.finish()
+    with SessionTracking(session, store, ranges, recon, progress, window, meta) as tracking:
+        return tracking.finish()
+
+
+class SessionTracking:
+    """:func:`track_session` in steps, so that the chunks already stored are tracked while later
+    ones are still being computed (``ergopose assess`` runs it in its main process while the
+    worker processes run the 2D stage). The same chunks in the same order: the same table.
+
+    Use as a context manager: :meth:`push_stored` as chunks are stored, then :meth:`finish`
+    (the rest of the chunks, the table written). Leaving the block without :meth:`finish` (an
+    error) leaves no table behind. ``seconds``: the time spent tracking so far.
+    """
+
+    def __init__(
+        self,
+        session: Session,
+        store: ResultStore,
+        ranges: Sequence[tuple[int, int]],
+        recon: ReconSettings,
+        progress: ProgressCallback | None,
+        window: Window | None = None,
+        meta: Mapping[str, Any] | None = None,
+    ):
+        self.session = session
+        self.store = store
+        self.ranges = list(ranges)
+        self.recon = recon
+        self.progress = progress
+        self.window = window
+        self.seconds = 0.0
+        self._meta = dict(meta or {})
+        self._next = 0
+        self._shift = ShiftReconstruction(
+            recon, fps=session.fps, cameras=session.calibrated_cameras, first_frame=ranges[0][0] if ranges else 0
+        )
+        self._refs = ShiftReferences(recon)
+        self._writer: TracksWriter | None = None
+        self._tracks: Tracks | None = None
+
+    def __enter__(self) -> "SessionTracking":
+        writer = TracksWriter(
+            self.store.tracks_path,
+            fps=self.session.fps,
+            cameras=self.session.camera_names,
+            settings=self.recon.as_dict(),
+        )
+        self._writer = writer.__enter__()
+        if self.window is not None:
+            writer.meta["window"] = self.window.as_dict()
+        writer.meta.update(self._meta)
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        writer, self._writer = self._writer, None
+        if writer is None:
+            return
+        if exc_type is None:  # left without finish(): no table from part of the chunks
+            exc = RuntimeError("the tracking was left before finish()")
+            exc_type, tb = RuntimeError, None
+        writer.__exit__(exc_type, exc, tb)
+
+    def push_stored(self, stored: Container[int]) -> None:
+        """Track the next chunks in frame order whose start frame is in ``stored`` (the chunks
+        stored so far), up to the first that is not. No progress is reported here: the stage
+        that stores the chunks reports its own; :meth:`finish` reports the tracking from where
+        it is."""
+        while self._next < len(self.ranges) and self.ranges[self._next][0] in stored:
+            self._push_next(report_progress=False)
+
+    def _push_next(self, report_progress: bool = True) -> None:
+        if self._writer is None:
+            raise RuntimeError("SessionTracking is used outside its with-block or after finish()")
+        t0 = time.perf_counter()
+        start, stop = self.ranges[self._next]
+        chunk = self.store.load_chunk(start, stop)
+        if chunk is None:
+            raise InputError(
+                f"the stored chunk of frames {start}-{stop - 1} is missing or unreadable; run the assessment again",
+                path=self.store.chunk_path(start),
+            )
+        part = self._shift.push(chunk.people, start, stop)
+        self._writer.write(part)
+        self._refs.add(part)
+        self._next += 1
+        self.seconds += time.perf_counter() - t0
+        if report_progress:
+            report(self.progress, "tracking", self._next, len(self.ranges) + 1, unit="chunk")
+
+    def finish(self) -> Tracks:
+        """The chunks not tracked yet (all stored by now), the end of the shift, and the table
+        written: the :class:`Tracks`."""
+        if self._tracks is not None:
+            return self._tracks
+        report(self.progress, "tracking", self._next, len(self.ranges) + 1, unit="chunk")
+        while self._next < len(self.ranges):
+            self._push_next()
+        writer = self._writer
+        if writer is None:
+            raise RuntimeError("SessionTracking.finish() is called outside its with-block")
+        t0 = time.perf_counter()
+        part = self._shift.finish()
         writer.write(part)
-        refs.add(part)
-        summary = worker_summary(shift)
+        self._refs.add(part)
+        summary = worker_summary(self._shift)
         writer.set_workers(summary)
         rows = writer.rows
-    report(progress, "tracking", len(ranges) + 1, len(ranges) + 1, unit="chunk")
-    return Tracks(
-        path=store.tracks_path,
-        worker_summary=summary,
-        references=refs,
-        workers=tuple(refs.limbs.workers()),
-        rows=rows,
-        recon=recon,
-        window=window,
-    )
+        self._writer = None
+        writer.__exit__(None, None, None)
+        self.seconds += time.perf_counter() - t0
+        report(self.progress, "tracking", len(self.ranges) + 1, len(self.ranges) + 1, unit="chunk")
+        self._tracks = Tracks(
+            path=self.store.tracks_path,
+            worker_summary=summary,
+            references=self._refs,
+            workers=tuple(self._refs.limbs.workers()),
+            rows=rows,
+            recon=self.recon,
+            window=self.window,
+        )
+        return self._tracks
 
 
 def stored_tracks(path: Path, recon: ReconSettings, groups: Mapping[int, int] | None = None) -> Tracks:
