@@ -172,12 +172,12 @@ class SessionTracking:
         written: the :class:`Tracks`."""
         if self._tracks is not None:
             return self._tracks
+        if self._writer is None:
+            raise RuntimeError("SessionTracking.finish() is called outside its with-block")
         report(self.progress, "tracking", self._next, len(self.ranges) + 1, unit="chunk")
         while self._next < len(self.ranges):
             self._push_next()
         writer = self._writer
-        if writer is None:
-            raise RuntimeError("SessionTracking.finish() is called outside its with-block")
         t0 = time.perf_counter()
         part = self._shift.finish()
         writer.write(part)
