@@ -29,15 +29,16 @@ check: $(STAMP)
 	$(PY) -m mypy
 
 # The whole suite on every core up to 4 (pytest-xdist; a test file stays in one process, so the
-# fixtures a file shares are made once). On the idle 2-core machine (2026-11-27): 447 s instead of
-# 632 s in one process; the photo test file (about 5 minutes) is the last to finish.
+# fixtures a file shares are made once). On a fresh clone on this 2-core machine (2026-11-29):
+# 10 min 41 s for about 22 minutes of CPU; the photo test's two models are two files
+# (tests/pose/test_photos.py, test_photos_heavy.py) so that the two processes share them.
 test: check install
 	$(PY) -m pytest -q -n auto --maxprocesses 4 --dist loadfile
 
-# The edit-run loop: everything but the tests marked slow, browser or network: 1,000 of the 1,280
+# The edit-run loop: everything but the tests marked slow, browser or network: 1,045 of the 1,354
 # tests (the rest -- over about 1 s, or simulating, assessing or running the networks -- are marked
-# slow; make test still runs them all). Measured on a fresh clone on an idle 2-core machine
-# (2026-11-27): 33 s wall, with PYTHONDONTWRITEBYTECODE set (part of it goes to compiling the
+# slow; make test still runs them all). Measured on a fresh clone on this 2-core machine
+# (2026-11-29): 43 s wall, with PYTHONDONTWRITEBYTECODE set (part of it goes to compiling the
 # modules and rewriting the tests' asserts again, which __pycache__ saves).
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow and not browser and not network"
