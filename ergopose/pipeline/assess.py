@@ -294,15 +294,11 @@ def people_in_3d(
     would otherwise wait for them, and track every chunk afterwards with the other cores idle."""
     t0 = time.perf_counter()
     if source is None:
-        stored = {start for start, _ in ranges} - {start for start, _ in todo}
-
-        def on_stored(start: int) -> None:
-            stored.add(start)
-            if tracking is not None:
-                tracking.push_stored(stored)
-
+        on_stored = None
         if tracking is not None:
-            tracking.push_stored(stored)  # the chunks of an earlier, interrupted run
+            waiting = {start for start, _ in todo}
+            tracking.push_stored(start for start, _ in ranges if start not in waiting)  # an earlier run's
+            on_stored = tracking.push_stored_one
         _run_chunks(run.job, run.store, todo, ranges, already, processes, progress, on_stored)
         if tracking is not None:
             run.timings["tracking_during_pose"] = tracking.seconds

@@ -12,7 +12,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Container, Iterator, Mapping, Sequence
+from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pyarrow as pa
@@ -109,6 +109,7 @@ class SessionTracking:
         self.seconds = 0.0
         self._meta = dict(meta or {})
         self._next = 0
+        self._stored: set[int] = set()
         self._shift = ShiftReconstruction(
             recon, fps=session.fps, cameras=session.calibrated_cameras, first_frame=ranges[0][0] if ranges else 0
         )
@@ -140,13 +141,18 @@ class SessionTracking:
             exc_type, tb = RuntimeError, None
         writer.__exit__(exc_type, exc, tb)
 
-    def push_stored(self, stored: Container[int]) -> None:
-        """Track the next chunks in frame order whose start frame is in ``stored`` (the chunks
-        stored so far), up to the first that is not. No progress is reported here: the stage
-        that stores the chunks reports its own; :meth:`finish` reports the tracking from where
-        it is."""
-        while self._next < len(self.ranges) and self.ranges[self._next][0] in stored:
+    def push_stored(self, starts: Iterable[int]) -> None:
+        """The chunks starting at ``starts`` are stored: track the next chunks in frame order
+        among all stored so far, up to the first that is not. No progress is reported here: the
+        stage that stores the chunks reports its own; :meth:`finish` reports the tracking from
+        where it is."""
+        self._stored.update(starts)
+        while self._next < len(self.ranges) and self.ranges[self._next][0] in self._stored:
             self._push_next(report_progress=False)
+
+    def push_stored_one(self, start: int) -> None:
+        """:meth:`push_stored` for one chunk (a callback of the stage that stores them)."""
+        self.push_stored((start,))
 
     def _push_next(self, report_progress: bool = True) -> None:
         if self._writer is None:
