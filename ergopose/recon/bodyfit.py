@@ -8,6 +8,7 @@ keypoints' world positions X (33, 3) minimise
   + sum over joints j              |X_j - X_prev_j|^2 / sigma_t^2                 previous pose
   + sum over prior links e         |B_e X - T_e(X)|^2 / sigma_p^2                 pose prior
   + sum over foot points           (min(z, 0) / 0.02 m)^2                          floor
+  + sum over limits l              (min(0, a_l . C_l X - b_l) / sigma_lim)^2       joint limits
 
 - pi(P, X): the view's pinhole projection (the projection matrix each person's view comes
   with); sigma_cj = keypoint_sigma_px / max(confidence, 0.05) view pixels; rho is Huber's
@@ -29,6 +30,9 @@ keypoints' world positions X (33, 3) minimise
   -- or, for the head's links, turned with the current trunk -- with a wide sigma_p
   (``fit_pose_prior_sigma_m``). It only decides what nothing else decides (a new track's
   hidden legs; the head of a worker bent forward whose face no camera sees).
+- The joint limits (:data:`LIMITS`): elbows and knees bend at most 150 and 155 deg, knees
+  backwards at most 10 deg, the face turns at most 90 deg from the trunk's forward direction;
+  one-sided, so a pose within them is not touched, with sigma_lim = ``fit_limit_sigma_m``.
 
 Solved by a Levenberg-Marquardt iteration on the 99 unknowns of every row at once (the rows of a
 frame are independent problems; numpy's batched solve). Why not scipy.optimize.least_squares:
@@ -321,6 +325,115 @@ def prior_links(X: np.ndarray, scale: np.ndarray) -> FloatArray:
     return out
 
 
+#: The anatomical limits of the model (issue 13, item 1), each a one-sided term
+#: min(0, a . (C X) - b)^2 / sigma_lim^2 on a combination C X of the keypoints, with the direction
+#: a and the bound b taken from the current pose at each iteration (like the pose prior's template,
+#: they are not differentiated):
+#: - an elbow or a knee bends at most so far (``fit_elbow_max_flexion_rad``,
+#:   ``fit_knee_max_flexion_rad``): the shoulder-to-wrist (hip-to-ankle) distance stays at least
+#:   what the current upper arm and forearm (thigh and shank) make at that flexion; a = the
+#:   distance's own direction;
+#: - a knee bends forwards (``fit_knee_max_hyperextension_rad``): the knee lies no further behind
+#:   the hip-to-ankle line than that hyperextension puts it, "behind" against the way the hips
+#:   face (the pelvis's forward direction made perpendicular to the line; the hip turns the knee
+#:   by at most 45 degrees either way, so a bent knee is always ahead of it); where the line runs
+#:   within 10 degrees of that direction the term is off;
+#: - the face looks forwards of the trunk (``fit_head_max_turn_rad``): the angle between the line
+#:   from the mid-ears to the mean of nose and eyes (as ergonomics.angles' head frame) and the
+#:   trunk's forward direction stays within the limit, a head turned further than the neck turns.
+#: A network's keypoints of a body seen from above put knees behind the leg and faces on the back
+#: of the head (docs/reconstruction.md, "Joint limits").
+_LIMITS: tuple[tuple[str, dict[int, float], dict[int, float], str], ...] = (
+    *((f"{s}_elbow_max_flexion", _pt(f"{s}_shoulder"), _pt(f"{s}_wrist"), "reach") for s in ("left", "right")),
+    *((f"{s}_knee_max_flexion", _pt(f"{s}_hip"), _pt(f"{s}_ankle"), "reach") for s in ("left", "right")),
+    *((f"{s}_knee_hyperextension", _pt(f"{s}_hip", f"{s}_ankle"), _pt(f"{s}_knee"), "knee") for s in ("left", "right")),
+    ("head_turn", _pt("left_ear", "right_ear"), _pt("nose", "left_eye", "right_eye"), "face"),
+)
+LIMITS: tuple[str, ...] = tuple(lim[0] for lim in _LIMITS)
+#: The knee limit is off where the hip-to-ankle line runs within 10 degrees of the hips' forward
+#: direction (sine of the angle between them).
+_KNEE_MIN_SIN = float(np.sin(np.radians(10.0)))
+#: (limits, 33): the limited vectors are LIMIT_MATRIX @ X.
+LIMIT_MATRIX = _difference_matrix(_LIMITS)
+_LIMIT_KIND = np.array([lim[3] for lim in _LIMITS])
+#: The six limb limits (elbows, knees, knees again) and their limbs' upper, middle and lower points.
+_LIMB_LIMITS = np.flatnonzero(_LIMIT_KIND != "face")
+_LIMB_POINTS = np.array(
+    [
+        [JOINT_INDEX[f"{side}_{p}"] for p in (("shoulder", "elbow", "wrist") if k < 2 else ("hip", "knee", "ankle"))]
+        for k, side in enumerate(("left", "right", "left", "right", "left", "right"))
+    ]
+)
+_REACH = np.flatnonzero(_LIMIT_KIND == "reach")
+_KNEE = np.flatnonzero(_LIMIT_KIND == "knee")
+_FACE = int(np.flatnonzero(_LIMIT_KIND == "face")[0])
+#: The joints the limits involve, and their terms of the normal matrix on those joints only:
+#: (limits, joints, joints), each C_l C_l^T.
+_LIMIT_JOINTS = np.flatnonzero((LIMIT_MATRIX != 0).any(axis=0))
+_LIMIT_HSUB = np.einsum("lj,lk->ljk", LIMIT_MATRIX[:, _LIMIT_JOINTS], LIMIT_MATRIX[:, _LIMIT_JOINTS])
+_LIMIT_HSUB2 = np.ascontiguousarray(_LIMIT_HSUB.reshape(len(LIMITS), -1).T)  # (joints^2, limits)
+
+
+_XYZ = np.arange(3)
+
+
+def _unit_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = np.sqrt((v * v).sum(axis=-1))
+    return v / np.maximum(n, 1e-12)[..., None], n
+
+
+def limit_terms(X: np.ndarray, opt: "FitOptions") -> tuple[FloatArray, FloatArray, FloatArray]:
+    """(R, 33, 3) -> the limits' current directions a (R, limits, 3), bounds b (R, limits) and
+    values a . (C X) - b (R, limits), negative where a limit is passed (:data:`_LIMITS`); where a
+    limit does not apply (a degenerate limb, a leg along the hips' forward direction) a = 0 and
+    b = 0, so its value is 0."""
+    R = X.shape[0]
+    v = np.matmul(LIMIT_MATRIX, X)  # (R, limits, 3)
+    a = np.zeros((R, len(LIMITS), 3))
+    b = np.zeros((R, len(LIMITS)))
+    limb = X[:, _LIMB_POINTS]  # (R, 6, 3 points, 3)
+    # The limb's current segments (not the worker's lengths: measured with those, the fit reached
+    # the limit more slowly -- an elbow shown at 170 deg stayed at 160-176 after 10 iterations).
+    l1 = np.sqrt(((limb[:, :, 1] - limb[:, :, 0]) ** 2).sum(axis=-1))  # (R, 6)
+    l2 = np.sqrt(((limb[:, :, 2] - limb[:, :, 1]) ** 2).sum(axis=-1))
+    # The reach limits: |C X| >= what the limb's two segments make at the largest flexion.
+    max_flex = np.array([opt.elbow_max_flexion_rad] * 2 + [opt.knee_max_flexion_rad] * 2)
+    u, vn = _unit_rows(v[:, _REACH])
+    dmin = np.sqrt(np.maximum(l1[:, :4] ** 2 + l2[:, :4] ** 2 + 2.0 * l1[:, :4] * l2[:, :4] * np.cos(max_flex), 0.0))
+    ok = vn > 1e-9
+    a[:, _REACH] = np.where(ok[..., None], u, 0.0)
+    b[:, _REACH] = np.where(ok, dmin, 0.0)
+    # The knees: ahead of the hip-to-ankle line, against the hips' forward direction.
+    hip_line = X[:, _LHIP] - X[:, _RHIP]
+    fwd = np.stack([hip_line[:, 1], -hip_line[:, 0], np.zeros(R)], axis=-1)
+    fwd, fwd_n = _unit_rows(fwd)
+    line, ln = _unit_rows(limb[:, 4:, 2] - limb[:, 4:, 0])  # (R, 2, 3)
+    f = fwd[:, None, :] - (fwd[:, None, :] * line).sum(axis=-1, keepdims=True) * line
+    f, f_n = _unit_rows(f)
+    usable = (f_n > _KNEE_MIN_SIN) & (ln > 1e-6) & (fwd_n[:, None] > 1e-6)
+    a[:, _KNEE] = np.where(usable[..., None], f, 0.0)
+    behind = l1[:, 4:] * l2[:, 4:] * np.sin(opt.knee_max_hyperextension_rad) / np.maximum(ln, 1e-6)
+    b[:, _KNEE] = np.where(usable, -behind, 0.0)
+    # The face: within the largest turn of the trunk's forward direction (shoulder line x trunk).
+    mid_sh = 0.5 * (X[:, _LSH] + X[:, _RSH])
+    p, q = X[:, _LSH] - X[:, _RSH], mid_sh - 0.5 * (X[:, _LHIP] + X[:, _RHIP])
+    trunk = np.stack(
+        [
+            p[:, 1] * q[:, 2] - p[:, 2] * q[:, 1],
+            p[:, 2] * q[:, 0] - p[:, 0] * q[:, 2],
+            p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0],
+        ],
+        axis=-1,
+    )  # the shoulder line x the trunk: forward
+    trunk_fwd, t_n = _unit_rows(trunk)
+    trunk_fwd = np.where((t_n > 1e-9)[:, None], trunk_fwd, fwd)
+    face_n = np.sqrt((v[:, _FACE] ** 2).sum(axis=-1))
+    a[:, _FACE] = np.where((face_n > 1e-9)[:, None], trunk_fwd, 0.0)
+    b[:, _FACE] = np.where(face_n > 1e-9, np.cos(opt.head_max_turn_rad) * face_n, 0.0)
+    value = (a * v).sum(axis=-1) - b
+    return a, b, value
+
+
 #: A segment takes the median of its best-seen samples once it has this many (else of all).
 BEST_SAMPLES = 30
 #: Weight of each frame in a worker's running keypoint-noise estimate (about 5 frames' memory).
@@ -348,6 +461,11 @@ class FitOptions:
     turn_rate_rad_s: float = 4.0
     iterations: int = 10
     max_prior_gap_s: float = 2.0
+    limit_sigma_m: float = 0.002
+    elbow_max_flexion_rad: float = float(np.radians(150.0))
+    knee_max_flexion_rad: float = float(np.radians(155.0))
+    knee_max_hyperextension_rad: float = float(np.radians(10.0))
+    head_max_turn_rad: float = float(np.radians(90.0))
 
     @classmethod
     def from_settings(cls, settings: ReconSettings) -> "FitOptions":
@@ -363,6 +481,11 @@ class FitOptions:
             turn_rate_rad_s=settings.fit_turn_rate_rad_s,
             iterations=settings.fit_iterations,
             max_prior_gap_s=settings.max_coast_s,
+            limit_sigma_m=settings.fit_limit_sigma_m,
+            elbow_max_flexion_rad=settings.fit_elbow_max_flexion_rad,
+            knee_max_flexion_rad=settings.fit_knee_max_flexion_rad,
+            knee_max_hyperextension_rad=settings.fit_knee_max_hyperextension_rad,
+            head_max_turn_rad=settings.fit_head_max_turn_rad,
         )
 
 
@@ -535,6 +658,8 @@ def fit_bodies(
     P_t = np.swapaxes(P, -1, -2)  # (R, C, 4, 3)
     ones = np.ones((R, J, 1))
 
+    w_lim = 1.0 / opt.limit_sigma_m**2 if opt.limit_sigma_m > 0 else 0.0
+
     X = np.array(initial_world, dtype=np.float64)
     lam = np.full(R, 1e-3)
     k = opt.huber_k
@@ -566,6 +691,11 @@ def fit_bodies(
         zc = np.maximum(X[rows, _SOLE[low], 2] - FLOOR_CONTACT_BAND_M, 0.0)
         dturn = d - d_prev
         dh = np.matmul(HAND_PRIOR, X)  # (R, 2, 3)
+        if w_lim > 0:
+            lim_a, _, lim_v = limit_terms(X, opt)
+            lim_v = np.minimum(lim_v, 0.0)
+        else:
+            lim_a, lim_v = np.zeros((R, len(LIMITS), 3)), np.zeros((R, len(LIMITS)))
         cost = (
             rho.sum(axis=(1, 2))
             + cost_seg.sum(axis=1)
@@ -575,6 +705,7 @@ def fit_bodies(
             + w_prev * (dt * dt).sum(axis=(1, 2))
             + (zf * zf).sum(axis=1) / _FLOOR_SIGMA_M**2
             + w_contact * zc * zc
+            + w_lim * (lim_v * lim_v).sum(axis=1)
         )
         return dict(
             dsafe=dsafe,
@@ -592,6 +723,8 @@ def fit_bodies(
             zc=zc,
             dturn=dturn,
             dh=dh,
+            lim_a=lim_a,
+            lim_v=lim_v,
             cost=cost,
             use=use,
         )
@@ -624,6 +757,18 @@ def fit_bodies(
         sole = _SOLE[r["low"]]
         H[rows, sole, 2, sole, 2] += np.where(r["zc"] > 0, w_contact, 0.0)
         g[rows, sole, 2] += w_contact * r["zc"]
+        # anatomical limits, where passed (value < 0): linear in X with a held
+        act = r["lim_v"] < 0.0  # (R, limits)
+        hit = act.any(axis=1)
+        if hit.any():
+            rows_hit = np.flatnonzero(hit)
+            a = r["lim_a"][rows_hit]  # (h, limits, 3)
+            wa = w_lim * act[rows_hit]  # (h, limits)
+            aa = (wa[..., None, None] * a[..., :, None] * a[..., None, :]).reshape(len(rows_hit), len(LIMITS), 9)
+            m = len(_LIMIT_JOINTS)
+            blocks = np.matmul(_LIMIT_HSUB2, aa).reshape(len(rows_hit), m, m, 3, 3).transpose(0, 1, 3, 2, 4)
+            H[np.ix_(rows_hit, _LIMIT_JOINTS, _XYZ, _LIMIT_JOINTS, _XYZ)] += blocks
+            g[rows_hit] += np.matmul(LIMIT_MATRIX.T, (wa * r["lim_v"][rows_hit])[..., None] * a)
         return H.reshape(R, n, n), g.reshape(R, n)
 
     r = residuals(X)

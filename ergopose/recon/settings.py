@@ -5,8 +5,9 @@ Values a user types are in metres, seconds, pixels and degrees (the names say wh
 converts degrees to radians where it compares them with measured angles. A settings file is
 TOML: top-level keys, or a ``[reconstruction]`` table inside a larger session settings file.
 Names, defaults, allowed values and the one-line errors come from the typed table
-ergopose.settings.reconstruction.ReconstructionTable (a test holds the two together); its one key
-in other units is ``fit_turn_rate_deg_s`` (degrees per second; here ``fit_turn_rate_rad_s``).
+ergopose.settings.reconstruction.ReconstructionTable (a test holds the two together); its keys in
+other units are ``fit_turn_rate_deg_s`` (degrees per second; here ``fit_turn_rate_rad_s``) and the
+body model's limits in degrees (``fit_elbow_max_flexion_deg`` ...; here ``..._rad``).
 """
 
 from __future__ import annotations
@@ -116,6 +117,12 @@ class ReconSettings:
             this x its length x the time since the previous fit (one standard deviation): a
             small rigid part (a hand, the head) keeps its orientation from frame to frame instead
             of flipping to its mirror image when one camera sees it poorly.
+        fit_limit_sigma_m: 0.002 -- the body model's anatomical limits (bodyfit.LIMITS), each a
+            one-sided term with this standard deviation (metres): an elbow bends at most
+            fit_elbow_max_flexion_rad (150 deg), a knee at most fit_knee_max_flexion_rad (155 deg)
+            and backwards at most fit_knee_max_hyperextension_rad (10 deg), the face turns at most
+            fit_head_max_turn_rad (90 deg) from the trunk's forward direction (in settings.toml the
+            four are in degrees: fit_elbow_max_flexion_deg, ...). 0 turns the limits off.
         fit_iterations: 10 -- Levenberg-Marquardt iterations per worker-frame.
         side_lock_break_s: 0.5 -- the previous fit decides a camera's left and right
             (correct_left_right); when every camera that can tell (two or more) has disagreed with
@@ -196,6 +203,11 @@ class ReconSettings:
     fit_hand_prior_sigma_m: float = 0.05
     fit_floor_contact_sigma_m: float = 0.05
     fit_turn_rate_rad_s: float = 4.0
+    fit_limit_sigma_m: float = 0.002
+    fit_elbow_max_flexion_rad: float = math.radians(150.0)
+    fit_knee_max_flexion_rad: float = math.radians(155.0)
+    fit_knee_max_hyperextension_rad: float = math.radians(10.0)
+    fit_head_max_turn_rad: float = math.radians(90.0)
     fit_iterations: int = 10
     side_lock_break_s: float = 0.5
 

@@ -2,8 +2,9 @@
 diagnostics of the 3D reconstruction (docs/reconstruction.md explains each).
 
 ergopose.recon.settings.ReconSettings is the record the reconstruction uses: the same names and
-defaults, except ``fit_turn_rate_deg_s`` here, ``fit_turn_rate_rad_s`` there (degrees at the
-edge, radians inside; :data:`RECORD_NAMES`).
+defaults, except the keys in degrees here (``fit_turn_rate_deg_s``, ``fit_elbow_max_flexion_deg``,
+...), in radians there (``fit_turn_rate_rad_s``, ``fit_elbow_max_flexion_rad``, ...; degrees at
+the edge, radians inside; :data:`RECORD_NAMES`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,13 @@ from pydantic import BeforeValidator, Field, field_validator, model_validator
 from ergopose.settings.base import Table
 
 #: Keys of the table whose record field has another name (and unit): key -> (field, factor).
-RECORD_NAMES = {"fit_turn_rate_deg_s": ("fit_turn_rate_rad_s", math.pi / 180.0)}
+RECORD_NAMES = {
+    "fit_turn_rate_deg_s": ("fit_turn_rate_rad_s", math.pi / 180.0),
+    "fit_elbow_max_flexion_deg": ("fit_elbow_max_flexion_rad", math.pi / 180.0),
+    "fit_knee_max_flexion_deg": ("fit_knee_max_flexion_rad", math.pi / 180.0),
+    "fit_knee_max_hyperextension_deg": ("fit_knee_max_hyperextension_rad", math.pi / 180.0),
+    "fit_head_max_turn_deg": ("fit_head_max_turn_rad", math.pi / 180.0),
+}
 
 
 def _as_tuple(value: Any) -> Any:
@@ -123,6 +130,23 @@ class ReconstructionTable(Table):
     )
     fit_turn_rate_deg_s: float = Field(
         math.degrees(4.0), gt=0, description="how fast a segment may turn between fits (one standard deviation)"
+    )
+    fit_limit_sigma_m: float = Field(
+        0.002,
+        ge=0,
+        description="how far the body model may pass one of its anatomical limits (elbow and knee "
+        "flexion, knee hyperextension, head turn), one standard deviation (metres; 0: no limits)",
+    )
+    fit_elbow_max_flexion_deg: float = Field(150.0, gt=0, le=180, description="an elbow bends at most this far")
+    fit_knee_max_flexion_deg: float = Field(155.0, gt=0, le=180, description="a knee bends at most this far")
+    fit_knee_max_hyperextension_deg: float = Field(
+        10.0, ge=0, lt=90, description="a knee bends backwards at most this far"
+    )
+    fit_head_max_turn_deg: float = Field(
+        90.0,
+        gt=0,
+        le=180,
+        description="the face (mid-ears to nose and eyes) turns at most this far from the trunk's forward direction",
     )
     fit_iterations: int = Field(10, gt=0, description="Levenberg-Marquardt iterations per worker-frame")
     side_lock_break_s: float = Field(
