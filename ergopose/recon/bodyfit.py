@@ -812,6 +812,50 @@ def fit_bodies(
     )
 
 
+def hold_within_limits(
+    points_world: np.ndarray, variance_world: np.ndarray, options: FitOptions, iterations: int = 5
+) -> FloatArray:
+    """The smoothed positions brought back within the joint limits (:data:`LIMITS`).
+
+    The smoother runs on the fit's output joint by joint and does not know the limits, so it can
+    pass them where the fit did not. Each row (n, 33, 3) that passes one moves the least, in units
+    of its joints' variance (n, 33, 3; each coordinate weighted by 1 / variance), for the limit
+    terms of the fit (same sigma): Gauss-Newton, ``iterations`` at most. Rows within every limit,
+    rows with a NaN and limits turned off (``limit_sigma_m`` 0) are returned unchanged.
+    """
+    X = np.array(points_world, dtype=np.float64)
+    if options.limit_sigma_m <= 0 or not len(X):
+        return X
+    var = np.asarray(variance_world, dtype=np.float64)
+    ok = np.isfinite(X).all(axis=(1, 2)) & np.isfinite(var).all(axis=(1, 2)) & (var > 0).all(axis=(1, 2))
+    rows = np.flatnonzero(ok)
+    rows = rows[(limit_terms(X[rows], options)[2] < 0).any(axis=1)]
+    if not len(rows):
+        return X
+    S = X[rows].copy()
+    w = 1.0 / var[rows]  # (h, 33, 3)
+    w_lim = 1.0 / options.limit_sigma_m**2
+    n = 3 * J
+    m = len(_LIMIT_JOINTS)
+    Y = S.copy()
+    for _ in range(iterations):
+        a, _, value = limit_terms(Y, options)
+        act = value < 0.0
+        if not act.any():
+            break
+        wa = w_lim * act
+        H = np.zeros((len(rows), J, 3, J, 3))
+        H[:, np.arange(J), :, np.arange(J), :] = np.swapaxes(w, 0, 1)[..., None] * np.eye(3)
+        aa = (wa[..., None, None] * a[..., :, None] * a[..., None, :]).reshape(len(rows), len(LIMITS), 9)
+        blocks = np.matmul(_LIMIT_HSUB2, aa).reshape(len(rows), m, m, 3, 3).transpose(0, 1, 3, 2, 4)
+        H[np.ix_(np.arange(len(rows)), _LIMIT_JOINTS, _XYZ, _LIMIT_JOINTS, _XYZ)] += blocks
+        g = w * (Y - S) + np.matmul(LIMIT_MATRIX.T, (wa * np.minimum(value, 0.0))[..., None] * a)
+        step = np.linalg.solve(H.reshape(len(rows), n, n), g.reshape(len(rows), n, 1))[..., 0]
+        Y = Y - step.reshape(len(rows), J, 3)
+    X[rows] = Y
+    return X
+
+
 _LATERAL = MIRROR != np.arange(J)
 #: Largest distance (view pixels) one keypoint counts with when choosing left/right.
 SWAP_CAP_PX = 60.0

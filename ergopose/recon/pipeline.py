@@ -29,7 +29,7 @@ from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
-from ergopose.recon.bodyfit import ShiftBodies
+from ergopose.recon.bodyfit import ShiftBodies, hold_within_limits
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
@@ -501,6 +501,8 @@ class ShiftReconstruction:
         else:
             pts = fit.copy()
             std = np.sqrt(fit_var)
+        if self.bodies is not None:  # the smoother does not know the body model's joint limits
+            pts = hold_within_limits(pts, std * std, self.bodies.options)
         inferred |= gap
         angle = lens_angles_deg(self.cameras, pts, centre)
         return TrackFrames(

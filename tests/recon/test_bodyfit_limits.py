@@ -146,3 +146,55 @@ def test_a_posture_within_every_limit_is_fitted_exactly_as_without_them(rng):
     off = _fit(P, px, conf, truth, start, options=B.FitOptions(limit_sigma_m=0.0))
     assert np.array_equal(on.points_world, off.points_world)
     assert np.array_equal(on.variance_world, off.variance_world)
+
+
+def test_smoothed_positions_past_a_limit_move_the_least_to_within_it(rng):
+    """hold_within_limits (the smoother does not know the limits): bodies with a knee 30 deg
+    backwards, an elbow at 170 deg and the head turned 150 deg come back to within a degree or
+    two of each limit; the joints with the larger variance move (the knee, the wrist, the face)
+    while the ones pinned by a small variance stay; rows within the limits, rows with a NaN and
+    limits turned off leave the positions as they were."""
+    past = _posture_bodies(
+        6, rng, left_knee_flexion=-np.radians(30.0), right_elbow_flexion=np.radians(170.0), neck_twist=np.radians(150.0)
+    )
+    inside = _posture_bodies(3, rng, left_knee_flexion=np.radians(20.0), right_elbow_flexion=np.radians(90.0))
+    X = np.concatenate([past, inside, inside[:1]])
+    X[-1, JOINT_INDEX["nose"]] = np.nan
+    var = np.full(X.shape, 1e-8)  # pinned ...
+    moving = [JOINT_INDEX[n] for n in ("left_knee", "right_wrist", "nose", "left_eye", "right_eye")]
+    var[:, moving] = 0.03**2  # ... except the knee, the wrist and the face
+    Y = B.hold_within_limits(X, var, B.FitOptions())
+    assert -11.0 < _signed_knee_deg(Y[:6], "left").min() < -9.0
+    assert 149.0 < _elbow_deg(Y[:6], "right").max() < 152.0
+    assert 89.0 < _head_turn_deg(Y[:6]).max() < 93.0
+    pinned = np.setdiff1d(np.arange(X.shape[1]), moving)
+    assert np.abs(Y[:6, pinned] - X[:6, pinned]).max() < 1e-4
+    assert np.abs(Y[:6, moving] - X[:6, moving]).max() > 0.05
+    assert np.array_equal(Y[6:], X[6:], equal_nan=True)
+    assert np.array_equal(B.hold_within_limits(X, var, B.FitOptions(limit_sigma_m=0.0)), X, equal_nan=True)
+
+
+def test_the_tracks_are_held_within_the_limits_after_smoothing(monkeypatch, crossing):
+    """The reconstruction hands the smoothed positions and their variance to hold_within_limits
+    and writes what it returns (the smoother runs joint by joint and can pass a limit the fit
+    kept)."""
+    from ergopose.recon import pipeline
+    from ergopose.recon.triangulate import reconstruct_frames
+    from tests.recon.conftest import FPS
+
+    calls = []
+
+    def spy(points, variance, options):
+        calls.append((points.copy(), variance.copy(), options))
+        return points + 0.5
+
+    monkeypatch.setattr(pipeline, "hold_within_limits", spy)
+    sr = pipeline.ShiftReconstruction(ReconSettings(), FPS, crossing.cameras)
+    n = len(crossing.frames)
+    people = reconstruct_frames(crossing.frames)
+    tf = pipeline.TrackFrames.concat([sr.push(people, 0, n), sr.finish()])
+    assert len(tf) > 100 and calls
+    smoothed = np.concatenate([c[0] for c in calls])
+    assert np.array_equal(tf.points_world, smoothed + 0.5, equal_nan=True)
+    assert np.array_equal(tf.std_world**2, np.concatenate([c[1] for c in calls]), equal_nan=True)
+    assert all(c[2] == B.FitOptions.from_settings(ReconSettings()) for c in calls)
