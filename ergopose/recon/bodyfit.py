@@ -356,8 +356,7 @@ _KNEE_MIN_SIN = float(np.sin(np.radians(10.0)))
 #: (limits, 33): the limited vectors are LIMIT_MATRIX @ X.
 LIMIT_MATRIX = _difference_matrix(_LIMITS)
 _LIMIT_KIND = np.array([lim[3] for lim in _LIMITS])
-#: The six limb limits (elbows, knees, knees again) and their limbs' upper, middle and lower points.
-_LIMB_LIMITS = np.flatnonzero(_LIMIT_KIND != "face")
+#: The six limb limits' (elbows, knees, knees again) upper, middle and lower points.
 _LIMB_POINTS = np.array(
     [
         [JOINT_INDEX[f"{side}_{p}"] for p in (("shoulder", "elbow", "wrist") if k < 2 else ("hip", "knee", "ankle"))]
@@ -375,6 +374,17 @@ _LIMIT_HSUB2 = np.ascontiguousarray(_LIMIT_HSUB.reshape(len(LIMITS), -1).T)  # (
 
 
 _XYZ = np.arange(3)
+
+
+def _limit_normal_terms(a: np.ndarray, w: np.ndarray, value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The limit terms' part of the normal equations for h rows: a (h, limits, 3) directions,
+    w (h, limits) weights (0 where a limit is not passed), value (h, limits) -> the blocks of
+    the normal matrix on _LIMIT_JOINTS (h, m, 3, m, 3) and the gradient (h, 33, 3)."""
+    h, m = len(a), len(_LIMIT_JOINTS)
+    aa = (w[..., None, None] * a[..., :, None] * a[..., None, :]).reshape(h, len(LIMITS), 9)
+    blocks = np.matmul(_LIMIT_HSUB2, aa).reshape(h, m, m, 3, 3).transpose(0, 1, 3, 2, 4)
+    grad = np.matmul(LIMIT_MATRIX.T, (w * value)[..., None] * a)
+    return blocks, grad
 
 
 def _unit_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -762,13 +772,9 @@ def fit_bodies(
         hit = act.any(axis=1)
         if hit.any():
             rows_hit = np.flatnonzero(hit)
-            a = r["lim_a"][rows_hit]  # (h, limits, 3)
-            wa = w_lim * act[rows_hit]  # (h, limits)
-            aa = (wa[..., None, None] * a[..., :, None] * a[..., None, :]).reshape(len(rows_hit), len(LIMITS), 9)
-            m = len(_LIMIT_JOINTS)
-            blocks = np.matmul(_LIMIT_HSUB2, aa).reshape(len(rows_hit), m, m, 3, 3).transpose(0, 1, 3, 2, 4)
+            blocks, grad = _limit_normal_terms(r["lim_a"][rows_hit], w_lim * act[rows_hit], r["lim_v"][rows_hit])
             H[np.ix_(rows_hit, _LIMIT_JOINTS, _XYZ, _LIMIT_JOINTS, _XYZ)] += blocks
-            g[rows_hit] += np.matmul(LIMIT_MATRIX.T, (wa * r["lim_v"][rows_hit])[..., None] * a)
+            g[rows_hit] += grad
         return H.reshape(R, n, n), g.reshape(R, n)
 
     r = residuals(X)
@@ -836,20 +842,17 @@ def hold_within_limits(
     w = 1.0 / var[rows]  # (h, 33, 3)
     w_lim = 1.0 / options.limit_sigma_m**2
     n = 3 * J
-    m = len(_LIMIT_JOINTS)
     Y = S.copy()
     for _ in range(iterations):
         a, _, value = limit_terms(Y, options)
         act = value < 0.0
         if not act.any():
             break
-        wa = w_lim * act
         H = np.zeros((len(rows), J, 3, J, 3))
         H[:, np.arange(J), :, np.arange(J), :] = np.swapaxes(w, 0, 1)[..., None] * np.eye(3)
-        aa = (wa[..., None, None] * a[..., :, None] * a[..., None, :]).reshape(len(rows), len(LIMITS), 9)
-        blocks = np.matmul(_LIMIT_HSUB2, aa).reshape(len(rows), m, m, 3, 3).transpose(0, 1, 3, 2, 4)
+        blocks, grad = _limit_normal_terms(a, w_lim * act, np.minimum(value, 0.0))
         H[np.ix_(np.arange(len(rows)), _LIMIT_JOINTS, _XYZ, _LIMIT_JOINTS, _XYZ)] += blocks
-        g = w * (Y - S) + np.matmul(LIMIT_MATRIX.T, (wa * np.minimum(value, 0.0))[..., None] * a)
+        g = w * (Y - S) + grad
         step = np.linalg.solve(H.reshape(len(rows), n, n), g.reshape(len(rows), n, 1))[..., 0]
         Y = Y - step.reshape(len(rows), J, 3)
     X[rows] = Y
