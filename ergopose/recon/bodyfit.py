@@ -403,7 +403,7 @@ def limit_terms(X: np.ndarray, opt: "FitOptions") -> tuple[FloatArray, FloatArra
     b = np.zeros((R, len(LIMITS)))
     limb = X[:, _LIMB_POINTS]  # (R, 6, 3 points, 3)
     # The limb's current segments (not the worker's lengths: measured with those, the fit reached
-    # the limit more slowly -- an elbow shown at 170 deg stayed at 160-176 after 10 iterations).
+    # the limit more slowly -- an elbow shown at 170 deg stayed at 159-175 after 10 iterations).
     l1 = np.sqrt(((limb[:, :, 1] - limb[:, :, 0]) ** 2).sum(axis=-1))  # (R, 6)
     l2 = np.sqrt(((limb[:, :, 2] - limb[:, :, 1]) ** 2).sum(axis=-1))
     # The reach limits: |C X| >= what the limb's two segments make at the largest flexion.
