@@ -102,9 +102,7 @@ class SearchViews:
         self.layout, views, self.half_fov = built
         self.views = list(views)
 
-    def _make_views(
-        self, size: tuple[int, int]
-    ) -> tuple[SearchLayout, tuple[tuple[VirtualView, ViewMap], ...], np.ndarray]:
+    def _make_views(self, size: tuple[int, int]) -> _Built:
         """The layout of ``settings.search_layout``, its views with their maps, and each view's
         half field of view."""
         s = self.settings

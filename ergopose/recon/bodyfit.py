@@ -366,11 +366,12 @@ _LIMB_POINTS = np.array(
 _REACH = np.flatnonzero(_LIMIT_KIND == "reach")
 _KNEE = np.flatnonzero(_LIMIT_KIND == "knee")
 _FACE = int(np.flatnonzero(_LIMIT_KIND == "face")[0])
-#: The joints the limits involve, and their terms of the normal matrix on those joints only:
-#: (limits, joints, joints), each C_l C_l^T.
+#: The joints the limits involve, and each limit's C_l C_l^T on those joints only, as a
+#: (joints^2, limits) matrix: the normal matrix's blocks are its product with the a a^T terms.
 _LIMIT_JOINTS = np.flatnonzero((LIMIT_MATRIX != 0).any(axis=0))
-_LIMIT_HSUB = np.einsum("lj,lk->ljk", LIMIT_MATRIX[:, _LIMIT_JOINTS], LIMIT_MATRIX[:, _LIMIT_JOINTS])
-_LIMIT_HSUB2 = np.ascontiguousarray(_LIMIT_HSUB.reshape(len(LIMITS), -1).T)  # (joints^2, limits)
+_LIMIT_HSUB2 = np.ascontiguousarray(
+    np.einsum("lj,lk->jkl", LIMIT_MATRIX[:, _LIMIT_JOINTS], LIMIT_MATRIX[:, _LIMIT_JOINTS]).reshape(-1, len(_LIMITS))
+)
 
 
 _XYZ = np.arange(3)
