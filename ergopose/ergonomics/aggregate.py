@@ -18,7 +18,8 @@ such by the CSV files, the report and the terminal summary. Inputs: per body par
 the median over the shift of the per-frame standard deviation of its angles (the largest of its
 angles in a frame; from a histogram of 0.01 degree bins up to 90 degrees, so exact to 0.005
 degree whatever the chunking) and the share of the tracked frames in which one of its joints was placed by the body
-model (inferred) rather than seen by two cameras.
+model (inferred) rather than seen by two cameras, and, for the neck, the lower arms and the legs,
+the share in which a joint limit of the body model held its angles.
 
 Task inputs (the frames' ``inputs_from_settings`` column, ergopose.ergonomics.task_inputs): per
 input given by the settings in place of a hidden wrist angle, and per value used, the frames and
@@ -64,7 +65,13 @@ from ergopose.ergonomics.shift_records import (
 )
 from ergopose.ergonomics.task_inputs import COLUMN as TASK_INPUTS_COLUMN
 from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS, used_mask
-from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUP_JOINTS, INPUT_GROUPS
+from ergopose.ergonomics.uncertainty import (
+    CAUSES,
+    CONFIDENCE_LEVELS,
+    INPUT_GROUP_JOINTS,
+    INPUT_GROUP_LIMIT_JOINTS,
+    INPUT_GROUPS,
+)
 from ergopose.errors import InputError
 from ergopose.progress import ProgressCallback, report
 
@@ -149,18 +156,23 @@ class ShiftAccumulator:
         self.input_measured = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
         self.input_inferred = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
         self.input_known = 0
+        self.input_limited = np.zeros(len(INPUT_GROUPS), dtype=np.int64)
+        self.limit_known = 0
         self.settings_frames: dict[tuple[str, float], int] = {}  # (input, value used) -> scored frames
         self.scored_frames = 0
 
-    def add(self, frames: pd.DataFrame, inferred: np.ndarray | None = None) -> None:
+    def add(self, frames: pd.DataFrame, inferred: np.ndarray | None = None, limited: np.ndarray | None = None) -> None:
         """Take the next chunk of frames (time order, after the previous chunk).
 
         inferred: (n, 33) joints placed by the body model, one row per frame (the tracks table's
-        ``inferred``), for the inputs' inferred shares; None = not known for this chunk."""
+        ``inferred``), for the inputs' inferred shares; limited: (n, 33) joints a joint limit held
+        (the tracks table's ``limited``), for the inputs' shares held at a limit; None = not known
+        for this chunk."""
         if len(frames) == 0:
             return
-        if inferred is not None and np.shape(inferred)[0] != len(frames):
-            raise ValueError(f"inferred has {np.shape(inferred)[0]} rows for {len(frames)} frames")
+        for name, flags in (("inferred", inferred), ("limited", limited)):
+            if flags is not None and np.shape(flags)[0] != len(frames):
+                raise ValueError(f"{name} has {np.shape(flags)[0]} rows for {len(frames)} frames")
         frames = expand_sides(frames)
         if "time_s" not in frames.columns:
             raise InputError("the frames need a time_s column to be aggregated", field="time_s")
@@ -217,7 +229,7 @@ class ShiftAccumulator:
                 self.exposure_runs[key] = Runs(self.period, self.s.max_gap_s, static_s=self.static_hold_s)
             self.exposure_runs[key].add(t, int_codes(z))
 
-        self._add_certainty(frames, inferred)
+        self._add_certainty(frames, inferred, limited)
         self._add_task_inputs(frames)
 
         minutes = np.floor((t - self.shift_start_s) / 60.0).astype(np.int64)
@@ -232,7 +244,7 @@ class ShiftAccumulator:
             for m, k in zip(um.tolist(), mc.tolist()):
                 per_min[m] = per_min.get(m, 0) + k
 
-    def _add_certainty(self, frames: pd.DataFrame, inferred: np.ndarray | None) -> None:
+    def _add_certainty(self, frames: pd.DataFrame, inferred: np.ndarray | None, limited: np.ndarray | None) -> None:
         """Count the chunk's frames per confidence level and cause, and its inputs' deviations."""
         if "confidence" in frames.columns:
             level = frames["confidence"].astype("string").fillna("unscored").to_numpy(dtype=object)
@@ -260,8 +272,12 @@ class ShiftAccumulator:
                 self.input_sd_hist[g] += np.bincount(idx, minlength=_SD_BINS)
             if inferred is not None:
                 self.input_inferred[g] += int(np.asarray(inferred)[:, INPUT_GROUP_JOINTS[g]].any(axis=1).sum())
+            if limited is not None and len(INPUT_GROUP_LIMIT_JOINTS[g]):
+                self.input_limited[g] += int(np.asarray(limited)[:, INPUT_GROUP_LIMIT_JOINTS[g]].any(axis=1).sum())
         if inferred is not None:
             self.input_known += len(frames)
+        if limited is not None:
+            self.limit_known += len(frames)
 
     def _add_task_inputs(self, frames: pd.DataFrame) -> None:
         """Count the scored frames, and per task input and value those that used the settings."""
@@ -331,6 +347,12 @@ class ShiftAccumulator:
                     int(self.input_inferred[g]),
                     known,
                     float(100.0 * self.input_inferred[g] / known) if known else math.nan,
+                    int(self.input_limited[g]),
+                    (
+                        float(100.0 * self.input_limited[g] / self.limit_known)
+                        if self.limit_known and len(INPUT_GROUP_LIMIT_JOINTS[g])
+                        else math.nan
+                    ),
                 )
             )
         return tuple(out)
@@ -430,15 +452,21 @@ def aggregate_shift(
     chunk_frames: int | None = None,
     progress: ProgressCallback | None = None,
     inferred: np.ndarray | None = None,
+    limited: np.ndarray | None = None,
     **options: Any,
 ) -> ShiftSummary:
     """Aggregate one worker's scored frames (in time order); inferred: (n, 33) joints placed by the
-    body model (see :meth:`ShiftAccumulator.add`); options as :class:`ShiftAccumulator`."""
+    body model, limited: (n, 33) joints a joint limit held (see :meth:`ShiftAccumulator.add`);
+    options as :class:`ShiftAccumulator`."""
     acc = ShiftAccumulator(worker, **options)
     n = len(frames)
     step = n if not chunk_frames else max(1, int(chunk_frames))
     for i in range(0, n, step or 1):
-        acc.add(frames.iloc[i : i + step], None if inferred is None else np.asarray(inferred)[i : i + step])
+        acc.add(
+            frames.iloc[i : i + step],
+            None if inferred is None else np.asarray(inferred)[i : i + step],
+            None if limited is None else np.asarray(limited)[i : i + step],
+        )
         report(progress, "aggregate", min(i + step, n), n, unit="frame")
     return acc.result()
 

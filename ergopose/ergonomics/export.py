@@ -42,7 +42,14 @@ from ergopose.ergonomics.task_inputs import SETTINGS_INPUTS
 from ergopose.ergonomics.shares import HIGH_LEVELS as SHARE_HIGH_LEVELS
 from ergopose.ergonomics.shares import LEVEL_COLUMNS, percent, shift_high_risk
 from ergopose.ergonomics.shift_records import ShiftSummary
-from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENCE_LEVELS, INPUT_GROUPS, SD_ANGLES, SD_COLUMNS
+from ergopose.ergonomics.uncertainty import (
+    CAUSES,
+    CONFIDENCE_LEVELS,
+    INPUT_GROUP_LIMIT_JOINTS,
+    INPUT_GROUPS,
+    SD_ANGLES,
+    SD_COLUMNS,
+)
 from ergopose.ergonomics.uncertainty import SCORE_COLUMNS as UNCERTAINTY_SCORE_COLUMNS
 
 #: digits after the decimal point per kind of column
@@ -524,6 +531,14 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
                 count=i.inferred_frames,
                 percent=i.inferred_percent,
             )
+        if math.isfinite(i.limited_percent):
+            row(
+                section="inputs",
+                item=i.body_part,
+                value="joint limit",
+                count=i.limited_frames,
+                percent=i.limited_percent,
+            )
     for u in summary.from_settings:
         row(
             section="inputs",
@@ -650,6 +665,10 @@ def _input_columns(s: ShiftSummary) -> dict[str, float]:
         i = inputs.get(part)
         r[f"{_slug(part)}_median_sd_deg"] = math.degrees(i.median_sd_rad) if i is not None else math.nan
         r[f"{_slug(part)}_inferred_pct_of_tracked"] = i.inferred_percent if i is not None else math.nan
+    for (part, _, _), held in zip(INPUT_GROUPS, INPUT_GROUP_LIMIT_JOINTS):
+        if len(held):
+            i = inputs.get(part)
+            r[f"{_slug(part)}_joint_limit_pct_of_tracked"] = i.limited_percent if i is not None else math.nan
     for name in SETTINGS_INPUTS:
         used = sum(u.frames for u in s.from_settings if u.input == name)
         r[f"{name}_from_settings_pct_of_scored"] = 100.0 * used / s.scored_frames if s.scored_frames else math.nan

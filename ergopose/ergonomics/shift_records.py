@@ -142,7 +142,11 @@ class InputCertainty:
     standard deviation of its angles in the frame (radians; NaN when never measured or when the
     frames carry no deviations). inferred_frames: frames in which one of its joints was placed by
     the body model; known_frames: frames whose inferred flags were given (0 = unknown);
-    inferred_percent: inferred_frames of known_frames (NaN when unknown).
+    inferred_percent: inferred_frames of known_frames (NaN when unknown). limited_frames: frames in
+    which a joint limit of the body model held its angles (the cameras put the elbow, the knees or
+    the head past the anatomical range; INPUT_GROUP_LIMIT_JOINTS); limited_percent: of the frames
+    whose limit flags were given (NaN when unknown or when no limit concerns the part: the trunk,
+    the upper arms and the wrists).
     """
 
     body_part: str
@@ -152,6 +156,8 @@ class InputCertainty:
     inferred_frames: int
     known_frames: int
     inferred_percent: float
+    limited_frames: int = 0
+    limited_percent: float = math.nan
 
 
 @dataclass(frozen=True)

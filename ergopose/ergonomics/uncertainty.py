@@ -20,8 +20,10 @@ angles and the RULA and REBA scores are computed for every draw exactly as for t
   ``CONFIDENT_P``, ``low`` when scored with less, ``unscored`` when a score is missing;
 - ``cause``: why a frame is not confident: ``not seen`` (no camera saw the worker in this
   frame), ``one camera`` (only one camera saw the worker), ``occluded limbs`` (joints the scores
-  need were placed by the body model, not seen by two cameras), ``uncertain angles`` (seen, but
-  the angles are too uncertain for the score), empty when confident.
+  need were placed by the body model, not seen by two cameras), ``joint limit`` (the cameras put
+  an elbow, a knee or the head past its anatomical range and the body model held it at the
+  limit), ``uncertain angles`` (seen, but the angles are too uncertain for the score), empty when
+  confident.
 
 The draws come from fixed, seeded standard normal numbers, one set per draw and the same in every
 frame (the estimate's errors last; :func:`iter_samples`), so a frame gets the same draws however
@@ -81,7 +83,7 @@ SCORE_COLUMNS = (
 )
 CONFIDENCE_LEVELS = ("confident", "low", "unscored")
 #: Causes of a frame that is not confident, in the order reports list them.
-CAUSES = ("not seen", "one camera", "occluded limbs", "uncertain angles")
+CAUSES = ("not seen", "one camera", "occluded limbs", "joint limit", "uncertain angles")
 
 #: Joints the scores need (both methods): a frame whose needed joints were placed by the body
 #: model rather than seen by two cameras is "occluded limbs" when not confident.
@@ -136,6 +138,22 @@ INPUT_GROUPS = (
 )
 #: The joints of each INPUT_GROUPS entry as indices into the 33 joints.
 INPUT_GROUP_JOINTS = tuple(np.array([JOINT_INDEX[j] for j in joints]) for _, _, joints in INPUT_GROUPS)
+#: The joints whose ``limited`` flag (the tracks table's: a joint limit of the body model held the
+#: joint, ergopose.recon.bodyfit.LIMIT_HELD_JOINTS) tells that an INPUT_GROUPS entry's angles were
+#: held at an anatomical limit: the face's points for the neck, the elbow for a lower arm, the
+#: knees for the legs; none for the others (no limit holds them).
+_LIMIT_JOINTS_BY_GROUP = {
+    "neck": ("nose", "left_eye", "right_eye"),
+    "left lower arm": ("left_elbow",),
+    "right lower arm": ("right_elbow",),
+    "legs": ("left_knee", "right_knee"),
+}
+INPUT_GROUP_LIMIT_JOINTS = tuple(
+    np.array([JOINT_INDEX[j] for j in _LIMIT_JOINTS_BY_GROUP.get(part, ())], dtype=np.int64)
+    for part, _, _ in INPUT_GROUPS
+)
+#: Every joint whose ``limited`` flag concerns a score (the union of INPUT_GROUP_LIMIT_JOINTS).
+LIMITED_SCORED_JOINTS = np.unique(np.concatenate(INPUT_GROUP_LIMIT_JOINTS))
 
 
 def _normals() -> np.ndarray:
@@ -227,12 +245,14 @@ def frame_confidence(
     views: np.ndarray | None,
     inferred: np.ndarray | None,
     seen_cameras: np.ndarray | None,
+    limited: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(confidence, cause) per frame (object arrays of strings; see the module docstring).
 
     views: (n, 33) cameras that saw each joint with the reconstruction's min_confidence;
     inferred: (n, 33) joints placed by the body model; seen_cameras: (n,) the most cameras that saw
-    any joint of the worker in the frame (0 = not seen). None = unknown (no cause given)."""
+    any joint of the worker in the frame (0 = not seen); limited: (n, 33) joints a joint limit held
+    (None = none). seen_cameras None = unknown (no cause given)."""
     n = len(rula_p)
     scored = np.isfinite(rula_p) & np.isfinite(reba_p)
     with np.errstate(invalid="ignore"):
@@ -241,10 +261,11 @@ def frame_confidence(
     cause = np.full(n, "", dtype=object)
     if seen_cameras is not None:
         occluded = inferred[:, SCORED_JOINTS].any(axis=1) if inferred is not None else np.zeros(n, bool)
-        cause = np.where(
-            seen_cameras == 0,
-            "not seen",
-            np.where(seen_cameras == 1, "one camera", np.where(occluded, "occluded limbs", "uncertain angles")),
+        held = np.asarray(limited)[:, LIMITED_SCORED_JOINTS].any(axis=1) if limited is not None else np.zeros(n, bool)
+        cause = np.select(
+            [seen_cameras == 0, seen_cameras == 1, occluded, held],
+            ["not seen", "one camera", "occluded limbs", "joint limit"],
+            "uncertain angles",
         ).astype(object)
         cause[confident] = ""
     return conf, cause

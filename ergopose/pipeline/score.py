@@ -145,6 +145,7 @@ def score_uncertainty(
         rows.views,
         getattr(rows, "inferred", None),
         seen,
+        getattr(rows, "limited", None),
     )
     out["confidence"] = pd.array(conf, dtype="string")
     out["cause"] = pd.array(cause, dtype="string")
@@ -158,7 +159,12 @@ def score_worker(
     evaluations of short sessions. ``ergopose assess`` scores in blocks (:func:`score_tracks`)."""
     frames = score_rows(session, rows, worker_id, scoring)
     summary = aggregate_shift(
-        frames, worker_id, settings=scoring, frame_period_s=1.0 / session.fps, inferred=getattr(rows, "inferred", None)
+        frames,
+        worker_id,
+        settings=scoring,
+        frame_period_s=1.0 / session.fps,
+        inferred=getattr(rows, "inferred", None),
+        limited=getattr(rows, "limited", None),
     )
     return ScoredWorker(
         worker_id=worker_id,
@@ -225,7 +231,7 @@ class WorkerSink:
     def write(self, frames: pd.DataFrame, rows: TrackFrames) -> None:
         self.csv.write(frames)
         self.steps.write(frames)
-        self.acc.add(frames, getattr(rows, "inferred", None))
+        self.acc.add(frames, getattr(rows, "inferred", None), getattr(rows, "limited", None))
         if self._parquet is None:
             self._schema = pa.Schema.from_pandas(frames, preserve_index=False)
             self._parquet = self._stack.enter_context(

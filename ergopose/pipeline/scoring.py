@@ -127,7 +127,7 @@ class WorkerScorer:
 
 
 #: The per-row arrays of a TrackFrames that scoring reads (score_rows and the block sinks).
-SCORED_FIELDS = ("worker", "frame", "time_s", "points_world", "std_world", "views", "inferred")
+SCORED_FIELDS = ("worker", "frame", "time_s", "points_world", "std_world", "views", "inferred", "limited")
 
 
 def scoring_rows(rows: TrackFrames) -> TrackFrames:

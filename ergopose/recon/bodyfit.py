@@ -376,6 +376,24 @@ _LIMIT_HSUB2 = np.ascontiguousarray(
 
 _XYZ = np.arange(3)
 
+#: The joints each limit holds, as the tracks table's ``limited`` flags them: the elbow for an
+#: elbow's flexion, the knee for a knee's flexion and hyperextension, the face's points (nose and
+#: eyes) for the head's turn.
+_HELD_BY_LIMIT = (
+    ("left_elbow",),
+    ("right_elbow",),
+    ("left_knee",),
+    ("right_knee",),
+    ("left_knee",),
+    ("right_knee",),
+    ("nose", "left_eye", "right_eye"),
+)
+#: (limits, 33) bool: LIMIT_HELD_JOINTS[l, j] when limit l holds joint j.
+LIMIT_HELD_JOINTS = np.array([np.isin(np.arange(J), [JOINT_INDEX[n] for n in held]) for held in _HELD_BY_LIMIT])
+#: A limit counts as holding a pose passed by more than this (metres): with the limits' sigma of
+#: 2 mm the fit leaves a pose the cameras pull past a limit a little beyond it.
+LIMIT_HELD_TOLERANCE_M = 1e-4
+
 
 def _limit_normal_terms(a: np.ndarray, w: np.ndarray, value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The limit terms' part of the normal equations for h rows: a (h, limits, 3) directions,
@@ -391,6 +409,23 @@ def _limit_normal_terms(a: np.ndarray, w: np.ndarray, value: np.ndarray) -> tupl
 def _unit_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = np.sqrt((v * v).sum(axis=-1))
     return v / np.maximum(n, 1e-12)[..., None], n
+
+
+def limits_held(
+    points_world: np.ndarray, options: "FitOptions", tolerance_m: float = LIMIT_HELD_TOLERANCE_M
+) -> np.ndarray:
+    """(n, 33, 3) -> (n, 33) bool: the joints of the limits (:data:`LIMIT_HELD_JOINTS`) that the
+    pose passes by more than ``tolerance_m``; False for rows with a NaN and when the limits are
+    off (``limit_sigma_m`` 0)."""
+    X = np.asarray(points_world, dtype=np.float64)
+    held = np.zeros(X.shape[:2], bool)
+    if options.limit_sigma_m <= 0 or not len(X):
+        return held
+    ok = np.flatnonzero(np.isfinite(X).all(axis=(1, 2)))
+    if len(ok):
+        passed = limit_terms(X[ok], options)[2] < -tolerance_m  # (h, limits)
+        held[ok] = np.matmul(passed.astype(np.int64), LIMIT_HELD_JOINTS.astype(np.int64)) > 0
+    return held
 
 
 def limit_terms(X: np.ndarray, opt: "FitOptions") -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -515,6 +550,8 @@ class BodyFit:
         used: the mean squared normalised reprojection residual of the joints two or more cameras
         saw, times n / (n - 3 m) for n residual coordinates of m joints (the triangulation's own
         degrees of freedom), square-rooted; NaN where no joint had two cameras.
+    limited: (R, 33) bool, a joint limit held the joint: the cameras pulled the pose past the
+        limit (:func:`limits_held` on the fitted pose; :data:`LIMIT_HELD_JOINTS`).
     """
 
     points_world: np.ndarray
@@ -523,6 +560,11 @@ class BodyFit:
     reprojection_error_px: np.ndarray
     cost: np.ndarray
     noise_scale: np.ndarray
+    limited: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.limited is None:
+            object.__setattr__(self, "limited", np.zeros(self.inferred.shape, bool))
 
 
 def segment_lengths(points_world: np.ndarray) -> np.ndarray:
@@ -816,6 +858,7 @@ def fit_bodies(
         reprojection_error_px=rms,
         cost=r["cost"],
         noise_scale=noise,
+        limited=limits_held(X, opt),
     )
 
 
@@ -1080,7 +1123,8 @@ class ShiftBodies:
         """Fit the rows of frames f0 <= f < f1, in frame order (rows sorted by frame).
 
         rows: "frame", "identity", "points" (gated raw triangulation), "ungated"
-        (triangulate_observations), "var", "views", "P", "px", "oc"; writes "fit", "fit_var", "inferred", "fit_err" in place.
+        (triangulate_observations), "var", "views", "P", "px", "oc"; writes "fit", "fit_var", "inferred",
+        "limited", "fit_err" in place.
         """
         t0 = time.perf_counter()
         frames = rows["frame"]
@@ -1116,6 +1160,7 @@ class ShiftBodies:
             rows["fit"][r] = rows["points"][r]
             rows["fit_var"][r] = rows["var"][r]
             rows["inferred"][r] = rows["views"][r] < 2
+            rows["limited"][r] = False
         if not has.any():
             return
         idx, ids = idx[has], ids[has]
@@ -1193,6 +1238,7 @@ class ShiftBodies:
         rows["fit"][idx] = points
         rows["fit_var"][idx] = var
         rows["inferred"][idx] = inferred
+        rows["limited"][idx] = fit.limited
         rows["fit_err"][idx] = err
         for k, ident in enumerate(ids):
             self.last[int(ident)] = (f, points[k].copy())

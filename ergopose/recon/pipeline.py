@@ -29,7 +29,7 @@ from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
-from ergopose.recon.bodyfit import ShiftBodies, hold_within_limits
+from ergopose.recon.bodyfit import ShiftBodies, hold_within_limits, limits_held
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
@@ -69,6 +69,8 @@ class TrackFrames:
         (tracker estimate), so every row has a lens region. NaN without cameras.
     inferred: (n, J) bool, the position was placed by the body model (fewer than two cameras
         saw the joint with min_confidence: segment lengths, previous pose, one camera's ray).
+    limited: (n, J) bool, a joint limit of the body model held the joint: the body fit or the
+        smoothed position passed the limit (bodyfit.limits_held, bodyfit.LIMIT_HELD_JOINTS).
     std_world: (n, J, 3) standard deviation (metres) of each coordinate of points_world (the
         smoother's, else the body fit's or the triangulation's); NaN where points_world is NaN.
     """
@@ -87,11 +89,14 @@ class TrackFrames:
     lens_angle_deg: np.ndarray
     inferred: np.ndarray | None = None
     std_world: np.ndarray | None = None
+    limited: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.frame)
         if self.inferred is None:
             object.__setattr__(self, "inferred", np.zeros((n, NUM_JOINTS), bool))
+        if self.limited is None:
+            object.__setattr__(self, "limited", np.zeros((n, NUM_JOINTS), bool))
         if self.std_world is None:
             object.__setattr__(self, "std_world", np.full((n, NUM_JOINTS, 3), np.nan))
 
@@ -116,6 +121,7 @@ class TrackFrames:
             "gated",
             "inferred",
             "std_world",
+            "limited",
         )
         kw = {n: np.concatenate([getattr(p, n) for p in parts]) for n in names}
         kw["lens_angle_deg"] = np.concatenate([p.lens_angle_deg for p in parts])
@@ -324,6 +330,7 @@ class ShiftReconstruction:
                     "fit": np.full((m, NUM_JOINTS, 3), np.nan),
                     "fit_var": np.full((m, NUM_JOINTS, 3), np.nan),
                     "inferred": np.zeros((m, NUM_JOINTS), bool),
+                    "limited": np.zeros((m, NUM_JOINTS), bool),
                     "fit_err": np.full((m, NUM_JOINTS), np.nan),
                 }
             )
@@ -469,6 +476,7 @@ class ShiftReconstruction:
         fit = np.full((n, J, 3), np.nan)
         fit_var = np.full((n, J, 3), np.nan)
         inferred = np.zeros((n, J), bool)
+        limited = np.zeros((n, J), bool)
         if obs is not None and len(obs["frame"]):
             key_rows = frame * (1 << 20) + worker
             key_obs = obs["frame"] * (1 << 20) + obs["identity"]
@@ -482,6 +490,7 @@ class ShiftReconstruction:
             fit[p] = obs["fit"][ok]
             fit_var[p] = obs["fit_var"][ok]
             inferred[p] = obs["inferred"][ok]
+            limited[p] = obs["limited"][ok]
         gap = np.zeros((n, J), bool)
         gated = np.zeros((n, J), bool)
         if sm is not None:
@@ -502,6 +511,7 @@ class ShiftReconstruction:
             pts = fit.copy()
             std = np.sqrt(fit_var)
         if self.bodies is not None:  # the smoother does not know the body model's joint limits
+            limited |= limits_held(pts, self.bodies.options)
             pts = hold_within_limits(pts, std * std, self.bodies.options)
         inferred |= gap
         angle = lens_angles_deg(self.cameras, pts, centre)
@@ -520,6 +530,7 @@ class ShiftReconstruction:
             lens_angle_deg=angle,
             inferred=inferred & np.isfinite(pts).all(axis=-1),
             std_world=std,
+            limited=limited & np.isfinite(pts).all(axis=-1),
         )
 
 

@@ -21,6 +21,8 @@ lens_angle_deg         float32    largest angle off the cameras' axes of the joi
                                   position (or of the worker's body centre where that is NaN)
 inferred               bool       the position was placed by the body model: fewer than two
                                   cameras saw the joint with min_confidence
+limited                bool       a joint limit of the body model held the joint (elbow, knee,
+                                  or the face's nose and eyes): the cameras put it past the limit
 std_x, std_y, std_z    float32    standard deviation of x, y, z (metres; NaN where unknown)
 =====================  =========  ==========================================================
 
@@ -58,7 +60,7 @@ from ergopose.recon.pipeline import TrackFrames
 from ergopose.recon.track_records import identity_name
 
 FORMAT = "ergopose.tracks"
-FORMAT_VERSION = 2  # 2: inferred, std_x/y/z (the body model); version 1 files read with defaults
+FORMAT_VERSION = 3  # 2: inferred, std_x/y/z (the body model); 3: limited; older files read with defaults
 METADATA_KEY = b"ergopose.tracks"
 
 SCHEMA = pa.schema(
@@ -84,11 +86,15 @@ SCHEMA = pa.schema(
         ("std_x", pa.float32()),
         ("std_y", pa.float32()),
         ("std_z", pa.float32()),
+        ("limited", pa.bool_()),
     ]
 )
 COLUMNS = tuple(SCHEMA.names)
-#: Columns a version 1 table lacks (read as not inferred, unknown deviation).
+#: Columns a version 1 table lacks (read as not inferred, unknown deviation), and a version 2
+#: table (read as not limited).
 _ADDED_IN_V2 = ("inferred", "std_x", "std_y", "std_z")
+_ADDED_IN_V3 = ("limited",)
+_ADDED = _ADDED_IN_V2 + _ADDED_IN_V3
 
 
 def frames_to_arrow(tf: TrackFrames) -> pa.Table:
@@ -104,7 +110,8 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
     joint = pa.DictionaryArray.from_arrays(
         pa.array(np.tile(np.arange(J, dtype=np.int32), n)), pa.array(BLAZEPOSE33, pa.string())
     )
-    assert tf.std_world is not None and tf.inferred is not None  # TrackFrames.__post_init__ fills them
+    # TrackFrames.__post_init__ fills them
+    assert tf.std_world is not None and tf.inferred is not None and tf.limited is not None
     P = tf.points_world.reshape(-1, 3).astype(np.float32)
     R = tf.raw_points_world.reshape(-1, 3).astype(np.float32)
     S = tf.std_world.reshape(-1, 3).astype(np.float32)
@@ -130,6 +137,7 @@ def frames_to_arrow(tf: TrackFrames) -> pa.Table:
         "std_x": pa.array(S[:, 0]),
         "std_y": pa.array(S[:, 1]),
         "std_z": pa.array(S[:, 2]),
+        "limited": pa.array(tf.limited.reshape(-1)),
     }
     return pa.Table.from_pydict(cols, schema=SCHEMA)
 
@@ -256,7 +264,7 @@ def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise InputError(
             f"unsupported tracks table format {meta.get('format')!r} version {meta.get('version')!r}", path=p
         )
-    missing = [c for c in COLUMNS if c not in schema.names and c not in _ADDED_IN_V2]
+    missing = [c for c in COLUMNS if c not in schema.names and c not in _ADDED]
     if missing:
         raise InputError(f"columns missing: {', '.join(missing)}", path=p)
     return meta
@@ -276,8 +284,8 @@ def read_tracks(
     absent = [c for c in cols if c not in present]
     table = pq.read_table(path, columns=[c for c in cols if c in present], filters=filters)
     df = table.to_pandas()
-    for c in absent:  # a version 1 table
-        df[c] = False if c == "inferred" else np.float32(np.nan)
+    for c in absent:  # a version 1 or 2 table
+        df[c] = False if c in ("inferred", "limited") else np.float32(np.nan)
     for c in ("worker", "joint"):
         if c in df:
             df[c] = df[c].astype("category")
@@ -287,7 +295,7 @@ def read_tracks(
 def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     """The wide TrackFrames form of a (full-column) tracks table, for downstream arrays."""
     df = table.data if isinstance(table, TracksTable) else table
-    missing = [c for c in COLUMNS if c not in df.columns and c not in _ADDED_IN_V2]
+    missing = [c for c in COLUMNS if c not in df.columns and c not in _ADDED]
     if missing:
         raise InputError(f"columns missing: {', '.join(missing)}", field="tracks")
     worker_num = np.array([int(str(w).rpartition("_")[2]) for w in df["worker"].astype(str)], dtype=np.int64)
@@ -322,6 +330,9 @@ def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
     std = grid(None, np.nan, k=3)
     if "inferred" in df:
         inferred[inv, joint] = df["inferred"].to_numpy(bool)
+    limited = grid(None, False, bool)
+    if "limited" in df:
+        limited[inv, joint] = df["limited"].to_numpy(bool)
     if "std_x" in df:
         std[inv, joint] = df[["std_x", "std_y", "std_z"]].to_numpy(np.float64)
     time_s = np.zeros(n)
@@ -342,6 +353,7 @@ def table_to_frames(table: TracksTable | pd.DataFrame) -> TrackFrames:
         lens_angle_deg=ang,
         inferred=inferred,
         std_world=std,
+        limited=limited,
     )
 
 

@@ -12,6 +12,7 @@ NaN (JSON null) where the value is unknown; the field's doc says so.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -515,7 +516,9 @@ class InputQuality:
     inferred_s: time in which one of its joints was placed by the body model rather than seen by
     two cameras; known_s: time for which that was recorded (0 = unknown). from_settings: its
     angles' values taken from the settings where the cameras did not see them, with the time each
-    was used (empty when none).
+    was used (empty when none). limited_s: time in which a joint limit of the body model held its
+    angles (the cameras put the joint past its anatomical range); NaN when no limit concerns the
+    body part (trunk, upper arms, wrists) or when it was not recorded.
     """
 
     body_part: str
@@ -524,6 +527,7 @@ class InputQuality:
     inferred_s: float
     known_s: float
     from_settings: tuple[SettingsValue, ...] = ()
+    limited_s: float = math.nan
 
 
 @dataclass(frozen=True)

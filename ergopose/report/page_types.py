@@ -331,7 +331,9 @@ class InputRow:
     styling), task_input (the settings key that can give the input instead, or why none can),
     from_settings (the values the settings gave in place of unseen angles and the share of the
     scored time each was used, e.g. "flexion 20° in 35.0 % of the scored time"; "none" when the
-    measurement was always used)."""
+    measurement was always used), limited (share of the tracked time in which a joint limit of the
+    body model held its angles; "-" where no limit concerns the body part; a verdict word "often
+    held at a joint limit" from OFTEN_LIMITED_PCT)."""
 
     body_part: str
     median_sd: str
@@ -340,6 +342,7 @@ class InputRow:
     concern: bool
     task_input: str
     from_settings: str = "none"
+    limited: str = "-"
 
 
 @dataclass(frozen=True)

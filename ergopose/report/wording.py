@@ -43,6 +43,10 @@ UNCERTAIN_SD_DEG = 10.0
 #: An input is "mostly inferred" when its joints were placed by the body model in at least this
 #: share (percent) of the tracked time.
 MOSTLY_INFERRED_PCT = 50.0
+#: An input is "often held at a joint limit" when a joint limit of the body model held its angles
+#: in at least this share (percent) of the tracked time: the cameras showed the joint past its
+#: anatomical range that often, so its keypoints are suspect (ergopose's own choice).
+OFTEN_LIMITED_PCT = 10.0
 #: Settings keys (docs/session-format.md, task factors) that give a body part's input instead of
 #: the cameras; body parts not listed can only be measured.
 TASK_INPUTS = {

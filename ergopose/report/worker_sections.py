@@ -39,6 +39,7 @@ from ergopose.report.wording import (
     HIGH_LEVELS,
     METHOD_TITLES,
     MOSTLY_INFERRED_PCT,
+    OFTEN_LIMITED_PCT,
     TASK_INPUTS,
     UNCERTAIN_SD_DEG,
     Clock,
@@ -119,7 +120,9 @@ def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], 
         "Shares are of the tracked time. A frame is scored with confidence when both its RULA and its REBA "
         "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
         "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
-        "scores need were placed by the body model, uncertain angles = seen, but the angles are too "
+        "scores need were placed by the body model, joint limit = the cameras put the head, an elbow or a knee "
+        "past its anatomical range and the body model held it at the limit, uncertain angles = seen, but the "
+        "angles are too "
         "uncertain for the score. The uncertainty is what the cameras disagree on plus the pose network's own "
         "error at every joint (the scoring setting joint_sd_floor_m, measured on a real recording). Errors "
         "that are the same in every frame, such as where the network puts the hips, are larger than that "
@@ -134,11 +137,13 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
     for i in summary.inputs:
         sd = math.degrees(i.median_sd_rad)
         share = 100.0 * i.inferred_s / i.known_s if i.known_s > 0 else float("nan")
+        limited_s = float(getattr(i, "limited_s", math.nan))
+        held = 100.0 * limited_s / i.known_s if i.known_s > 0 and math.isfinite(limited_s) else float("nan")
         uncertain = math.isfinite(sd) and sd >= UNCERTAIN_SD_DEG
         inferred = math.isfinite(share) and share >= MOSTLY_INFERRED_PCT
-        verdict = (
-            ", ".join(w for w, on in (("mostly inferred", inferred), ("uncertain", uncertain)) if on) or "measured"
-        )
+        often_held = math.isfinite(held) and held >= OFTEN_LIMITED_PCT
+        words = (("mostly inferred", inferred), ("often held at a joint limit", often_held), ("uncertain", uncertain))
+        verdict = ", ".join(w for w, on in words if on) or "measured"
         rows.append(
             InputRow(
                 body_part=i.body_part,
@@ -148,13 +153,15 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
                 concern=verdict != "measured",
                 task_input=TASK_INPUTS.get(i.body_part, "none: measured only"),
                 from_settings=_settings_words(i.from_settings),
+                limited=fmt_percent(limited_s, i.known_s) if math.isfinite(held) else "-",
             )
         )
     if not rows:
         return (), ""
     weak = [r.body_part for r in rows if r.concern]
     lead = (
-        f"The scores of {', '.join(weak)} rest on inputs that were mostly inferred or uncertain: read those "
+        f"The scores of {', '.join(weak)} rest on inputs that were mostly inferred, often held at a joint limit "
+        "or uncertain: read those "
         "body parts' bands and the scores they feed with care. "
         if weak
         else "Every body part's inputs were mostly seen and measured with a small spread. "
@@ -163,7 +170,11 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
         lead + f"Median SD: the median over the shift of the standard deviation of the body part's angles "
         f"(the largest of them in each frame); 'uncertain' from {UNCERTAIN_SD_DEG:g}° (posture bands are "
         f"10-25° wide). Inferred: share of the tracked time in which its joints were placed by the body model, "
-        f"not seen by two cameras; 'mostly inferred' from {MOSTLY_INFERRED_PCT:g} %. Where the cameras cannot "
+        f"not seen by two cameras; 'mostly inferred' from {MOSTLY_INFERRED_PCT:g} %. Held at a joint limit: share "
+        "of the tracked time in which the cameras put the head turned more than 90° from the trunk, an elbow or "
+        "a knee bent further than it can, or a knee bent backwards, and the body model held the joint at its "
+        "anatomical limit; the angle is then the limit's, not the cameras' (the other body parts have no "
+        f"limit: '-'); 'often held at a joint limit' from {OFTEN_LIMITED_PCT:g} %. Where the cameras cannot "
         "settle an input, the session's settings.toml can give it as a task input (the keys in the column "
         "'Task input in settings'; [defaults], [workers.ID] or [[periods]], docs/session-format.md). The wrist "
         "angles given there (wrist_flexion_deg, wrist_deviation_deg) replace the measurement only in frames "

@@ -179,3 +179,26 @@ def test_the_shift_summary_gives_the_share_of_the_scored_time(given):
     table = session_summary_table([summary])
     assert table["left_wrist_flexion_from_settings_pct_of_scored"][0] == pytest.approx(round(left.percent, 2))
     assert table["left_wrist_deviation_from_settings_pct_of_scored"][0] == 0.0
+
+
+def test_a_limb_held_at_a_joint_limit_is_the_cause_of_low_confidence():
+    """score_rows reads the rows' ``limited`` flags: with joints 8 cm uncertain no frame is scored
+    with confidence (frames 6-8, without a right hand, are not scored); frames 12-17, whose right knee a joint limit held, give 'joint limit', the
+    frames before them 'occluded limbs' (their left hand placed by the body model comes first),
+    the others 'uncertain angles'."""
+    rows = _rows()
+    limited = np.zeros_like(rows.inferred)
+    held = (np.arange(N) >= 12) & (np.arange(N) < 18)
+    limited[held, JOINT_INDEX["right_knee"]] = True
+    inferred = np.zeros_like(rows.inferred)
+    inferred[np.ix_(HIDDEN_LEFT, LEFT_HAND)] = True
+    fields = {
+        **rows.__dict__,
+        "std_world": np.full_like(rows.std_world, 0.08),
+        "inferred": inferred,
+        "limited": limited,
+    }
+    scored = score_rows(_session(TaskFactors()), TrackFrames(**fields), "w1", ScoringSettings())
+    assert scored["confidence"].tolist() == np.where(NAN_RIGHT, "unscored", "low").tolist()
+    expect = np.where(HIDDEN_LEFT, "occluded limbs", np.where(held, "joint limit", "uncertain angles"))
+    assert scored["cause"].tolist() == expect.tolist()

@@ -277,6 +277,7 @@ def _shift_rows(truth, P, px, conf):
         "fit": np.full(truth.shape, np.nan),
         "fit_var": np.full(truth.shape, np.nan),
         "inferred": np.zeros((n, NUM_JOINTS), bool),
+        "limited": np.zeros((n, NUM_JOINTS), bool),
         "fit_err": np.full((n, NUM_JOINTS), np.nan),
     }
 

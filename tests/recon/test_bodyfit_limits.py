@@ -113,9 +113,9 @@ def test_a_knee_elbow_or_head_the_cameras_show_past_its_limit_is_fitted_within_i
     assert np.allclose(_elbow_deg(truth, "right"), 170.0, atol=0.01)
     P, px, conf = _views(truth, rng)
     start = truth + rng.normal(0.0, 0.01, truth.shape)
-    got = {}
+    got, fits = {}, {}
     for sigma in (0.002, 0.0):
-        fit = _fit(P, px, conf, truth, start, options=B.FitOptions(limit_sigma_m=sigma))
+        fit = fits[sigma] = _fit(P, px, conf, truth, start, options=B.FitOptions(limit_sigma_m=sigma))
         got[sigma] = (
             _signed_knee_deg(fit.points_world, "left"),
             _elbow_deg(fit.points_world, "right"),
@@ -131,6 +131,13 @@ def test_a_knee_elbow_or_head_the_cameras_show_past_its_limit_is_fitted_within_i
     assert np.median(knee) > -11.5 and knee.min() > -14.5, knee
     assert np.median(elbow) < 154.0 and np.mean(elbow < 156.0) >= 0.8, elbow
     assert np.median(head) < 99.0 and head.max() < 106.0, head
+    # and the fit says which joints a limit held: the left knee, the right elbow and the face in
+    # every frame (the cameras pull each past its limit), no other joint in any
+    flags = fits[0.002].limited
+    expect = np.zeros(flags.shape[1], bool)
+    expect[[JOINT_INDEX[j] for j in ("left_knee", "right_elbow", "nose", "left_eye", "right_eye")]] = True
+    assert (flags == expect).all(), np.argwhere(flags != expect)
+    assert not fits[0.0].limited.any()
 
 
 @pytest.mark.slow
@@ -146,6 +153,35 @@ def test_a_posture_within_every_limit_is_fitted_exactly_as_without_them(rng):
     off = _fit(P, px, conf, truth, start, options=B.FitOptions(limit_sigma_m=0.0))
     assert np.array_equal(on.points_world, off.points_world)
     assert np.array_equal(on.variance_world, off.variance_world)
+    assert not on.limited.any()
+
+
+def test_the_joints_each_limit_holds_are_flagged_only_past_it(rng):
+    """limits_held: a knee 3 deg past its backward limit flags that knee, an elbow 3 deg past 150
+    that elbow, a head turned 3 deg past 90 the nose and eyes; exactly at each limit or 3 deg
+    inside it flags nothing;
+    rows with a NaN and limits turned off flag nothing."""
+    opt = B.FitOptions()
+    cases = (
+        ("left_knee_flexion", -10.0, ("left_knee",)),
+        ("right_knee_flexion", 155.0, ("right_knee",)),
+        ("left_elbow_flexion", 150.0, ("left_elbow",)),
+        ("neck_twist", 90.0, ("nose", "left_eye", "right_eye")),
+    )
+    for angle, limit_deg, joints in cases:
+        sign = np.sign(limit_deg)
+        past = B.limits_held(_posture_bodies(6, rng, **{angle: np.radians(limit_deg + sign * 3.0)}), opt)
+        inside = B.limits_held(_posture_bodies(6, rng, **{angle: np.radians(limit_deg - sign * 3.0)}), opt)
+        assert not B.limits_held(_posture_bodies(6, rng, **{angle: np.radians(limit_deg)}), opt).any(), angle
+        expect = np.isin(np.arange(past.shape[1]), [JOINT_INDEX[j] for j in joints])
+        assert (past == expect).all(), (angle, np.argwhere(past != expect))
+        assert not inside.any(), angle
+    X = _posture_bodies(2, rng, left_knee_flexion=-np.radians(30.0))
+    X[1, JOINT_INDEX["right_ankle"]] = np.nan
+    assert B.limits_held(X, opt).sum(axis=1).tolist() == [1, 0]
+    assert not B.limits_held(X, B.FitOptions(limit_sigma_m=0.0)).any()
+    # every limit holds at least one joint
+    assert B.LIMIT_HELD_JOINTS.shape == (len(B.LIMITS), X.shape[1]) and B.LIMIT_HELD_JOINTS.any(axis=1).all()
 
 
 def test_smoothed_positions_past_a_limit_move_the_least_to_within_it(rng):
@@ -188,7 +224,24 @@ def test_the_tracks_are_held_within_the_limits_after_smoothing(monkeypatch, cros
         calls.append((points.copy(), variance.copy(), options))
         return points + 0.5
 
+    flagged = []
+
+    def flag(points, options):
+        held = np.zeros(points.shape[:2], bool)
+        held[::7, JOINT_INDEX["left_knee"]] = True
+        flagged.append(held)
+        return held
+
+    real_fit = B.fit_bodies
+
+    def fit_holding_an_elbow(*args, **kwargs):
+        fit = real_fit(*args, **kwargs)
+        fit.limited[:, JOINT_INDEX["left_elbow"]] = True
+        return fit
+
     monkeypatch.setattr(pipeline, "hold_within_limits", spy)
+    monkeypatch.setattr(pipeline, "limits_held", flag)
+    monkeypatch.setattr(B, "fit_bodies", fit_holding_an_elbow)
     sr = pipeline.ShiftReconstruction(ReconSettings(), FPS, crossing.cameras)
     n = len(crossing.frames)
     people = reconstruct_frames(crossing.frames)
@@ -198,3 +251,25 @@ def test_the_tracks_are_held_within_the_limits_after_smoothing(monkeypatch, cros
     assert np.array_equal(tf.points_world, smoothed + 0.5, equal_nan=True)
     assert np.array_equal(tf.std_world**2, np.concatenate([c[1] for c in calls]), equal_nan=True)
     assert all(c[2] == B.FitOptions.from_settings(ReconSettings()) for c in calls)
+    # the rows the hold found past a limit are flagged, and the joints the fit flagged (the left
+    # elbow in every fitted row, rows without 2D keypoints are not fitted)
+    finite = np.isfinite(tf.points_world).all(axis=-1)
+    held = np.concatenate(flagged) & finite
+    elbow = JOINT_INDEX["left_elbow"]
+    others = np.arange(held.shape[1]) != elbow
+    assert held.any() and np.array_equal(tf.limited[:, others], held[:, others])
+    assert tf.limited[:, elbow].mean() > 0.8 and not (tf.limited[:, elbow] & ~finite[:, elbow]).any()
+
+
+def test_scoring_reads_the_joints_the_limits_hold():
+    """The scores' causes and the inputs' shares (ergonomics.uncertainty) look at exactly the joints
+    the fit flags (the ergonomics layer cannot import the reconstruction's table)."""
+    from ergopose.ergonomics.uncertainty import INPUT_GROUP_LIMIT_JOINTS, INPUT_GROUPS, LIMITED_SCORED_JOINTS
+
+    assert np.array_equal(np.flatnonzero(B.LIMIT_HELD_JOINTS.any(axis=0)), LIMITED_SCORED_JOINTS)
+    # each limit's joints belong to the input group whose angle it limits
+    groups = {part: set(j.tolist()) for (part, _, _), j in zip(INPUT_GROUPS, INPUT_GROUP_LIMIT_JOINTS)}
+    for name, held in zip(B.LIMITS, B.LIMIT_HELD_JOINTS):
+        side = name.split("_")[0]
+        part = "neck" if name == "head_turn" else "legs" if "knee" in name else f"{side} lower arm"
+        assert set(np.flatnonzero(held).tolist()) <= groups[part], name

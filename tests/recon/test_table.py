@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pyarrow as pa
@@ -114,3 +116,37 @@ def test_not_a_tracks_table(tmp_path):
 def test_display_names():
     assert display_names(["worker_1", "worker_2"], {"worker_2": "Ana"}) == {"worker_1": "worker_1", "worker_2": "Ana"}
     assert isinstance(pd.DataFrame(), pd.DataFrame)
+
+
+def test_the_body_model_s_flags_round_trip_and_older_tables_read_without_them(tmp_path, rng):
+    """inferred, limited and std_x/y/z come back as written; a version 2 table (written before
+    the ``limited`` column) reads as nothing held at a limit, the rest unchanged."""
+    base = _frames(rng)
+    m = len(base)
+    tf = TrackFrames(
+        **{
+            **base.__dict__,
+            "inferred": rng.random((m, 33)) < 0.2,
+            "limited": rng.random((m, 33)) < 0.1,
+            "std_world": rng.uniform(0.001, 0.05, (m, 33, 3)),
+        }
+    )
+    path = write_tracks(tmp_path / "tracks.parquet", tf, fps=12.0, cameras=("cam_1", "cam_2"))
+    assert read_metadata(path)["version"] == 3
+    back = table_to_frames(read_tracks(path))
+    assert tf.limited.any() and np.array_equal(back.limited, tf.limited)
+    assert np.array_equal(back.inferred, tf.inferred)
+    assert np.allclose(back.std_world, tf.std_world, atol=1e-7)
+    # the same file as version 2 wrote it: no limited column, version 2 in the metadata
+    info = read_metadata(path)
+    info["version"] = 2
+    old = pq.read_table(path).drop_columns(["limited"])
+    with pq.ParquetWriter(tmp_path / "v2.parquet", old.schema) as writer:
+        writer.write_table(old)
+        writer.add_key_value_metadata({b"ergopose.tracks": json.dumps(info).encode()})
+    assert read_metadata(tmp_path / "v2.parquet")["version"] == 2
+    table = read_tracks(tmp_path / "v2.parquet")
+    assert tuple(table.data.columns) == COLUMNS and not table.data["limited"].any()
+    v2 = table_to_frames(table)
+    assert not v2.limited.any() and np.array_equal(v2.inferred, tf.inferred)
+    assert np.allclose(v2.points_world, tf.points_world, atol=1e-6, equal_nan=True)

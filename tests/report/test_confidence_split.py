@@ -31,7 +31,7 @@ from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 from ergopose.pipeline.publish import WorkerOutput
 from ergopose.report import adapters
 from ergopose.report.render import render_report
-from ergopose.report.results import save_results, session_results
+from ergopose.report.results import load_results, save_results, session_results
 from report_synthetic import synthetic_session
 
 FPS = 10.0
@@ -245,3 +245,75 @@ def test_wrist_flexion_from_the_settings_is_counted_once_and_shown_alike(tmp_pat
     assert "wrist_flexion_deg" in cells
     neck = re.search(r'<tr data-input="neck">(.*?)</tr>', page).group(1)
     assert neck.endswith("<td>none</td>")
+
+
+def test_joint_limits_are_counted_once_and_shown_alike(tmp_path: Path):
+    """Ten of the 40 'low, one camera' frames relabelled 'low, joint limit' (1 s, 5 %); a knee held
+    at its limit in 30 of the 200 frames (legs 15 %: 'often held at a joint limit', from 10 %),
+    the left elbow in 4 (left lower arm 2 %), a hip in 50 (no limit concerns the trunk: no share).
+    The aggregation (in chunks of 37 and in one piece), both summary CSVs, the report and the
+    terminal show the same figures."""
+    frames, inferred = _frames()
+    cause = frames["cause"].to_numpy(dtype=object).copy()
+    low = (frames["confidence"] == "low").to_numpy()
+    cause[np.flatnonzero(low & (cause == "one camera"))[:10]] = "joint limit"  # of the 40 low, one camera
+    assert ((frames["confidence"] == "low").to_numpy() & (cause == "joint limit")).sum() == 10
+    frames["cause"] = pd.array(cause, dtype="string")
+    rng = np.random.default_rng(5)
+    limited = np.zeros((len(frames), NUM_JOINTS), dtype=bool)
+    limited[rng.permutation(200)[:30], JOINT_INDEX["right_knee"]] = True
+    limited[rng.permutation(200)[:4], JOINT_INDEX["left_elbow"]] = True
+    limited[rng.permutation(200)[:50], JOINT_INDEX["left_hip"]] = True
+    summary = aggregate_shift(
+        frames, "W1", frame_period_s=1.0 / FPS, chunk_frames=37, inferred=inferred, limited=limited
+    )
+    whole = aggregate_shift(frames, "W1", frame_period_s=1.0 / FPS, inferred=inferred, limited=limited)
+    assert summary.inputs == whole.inputs and summary.confidence == whole.confidence
+    inputs = {i.body_part: i for i in summary.inputs}
+    assert (inputs["legs"].limited_frames, inputs["legs"].limited_percent) == (30, pytest.approx(15.0))
+    assert (inputs["left lower arm"].limited_frames, inputs["left lower arm"].limited_percent) == (
+        4,
+        pytest.approx(2.0),
+    )
+    assert inputs["neck"].limited_percent == 0.0 and inputs["right lower arm"].limited_percent == 0.0
+    for part in ("trunk", "left upper arm", "right upper arm", "left wrist", "right wrist"):
+        assert math.isnan(inputs[part].limited_percent) and inputs[part].limited_frames == 0, part
+    # without limit flags no share is claimed
+    assert all(math.isnan(i.limited_percent) for i in aggregate_shift(frames, "W1", frame_period_s=0.1).inputs)
+
+    low = {ca.cause: ca for ca in summary.confidence_of("low").causes}
+    assert (low["joint limit"].time_s, low["joint limit"].percent) == pytest.approx((1.0, 5.0))
+    assert (low["one camera"].time_s, low["one camera"].percent) == pytest.approx((3.0, 15.0))
+
+    long = worker_summary_table(summary)
+    rows = long[(long["section"] == "inputs") & (long["value"] == "joint limit")].set_index("item")
+    assert sorted(rows.index) == sorted(["neck", "left lower arm", "right lower arm", "legs"])
+    assert (rows.loc["legs", "count"], rows.loc["legs", "percent"]) == (30, pytest.approx(15.0))
+    conf = long[(long["section"] == "confidence") & (long["value"] == "joint limit")].iloc[0]
+    assert (conf["item"], conf["time_s"], conf["percent"]) == ("low", pytest.approx(1.0), pytest.approx(5.0))
+    row = session_summary_table([summary]).iloc[0]
+    assert row["legs_joint_limit_pct_of_tracked"] == pytest.approx(15.0)
+    assert row["left_lower_arm_joint_limit_pct_of_tracked"] == pytest.approx(2.0)
+    assert row["low_confidence_joint_limit_s"] == pytest.approx(1.0) and row["unscored_joint_limit_s"] == 0.0
+    assert "trunk_joint_limit_pct_of_tracked" not in row.index
+
+    session, workers = synthetic_session(n_workers=1, duration_s=20.0, fps=FPS, gaps=False, csv=False)
+    _, diag, table = workers[0]
+    record = adapters.worker_summary(summary)
+    save_results(tmp_path, session, [(record, diag, table)])
+    render_report(tmp_path, session_results(session, [(record, diag, table)]))
+    page = (tmp_path / "worker-W1.html").read_text(encoding="utf-8")
+    legs = _text(re.search(r'<tr data-input="legs">(.*?)</tr>', page).group(1))
+    assert "15.0 %" in legs and "often held at a joint limit" in legs
+    arm = _text(re.search(r'<tr data-input="left lower arm">(.*?)</tr>', page).group(1))
+    assert " 2.0 % " in arm and "joint limit" not in arm
+    trunk = _text(re.search(r'<tr data-input="trunk">(.*?)</tr>', page).group(1))
+    assert " - " in trunk and "joint limit" not in trunk
+    row = re.search(r'<tr data-confidence="low">(.*?)</tr>', page).group(1)
+    assert "joint limit 1.0 s (5.0 %)" in row and "one camera 3.0 s (15.0 %)" in row
+    terminal = "\n".join(worker_lines(WorkerOutput(worker_id="W1", name="W1", summary=summary, csv_files=())))
+    assert "one camera 3.0 s (15.0 %); occluded limbs 2.0 s (10.0 %); joint limit 1.0 s (5.0 %)" in terminal
+    # stored and loaded again: the same page
+    loaded = {i.body_part: i for i in load_results(tmp_path).workers[0].summary.inputs}
+    assert loaded["legs"].limited_s == pytest.approx(3.0) and loaded["left lower arm"].limited_s == pytest.approx(0.4)
+    assert math.isnan(loaded["trunk"].limited_s)

@@ -1,0 +1,47 @@
+"""The cause given to a frame that is not scored with confidence (ergopose.ergonomics.uncertainty.
+frame_confidence): one frame per case, worked out by hand from the module's rules -- the first of
+not seen, one camera, occluded limbs, joint limit that applies, else uncertain angles; nothing
+for a confident frame."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENT_P, LIMITED_SCORED_JOINTS, frame_confidence
+from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
+
+LOW = CONFIDENT_P - 0.1
+HIGH = CONFIDENT_P + 0.1
+
+
+def test_each_cause_in_its_order():
+    # (rula p, reba p, most cameras, inferred joint, limited joint) -> (confidence, cause)
+    cases = [
+        ((HIGH, HIGH, 2, None, "left_knee"), ("confident", "")),
+        ((np.nan, HIGH, 0, "left_knee", "left_knee"), ("unscored", "not seen")),
+        ((LOW, HIGH, 1, "left_knee", "left_knee"), ("low", "one camera")),
+        ((HIGH, LOW, 2, "left_wrist", "right_elbow"), ("low", "occluded limbs")),
+        ((LOW, LOW, 2, None, "right_knee"), ("low", "joint limit")),
+        ((LOW, HIGH, 2, None, "nose"), ("low", "joint limit")),
+        ((LOW, HIGH, 2, None, "left_elbow"), ("low", "joint limit")),
+        ((LOW, HIGH, 2, None, "left_hip"), ("low", "uncertain angles")),  # no limit holds a hip
+        ((LOW, HIGH, 2, "left_foot_index", None), ("low", "uncertain angles")),  # a joint no score needs
+        ((LOW, HIGH, 2, None, None), ("low", "uncertain angles")),
+    ]
+    n = len(cases)
+    rula, reba, seen = (np.array([c[0][k] for c in cases], float) for k in range(3))
+    inferred = np.zeros((n, NUM_JOINTS), bool)
+    limited = np.zeros((n, NUM_JOINTS), bool)
+    for i, ((_, _, _, inf, lim), _) in enumerate(cases):
+        if inf:
+            inferred[i, JOINT_INDEX[inf]] = True
+        if lim:
+            limited[i, JOINT_INDEX[lim]] = True
+    conf, cause = frame_confidence(rula, reba, None, inferred, seen.astype(int), limited)
+    assert list(zip(conf, cause)) == [c[1] for c in cases]
+    # without limit flags (results of a tracks table before them) those frames are uncertain angles
+    _, cause = frame_confidence(rula, reba, None, inferred, seen.astype(int))
+    assert "joint limit" not in set(cause) and list(cause[4:7]) == ["uncertain angles"] * 3
+    assert CAUSES.index("occluded limbs") < CAUSES.index("joint limit") < CAUSES.index("uncertain angles")
+    names = {n for n, j in JOINT_INDEX.items() if j in set(LIMITED_SCORED_JOINTS.tolist())}
+    assert names == {"nose", "left_eye", "right_eye", "left_elbow", "right_elbow", "left_knee", "right_knee"}
