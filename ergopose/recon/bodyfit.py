@@ -423,9 +423,15 @@ def limits_held(
         return held
     ok = np.flatnonzero(np.isfinite(X).all(axis=(1, 2)))
     if len(ok):
-        passed = limit_terms(X[ok], options)[2] < -tolerance_m  # (h, limits)
-        held[ok] = np.matmul(passed.astype(np.int64), LIMIT_HELD_JOINTS.astype(np.int64)) > 0
+        held[ok] = _held_joints(limit_terms(X[ok], options)[2], tolerance_m)
     return held
+
+
+def _held_joints(values: np.ndarray, tolerance_m: float = LIMIT_HELD_TOLERANCE_M) -> np.ndarray:
+    """(h, limits) values of the limit terms (:func:`limit_terms`; negative = passed) -> (h, 33)
+    bool, the joints of the limits passed by more than ``tolerance_m``."""
+    passed = (values < -tolerance_m).astype(np.int64)
+    return np.asarray(np.matmul(passed, LIMIT_HELD_JOINTS.astype(np.int64)) > 0)
 
 
 def limit_terms(X: np.ndarray, opt: "FitOptions") -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -858,7 +864,8 @@ def fit_bodies(
         reprojection_error_px=rms,
         cost=r["cost"],
         noise_scale=noise,
-        limited=limits_held(X, opt),
+        # the limit terms' values at the solution (clipped at 0: only the passed ones are kept)
+        limited=_held_joints(r["lim_v"]),
     )
 
 
