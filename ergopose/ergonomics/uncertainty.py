@@ -17,8 +17,14 @@ angles and the RULA and REBA scores are computed for every draw exactly as for t
 - ``rula_grand_low`` / ``rula_grand_high``, ``reba_score_low`` / ``reba_score_high``: the lowest
   and highest score of the middle 80 % of the draws (10th and 90th percentile);
 - ``confidence``: ``confident`` when both reported scores have a probability of at least
-  ``CONFIDENT_P``, ``low`` when scored with less, ``unscored`` when a score is missing;
-- ``cause``: why a frame is not confident: ``not seen`` (no camera saw the worker in this
+  ``CONFIDENT_P`` and no joint limit held a joint the scores need, ``low`` when scored otherwise,
+  ``unscored`` when a score is missing. A held joint is never confident: the cameras showed a
+  posture the body cannot take, so their keypoints of that joint are wrong by more than the
+  fit's uncertainty says (measured on the simulated demo with the network: the elbow flexion where
+  a limit held the elbow was 101-111 deg off the truth (RMSE), 1 of 101 rows within 2 reported
+  SDs; docs/reconstruction.md, "Which joints a limit held");
+- ``cause``: why a frame is not confident (``joint limit`` for a frame whose scores are sure
+  but for a held joint; otherwise the first that applies of): ``not seen`` (no camera saw the worker in this
   frame), ``one camera`` (only one camera saw the worker), ``occluded limbs`` (joints the scores
   need were placed by the body model, not seen by two cameras), ``joint limit`` (the cameras put
   an elbow, a knee or the head past its anatomical range and the body model held it at the
@@ -255,17 +261,19 @@ def frame_confidence(
     (None = none). seen_cameras None = unknown (no cause given)."""
     n = len(rula_p)
     scored = np.isfinite(rula_p) & np.isfinite(reba_p)
+    held = np.asarray(limited)[:, LIMITED_SCORED_JOINTS].any(axis=1) if limited is not None else np.zeros(n, bool)
     with np.errstate(invalid="ignore"):
-        confident = scored & (rula_p >= CONFIDENT_P) & (reba_p >= CONFIDENT_P)
+        sure = scored & (rula_p >= CONFIDENT_P) & (reba_p >= CONFIDENT_P)
+    confident = sure & ~held
     conf = np.where(confident, "confident", np.where(scored, "low", "unscored")).astype(object)
     cause = np.full(n, "", dtype=object)
     if seen_cameras is not None:
         occluded = inferred[:, SCORED_JOINTS].any(axis=1) if inferred is not None else np.zeros(n, bool)
-        held = np.asarray(limited)[:, LIMITED_SCORED_JOINTS].any(axis=1) if limited is not None else np.zeros(n, bool)
         cause = np.select(
             [seen_cameras == 0, seen_cameras == 1, occluded, held],
             ["not seen", "one camera", "occluded limbs", "joint limit"],
             "uncertain angles",
         ).astype(object)
+        cause[sure & held] = "joint limit"  # sure of the scores but for the limit: the limit is why
         cause[confident] = ""
     return conf, cause

@@ -118,7 +118,8 @@ def confidence_rows(summary: WorkerSummary) -> tuple[tuple[ConfidenceRow, ...], 
         )
     note = (
         "Shares are of the tracked time. A frame is scored with confidence when both its RULA and its REBA "
-        "score keep their value in most draws of the joints within their measured uncertainty; causes: not "
+        "score keep their value in most draws of the joints within their measured uncertainty and no joint "
+        "they need was held at a joint limit; causes: not "
         "seen = no camera saw the worker, one camera = only one camera did, occluded limbs = joints the "
         "scores need were placed by the body model, joint limit = the cameras put the head, an elbow or a knee "
         "past its anatomical range and the body model held it at the limit, uncertain angles = seen, but the "

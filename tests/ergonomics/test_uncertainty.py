@@ -1,7 +1,9 @@
-"""The cause given to a frame that is not scored with confidence (ergopose.ergonomics.uncertainty.
-frame_confidence): one frame per case, worked out by hand from the module's rules -- the first of
-not seen, one camera, occluded limbs, joint limit that applies, else uncertain angles; nothing
-for a confident frame."""
+"""The confidence of a frame and the cause given when it is not confident (ergopose.ergonomics.
+uncertainty.frame_confidence): one frame per case, worked out by hand from the module's rules --
+confident when both scores' probabilities reach CONFIDENT_P and no joint the scores need was held
+at a joint limit; the cause of a frame held back only by the limit is joint limit, of the others
+the first of not seen, one camera, occluded limbs, joint limit that applies, else uncertain
+angles; nothing for a confident frame."""
 
 from __future__ import annotations
 
@@ -17,7 +19,12 @@ HIGH = CONFIDENT_P + 0.1
 def test_each_cause_in_its_order():
     # (rula p, reba p, most cameras, inferred joint, limited joint) -> (confidence, cause)
     cases = [
-        ((HIGH, HIGH, 2, None, "left_knee"), ("confident", "")),
+        ((HIGH, HIGH, 2, None, None), ("confident", "")),
+        ((HIGH, HIGH, 2, None, "left_hip"), ("confident", "")),  # no limit holds a hip
+        ((HIGH, HIGH, 2, None, "left_knee"), ("low", "joint limit")),  # a held joint is never confident
+        ((HIGH, HIGH, 2, "left_wrist", "left_knee"), ("low", "joint limit")),  # the limit is why
+        ((HIGH, HIGH, 1, None, "nose"), ("low", "joint limit")),
+        ((HIGH, LOW, 2, "left_wrist", "left_knee"), ("low", "occluded limbs")),  # unsure anyway: first cause
         ((np.nan, HIGH, 0, "left_knee", "left_knee"), ("unscored", "not seen")),
         ((LOW, HIGH, 1, "left_knee", "left_knee"), ("low", "one camera")),
         ((HIGH, LOW, 2, "left_wrist", "right_elbow"), ("low", "occluded limbs")),
@@ -40,8 +47,9 @@ def test_each_cause_in_its_order():
     conf, cause = frame_confidence(rula, reba, None, inferred, seen.astype(int), limited)
     assert list(zip(conf, cause)) == [c[1] for c in cases]
     # without limit flags (results of a tracks table before them) those frames are uncertain angles
-    _, cause = frame_confidence(rula, reba, None, inferred, seen.astype(int))
-    assert "joint limit" not in set(cause) and list(cause[4:7]) == ["uncertain angles"] * 3
+    conf, cause = frame_confidence(rula, reba, None, inferred, seen.astype(int))
+    assert "joint limit" not in set(cause) and list(cause[9:12]) == ["uncertain angles"] * 3
+    assert conf[2] == "confident" and cause[2] == ""
     assert CAUSES.index("occluded limbs") < CAUSES.index("joint limit") < CAUSES.index("uncertain angles")
     names = {n for n, j in JOINT_INDEX.items() if j in set(LIMITED_SCORED_JOINTS.tolist())}
     assert names == {"nose", "left_eye", "right_eye", "left_elbow", "right_elbow", "left_knee", "right_knee"}
