@@ -229,7 +229,7 @@ def frame_columns() -> tuple[str, ...]:
         cols += [f"{a}_deg", f"{a}_sd_deg"]
     for score, level in FRAME_SCORES:
         cols += [score, f"{score}_p", f"{score}_low", f"{score}_high", level]
-    cols += ["scored", "confidence", "cause", "inputs_from_settings"]
+    cols += ["scored", "confidence", "cause", "held_at_limit", "inputs_from_settings"]
     return tuple(cols)
 
 
@@ -318,6 +318,7 @@ def frames_table(
     out["scored"] = np.where(present, YES, NO).astype(object)
     out["confidence"] = confidence
     out["cause"] = _text_column(frames, "cause")
+    out["held_at_limit"] = _text_column(frames, "held_at_limit")
     out["inputs_from_settings"] = _text_column(frames, TASK_INPUTS_COLUMN)
     table = pd.DataFrame(out)
     return table[list(frame_columns())]

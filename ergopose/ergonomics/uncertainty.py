@@ -29,7 +29,10 @@ angles and the RULA and REBA scores are computed for every draw exactly as for t
   need were placed by the body model, not seen by two cameras), ``joint limit`` (the cameras put
   an elbow, a knee or the head past its anatomical range and the body model held it at the
   limit), ``uncertain angles`` (seen, but the angles are too uncertain for the score), empty when
-  confident.
+  confident;
+- ``held_at_limit``: the body parts whose angles a joint limit held in the frame (``neck``,
+  ``left lower arm``, ``right lower arm``, ``legs``), joined by ";"; empty when none
+  (:func:`held_parts`).
 
 The draws come from fixed, seeded standard normal numbers, one set per draw and the same in every
 frame (the estimate's errors last; :func:`iter_samples`), so a frame gets the same draws however
@@ -86,6 +89,7 @@ SCORE_COLUMNS = (
     "reba_score_high",
     "confidence",
     "cause",
+    "held_at_limit",
 )
 CONFIDENCE_LEVELS = ("confident", "low", "unscored")
 #: Causes of a frame that is not confident, in the order reports list them.
@@ -160,6 +164,21 @@ INPUT_GROUP_LIMIT_JOINTS = tuple(
 )
 #: Every joint whose ``limited`` flag concerns a score (the union of INPUT_GROUP_LIMIT_JOINTS).
 LIMITED_SCORED_JOINTS = np.unique(np.concatenate(INPUT_GROUP_LIMIT_JOINTS))
+
+
+def held_parts(limited: np.ndarray | None, n: int) -> np.ndarray:
+    """(n,) object array: per frame the INPUT_GROUPS body parts whose angles a joint limit held
+    (limited: (n, 33) the tracks table's flags; None = none), joined by ";" in INPUT_GROUPS order;
+    "" where none."""
+    text = np.full(n, "", dtype=object)
+    if limited is None:
+        return text
+    flags = np.asarray(limited, dtype=bool)
+    for (part, _, _), joints in zip(INPUT_GROUPS, INPUT_GROUP_LIMIT_JOINTS):
+        if len(joints):
+            mask = flags[:, joints].any(axis=1)
+            text = np.where(mask, np.where(text == "", part, text + ";" + part), text)
+    return text
 
 
 def _normals() -> np.ndarray:

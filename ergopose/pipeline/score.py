@@ -149,6 +149,7 @@ def score_uncertainty(
     )
     out["confidence"] = pd.array(conf, dtype="string")
     out["cause"] = pd.array(cause, dtype="string")
+    out["held_at_limit"] = pd.array(U.held_parts(getattr(rows, "limited", None), n), dtype="string")
     return out
 
 

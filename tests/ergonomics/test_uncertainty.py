@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENT_P, LIMITED_SCORED_JOINTS, frame_confidence
+from ergopose.ergonomics.uncertainty import CAUSES, CONFIDENT_P, LIMITED_SCORED_JOINTS, frame_confidence, held_parts
 from ergopose.keypoints import JOINT_INDEX, NUM_JOINTS
 
 LOW = CONFIDENT_P - 0.1
@@ -53,3 +53,20 @@ def test_each_cause_in_its_order():
     assert CAUSES.index("occluded limbs") < CAUSES.index("joint limit") < CAUSES.index("uncertain angles")
     names = {n for n, j in JOINT_INDEX.items() if j in set(LIMITED_SCORED_JOINTS.tolist())}
     assert names == {"nose", "left_eye", "right_eye", "left_elbow", "right_elbow", "left_knee", "right_knee"}
+
+
+def test_the_parts_held_at_a_limit_are_named_per_frame():
+    """held_parts: the body parts of the held joints, in the summaries' order, joined by ";"; a
+    joint no limit holds (a hip) names nothing."""
+    held = [(), ("right_knee",), ("left_eye", "left_knee", "right_elbow"), ("left_hip",), ("nose", "left_elbow")]
+    limited = np.zeros((len(held), NUM_JOINTS), bool)
+    for i, joints in enumerate(held):
+        limited[i, [JOINT_INDEX[j] for j in joints]] = True
+    assert held_parts(limited, len(held)).tolist() == [
+        "",
+        "legs",
+        "neck;right lower arm;legs",
+        "",
+        "neck;left lower arm",
+    ]
+    assert held_parts(None, 2).tolist() == ["", ""]

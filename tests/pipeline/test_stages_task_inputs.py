@@ -202,3 +202,4 @@ def test_a_limb_held_at_a_joint_limit_is_the_cause_of_low_confidence():
     assert scored["confidence"].tolist() == np.where(NAN_RIGHT, "unscored", "low").tolist()
     expect = np.where(HIDDEN_LEFT, "occluded limbs", np.where(held, "joint limit", "uncertain angles"))
     assert scored["cause"].tolist() == expect.tolist()
+    assert scored["held_at_limit"].tolist() == np.where(held, "legs", "").tolist()
