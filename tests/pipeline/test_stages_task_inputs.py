@@ -17,7 +17,7 @@ import pytest
 
 from ergopose.ergonomics import body
 from ergopose.ergonomics.aggregate import aggregate_shift
-from ergopose.ergonomics.export import session_summary_table, worker_summary_table
+from ergopose.ergonomics.export import frames_table, session_summary_table, worker_summary_table
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.keypoints import JOINT_INDEX
 from ergopose.pipeline.score import score_rows
@@ -203,3 +203,8 @@ def test_a_limb_held_at_a_joint_limit_is_the_cause_of_low_confidence():
     expect = np.where(HIDDEN_LEFT, "occluded limbs", np.where(held, "joint limit", "uncertain angles"))
     assert scored["cause"].tolist() == expect.tolist()
     assert scored["held_at_limit"].tolist() == np.where(held, "legs", "").tolist()
+    # the frames CSV's table carries it, beside the cause
+    table = frames_table(scored)
+    assert table["held_at_limit"].tolist() == np.where(held, "legs", "").tolist()
+    columns = list(table.columns)
+    assert columns.index("held_at_limit") == columns.index("cause") + 1
