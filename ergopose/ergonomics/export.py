@@ -524,22 +524,13 @@ def worker_summary_table(summary: ShiftSummary) -> pd.DataFrame:
                 count=i.measured_frames,
                 sd_deg=math.degrees(i.median_sd_rad),
             )
-        if i.known_frames:
-            row(
-                section="inputs",
-                item=i.body_part,
-                value="inferred",
-                count=i.inferred_frames,
-                percent=i.inferred_percent,
-            )
-        if math.isfinite(i.limited_percent):
-            row(
-                section="inputs",
-                item=i.body_part,
-                value="joint limit",
-                count=i.limited_frames,
-                percent=i.limited_percent,
-            )
+        shares = (
+            ("inferred", i.inferred_frames, i.inferred_percent, i.known_frames > 0),
+            ("joint limit", i.limited_frames, i.limited_percent, math.isfinite(i.limited_percent)),
+        )
+        for kind, count, share, known in shares:
+            if known:
+                row(section="inputs", item=i.body_part, value=kind, count=count, percent=share)
     for u in summary.from_settings:
         row(
             section="inputs",

@@ -376,20 +376,12 @@ _LIMIT_HSUB2 = np.ascontiguousarray(
 
 _XYZ = np.arange(3)
 
-#: The joints each limit holds, as the tracks table's ``limited`` flags them: the elbow for an
-#: elbow's flexion, the knee for a knee's flexion and hyperextension, the face's points (nose and
-#: eyes) for the head's turn.
-_HELD_BY_LIMIT = (
-    ("left_elbow",),
-    ("right_elbow",),
-    ("left_knee",),
-    ("right_knee",),
-    ("left_knee",),
-    ("right_knee",),
-    ("nose", "left_eye", "right_eye"),
-)
-#: (limits, 33) bool: LIMIT_HELD_JOINTS[l, j] when limit l holds joint j.
-LIMIT_HELD_JOINTS = np.array([np.isin(np.arange(J), [JOINT_INDEX[n] for n in held]) for held in _HELD_BY_LIMIT])
+#: (limits, 33) bool: the joints each limit holds, as the tracks table's ``limited`` flags them:
+#: the middle point of a limb limit (the elbow for an elbow's flexion, the knee for a knee's
+#: flexion and hyperextension), the face's points (nose and eyes) for the head's turn.
+LIMIT_HELD_JOINTS = np.zeros((len(_LIMITS), J), bool)
+LIMIT_HELD_JOINTS[np.arange(len(_LIMB_POINTS)), _LIMB_POINTS[:, 1]] = True
+LIMIT_HELD_JOINTS[_FACE, list(_LIMITS[_FACE][2])] = True
 #: A limit counts as holding a pose passed by more than this (metres): with the limits' sigma of
 #: 2 mm the fit leaves a pose the cameras pull past a limit a little beyond it.
 LIMIT_HELD_TOLERANCE_M = 1e-4

@@ -390,9 +390,7 @@ def worker_summary(
             median_sd_rad=float(i.median_sd_rad),
             inferred_s=i.inferred_frames * period,
             known_s=i.known_frames * period,
-            limited_s=(
-                i.limited_frames * period if math.isfinite(getattr(i, "limited_percent", math.nan)) else math.nan
-            ),
+            limited_s=i.limited_frames * period if math.isfinite(i.limited_percent) else math.nan,
             from_settings=tuple(
                 SettingsValue(u.input, float(u.value_rad), float(u.time_s), scored_s)
                 for u in used

@@ -138,8 +138,7 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
     for i in summary.inputs:
         sd = math.degrees(i.median_sd_rad)
         share = 100.0 * i.inferred_s / i.known_s if i.known_s > 0 else float("nan")
-        limited_s = float(getattr(i, "limited_s", math.nan))
-        held = 100.0 * limited_s / i.known_s if i.known_s > 0 and math.isfinite(limited_s) else float("nan")
+        held = 100.0 * i.limited_s / i.known_s if i.known_s > 0 and math.isfinite(i.limited_s) else float("nan")
         uncertain = math.isfinite(sd) and sd >= UNCERTAIN_SD_DEG
         inferred = math.isfinite(share) and share >= MOSTLY_INFERRED_PCT
         often_held = math.isfinite(held) and held >= OFTEN_LIMITED_PCT
@@ -154,7 +153,7 @@ def input_rows(summary: WorkerSummary) -> tuple[tuple[InputRow, ...], str]:
                 concern=verdict != "measured",
                 task_input=TASK_INPUTS.get(i.body_part, "none: measured only"),
                 from_settings=_settings_words(i.from_settings),
-                limited=fmt_percent(limited_s, i.known_s) if math.isfinite(held) else "-",
+                limited=fmt_percent(i.limited_s, i.known_s) if math.isfinite(held) else "-",
             )
         )
     if not rows:
