@@ -13,7 +13,8 @@ Every definition (which joints, which plane, which sign) is in docs/joint-angles
   then the angle OUT of that plane (side bend / abduction), then the turn about the segment's own
   axis (twist). For a full frame this is the intrinsic y-x-z Euler sequence of the segment relative
   to its parent (x forward, y left, z up).
-- Parents: trunk -> the pelvis frame (hip line, level, world vertical); neck -> the trunk frame;
+- Parents: trunk -> the pelvis frame (hip line, level, world vertical); neck (the line from the
+  mid-shoulder to the mid-ear point, turned by the ear line) -> the trunk frame;
   upper arm -> the trunk frame; hip -> the pelvis frame; wrist -> measured in the hand frame,
   because the forearm's roll is not observable.
 - Angles are radians; degrees only at the CSV/report edges. NaN wherever a needed joint is NaN or
@@ -49,9 +50,9 @@ _EPS = 1e-9  # metres: vectors shorter than this are degenerate
 class AngleSettings:
     """Settings of the angle definitions and the stance/flag thresholds (radians, metres, seconds).
 
-    head_pitch_offset: how far the line from the mid-ear point to the mean of nose and eyes points
-        below the head's neutral forward direction (Frankfurt plane). 0 = that line is level in a
-        neutral head; with real landmarks this is a calibration constant (see docs).
+    neck_neutral_offset: how far forward of the trunk axis the neck line (mid-shoulder -> mid-ear)
+        leans in the neutral posture; neck flexion is reduced by it. 0 = ear, shoulder and hip in
+        one line (the plumb line of ideal standing posture; see docs/joint-angles.md).
     trunk_length_m: mid-hip to mid-shoulder distance with relaxed shoulders, the reference of
         shoulder elevation; None = the median over the sequence of both shoulders' heights along the
         trunk axis (assumes the shoulders are relaxed most of the time).
@@ -72,7 +73,7 @@ class AngleSettings:
         least this high above the floor (a deep squat has the hips lower).
     """
 
-    head_pitch_offset: float = 0.0
+    neck_neutral_offset: float = 0.0
     trunk_length_m: float | None = None
     rotation_min_elbow_flexion: float = math.radians(20.0)
     foot_contact_height_m: float = 0.12
@@ -342,11 +343,11 @@ def joint_angles(
     for start in range(0, n, CHUNK_FRAMES):
         part = _frame_local(pts[start : start + CHUNK_FRAMES], s)
         if not out:
-            out = {k: np.empty(n) for k in part}
+            out = {k: np.empty((n,) + v.shape[1:]) for k, v in part.items()}
         for k, v in part.items():
             out[k][start : start + v.shape[0]] = v
     if n == 0:
-        out = {k: np.empty(0) for k in _frame_local(pts, s)}
+        out = _frame_local(pts, s)
 
     # Shoulder elevation: each shoulder's height along the trunk axis above the reference.
     heights = {side: out.pop(f"_{side}_shoulder_height") for side in SIDES}
@@ -362,9 +363,39 @@ def joint_angles(
             elevation = np.arctan2(heights[side] - reference, half_width)
             out[f"{side}_shoulder_elevation"] = elevation
 
+    mid_ear, ear_line = out.pop("_mid_ear_trunk"), out.pop("_ear_line_trunk")
+    out["neck_flexion"], out["neck_side_bend"], out["neck_twist"] = _neck(mid_ear, ear_line, reference, s)
+
     out["time_s"] = t
     out.update(_stance(pts, t, time_s is not None, out, s))
     return JointAngles(**out)
+
+
+def _neck(
+    mid_ear_trunk: np.ndarray, ear_line_trunk: np.ndarray, neck_base_height: float, s: AngleSettings
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Neck flexion, side bend and twist (radians, (F,) each) of the neck frame in the trunk frame.
+
+    The neck frame: z = neck base -> mid-ear point (the neck line), y = right ear -> left ear made
+    perpendicular to z, x = y cross z; turned back about y by ``neck_neutral_offset``. The neck
+    base is the point of the trunk axis at the relaxed shoulder height above mid-hip
+    (``neck_base_height``, the reference of shoulder elevation), so shrugging the shoulders moves
+    no neck angle. Inputs are in the trunk frame: (F, 3) mid-ear point relative to mid-hip, (F, 3)
+    ear line. The face points are not used: a ceiling camera sees the top of the head, where a
+    network's nose and eyes are guesses (docs/joint-angles.md, "The neck").
+    """
+    if mid_ear_trunk.shape[0] == 0:
+        empty = np.empty(0)
+        return empty, empty.copy(), empty.copy()
+    with np.errstate(invalid="ignore"):
+        neck_z = _unit(mid_ear_trunk - np.array([0.0, 0.0, neck_base_height]))
+        neck_y = _perp_unit(ear_line_trunk, neck_z)
+        neck_x = np.cross(neck_y, neck_z)
+        neck = _frame(neck_x, neck_y, neck_z)
+    if s.neck_neutral_offset != 0.0:
+        co, so = math.cos(-s.neck_neutral_offset), math.sin(-s.neck_neutral_offset)
+        neck = neck @ np.array([[co, 0.0, so], [0.0, 1.0, 0.0], [-so, 0.0, co]])
+    return _yxz(neck)
 
 
 def _shoulder_heights(pts: np.ndarray, mid_hip: np.ndarray, trunk_z: np.ndarray) -> list[np.ndarray]:
@@ -408,19 +439,11 @@ def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
     f, b, c = _yxz(np.matmul(np.swapaxes(pelvis, 1, 2), trunk))
     out["trunk_flexion"], out["trunk_side_bend"], out["trunk_twist"] = f, b, c
 
-    # Head frame: y = right ear -> left ear, x = toward the mean of nose and eyes, then the pitch offset.
+    # For the neck (finished over the whole sequence, from the neck base at the relaxed shoulder
+    # height): the mid-ear point above mid-hip and the ear line, both in the trunk frame.
     l_ear, r_ear = _p(pts, "left_ear"), _p(pts, "right_ear")
-    mid_ear = 0.5 * (l_ear + r_ear)
-    face = (_p(pts, "nose") + _p(pts, "left_eye") + _p(pts, "right_eye")) / 3.0
-    head_y = _unit(l_ear - r_ear)
-    head_x = _perp_unit(face - mid_ear, head_y)
-    head_z = np.cross(head_x, head_y)
-    head = _frame(head_x, head_y, head_z)
-    if s.head_pitch_offset != 0.0:
-        co, so = math.cos(-s.head_pitch_offset), math.sin(-s.head_pitch_offset)
-        head = head @ np.array([[co, 0.0, so], [0.0, 1.0, 0.0], [-so, 0.0, co]])
-    f, b, c = _yxz(np.matmul(np.swapaxes(trunk, 1, 2), head))
-    out["neck_flexion"], out["neck_side_bend"], out["neck_twist"] = f, b, c
+    out["_mid_ear_trunk"] = _in_frame(trunk, 0.5 * (l_ear + r_ear) - mid_hip)
+    out["_ear_line_trunk"] = _in_frame(trunk, l_ear - r_ear)
 
     # For shoulder elevation (finished over the whole sequence): heights along the trunk axis and
     # the shoulders' distance from the trunk axis.

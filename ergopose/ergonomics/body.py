@@ -86,10 +86,12 @@ WINTER_FRACTIONS: dict[str, float] = {
 
 #: Face points in the head frame (x forward, y left, z up; origin at the neck base), in units of
 #: head_height (neck base to vertex). ergopose's approximation of an adult head with the Frankfurt
-#: plane horizontal: tragion (ear) 0.60 above the neck base; eye centres 0.65 up and 0.33 forward,
-#: 0.20 apart; nose tip 0.41 forward. The nose is placed so that the mean of the nose and the two
-#: eye centres is level with the ears: the head-frame definition in angles.py (ears -> that mean)
-#: then reads 0 neck flexion for this neutral head, with its default head_pitch_offset of 0.
+#: plane horizontal: tragion (ear) 0.60 straight above the neck base (the ear over the shoulder, as
+#: the plumb line of ideal standing posture runs); eye centres 0.65 up and 0.33 forward, 0.20
+#: apart; nose tip 0.41 forward, placed so that the mean of the nose and the two eye centres is
+#: level with the ears. The neck frame of angles.py (neck base -> mid-ear, turned by the ear line;
+#: its neck base is the trunk axis at the relaxed shoulder height, here the trunk length) is then
+#: this head frame, and reads the posture's neck angles exactly.
 FACE_POINTS_IN_HEAD: dict[str, tuple[float, float, float]] = {
     "nose": (0.41, 0.0, 3 * 0.604 - 2 * 0.648),
     "left_eye_inner": (0.32, 0.055, 0.648),
@@ -98,8 +100,8 @@ FACE_POINTS_IN_HEAD: dict[str, tuple[float, float, float]] = {
     "right_eye_inner": (0.32, -0.055, 0.648),
     "right_eye": (0.33, -0.099, 0.648),
     "right_eye_outer": (0.31, -0.154, 0.648),
-    "left_ear": (0.055, 0.236, 0.604),
-    "right_ear": (0.055, -0.236, 0.604),
+    "left_ear": (0.0, 0.236, 0.604),
+    "right_ear": (0.0, -0.236, 0.604),
     "mouth_left": (0.357, 0.082, 0.44),
     "mouth_right": (0.357, -0.082, 0.44),
 }

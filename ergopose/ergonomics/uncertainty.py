@@ -101,7 +101,6 @@ SCORED_JOINTS = np.array(
     [
         JOINT_INDEX[n]
         for n in (
-            "nose",
             "left_ear",
             "right_ear",
             "left_shoulder",
@@ -128,7 +127,11 @@ SCORED_JOINTS = np.array(
 #: The RULA/REBA inputs whose certainty the shift summary reports, per body part: (body part in
 #: words, its SD_ANGLES angles, the joints those angles are measured from).
 INPUT_GROUPS = (
-    ("neck", ("neck_flexion", "neck_side_bend", "neck_twist"), ("nose", "left_ear", "right_ear")),
+    (
+        "neck",
+        ("neck_flexion", "neck_side_bend", "neck_twist"),
+        ("left_ear", "right_ear", "left_shoulder", "right_shoulder"),
+    ),
     (
         "trunk",
         ("trunk_flexion", "trunk_side_bend", "trunk_twist"),

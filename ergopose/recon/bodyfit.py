@@ -339,7 +339,7 @@ def prior_links(X: np.ndarray, scale: np.ndarray) -> FloatArray:
 #:   by at most 45 degrees either way, so a bent knee is always ahead of it); where the line runs
 #:   within 10 degrees of that direction the term is off;
 #: - the face looks forwards of the trunk (``fit_head_max_turn_rad``): the angle between the line
-#:   from the mid-ears to the mean of nose and eyes (as ergonomics.angles' head frame) and the
+#:   from the mid-ears to the mean of nose and eyes (the face's direction) and the
 #:   trunk's forward direction stays within the limit, a head turned further than the neck turns.
 #: A network's keypoints of a body seen from above put knees behind the leg and faces on the back
 #: of the head (docs/reconstruction.md, "Joint limits").

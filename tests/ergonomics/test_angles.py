@@ -134,11 +134,11 @@ def test_shoulder_reference_defaults_to_the_sequence_median(rng):
     assert angle_error_deg(result.right_shoulder_elevation, elev_r).max() < 0.5
 
 
-def test_head_pitch_offset_shifts_neck_flexion():
+def test_neck_neutral_offset_shifts_neck_flexion():
     m = BodyMeasurements.from_stature(1.80)
     pts = pose_skeleton(m, Posture(neck_flexion=np.radians([-20.0, 0.0, 35.0])))
     plain = joint_angles(pts)
-    shifted = joint_angles(pts, settings=AngleSettings(head_pitch_offset=D(8)))
+    shifted = joint_angles(pts, settings=AngleSettings(neck_neutral_offset=D(8)))
     np.testing.assert_allclose(plain.neck_flexion, np.radians([-20.0, 0.0, 35.0]), atol=1e-12)
     np.testing.assert_allclose(shifted.neck_flexion, plain.neck_flexion - D(8), atol=1e-12)
 
@@ -249,9 +249,11 @@ def test_trunk_side_bend_is_positive_to_the_right_and_twist_to_the_left():
 
 
 def _set_head(pts, forward, lateral, distance=0.09, half_ears=0.07):
-    """Ears at mid-ear +- half_ears * lateral; nose and eyes centred at mid-ear + distance * forward."""
-    mid_ear = np.array([0, 0, 1.60])
+    """The head turned about the mid-shoulder point (0, 0, 1.40) to its forward and lateral axes
+    (unit, perpendicular): mid-ear 0.2 m along its up axis (forward x lateral), ears at mid-ear +-
+    half_ears * lateral; nose and eyes centred at mid-ear + distance * forward."""
     forward, lateral = np.asarray(forward, float), np.asarray(lateral, float)
+    mid_ear = np.array([0, 0, 1.40]) + 0.2 * np.cross(forward, lateral)
     set_point(pts, "left_ear", mid_ear + half_ears * lateral)
     set_point(pts, "right_ear", mid_ear - half_ears * lateral)
     face = mid_ear + distance * forward
@@ -280,6 +282,31 @@ def test_neck_signs():
     row = measure(pts)
     assert deg(row, "neck_twist") == pytest.approx(30.0, abs=1e-9)
     assert deg(row, "neck_side_bend") == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_neck_needs_no_face_and_ignores_a_shrug(rng):
+    """Nose and eyes anywhere near the head (a network's guesses on a head seen from above) move no
+    neck angle; both shoulders raised 4 cm along the trunk move none either (the neck base stays at
+    the relaxed shoulder height)."""
+    m = BodyMeasurements.from_stature(1.75)
+    posture = place_on_floor(m, random_postures(rng, 30))
+    pts = pose_skeleton(m, posture)
+    settings = AngleSettings(trunk_length_m=m.trunk_length)
+    plain = joint_angles(pts, settings=settings)
+    guessed = pts.copy()
+    for name in ("nose", "left_eye", "right_eye"):
+        guessed[:, JOINT_INDEX[name]] += rng.normal(0.0, 0.05, (30, 3))
+    moved = joint_angles(guessed, settings=settings)
+    lift = m.shoulder_width / 2 * math.tan(D(15))
+    shrug = pose_skeleton(
+        m, posture.replace(left_shoulder_elevation=np.full(30, D(15)), right_shoulder_elevation=np.full(30, D(15)))
+    )
+    shrugged = joint_angles(shrug, settings=settings)
+    for name in ("neck_flexion", "neck_side_bend", "neck_twist"):
+        np.testing.assert_allclose(getattr(moved, name), getattr(plain, name), atol=1e-12)
+        np.testing.assert_allclose(getattr(shrugged, name), getattr(plain, name), atol=1e-9)
+        np.testing.assert_allclose(getattr(plain, name), getattr(posture, name), atol=1e-9)
+    assert lift > 0.03  # the shrug moved the shoulders by more than the face's guesses
 
 
 def test_neck_is_measured_relative_to_the_trunk():
@@ -471,7 +498,7 @@ NAN_CASES = {
         "right_wrist_lateral_m",
     ],
     "left_index": ["left_wrist_flexion", "left_wrist_deviation"],
-    "nose": ["neck_flexion", "neck_side_bend", "neck_twist"],
+    "nose": [],
     "right_ear": ["neck_flexion", "neck_side_bend", "neck_twist"],
     "left_shoulder": TRUNK_NECK + BOTH(ARM_TRUNK_FRAME) + BOTH(["shoulder_elevation"]) + ["left_elbow_flexion"],
     "right_hip": TRUNK_NECK
