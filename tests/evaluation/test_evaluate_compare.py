@@ -217,9 +217,12 @@ def test_identity_switch_is_counted_and_shows_in_the_errors(small_session, gt, t
     # Frame by frame every row is matched to the right person: the geometry is exact ...
     assert ev["errors_3d"]["mpjpe_mm"] == 0.0
     for name, row in ev["angles"]["by_angle"].items():
-        # shoulder elevation is measured against the track's median shoulder height, which a track made
-        # of two people shifts: the one angle whose value depends on the whole track
-        assert row["rmse_deg"] < (5.0 if "shoulder_elevation" in name else 0.01), name
+        # shoulder elevation is measured against the track's median shoulder height, and the neck from
+        # the trunk axis at that height, which a track made of two people shifts: the angles whose
+        # values depend on the whole track
+        # (measured: shoulder elevation 3.1 deg, neck flexion 1.0)
+        bound = 5.0 if "shoulder_elevation" in name else 2.0 if name == "neck_flexion" else 0.01
+        assert row["rmse_deg"] < bound, name
     # ... while a whole track attributed to one person is wrong for half the shift: metres
     true_distance = np.linalg.norm(gt.joints_world[half:, 0] - gt.joints_world[half:, 1], axis=-1).mean()
     by_id = ev["errors_3d"]["final"]["by_track_identity"]["all"]["mean_mm"]
