@@ -79,6 +79,8 @@ def methods_section(s: SessionInfo) -> MethodsSection:
         "every camera and reconstructed in 3D (metres), then tracked and smoothed.",
         "Joint angles (trunk, neck, upper and lower arms, wrists, knees) were computed from the 3D skeleton in "
         f"every frame ({s.fps:g} per second) and scored with RULA and REBA frame by frame.",
+        "The neck's angles are those of the line from the shoulders to the ears, against the trunk: a ceiling "
+        "camera does not see the face, so a nod of the head without the neck bending is not measured.",
         "Shares of the shift are shares of the time the worker was tracked; scores are ordinal, so the report "
         "shows time per level, never averages of scores.",
         "Loads, hand coupling and supports cannot be seen by the cameras: they are the assumptions listed for "
