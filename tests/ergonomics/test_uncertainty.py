@@ -70,3 +70,31 @@ def test_the_parts_held_at_a_limit_are_named_per_frame():
         "neck;left lower arm",
     ]
     assert held_parts(None, 2).tolist() == ["", ""]
+
+
+def test_each_body_parts_joints_are_those_its_angles_are_measured_from():
+    """Every joint an INPUT_GROUPS entry names (the inputs table's "inferred" share, the scored
+    joints of "occluded limbs") is one its angles use: without it, at least one of them is NaN; and
+    the face points, which no angle uses since the neck is measured from the ears, are named by
+    no part and are not scored joints."""
+    from ergopose.ergonomics.angles import joint_angles
+    from ergopose.ergonomics.body import BodyMeasurements, Posture, place_on_floor, pose_skeleton
+    from ergopose.ergonomics.uncertainty import INPUT_GROUPS, SCORED_JOINTS
+
+    m = BodyMeasurements.from_stature(1.75)
+    n = 3
+    posture = Posture(
+        neck_flexion=np.radians(np.full(n, 15.0)),
+        left_elbow_flexion=np.radians(np.full(n, 60.0)),
+        right_elbow_flexion=np.radians(np.full(n, 60.0)),
+    )
+    pts = pose_skeleton(m, place_on_floor(m, posture))
+    for part, angles, joints in INPUT_GROUPS:
+        for joint in joints:
+            holed = pts.copy()
+            holed[:, JOINT_INDEX[joint]] = np.nan
+            got = joint_angles(holed).to_frame()
+            assert any(np.isnan(got[a]).all() for a in angles), (part, joint)
+    face = {"nose", "left_eye", "right_eye", "mouth_left", "mouth_right"}
+    assert not face & {j for _, _, joints in INPUT_GROUPS for j in joints}
+    assert not {JOINT_INDEX[j] for j in face} & set(SCORED_JOINTS.tolist())
