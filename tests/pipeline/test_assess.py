@@ -85,7 +85,7 @@ def _kill_when(args, env, out: Path, appeared, timeout_s: float = 120.0) -> bool
     t_end = time.monotonic() + timeout_s
     try:
         while proc.poll() is None and time.monotonic() < t_end:
-            if appeared(out):
+            if _seen(appeared, out):
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
                 return True
@@ -95,6 +95,15 @@ def _kill_when(args, env, out: Path, appeared, timeout_s: float = 120.0) -> bool
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+
+
+def _seen(appeared, out: Path) -> bool:
+    """``appeared(out)``, False when a folder it lists is moved away while it looks inside (the run
+    published that stage between the listing and the look: the moment passed)."""
+    try:
+        return bool(appeared(out))
+    except FileNotFoundError:
+        return False
 
 
 def _temp_in(folder: str):
