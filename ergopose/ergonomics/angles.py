@@ -14,7 +14,8 @@ Every definition (which joints, which plane, which sign) is in docs/joint-angles
   axis (twist). For a full frame this is the intrinsic y-x-z Euler sequence of the segment relative
   to its parent (x forward, y left, z up).
 - Parents: trunk -> the pelvis frame (hip line, level, world vertical); neck (the line from the
-  mid-shoulder to the mid-ear point, turned by the ear line) -> the trunk frame;
+  neck base, the trunk axis at the relaxed shoulder height, to the mid-ear point, turned by the
+  ear line) -> the trunk frame;
   upper arm -> the trunk frame; hip -> the pelvis frame; wrist -> measured in the hand frame,
   because the forearm's roll is not observable.
 - Angles are radians; degrees only at the CSV/report edges. NaN wherever a needed joint is NaN or
@@ -50,7 +51,7 @@ _EPS = 1e-9  # metres: vectors shorter than this are degenerate
 class AngleSettings:
     """Settings of the angle definitions and the stance/flag thresholds (radians, metres, seconds).
 
-    neck_neutral_offset: how far forward of the trunk axis the neck line (mid-shoulder -> mid-ear)
+    neck_neutral_offset: how far forward of the trunk axis the neck line (neck base -> mid-ear)
         leans in the neutral posture; neck flexion is reduced by it. 0 = ear, shoulder and hip in
         one line (the plumb line of ideal standing posture; see docs/joint-angles.md).
     trunk_length_m: mid-hip to mid-shoulder distance with relaxed shoulders, the reference of
@@ -384,14 +385,9 @@ def _neck(
     ear line. The face points are not used: a ceiling camera sees the top of the head, where a
     network's nose and eyes are guesses (docs/joint-angles.md, "The neck").
     """
-    if mid_ear_trunk.shape[0] == 0:
-        empty = np.empty(0)
-        return empty, empty.copy(), empty.copy()
-    with np.errstate(invalid="ignore"):
-        neck_z = _unit(mid_ear_trunk - np.array([0.0, 0.0, neck_base_height]))
-        neck_y = _perp_unit(ear_line_trunk, neck_z)
-        neck_x = np.cross(neck_y, neck_z)
-        neck = _frame(neck_x, neck_y, neck_z)
+    neck_z = _unit(mid_ear_trunk - np.array([0.0, 0.0, neck_base_height]))
+    neck_y = _perp_unit(ear_line_trunk, neck_z)
+    neck = _frame(np.cross(neck_y, neck_z), neck_y, neck_z)
     if s.neck_neutral_offset != 0.0:
         co, so = math.cos(-s.neck_neutral_offset), math.sin(-s.neck_neutral_offset)
         neck = neck @ np.array([[co, 0.0, so], [0.0, 1.0, 0.0], [-so, 0.0, co]])

@@ -872,15 +872,29 @@ def hold_within_limits(
     terms of the fit (same sigma): Gauss-Newton, ``iterations`` at most. Rows within every limit,
     rows with a NaN and limits turned off (``limit_sigma_m`` 0) are returned unchanged.
     """
+    return hold_and_flag(points_world, variance_world, options, iterations)[0]
+
+
+def hold_and_flag(
+    points_world: np.ndarray, variance_world: np.ndarray, options: FitOptions, iterations: int = 5
+) -> tuple[FloatArray, np.ndarray]:
+    """(:func:`hold_within_limits`, :func:`limits_held`) of the same positions, their limit terms
+    evaluated once: the positions held within the limits, and (n, 33) the joints the positions
+    given passed a limit with."""
     X = np.array(points_world, dtype=np.float64)
+    held = np.zeros(X.shape[:2], bool)
     if options.limit_sigma_m <= 0 or not len(X):
-        return X
+        return X, held
+    finite = np.flatnonzero(np.isfinite(X).all(axis=(1, 2)))
+    if not len(finite):
+        return X, held
+    values = limit_terms(X[finite], options)[2]
+    held[finite] = _held_joints(values)
     var = np.asarray(variance_world, dtype=np.float64)
-    ok = np.isfinite(X).all(axis=(1, 2)) & np.isfinite(var).all(axis=(1, 2)) & (var > 0).all(axis=(1, 2))
-    rows = np.flatnonzero(ok)
-    rows = rows[(limit_terms(X[rows], options)[2] < 0).any(axis=1)]
+    usable = np.isfinite(var[finite]).all(axis=(1, 2)) & (var[finite] > 0).all(axis=(1, 2))
+    rows = finite[usable & (values < 0).any(axis=1)]
     if not len(rows):
-        return X
+        return X, held
     S = X[rows].copy()
     w = 1.0 / var[rows]  # (h, 33, 3)
     w_lim = 1.0 / options.limit_sigma_m**2
@@ -899,7 +913,7 @@ def hold_within_limits(
         step = np.linalg.solve(H.reshape(len(rows), n, n), g.reshape(len(rows), n, 1))[..., 0]
         Y = Y - step.reshape(len(rows), J, 3)
     X[rows] = Y
-    return X
+    return X, held
 
 
 _LATERAL = MIRROR != np.arange(J)

@@ -29,7 +29,7 @@ from ergopose.arrays import FloatArray
 from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.keypoints import LIMB_INDEX, NUM_JOINTS
-from ergopose.recon.bodyfit import ShiftBodies, hold_within_limits, limits_held
+from ergopose.recon.bodyfit import ShiftBodies, hold_and_flag
 from ergopose.recon.records import People3D
 from ergopose.recon.settings import ReconSettings
 from ergopose.recon.smoothing import KalmanRTS
@@ -70,7 +70,7 @@ class TrackFrames:
     inferred: (n, J) bool, the position was placed by the body model (fewer than two cameras
         saw the joint with min_confidence: segment lengths, previous pose, one camera's ray).
     limited: (n, J) bool, a joint limit of the body model held the joint: the body fit or the
-        smoothed position passed the limit (bodyfit.limits_held, bodyfit.LIMIT_HELD_JOINTS).
+        smoothed position passed the limit (bodyfit.hold_and_flag, bodyfit.LIMIT_HELD_JOINTS).
     std_world: (n, J, 3) standard deviation (metres) of each coordinate of points_world (the
         smoother's, else the body fit's or the triangulation's); NaN where points_world is NaN.
     """
@@ -511,8 +511,8 @@ class ShiftReconstruction:
             pts = fit.copy()
             std = np.sqrt(fit_var)
         if self.bodies is not None:  # the smoother does not know the body model's joint limits
-            limited |= limits_held(pts, self.bodies.options)
-            pts = hold_within_limits(pts, std * std, self.bodies.options)
+            pts, passed = hold_and_flag(pts, std * std, self.bodies.options)
+            limited |= passed
         inferred |= gap
         angle = lens_angles_deg(self.cameras, pts, centre)
         return TrackFrames(

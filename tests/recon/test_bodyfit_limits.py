@@ -211,26 +211,23 @@ def test_smoothed_positions_past_a_limit_move_the_least_to_within_it(rng):
 
 
 def test_the_tracks_are_held_within_the_limits_after_smoothing(monkeypatch, crossing):
-    """The reconstruction hands the smoothed positions and their variance to hold_within_limits
-    and writes what it returns (the smoother runs joint by joint and can pass a limit the fit
-    kept)."""
+    """The reconstruction hands the smoothed positions and their variance to hold_and_flag (the
+    hold of hold_within_limits and the flags of limits_held) and writes what it returns (the
+    smoother runs joint by joint and can pass a limit the fit kept)."""
     from ergopose.recon import pipeline
     from ergopose.recon.triangulate import reconstruct_frames
     from tests.recon.conftest import FPS
 
     calls = []
 
-    def spy(points, variance, options):
-        calls.append((points.copy(), variance.copy(), options))
-        return points + 0.5
-
     flagged = []
 
-    def flag(points, options):
+    def spy(points, variance, options):
+        calls.append((points.copy(), variance.copy(), options))
         held = np.zeros(points.shape[:2], bool)
         held[::7, JOINT_INDEX["left_knee"]] = True
         flagged.append(held)
-        return held
+        return points + 0.5, held
 
     real_fit = B.fit_bodies
 
@@ -239,8 +236,7 @@ def test_the_tracks_are_held_within_the_limits_after_smoothing(monkeypatch, cros
         fit.limited[:, JOINT_INDEX["left_elbow"]] = True
         return fit
 
-    monkeypatch.setattr(pipeline, "hold_within_limits", spy)
-    monkeypatch.setattr(pipeline, "limits_held", flag)
+    monkeypatch.setattr(pipeline, "hold_and_flag", spy)
     monkeypatch.setattr(B, "fit_bodies", fit_holding_an_elbow)
     sr = pipeline.ShiftReconstruction(ReconSettings(), FPS, crossing.cameras)
     n = len(crossing.frames)
@@ -273,3 +269,18 @@ def test_scoring_reads_the_joints_the_limits_hold():
         side = name.split("_")[0]
         part = "neck" if name == "head_turn" else "legs" if "knee" in name else f"{side} lower arm"
         assert set(np.flatnonzero(held).tolist()) <= groups[part], name
+
+
+def test_hold_and_flag_is_the_hold_and_the_flags(rng):
+    """hold_and_flag flags exactly limits_held's joints, and moves the rows past a limit whose
+    deviations are known, leaving a row with a NaN point or a NaN deviation as it was."""
+    X = _posture_bodies(6, rng, left_knee_flexion=np.radians(-30.0), right_elbow_flexion=np.radians(170.0))
+    X[2, 5] = np.nan
+    var = np.full(X.shape, 0.01**2)
+    var[4] = np.nan
+    opt = B.FitOptions()
+    held_points, flags = B.hold_and_flag(X, var, opt)
+    assert np.array_equal(flags, B.limits_held(X, opt)) and flags.any()
+    moved = ~np.isclose(held_points, X, rtol=0.0, atol=1e-9, equal_nan=True).all(axis=(1, 2))
+    assert moved.tolist() == [True, True, False, True, False, True]
+    assert flags[4].any() and not flags[2].any()
