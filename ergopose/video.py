@@ -13,6 +13,7 @@ reader seeks to it, so later frames keep their numbers); the caller decides how 
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
@@ -173,3 +174,60 @@ def _checked(cap: cv2.VideoCapture, start: int, stop: int) -> Iterator[tuple[int
         else:
             yield index, frame, ""
         index += 1
+
+
+def open_video_writer(path: str | os.PathLike[str], fps: float, width: int, height: int) -> cv2.VideoWriter:
+    """An mp4v VideoWriter of BGR frames; InputError if OpenCV cannot write the file."""
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), float(fps), (int(width), int(height)))
+    if not writer.isOpened():
+        raise InputError("OpenCV cannot write an mp4v video here", path=path)
+    return writer
+
+
+# --- a folder of images, read as the frames of one camera ---------------------------------------
+
+#: The image files a folder of frames may hold (by suffix, any case).
+IMAGE_SUFFIXES: tuple[str, ...] = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+
+
+def _natural_key(path: Path) -> tuple[object, ...]:
+    """frame_2.png before frame_10.png: the digits of a name compared as numbers."""
+    return tuple(int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", path.name))
+
+
+def list_images(folder: str | os.PathLike[str]) -> list[Path]:
+    """The image files of a folder (IMAGE_SUFFIXES), in natural name order; InputError if there
+    are none or the folder does not exist."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("folder not found", path=folder)
+    images = sorted(
+        (p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES), key=_natural_key
+    )
+    if not images:
+        raise InputError(f"the folder holds no image ({', '.join(IMAGE_SUFFIXES)})", path=folder)
+    return images
+
+
+def image_size(path: str | os.PathLike[str]) -> tuple[int, int]:
+    """(width, height) of an image; InputError if it cannot be read."""
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise InputError("cannot read the image (not an image, or a damaged file)", path=path)
+    return int(image.shape[1]), int(image.shape[0])
+
+
+def read_images_checked(
+    paths: list[Path], start: int, stop: int, size: tuple[int, int]
+) -> Iterator[tuple[int, np.ndarray | None, str]]:
+    """Images start .. stop-1 of ``paths`` as the frames of a video, like
+    :func:`read_frames_checked`: (index, BGR image or None, "" or why it was skipped); an image
+    that cannot be read is UNDECODABLE, one whose (width, height) is not ``size`` WRONG_SIZE."""
+    for index in range(start, stop):
+        image = cv2.imread(str(paths[index]), cv2.IMREAD_COLOR)
+        if image is None:
+            yield index, None, UNDECODABLE
+        elif (image.shape[1], image.shape[0]) != tuple(size):
+            yield index, None, WRONG_SIZE
+        else:
+            yield index, image, ""

@@ -7,7 +7,17 @@ import numpy as np
 import pytest
 
 from ergopose.errors import InputError
-from ergopose.video import probe_video, read_frames, read_frames_checked
+from ergopose.video import (
+    UNDECODABLE,
+    WRONG_SIZE,
+    image_size,
+    list_images,
+    open_video_writer,
+    probe_video,
+    read_frames,
+    read_frames_checked,
+    read_images_checked,
+)
 
 
 def write_numbered_video(path, n=60, size=(160, 120), fps=12.0):
@@ -138,3 +148,34 @@ def test_frames_of_the_wrong_size_are_skipped_and_named():
     assert [i for i, _, _ in got] == list(range(2, 10))
     assert [(i, why) for i, f, why in got if f is None] == [(3, WRONG_SIZE), (7, WRONG_SIZE)]
     assert all(int(f[0, 0, 0]) == i for i, f, _ in got if f is not None)
+
+
+def test_a_folder_of_images_is_read_in_name_order_and_its_bad_images_skipped(tmp_path):
+    for k in (10, 2, 1):
+        cv2.imwrite(str(tmp_path / f"f_{k}.png"), np.full((8, 12, 3), k, np.uint8))
+    cv2.imwrite(str(tmp_path / "F_3.JPG"), np.full((8, 12, 3), 3, np.uint8))
+    cv2.imwrite(str(tmp_path / "f_4.png"), np.full((9, 12, 3), 4, np.uint8))  # another size
+    (tmp_path / "f_5.png").write_bytes(b"not a png")
+    (tmp_path / "notes.txt").write_text("x")
+    (tmp_path / "sub.png").mkdir()
+    paths = list_images(tmp_path)
+    assert [p.name for p in paths] == ["f_1.png", "f_2.png", "F_3.JPG", "f_4.png", "f_5.png", "f_10.png"]
+    assert image_size(paths[0]) == (12, 8)
+    got = list(read_images_checked(paths, 1, 6, (12, 8)))
+    assert [(i, w) for i, _, w in got] == [(1, ""), (2, ""), (3, WRONG_SIZE), (4, UNDECODABLE), (5, "")]
+    assert [int(im[0, 0, 0]) for _, im, _ in got if im is not None] == [2, 3, 10]
+    with pytest.raises(InputError, match="no image"):
+        list_images(tmp_path / "sub.png")
+    with pytest.raises(InputError, match="folder not found"):
+        list_images(tmp_path / "missing")
+    with pytest.raises(InputError, match="cannot read the image"):
+        image_size(paths[4])
+
+
+def test_a_video_writer_that_cannot_write_is_one_error(tmp_path):
+    with pytest.raises(InputError, match="cannot write"):
+        open_video_writer(tmp_path / "missing" / "x.mp4", 10.0, 32, 32)
+    writer = open_video_writer(tmp_path / "x.mp4", 10.0, 32, 32)
+    writer.write(np.zeros((32, 32, 3), np.uint8))
+    writer.release()
+    assert probe_video(tmp_path / "x.mp4").frames == 1

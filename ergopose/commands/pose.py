@@ -1,25 +1,46 @@
-"""``ergopose pose VIDEO --out FILE``: the 2D stage alone on one video, keypoints into a CSV file."""
+"""``ergopose pose VIDEO_OR_FOLDER --out DIR``: the 2D stage alone on one camera's footage; keypoints as CSV,
+Parquet and COCO-style JSON, and an overlay to check them by eye."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
+from ergopose import __version__
+from ergopose.atomic import atomic_dir
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import camera_for_video, read_any_calibration
 from ergopose.geometry.camera import Camera
 from ergopose.geometry.image_circle import nominal_fisheye_camera, nominal_pinhole_camera
-from ergopose.pipeline.pose_video import circle_from_video, pose_video, write_pose_csv
+from ergopose.pipeline.pose_outputs import (
+    CocoImage,
+    CocoSource,
+    OverlayImages,
+    OverlayVideo,
+    coco_document,
+    write_pose_coco,
+    write_pose_parquet,
+)
+from ergopose.pipeline.pose_video import (
+    FrameSink,
+    PoseVideoResult,
+    circle_from_images,
+    circle_from_video,
+    pose_frames,
+    write_pose_csv,
+)
 from ergopose.pose.blazepose import BlazePoseDetector, BlazePoseLandmarker
 from ergopose.pose.settings import PoseSettings
 from ergopose.pose.models import LANDMARK_MODELS, POSE_COMMAND_MODEL, ConfidenceGates
 from ergopose.progress import warn
 from ergopose.progress import ProgressCallback
-from ergopose.video import probe_video
+from ergopose.recon.settings import ReconSettings
+from ergopose.video import image_size, list_images, probe_video, read_frames_checked, read_images_checked
 
 #: Pose models --model accepts (the BlazePose landmark model cards of docs/models.md).
 MODELS: tuple[str, ...] = tuple(LANDMARK_MODELS)
@@ -59,21 +80,32 @@ def stage_settings(gates: ConfidenceGates | None, fps: float, max_people: int) -
 
 
 HELP = """\
-Find the people in one video and write their 2D keypoints (33 body points per person, in the
-video's own pixels, with a confidence) to a CSV file: the first stage of 'ergopose assess' run
-alone, for one camera, without a session. Use it to check what the cameras see before a whole
-assessment, or to get keypoints from footage that has no calibration yet.
+Find the people in one video, or in a folder of images, and write their 2D keypoints (33 body
+points per person, in the camera's own pixels, with a confidence): the first stage of 'ergopose
+assess' run alone, for one camera, without a session. Use it to check what the cameras see before
+a whole assessment, or to get keypoints from footage that has no calibration yet.
 
-The camera: with --camera FILE, the lens from a calibration file (an ergopose calibration, or a
-Pose2Sim/anipose calibration TOML; --camera-name picks the camera when the file holds several,
-else the camera named like the video file is taken). Without it, an approximate camera is made
-from the video itself: for a fisheye lens (the default), the bright image circle is found in the
-frames and the lens is taken to spread --fov-deg degrees (default 180) evenly across it, looking
-straight down from the ceiling; for --lens pinhole, --fov-deg is the field of view across the
-image's width (default 60), looking level. Keypoints from an approximate camera are as good as
-that guess; calibrate the cameras for an assessment (docs/calibration.md).
+The source: a video file, or a folder of images (.png, .jpg, ...) taken as the frames of one
+camera in name order (frame_2 before frame_10), at --fps frames per second (default 1).
 
-The CSV has one row per frame, person and keypoint: frame, time_s, person (numbered within the
+The camera: with --calibration FILE, the lens from a calibration file (an ergopose calibration,
+or a Pose2Sim/anipose calibration TOML); --camera NAME picks the camera when the file holds
+several, else the camera named like the video (or folder) is taken. ('--camera FILE' without
+--calibration, the earlier spelling, names the file; --camera-name then names the camera.)
+Without a calibration an approximate camera is made from the footage itself: for a fisheye lens
+(the default), the bright image circle is found in the frames and the lens is taken to spread
+--fov-deg degrees (default 180) evenly across it, looking straight down from the ceiling; for
+--lens pinhole, --fov-deg is the field of view across the image's width (default 60), looking
+level. Keypoints from an approximate camera are as good as that guess; calibrate the cameras for
+an assessment (docs/calibration.md).
+
+The output: --out DIR writes the folder DIR with keypoints.csv, keypoints.parquet (the same
+table) and keypoints.coco.json (COCO's person-keypoint layout: one annotation per person and
+frame), and with --overlay the frames with the skeletons drawn (overlay.mp4 for a video, overlay/
+for a folder of images): video frames, so faces, in a file you asked for. --out FILE.csv writes
+the CSV file alone.
+
+The table has one row per frame, person and keypoint: frame, time_s, person (numbered within the
 frame), joint (name), x_px, y_px, confidence (0-1), left_right_uncertain (1 on a keypoint whose
 side, left or right, is in doubt in that frame; its confidence is then lowered). A keypoint that
 falls outside the lens has empty x_px and y_px. Frames where nobody was found have no rows. See
@@ -87,22 +119,45 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("video", metavar="VIDEO", type=Path, help="the video file of one camera")
-    p.add_argument("--out", required=True, type=Path, metavar="FILE", help="the CSV file to write")
     p.add_argument(
-        "--camera",
+        "video", metavar="VIDEO_OR_FOLDER", type=Path, help="the video file of one camera, or a folder of its images"
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        type=Path,
+        metavar="DIR",
+        help="the folder to write (keypoints as CSV, Parquet and COCO JSON; the overlay), or FILE.csv for the "
+        "CSV file alone",
+    )
+    p.add_argument(
+        "--calibration",
         type=Path,
         metavar="FILE.toml",
         default=None,
         help="calibration file of the camera (ergopose, or Pose2Sim/anipose TOML); "
-        "without it an approximate camera is made from the video",
+        "without it an approximate camera is made from the footage",
     )
     p.add_argument(
-        "--camera-name",
+        "--camera",
         metavar="NAME",
         default=None,
-        help="with --camera: the camera of the file that filmed VIDEO (default: the file's only camera, "
-        "or the one named like the video file)",
+        help="with --calibration: the camera of the file that filmed the footage (default: the file's only "
+        "camera, or the one named like the video or folder); without --calibration: the calibration file "
+        "(the earlier spelling)",
+    )
+    p.add_argument("--camera-name", metavar="NAME", default=None, help="the camera's name (the earlier spelling)")
+    p.add_argument(
+        "--overlay",
+        action="store_true",
+        help="also write the frames with the skeletons drawn, for checking by eye (needs --out DIR)",
+    )
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        metavar="F",
+        help="a folder of images: their frames per second (default 1); a video states its own",
     )
     p.add_argument(
         "--lens",
@@ -151,24 +206,108 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     return p
 
 
+#: The files of an output folder (--out DIR).
+CSV_NAME = "keypoints.csv"
+PARQUET_NAME = "keypoints.parquet"
+COCO_NAME = "keypoints.coco.json"
+OVERLAY_VIDEO_NAME = "overlay.mp4"
+OVERLAY_IMAGES_NAME = "overlay"
+OUTPUT_NAMES = (CSV_NAME, PARQUET_NAME, COCO_NAME, OVERLAY_VIDEO_NAME, OVERLAY_IMAGES_NAME)
+#: Frames per second of a folder of images unless --fps says otherwise.
+IMAGES_FPS = 1.0
+
+
+@dataclass(frozen=True)
+class Footage:
+    """The frames of one camera: a video, or a folder's images (``images``, in name order)."""
+
+    path: Path
+    frames: int
+    fps: float
+    width: int
+    height: int
+    images: tuple[Path, ...] = ()
+
+    @property
+    def is_folder(self) -> bool:
+        return bool(self.images)
+
+    def frame_name(self, index: int) -> str:
+        return self.images[index].name if self.images else f"{self.path.name}#{index}"
+
+
 def run(args: argparse.Namespace) -> int:
-    _check_arguments(args)
-    info = probe_video(args.video)
-    start, stop = _frame_range(args, info.frames, info.fps)
+    calibration, camera_name = _camera_arguments(args)
+    _check_arguments(args, calibration, camera_name)
+    footage = _footage(args)
+    start, stop = _frame_range(args, footage.frames, footage.fps)
     progress = ProgressBars()
-    if args.camera is not None:
-        camera = _camera_from_file(args.camera, args.camera_name, args.video, info.width, info.height, progress)
+    if calibration is not None:
+        camera = _camera_from_file(calibration, camera_name, footage.path, footage.width, footage.height, progress)
     else:
-        camera = _camera_from_video(args, info.width, info.height, start, stop)
+        camera = _camera_from_footage(args, footage, start, stop)
     print(f"camera {_describe(camera)}", flush=True)
     landmarker = BlazePoseLandmarker(model=args.model, model_dir=args.model_dir, progress=progress)
     detector = BlazePoseDetector(model_dir=args.model_dir, progress=progress)
-    settings = stage_settings(landmarker.card.gates, info.fps, args.max_people)
-    result = pose_video(args.video, camera, info.fps, start, stop, landmarker, detector, settings, progress)
-    write_pose_csv(args.out, result.table)
+    settings = stage_settings(landmarker.card.gates, footage.fps, args.max_people)
+    gate = (
+        landmarker.card.gates.min_triangulation_confidence if landmarker.card.gates else ReconSettings().min_confidence
+    )
+
+    def stage(on_frame: FrameSink | None) -> PoseVideoResult:
+        if footage.is_folder:
+            frames = read_images_checked(list(footage.images), start, stop, (footage.width, footage.height))
+        else:
+            frames = read_frames_checked(footage.path, start, stop)
+        return pose_frames(
+            frames, footage.path, camera, footage.fps, start, stop, landmarker, detector, settings, progress, on_frame
+        )
+
+    if _csv_only(args.out):
+        result = stage(None)
+        write_pose_csv(args.out, result.table)
+        written = [args.out]
+    else:
+        with atomic_dir(args.out) as folder:
+            overlay: OverlayVideo | OverlayImages | None = None
+            if args.overlay and footage.is_folder:
+                overlay = OverlayImages(folder / OVERLAY_IMAGES_NAME, [p.name for p in footage.images], gate)
+            elif args.overlay:
+                overlay = OverlayVideo(folder / OVERLAY_VIDEO_NAME, footage.fps, footage.width, footage.height, gate)
+            try:
+                result = stage(overlay.add if overlay is not None else None)
+            finally:
+                if overlay is not None:
+                    overlay.close()
+            write_pose_csv(folder / CSV_NAME, result.table)
+            write_pose_parquet(folder / PARQUET_NAME, result.table)
+            write_pose_coco(folder / COCO_NAME, _coco(result, footage, camera, args.model, gate))
+        written = [args.out / name for name in OUTPUT_NAMES if (args.out / name).exists()]
+    _summary(args, footage, result)
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def _coco(result: PoseVideoResult, footage: Footage, camera: Camera, model: str, gate: float) -> dict[str, Any]:
+    images = [
+        CocoImage(int(f), f / footage.fps, footage.frame_name(int(f)), footage.width, footage.height)
+        for k, f in enumerate(range(result.start, result.stop))
+        if result.people[k] >= 0
+    ]
+    source = CocoSource(
+        description=f"ergopose pose {__version__}: keypoints of {footage.path.name}, camera {camera.name}",
+        model=f"BlazePose {model} (docs/models.md)",
+        min_confidence=gate,
+        extra={"source": str(footage.path), "camera": camera.name, "fps": footage.fps},
+    )
+    return coco_document(result.table, images, source)
+
+
+def _summary(args: argparse.Namespace, footage: Footage, result: PoseVideoResult) -> None:
     read = result.frames_read
     print(
-        f"{args.video}: people found in {result.frames_with_people} of {read} frames "
+        f"{footage.path}: people found in {result.frames_with_people} of {read} frames "
         f"({100.0 * result.frames_with_people / max(read, 1):.1f} %), at most {int(result.people.max())} at once; "
         f"{len(result.table)} keypoint rows"
     )
@@ -185,21 +324,35 @@ def run(args: argparse.Namespace) -> int:
         )
     if result.capped_frames:
         print(f"  max_people = {args.max_people} reached in {result.capped_frames} frames")
-    print(f"wrote {args.out}")
-    return 0
 
 
-def _check_arguments(args: argparse.Namespace) -> None:
-    if args.camera is not None:
+def _csv_only(out: Path) -> bool:
+    return out.suffix.lower() == ".csv"
+
+
+def _camera_arguments(args: argparse.Namespace) -> tuple[Path | None, str | None]:
+    """(calibration file, camera name) from --calibration FILE --camera NAME, or from the earlier
+    spelling --camera FILE --camera-name NAME."""
+    if args.calibration is not None:
+        if args.camera is not None and args.camera_name is not None:
+            raise ConfigError("names the camera a second time: give --camera NAME alone", field="--camera-name")
+        return args.calibration, args.camera if args.camera is not None else args.camera_name
+    return (Path(args.camera) if args.camera is not None else None), args.camera_name
+
+
+def _check_arguments(args: argparse.Namespace, calibration: Path | None, camera_name: str | None) -> None:
+    if calibration is not None:
         for name in ("lens", "fov_deg"):
             if getattr(args, name) is not None:
                 flag = "--" + name.replace("_", "-")
                 raise ConfigError(
-                    "describes a camera without calibration; with --camera the file gives the lens", field=flag
+                    "describes a camera without calibration; with --calibration the file gives the lens", field=flag
                 )
     else:
-        if args.camera_name is not None:
-            raise ConfigError("needs --camera FILE (the calibration file that holds the camera)", field="--camera-name")
+        if camera_name is not None:
+            raise ConfigError(
+                "needs --calibration FILE (the calibration file that holds the camera)", field="--camera-name"
+            )
         lens = args.lens or "fisheye"
         low, high = FOV_RANGE_DEG[lens]
         fov = DEFAULT_FOV_DEG[lens] if args.fov_deg is None else args.fov_deg
@@ -214,10 +367,44 @@ def _check_arguments(args: argparse.Namespace) -> None:
         raise ConfigError(f"expected seconds >= 0, got {args.start:g}", field="--start")
     if args.end is not None and not (math.isfinite(args.end) and args.end > args.start):
         raise ConfigError(f"expected seconds after --start ({args.start:g}), got {args.end:g}", field="--end")
-    if args.out.is_dir():
-        raise ConfigError("is a folder: --out names the CSV file to write", path=args.out)
-    if args.out.exists() and not args.force:
-        raise ConfigError("already exists: choose another --out or add --force", path=args.out)
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise ConfigError(f"expected frames per second > 0, got {args.fps:g}", field="--fps")
+    out = args.out
+    if _csv_only(out):
+        if args.overlay:
+            raise ConfigError(
+                "needs --out DIR (a folder): the overlay is written beside the keypoints", field="--overlay"
+            )
+        if out.is_dir():
+            raise ConfigError("is a folder: --out FILE.csv names the CSV file to write", path=out)
+        if out.exists() and not args.force:
+            raise ConfigError("already exists: choose another --out or add --force", path=out)
+        return
+    if out.exists() and not out.is_dir():
+        raise ConfigError("is a file: --out names the folder to write (or a FILE.csv)", path=out)
+    if out.is_dir() and any(out.iterdir()):
+        others = sorted(p.name for p in out.iterdir() if p.name not in OUTPUT_NAMES)
+        if others:
+            raise ConfigError(
+                f"is a folder that holds other files than 'ergopose pose' writes ({', '.join(others[:3])}"
+                f"{', ...' if len(others) > 3 else ''}): choose a new --out",
+                path=out,
+            )
+        if not args.force:
+            raise ConfigError("already holds keypoints: choose another --out or add --force", path=out)
+
+
+def _footage(args: argparse.Namespace) -> Footage:
+    path: Path = args.video
+    if path.is_dir():
+        images = list_images(path)
+        width, height = image_size(images[0])
+        fps = IMAGES_FPS if args.fps is None else float(args.fps)
+        return Footage(path, len(images), fps, width, height, tuple(images))
+    if args.fps is not None:
+        raise ConfigError("a video states its own frame rate: --fps is for a folder of images", field="--fps")
+    info = probe_video(path)
+    return Footage(path, info.frames, info.fps, info.width, info.height)
 
 
 def _frame_range(args: argparse.Namespace, frames: int, fps: float) -> tuple[int, int]:
@@ -228,16 +415,20 @@ def _frame_range(args: argparse.Namespace, frames: int, fps: float) -> tuple[int
     return start, max(stop, start + 1)
 
 
-def _camera_from_video(args: argparse.Namespace, width: int, height: int, start: int, stop: int) -> Camera:
+def _camera_from_footage(args: argparse.Namespace, footage: Footage, start: int, stop: int) -> Camera:
     lens = args.lens or "fisheye"
     fov = math.radians(DEFAULT_FOV_DEG[lens] if args.fov_deg is None else args.fov_deg)
-    name = args.video.stem
+    name = footage.path.stem
+    width, height = footage.width, footage.height
     if lens == "pinhole":
         return nominal_pinhole_camera(name, width, height, fov)
-    search = circle_from_video(args.video, start, stop)
+    if footage.is_folder:
+        search = circle_from_images(list(footage.images), start, stop, (width, height))
+    else:
+        search = circle_from_video(footage.path, start, stop)
     if search.circle is None:
         raise InputError(
-            f"no image circle found in {args.video} ({search.reason}): give --camera FILE "
+            f"no image circle found in {footage.path} ({search.reason}): give --calibration FILE "
             "(a calibration), or --lens pinhole for a camera without a fisheye lens"
         )
     return nominal_fisheye_camera(name, width, height, search.circle, fov)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, Iterable
 
 import numpy as np
 import pandas as pd
@@ -25,7 +26,11 @@ from ergopose.pose.fisheye import FisheyePoseEstimator
 from ergopose.pose.records import Detector, Landmarker
 from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressCallback, report, warn
-from ergopose.video import read_frames, read_frames_checked
+from ergopose.pipeline.pose_outputs import PosePeople
+from ergopose.video import read_frames, read_frames_checked, read_images_checked
+
+#: What ``on_frame`` is given: the frame's index, the image (BGR) and its people.
+FrameSink = Callable[[int, np.ndarray, PosePeople], None]
 
 #: The CSV's columns, in order.
 POSE_COLUMNS: tuple[str, ...] = (
@@ -79,12 +84,30 @@ class PoseVideoResult:
         return int(np.count_nonzero(self.people > 0))
 
 
+def _circle_picks(start: int, stop: int, samples: int) -> np.ndarray:
+    return np.unique(np.linspace(start, stop - 1, min(samples, stop - start)).round().astype(int))
+
+
 def circle_from_video(
     path: str | os.PathLike[str], start: int, stop: int, samples: int = CIRCLE_SAMPLES
 ) -> CircleSearch:
     """The image circle seen in up to ``samples`` frames spread evenly over start .. stop-1."""
-    picks = np.unique(np.linspace(start, stop - 1, min(samples, stop - start)).round().astype(int))
-    frames = (frame for i in picks for _, frame in read_frames(path, int(i), int(i) + 1))
+    frames = (frame for i in _circle_picks(start, stop, samples) for _, frame in read_frames(path, int(i), int(i) + 1))
+    return find_image_circle(max_image(frames))
+
+
+def circle_from_images(
+    paths: list[Path], start: int, stop: int, size: tuple[int, int], samples: int = CIRCLE_SAMPLES
+) -> CircleSearch:
+    """The image circle seen in up to ``samples`` of the images start .. stop-1 (unreadable ones
+    and ones of another size left out)."""
+    picks = _circle_picks(start, stop, samples)
+    frames = (
+        image
+        for i in picks
+        for _, image, _ in read_images_checked(paths, int(i), int(i) + 1, size)
+        if image is not None
+    )
     return find_image_circle(max_image(frames))
 
 
@@ -98,34 +121,64 @@ def pose_video(
     detector: Detector | None,
     settings: PoseSettings = PoseSettings(),
     progress: ProgressCallback | None = None,
+    on_frame: FrameSink | None = None,
 ) -> PoseVideoResult:
     """The 2D stage on frames start .. stop-1 of one video. Frames that cannot be decoded are
     skipped (counted in ``people`` as -1, and told through ``progress``); reaching
-    ``settings.max_people`` is told once, naming the camera and the setting."""
+    ``settings.max_people`` is told once, naming the camera and the setting. ``on_frame`` is
+    given every frame read, with its people (the overlay of ``ergopose pose``)."""
+    frames = read_frames_checked(path, start, stop)
+    return pose_frames(frames, path, camera, fps, start, stop, landmarker, detector, settings, progress, on_frame)
+
+
+def pose_frames(
+    frames: Iterable[tuple[int, np.ndarray | None, str]],
+    source: str | os.PathLike[str],
+    camera: Camera,
+    fps: float,
+    start: int,
+    stop: int,
+    landmarker: Landmarker,
+    detector: Detector | None,
+    settings: PoseSettings,
+    progress: ProgressCallback | None,
+    on_frame: FrameSink | None,
+) -> PoseVideoResult:
+    """The 2D stage on (index, image or None, why) frames start .. stop-1 of ``source``: a video's
+    (:func:`ergopose.video.read_frames_checked`, as :func:`pose_video` runs it) or a folder's
+    images taken as one camera's frames at ``fps`` (:func:`ergopose.video.read_images_checked`:
+    an image that cannot be read or has another size is skipped as a frame that cannot be
+    decoded)."""
     stage = FisheyePoseEstimator(camera, 0, landmarker, detector, settings, progress=progress)
     count = stop - start
     people = np.zeros(count, np.int64)
-    frames, persons, pixels, confidence, uncertain = [], [], [], [], []
-    for k, (index, image, problem) in enumerate(read_frames_checked(path, start, stop)):
+    found_frames, persons, pixels, confidence, uncertain = [], [], [], [], []
+    for k, (index, image, problem) in enumerate(frames):
         if image is None:
             people[k] = -1  # why: problem, one of ergopose.video.SKIP_CODES
         else:
             found = stage.process(image, index)
             people[k] = found.count
+            doubted = found.left_right_uncertain
+            doubted = np.zeros((found.count, NUM_JOINTS), bool) if doubted is None else doubted
             if found.count:
-                frames.append(np.full(found.count, index, np.int64))
+                found_frames.append(np.full(found.count, index, np.int64))
                 persons.append(np.arange(found.count, dtype=np.int64))
                 pixels.append(found.pixels_fisheye)
                 confidence.append(found.confidence)
-                doubted = found.left_right_uncertain
-                uncertain.append(np.zeros((found.count, NUM_JOINTS), bool) if doubted is None else doubted)
+                uncertain.append(doubted)
+            if on_frame is not None:
+                # As the table will hold them: a point outside the lens has no confidence.
+                xy = found.pixels_fisheye
+                conf = np.where(np.isfinite(xy).all(axis=-1), found.confidence, 0.0)
+                on_frame(index, image, PosePeople(xy, conf, doubted))
         report(progress, "pose", k + 1, count, unit="frame")
     skipped = int(np.count_nonzero(people < 0))
     if skipped == count:
-        raise InputError(f"none of the {count} frames could be decoded", path=path)
+        raise InputError(f"none of the {count} frames could be decoded", path=source)
     if skipped:
         warn(progress, f"{camera.name}: {skipped} of {count} frames could not be decoded and were skipped")
-    table = _table(frames, persons, pixels, confidence, uncertain, fps)
+    table = _table(found_frames, persons, pixels, confidence, uncertain, fps)
     return PoseVideoResult(
         table, people, start, stop, stage.capped_frames, stage.upright_checks, stage.upright_disputed
     )

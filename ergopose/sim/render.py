@@ -35,7 +35,6 @@ import cv2
 import numpy as np
 
 from ergopose.atomic import atomic_path
-from ergopose.errors import InputError
 from ergopose.geometry.camera import Camera
 from ergopose.sim.backdrop import StaticScene, lambert_shade, pixel_rays, render_background
 from ergopose.sim.bodies import (
@@ -53,6 +52,7 @@ from ergopose.sim.bodies import (
 )
 from ergopose.sim.raycast import dot, ray_box, ray_capsule, ray_ellipsoid
 from ergopose.sim.scene import Scene
+from ergopose.video import open_video_writer
 from ergopose.sim.visibility import (
     OCCLUDED_BY_SCENE,
     OCCLUDED_BY_WORKER,
@@ -480,14 +480,6 @@ def _merge_regions(regions: list[list[int]]) -> list[list[int]]:
 # --- videos ------------------------------------------------------------------------------------------------
 
 
-def open_writer(path: Path, fps: float, width: int, height: int) -> cv2.VideoWriter:
-    """An mp4v VideoWriter; InputError if OpenCV cannot write the file."""
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), float(fps), (int(width), int(height)))
-    if not writer.isOpened():
-        raise InputError("OpenCV cannot write an mp4v video here", path=path)
-    return writer
-
-
 def render_video(
     camera: Camera,
     scene: Scene,
@@ -502,7 +494,7 @@ def render_video(
     renderer = CameraRenderer(camera, scene, bodies, options)
     path = Path(path)
     with atomic_path(path) as tmp:
-        writer = open_writer(tmp, fps, camera.width, camera.height)
+        writer = open_video_writer(tmp, fps, camera.width, camera.height)
         try:
             for f in range(n_frames):
                 writer.write(renderer.render(f))

@@ -14,6 +14,7 @@ import dataclasses
 import json
 import math
 import re
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -31,6 +32,7 @@ from ergopose.pose.fisheye import FisheyePoseEstimator
 from ergopose.pose.models import POSE_COMMAND_MODEL
 from ergopose.pose.settings import PoseSettings
 from ergopose.progress import ProgressEvent
+from ergopose.video import read_frames
 
 FPS = 12.0
 FRAMES = 10
@@ -247,11 +249,11 @@ def test_bad_input_is_one_line_and_a_non_zero_exit(case, tmp_path, capsys):
         args, words = [tmp_path / "any.mp4", "--fov-deg", case.split()[1]], ("--fov-deg", "between 100 and 280")
     elif case == "black":
         video = _write(tmp_path / "black.mp4", [np.zeros((240, 320, 3), np.uint8)] * 4)
-        args, words = [video], ("no image circle found in", "black.mp4", "black video", "--camera FILE")
+        args, words = [video], ("no image circle found in", "black.mp4", "black video", "--calibration FILE")
     elif case == "not fisheye":
         rng = np.random.default_rng(14)
         video = _write(tmp_path / "wall.mp4", [rng.integers(40, 255, (240, 320, 3), dtype=np.uint8)] * 4)
-        args, words = [video], ("no image circle found in", "lit to its corners", "--camera FILE")
+        args, words = [video], ("no image circle found in", "lit to its corners", "--calibration FILE")
     elif case == "fov with camera":
         args, words = [tmp_path / "any.mp4", "--camera", tmp_path / "c.toml", "--fov-deg", "180"], ("--fov-deg",)
     elif case == "max people 0":
@@ -422,3 +424,183 @@ def test_the_upright_check_is_counted_and_costs_a_network_run_per_check(camera, 
     checked = results["every turned view"]
     assert checked.upright_checks > 0 and 0 <= checked.upright_disputed <= checked.upright_checks
     assert runs["every turned view"] == runs["without"] + checked.upright_checks, runs
+
+
+# --- the output folder: CSV, Parquet, COCO JSON and the overlay; a folder of images ----------------
+
+
+def _check_folder(out, truth, images: bool) -> pd.DataFrame:
+    """The folder's three tables agree with each other and with the drawn person."""
+    table = pd.read_csv(out / "keypoints.csv")
+    _check_keypoints(table, truth)
+    parquet = pd.read_parquet(out / "keypoints.parquet")
+    assert tuple(parquet.columns) == POSE_COLUMNS and len(parquet) == len(table)
+    assert np.allclose(
+        parquet[["x_px", "y_px", "confidence"]].to_numpy(float), table[["x_px", "y_px", "confidence"]], equal_nan=True
+    )
+    assert (parquet["joint"].to_numpy() == table["joint"].to_numpy()).all()
+    coco = json.loads((out / "keypoints.coco.json").read_text())
+    names = coco["categories"][0]["keypoints"]
+    assert len(names) == 33 and all(1 <= i <= 33 for pair in coco["categories"][0]["skeleton"] for i in pair)
+    assert [im["id"] for im in coco["images"]] == list(range(FRAMES))
+    gate = float(re.search(r">= ([0-9.]+)", coco["info"]["visibility"]).group(1))
+    people = table.groupby(["frame", "person"])
+    assert len(coco["annotations"]) == people.ngroups
+    for ann in coco["annotations"]:
+        rows = people.get_group((ann["image_id"], ann["person"])).set_index("joint").loc[names]
+        k = np.array(ann["keypoints"], float).reshape(33, 3)
+        placed = rows["x_px"].notna().to_numpy()
+        assert np.allclose(k[placed, :2], rows[["x_px", "y_px"]].to_numpy(float)[placed], atol=0.011)
+        want_v = np.where(placed, np.where(rows["confidence"].to_numpy() >= gate, 2, 1), 0)
+        assert (k[:, 2] == want_v).all() and ann["num_keypoints"] == int((want_v == 2).sum())
+        x0, y0, w, h = ann["bbox"]
+        assert x0 == pytest.approx(rows["x_px"].min(), abs=0.011) and x0 + w == pytest.approx(
+            rows["x_px"].max(), abs=0.02
+        )
+        assert ann["area"] == pytest.approx(w * h, abs=0.05)
+    frame_names = {im["id"]: im["file_name"] for im in coco["images"]}
+    if images:
+        assert frame_names[2] == "frame_2.png" and frame_names[9] == "frame_10.png"
+    return table
+
+
+def _drawn_near_keypoints(
+    source: np.ndarray, overlay: np.ndarray, table: pd.DataFrame, frame: int
+) -> tuple[float, float]:
+    """Mean absolute change of the overlay against the source at the frame's confident
+    keypoints and far from the person (more than 150 px from every keypoint)."""
+    rows = table[(table["frame"] == frame) & (table["confidence"] >= 0.5)]
+    xy = rows[["x_px", "y_px"]].to_numpy(float)
+    diff = np.abs(overlay.astype(float) - source.astype(float)).sum(axis=2)
+    near = np.mean([diff[int(round(y)), int(round(x))] for x, y in xy])
+    yy, xx = np.mgrid[0 : diff.shape[0], 0 : diff.shape[1]]
+    dist = np.min(np.hypot(xx[..., None] - xy[:, 0], yy[..., None] - xy[:, 1]), axis=-1)
+    far = float(diff[(dist > 150) & (np.hypot(xx - CIRCLE[0], yy - CIRCLE[1]) < CIRCLE[2] - 5)].mean())
+    return float(near), far
+
+
+@pytest.mark.slow
+def test_pose_writes_a_folder_with_csv_parquet_coco_and_an_overlay_video(
+    camera, walking_video, fetched_model_dir, tmp_path, capsys
+):
+    video, truth = walking_video
+    calibration = save_calibration(tmp_path / "calibration.toml", [camera])
+    out = tmp_path / "out"
+    args = ("pose", video, "--calibration", calibration, "--camera", "cam_1", "--out", out, "--overlay")
+    code, stdout, lines = _run(capsys, *args, "--model-dir", fetched_model_dir[0], "--model", "full")
+    assert code == 0, lines
+    assert sorted(p.name for p in out.iterdir()) == [
+        "keypoints.coco.json",
+        "keypoints.csv",
+        "keypoints.parquet",
+        "overlay.mp4",
+    ]
+    for name in ("keypoints.csv", "keypoints.parquet", "keypoints.coco.json", "overlay.mp4"):
+        assert str(out / name) in stdout
+    table = _check_folder(out, truth, images=False)
+    source = cv2.VideoCapture(str(video))
+    drawn = cv2.VideoCapture(str(out / "overlay.mp4"))
+    assert int(drawn.get(cv2.CAP_PROP_FRAME_COUNT)) == FRAMES
+    for f in range(FRAMES):
+        ok_s, a = source.read()
+        ok_d, b = drawn.read()
+        assert ok_s and ok_d and a.shape == b.shape
+        if f in set(table["frame"]):
+            near, far = _drawn_near_keypoints(a, b, table, f)
+            # Drawn at the keypoints; elsewhere only the codec's noise of a second encoding.
+            assert near > 60 and near > 10 * far, (f, near, far)
+    # Again without --force: refused, the folder as it was; with --force: replaced.
+    before = (out / "keypoints.csv").read_bytes()
+    code, _, lines = _run(capsys, *args, "--model-dir", fetched_model_dir[0], "--model", "full")
+    assert code != 0 and len(lines) == 1 and "--force" in lines[0] and str(out) in lines[0]
+    code, _, lines = _run(capsys, *args, "--model-dir", fetched_model_dir[0], "--model", "full", "--force")
+    assert code == 0, lines
+    assert (out / "keypoints.csv").read_bytes() == before  # the same frames, the same keypoints
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no staging folder left
+
+
+@pytest.mark.slow
+def test_pose_on_a_folder_of_images_in_name_order(camera, walking_video, fetched_model_dir, tmp_path, capsys):
+    """The video's frames as frame_0.png .. frame_9.png (frame_10 for the last: the names' numbers
+    order them, not their letters), a text file beside them; the calibration's only camera."""
+    video, truth = walking_video
+    folder = tmp_path / "cam_1"
+    folder.mkdir()
+    names = [f"frame_{k}.png" for k in range(FRAMES - 1)] + ["frame_10.png"]
+    for name, (_, image) in zip(names, read_frames(video, 0, FRAMES)):
+        cv2.imwrite(str(folder / name), image)
+    (folder / "notes.txt").write_text("not an image\n")
+    calibration = save_calibration(tmp_path / "calibration.toml", [camera])
+    out = tmp_path / "out"
+    code, stdout, lines = _run(
+        capsys,
+        "pose",
+        folder,
+        "--calibration",
+        calibration,
+        "--out",
+        out,
+        "--overlay",
+        "--fps",
+        FPS,
+        "--model-dir",
+        fetched_model_dir[0],
+        "--model",
+        "full",
+    )
+    assert code == 0, lines
+    table = _check_folder(out, truth, images=True)
+    drawn = sorted(p.name for p in (out / "overlay").iterdir())
+    assert drawn == sorted(Path(n).stem + ".jpg" for n in names)
+    f = int(table["frame"].iloc[0])
+    near, far = _drawn_near_keypoints(
+        cv2.imread(str(folder / names[f])), cv2.imread(str(out / "overlay" / (Path(names[f]).stem + ".jpg"))), table, f
+    )
+    assert near > 60 and near > 10 * far, (near, far)
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        "overlay into a csv",
+        "fps of a video",
+        "no images",
+        "out is a file",
+        "out holds other files",
+        "camera named twice",
+        "fps 0",
+    ],
+)
+def test_bad_output_and_source_arguments_are_one_line_and_a_non_zero_exit(case, tmp_path, capsys):
+    video = _write(tmp_path / "cam_1.mp4", [np.zeros((64, 64, 3), np.uint8)] * 2)
+    out = tmp_path / "out"
+    args: list = [video, "--out", out]
+    words: tuple = ()
+    if case == "overlay into a csv":
+        out = tmp_path / "k.csv"
+        args, words = [video, "--out", out, "--overlay"], ("--overlay", "--out DIR")
+    elif case == "fps of a video":
+        args, words = [video, "--out", out, "--fps", "5"], ("--fps", "folder of images")
+    elif case == "no images":
+        (tmp_path / "empty").mkdir()
+        (tmp_path / "empty" / "notes.txt").write_text("x")
+        args, words = [tmp_path / "empty", "--out", out], ("empty", "no image")
+    elif case == "out is a file":
+        out.write_text("mine\n")
+        words = ("out", "is a file")
+    elif case == "out holds other files":
+        out.mkdir()
+        (out / "thesis.docx").write_text("mine\n")
+        args, words = [video, "--out", out, "--force"], ("thesis.docx", "choose a new --out")
+    elif case == "camera named twice":
+        args += ["--calibration", tmp_path / "c.toml", "--camera", "a", "--camera-name", "b"]
+        words = ("--camera-name", "second time")
+    elif case == "fps 0":
+        args, words = [tmp_path, "--out", out, "--fps", "0"], ("--fps", "> 0")
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    code, stdout, lines = _run(capsys, "pose", *args)
+    assert code != 0
+    assert len(lines) == 1 and lines[0].startswith("ergopose: error:"), lines
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # nothing written, nothing removed
