@@ -108,7 +108,13 @@ def circle_from_images(
         for _, image, _ in read_images_checked(paths, int(i), int(i) + 1, size)
         if image is not None
     )
-    return find_image_circle(max_image(frames))
+    try:
+        brightest = max_image(frames)
+    except ValueError:  # none readable
+        raise InputError(
+            f"none of the {len(picks)} images sampled for the image circle could be read", path=paths[0].parent
+        ) from None
+    return find_image_circle(brightest)
 
 
 def pose_video(

@@ -569,6 +569,7 @@ def test_pose_on_a_folder_of_images_in_name_order(camera, walking_video, fetched
         "out holds other files",
         "camera named twice",
         "fps 0",
+        "no readable image for the circle",
     ],
 )
 def test_bad_output_and_source_arguments_are_one_line_and_a_non_zero_exit(case, tmp_path, capsys):
@@ -597,6 +598,12 @@ def test_bad_output_and_source_arguments_are_one_line_and_a_non_zero_exit(case, 
         words = ("--camera-name", "second time")
     elif case == "fps 0":
         args, words = [tmp_path, "--out", out, "--fps", "0"], ("--fps", "> 0")
+    elif case == "no readable image for the circle":
+        folder = tmp_path / "frames"
+        folder.mkdir()
+        cv2.imwrite(str(folder / "f_0.png"), np.zeros((64, 64, 3), np.uint8))
+        (folder / "f_1.png").write_bytes(b"damaged")
+        args, words = [folder, "--out", out, "--start", "1"], ("frames", "none of the 1 images sampled")
     before = sorted(p.name for p in tmp_path.rglob("*"))
     code, stdout, lines = _run(capsys, "pose", *args)
     assert code != 0
