@@ -134,3 +134,37 @@ def clean_up(folder: str | os.PathLike[str]) -> list[Path]:
                 path.unlink()
         removed.append(path)
     return removed
+
+
+def clean_up_beside(final: str | os.PathLike[str]) -> list[Path]:
+    """Tidy what a killed writer of ``final`` left beside it; return what was removed.
+
+    Only the names :func:`atomic_path` and :func:`atomic_dir` make for ``final`` are touched
+    (``.<stem>.<random>.tmp<suffix>``, ``.<name>.<random>.tmp``, and ``.<name>.old``, which is put
+    back when ``final`` is missing): the rest of the folder, someone else's, is left alone. Call it
+    only while no other process writes ``final``.
+    """
+    final = Path(final)
+    parent = final.parent
+    if not parent.is_dir():
+        return []
+    removed = []
+    for path in sorted(parent.iterdir()):
+        name = path.name
+        if name == f".{final.name}.old" and path.is_dir() and not final.exists():
+            os.replace(path, final)
+            continue
+        ours = (
+            name == f".{final.name}.old"
+            or (name.startswith(f".{final.name}.") and name.endswith(".tmp"))
+            or (name.startswith(f".{final.stem}.") and name.endswith(f".tmp{final.suffix}"))
+        )
+        if not ours:
+            continue
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+        removed.append(path)
+    return removed

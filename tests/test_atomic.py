@@ -102,3 +102,39 @@ def test_clean_up_puts_back_a_folder_moved_aside_by_a_killed_swap(tmp_path):
     clean_up(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
     assert (tmp_path / "results" / "a.txt").read_text() == "v1"
+
+
+def test_clean_up_beside_removes_only_what_a_killed_writer_of_that_name_left(tmp_path):
+    from ergopose.atomic import clean_up_beside
+
+    with atomic_dir(tmp_path / "pose") as d:
+        (d / "keypoints.csv").write_text("v1")
+    write_text(tmp_path / "k.csv", "old\n")
+    (tmp_path / ".bashrc").write_text("the user's")
+    (tmp_path / ".other.abc.tmp").mkdir()  # another output's leftover: not this one's to tidy
+    (tmp_path / ".k.abc.tmp.json").write_text("another file's")
+    _run_and_die(
+        "import os\nfrom ergopose.atomic import atomic_path, atomic_dir\n"
+        f"with atomic_dir({str(tmp_path / 'pose')!r}) as d:\n"
+        "    (d / 'keypoints.csv').write_text('half')\n"
+        f"    with atomic_path({str(tmp_path / 'k.csv')!r}) as t:\n"
+        "        t.write_text('half')\n"
+        "        os._exit(9)\n"
+    )
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert any(n.startswith(".pose.") for n in before) and any(
+        n.startswith(".k.") and n.endswith(".tmp.csv") for n in before
+    )
+    assert len(clean_up_beside(tmp_path / "pose")) == 1
+    assert len(clean_up_beside(tmp_path / "k.csv")) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".bashrc",
+        ".k.abc.tmp.json",
+        ".other.abc.tmp",
+        "k.csv",
+        "pose",
+    ]
+    assert (tmp_path / "pose" / "keypoints.csv").read_text() == "v1" and (tmp_path / "k.csv").read_text() == "old\n"
+    # A folder moved aside by a swap that died comes back when the output is missing.
+    (tmp_path / "pose").rename(tmp_path / ".pose.old")
+    assert clean_up_beside(tmp_path / "pose") == [] and (tmp_path / "pose" / "keypoints.csv").read_text() == "v1"

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from ergopose import __version__
-from ergopose.atomic import atomic_dir
+from ergopose.atomic import atomic_dir, clean_up_beside
 from ergopose.cli_progress import ProgressBars
 from ergopose.errors import ConfigError, InputError
 from ergopose.geometry.calibration_file import camera_for_video, read_any_calibration
@@ -263,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
             frames, footage.path, camera, footage.fps, start, stop, landmarker, detector, settings, progress, on_frame
         )
 
+    clean_up_beside(args.out)  # what a killed run of this command left beside --out
     if _csv_only(args.out):
         result = stage(None)
         write_pose_csv(args.out, result.table)
