@@ -251,19 +251,46 @@ def draw_people(image: np.ndarray, people: PosePeople, min_confidence: float) ->
     return out
 
 
+#: Grey level of the overlay's frame for a frame that could not be read.
+UNREAD_GREY = 40
+
+
+def unread_frame(index: int, width: int, height: int) -> np.ndarray:
+    """A dark frame saying that frame ``index`` could not be read (BGR)."""
+    out = np.full((height, width, 3), UNREAD_GREY, np.uint8)
+    scale = max(0.5, min(width, height) / 800.0)
+    cv2.putText(
+        out,
+        f"frame {index}: could not be read",
+        (int(0.05 * width), height // 2),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        scale,
+        (200, 200, 200),
+        max(1, int(round(2 * scale))),
+        cv2.LINE_AA,
+    )
+    return out
+
+
 class OverlayVideo:
-    """The overlay of a video: every frame read, with its people drawn, into one mp4v file (the
-    caller writes it under a temporary name: ``ergopose pose`` builds its whole output folder
-    aside)."""
+    """The overlay of a video: every frame, with its people drawn (a frame that could not be read
+    as a dark frame saying so), into one mp4v file (the caller writes it under a temporary name:
+    ``ergopose pose`` builds its whole output folder aside)."""
 
     def __init__(self, path: str | os.PathLike[str], fps: float, width: int, height: int, min_confidence: float):
         self.path = Path(path)
         self.min_confidence = min_confidence
         self.writer = open_video_writer(self.path, fps, width, height)
+        self.width, self.height = int(width), int(height)
         self.frames = 0
 
-    def add(self, index: int, image: np.ndarray, people: PosePeople) -> None:
-        self.writer.write(draw_people(image, people, self.min_confidence))
+    def add(self, index: int, image: np.ndarray | None, people: PosePeople | None) -> None:
+        """One frame with its people drawn; a frame that could not be read (``image`` None) as a
+        dark frame saying so, so that the overlay keeps the video's frames and times."""
+        if image is None or people is None:
+            self.writer.write(unread_frame(index, self.width, self.height))
+        else:
+            self.writer.write(draw_people(image, people, self.min_confidence))
         self.frames += 1
 
     def close(self) -> None:
@@ -281,7 +308,10 @@ class OverlayImages:
         self.min_confidence = min_confidence
         self.frames = 0
 
-    def add(self, index: int, image: np.ndarray, people: PosePeople) -> None:
+    def add(self, index: int, image: np.ndarray | None, people: PosePeople | None) -> None:
+        """The image with its people drawn, as NAME.jpg; nothing for an image that could not be read."""
+        if image is None or people is None:
+            return
         path = self.folder / (Path(self.names[index]).stem + ".jpg")
         if not cv2.imwrite(str(path), draw_people(image, people, self.min_confidence), [cv2.IMWRITE_JPEG_QUALITY, 90]):
             raise OSError(f"cannot write {path}")

@@ -29,8 +29,9 @@ from ergopose.progress import ProgressCallback, report, warn
 from ergopose.pipeline.pose_outputs import PosePeople
 from ergopose.video import read_frames, read_frames_checked, read_images_checked
 
-#: What ``on_frame`` is given: the frame's index, the image (BGR) and its people.
-FrameSink = Callable[[int, np.ndarray, PosePeople], None]
+#: What ``on_frame`` is given: the frame's index, the image (BGR) and its people; None and None
+#: for a frame that could not be read.
+FrameSink = Callable[[int, np.ndarray | None, PosePeople | None], None]
 
 #: The CSV's columns, in order.
 POSE_COLUMNS: tuple[str, ...] = (
@@ -132,7 +133,8 @@ def pose_video(
     """The 2D stage on frames start .. stop-1 of one video. Frames that cannot be decoded are
     skipped (counted in ``people`` as -1, and told through ``progress``); reaching
     ``settings.max_people`` is told once, naming the camera and the setting. ``on_frame`` is
-    given every frame read, with its people (the overlay of ``ergopose pose``)."""
+    given every frame, with its people, or None and None where it could not be read (the overlay
+    of ``ergopose pose``)."""
     frames = read_frames_checked(path, start, stop)
     return pose_frames(frames, path, camera, fps, start, stop, landmarker, detector, settings, progress, on_frame)
 
@@ -162,6 +164,8 @@ def pose_frames(
     for k, (index, image, problem) in enumerate(frames):
         if image is None:
             people[k] = -1  # why: problem, one of ergopose.video.SKIP_CODES
+            if on_frame is not None:
+                on_frame(index, None, None)
         else:
             found = stage.process(image, index)
             people[k] = found.count

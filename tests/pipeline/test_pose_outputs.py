@@ -13,6 +13,9 @@ import pytest
 from ergopose.keypoints import BLAZEPOSE33, JOINT_INDEX, NUM_JOINTS
 from ergopose.pipeline.pose_outputs import (
     SKELETON,
+    UNREAD_GREY,
+    OverlayImages,
+    OverlayVideo,
     CocoImage,
     CocoSource,
     PosePeople,
@@ -22,7 +25,10 @@ from ergopose.pipeline.pose_outputs import (
     write_pose_coco,
     write_pose_parquet,
 )
-from ergopose.pipeline.pose_video import POSE_COLUMNS
+from ergopose.pipeline.pose_video import POSE_COLUMNS, pose_frames
+from ergopose.pose.settings import PoseSettings
+from ergopose.sim.scene import rig_cameras
+from ergopose.video import UNDECODABLE, read_frames
 
 
 def _table(people: dict[tuple[int, int], np.ndarray], conf: float = 0.9) -> pd.DataFrame:
@@ -114,3 +120,37 @@ def test_a_drawn_skeleton_lies_on_its_keypoints_sides_coloured():
         image, PosePeople(np.zeros((0, NUM_JOINTS, 2)), np.zeros((0, NUM_JOINTS)), np.zeros((0, NUM_JOINTS), bool)), 0.5
     )
     assert (nothing == image).all()
+
+
+class _NobodyDetector:
+    input_size = (224, 224)
+
+    def __call__(self, image):
+        return []
+
+
+class _NoLandmarker:
+    input_size = (256, 256)
+
+    def __call__(self, image):  # pragma: no cover - nothing is found, so no view is run
+        raise AssertionError("no view should be run")
+
+
+def test_the_overlay_video_keeps_every_frame_a_frame_that_could_not_be_read_shown_as_such(tmp_path):
+    camera = rig_cameras(320, 240)[0]
+    frames = [np.full((240, 320, 3), 90 + 40 * k, np.uint8) for k in range(3)]
+    source = [(0, frames[0], ""), (1, None, UNDECODABLE), (2, frames[2], "")]
+    overlay = OverlayVideo(tmp_path / "overlay.mp4", 5.0, 320, 240, 0.5)
+    result = pose_frames(
+        source, "v.mp4", camera, 5.0, 0, 3, _NoLandmarker(), _NobodyDetector(), PoseSettings(), None, overlay.add
+    )
+    overlay.close()
+    assert list(result.people) == [0, -1, 0] and overlay.frames == 3
+    back = [f for _, f in read_frames(tmp_path / "overlay.mp4", 0, 3)]
+    assert len(back) == 3
+    # The read frames as they were (nobody to draw), the unread one dark with its line of text.
+    assert abs(float(back[0].mean()) - 90) < 6 and abs(float(back[2].mean()) - 170) < 6  # the codec: a few levels
+    assert np.median(back[1]) == pytest.approx(UNREAD_GREY, abs=3) and back[1].max() > 150
+    images = OverlayImages(tmp_path / "overlay", ["a.png", "b.png"], 0.5)
+    images.add(1, None, None)  # an image that could not be read gives no overlay image
+    assert list((tmp_path / "overlay").iterdir()) == []
