@@ -100,6 +100,15 @@ def atomic_dir(final: str | os.PathLike[str]) -> Iterator[Path]:
         shutil.rmtree(old, ignore_errors=True)
 
 
+def _remove(path: Path) -> None:
+    """Remove a file, link or folder (and what it holds); gone already is fine."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+
+
 def _made_here(name: str) -> bool:
     """Whether a file or folder name is one this module makes (".<name>.<random>.tmp<suffix>")."""
     return name.startswith(".") and ".tmp" in name
@@ -127,11 +136,7 @@ def clean_up(folder: str | os.PathLike[str]) -> list[Path]:
                 continue
         elif not _made_here(name):
             continue
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path, ignore_errors=True)
-        else:
-            with contextlib.suppress(FileNotFoundError):
-                path.unlink()
+        _remove(path)
         removed.append(path)
     return removed
 
@@ -161,10 +166,6 @@ def clean_up_beside(final: str | os.PathLike[str]) -> list[Path]:
         )
         if not ours:
             continue
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path, ignore_errors=True)
-        else:
-            with contextlib.suppress(FileNotFoundError):
-                path.unlink()
+        _remove(path)
         removed.append(path)
     return removed
