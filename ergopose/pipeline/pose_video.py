@@ -169,18 +169,17 @@ def pose_frames(
         else:
             found = stage.process(image, index)
             people[k] = found.count
+            xy = found.pixels_fisheye
+            conf = np.where(np.isfinite(xy).all(axis=-1), found.confidence, 0.0)  # none outside the lens
             doubted = found.left_right_uncertain
             doubted = np.zeros((found.count, NUM_JOINTS), bool) if doubted is None else doubted
             if found.count:
                 found_frames.append(np.full(found.count, index, np.int64))
                 persons.append(np.arange(found.count, dtype=np.int64))
-                pixels.append(found.pixels_fisheye)
-                confidence.append(found.confidence)
+                pixels.append(xy)
+                confidence.append(conf)
                 uncertain.append(doubted)
             if on_frame is not None:
-                # As the table will hold them: a point outside the lens has no confidence.
-                xy = found.pixels_fisheye
-                conf = np.where(np.isfinite(xy).all(axis=-1), found.confidence, 0.0)
                 on_frame(index, image, PosePeople(xy, conf, doubted))
         report(progress, "pose", k + 1, count, unit="frame")
     skipped = int(np.count_nonzero(people < 0))
@@ -225,7 +224,7 @@ def _table(
             "joint": np.tile(np.array(BLAZEPOSE33, dtype=object), frame.size),
             "x_px": np.round(xy[..., 0].reshape(rows), 2),
             "y_px": np.round(xy[..., 1].reshape(rows), 2),
-            "confidence": np.round(np.where(np.isfinite(xy).all(axis=-1), conf, 0.0).reshape(rows), 4),
+            "confidence": np.round(conf.reshape(rows), 4),  # 0 where the lens cannot place the point
             "left_right_uncertain": doubted.reshape(rows),
         },
         columns=list(POSE_COLUMNS),
