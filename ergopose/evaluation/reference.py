@@ -28,7 +28,10 @@ Steps:
 The result is a JSON-ready dictionary in the layout of the simulated evaluation
 (``angles.by_angle.NAME.mae_deg``, ``scores.rula_grand.kappa_linear``, ...) with, in addition,
 ``reference``, ``alignment``, ``frame_selection`` (compared and left out, by reason; ``frames`` is
-the number compared) and ``definitions``.
+the number compared) and ``definitions``: the segment lengths of both sides, and every angle and
+body part compared again against the reference moved by each joint's median offset in the
+person's heading frame (``definitions.without_constant_offsets``), which shows how much of a
+difference a constant keypoint definition difference (BlazePose's hip against OpenPose's) explains.
 """
 
 from __future__ import annotations
@@ -288,6 +291,118 @@ def _pairs(points: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 # ------------------------------------------------------------------------------------------ evaluate
 
 
+def heading_frames(points_world: np.ndarray) -> np.ndarray:
+    """(n, 3, 3) the person's heading frame in each frame of ``points_world`` (n, 33, 3): columns
+    forward, left and up (world up; left = the hip line made level, forward = left x up, as the
+    pelvis frame of :mod:`ergopose.ergonomics.angles`). NaN where a hip is missing."""
+    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (len(points_world), 3))
+    hip_line = points_world[:, JOINT_INDEX["left_hip"]] - points_world[:, JOINT_INDEX["right_hip"]]
+    hip_line = hip_line - np.einsum("ni,ni->n", hip_line, up)[:, None] * up
+    length = np.linalg.norm(hip_line, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        left = hip_line / np.where(length > 1e-9, length, np.nan)[:, None]
+    forward = np.cross(left, up)
+    return np.stack([forward, left, up], axis=-1)
+
+
+def definition_offsets(points_world: np.ndarray, ref_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How a constant difference of keypoint definitions would place the reference.
+
+    points_world, ref_world: (n, J, 3) the compared rows of the assessment and the aligned
+    reference. Returns each joint's median offset (assessment - reference) in the reference
+    person's heading frame (:func:`heading_frames`; (J, 3) forward, left, up in metres, NaN where
+    the joint has no pair), and the reference with those offsets added in every frame ((n, J, 3);
+    a joint without an offset, or a frame without a heading, is left as it was). A difference
+    that is only a constant offset of some joints in the heading frame disappears against the
+    moved reference; a difference that varies from frame to frame (error) does not."""
+    frames = heading_frames(ref_world)
+    local = np.einsum("nij,nJi->nJj", frames, points_world - ref_world)
+    pairs = np.isfinite(local).all(-1).any(0)
+    offsets = np.full(local.shape[1:], np.nan)
+    if pairs.any():
+        offsets[pairs] = np.nanmedian(local[:, pairs], axis=0)
+    added = np.einsum("nij,Jj->nJi", frames, np.nan_to_num(offsets))
+    moved = np.where(np.isfinite(added), ref_world + added, ref_world)
+    return offsets, moved
+
+
+def _csv_numbers(table: pd.DataFrame, column: str) -> np.ndarray:
+    """A column of the steps CSV as floats (NaN where empty; all NaN when the column is absent)."""
+    if column not in table.columns:
+        return np.full(len(table), np.nan)
+    return pd.to_numeric(table[column], errors="coerce").to_numpy(np.float64)
+
+
+def _angle_differences(ours: pd.DataFrame, posture: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Per angle of ``posture`` (radians): the steps CSV ``ours`` (degrees) minus it, in degrees,
+    wrapped to [-180, 180)."""
+    return {
+        c: (_csv_numbers(ours, c) - np.degrees(posture[c].to_numpy(np.float64)) + 180.0) % 360.0 - 180.0
+        for c in ANGLE_COLUMNS
+        if c in posture.columns
+    }
+
+
+def _reference_scores(
+    ref_world: np.ndarray, times: np.ndarray, factors: pd.DataFrame, scoring: ScoringSettings
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The posture (radians) and the RULA/REBA steps of the reference's joints ``ref_world``."""
+    posture = joint_angles(ref_world, times if np.all(np.diff(times) > 0) else None).to_frame()
+    posture = posture.reset_index(drop=True)
+    inputs = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
+    return posture, score_posture(pd.concat([posture, inputs], axis=1), settings=scoring)
+
+
+def _score_pair(assessed: pd.DataFrame, ref_scores: pd.DataFrame, c: str) -> dict:
+    """Agreement of score column ``c`` between the assessment's CSV rows and the reference's steps."""
+    a = _csv_numbers(assessed, c)
+    b = pd.to_numeric(ref_scores[c], errors="coerce").to_numpy(np.float64)
+    if c in SCORE_SCALES:
+        scale = SCORE_SCALES[c]
+    else:
+        lo, hi = PART_SCALES[c]
+        seen = np.concatenate([a[np.isfinite(a)], b[np.isfinite(b)]])
+        if len(seen):
+            lo, hi = min(lo, int(seen.min())), max(hi, int(seen.max()))
+        scale = tuple(range(lo, hi + 1))
+    return _agreement(a, b, scale)
+
+
+def _without_offsets(
+    points: np.ndarray,
+    ref_world: np.ndarray,
+    times: np.ndarray,
+    factors: pd.DataFrame,
+    scoring: ScoringSettings,
+    assessed: pd.DataFrame,
+    parts: Sequence[str],
+) -> dict[str, Any]:
+    """The angles' and parts' agreement against the reference moved by the constant definition
+    offsets (:func:`definition_offsets`): what of each difference a constant offset explains."""
+    offsets, moved = definition_offsets(points, ref_world)
+    posture, scores = _reference_scores(moved, times, factors, scoring)
+    angles = {}
+    for c, d in _angle_differences(assessed, posture).items():
+        stats = angle_stats(d)
+        angles[c] = {k: stats[k] for k in ("n", "mae_deg", "bias_deg", "rmse_deg")}
+    return {
+        "definition": (
+            "the same comparison against the reference with each joint moved by its median offset "
+            "(assessment - reference) in the reference person's heading frame (forward, left, up; "
+            "offsets_heading_mm): a keypoint definition difference that is a constant offset there "
+            "disappears, an error that varies does not; a constant bias of the reconstruction looks the "
+            "same, and a limb that moves against the heading carries its offset only roughly"
+        ),
+        "offsets_heading_mm": {
+            BLAZEPOSE33[j]: [round_or_nan(1000 * v, 1) for v in offsets[j]]
+            for j in range(len(offsets))
+            if np.isfinite(offsets[j]).all()
+        },
+        "angles": angles,
+        "parts_exact_agreement_pct": {c: _score_pair(assessed, scores, c)["exact_agreement_pct"] for c in parts},
+    }
+
+
 def evaluate_reference(
     results_dir: str | Path,
     reference: str | Path | TrcData,
@@ -487,33 +602,23 @@ def evaluate_reference(
     assessed_df = pd.concat(assessed).sort_values("_row").reset_index(drop=True)
 
     times = tracks.time_s[selected]
-    posture = joint_angles(ref_world[selected], times if np.all(np.diff(times) > 0) else None).to_frame()
-    posture = posture.reset_index(drop=True)
-    factors = pd.DataFrame(index=posture.index)
+    factors = pd.DataFrame(index=pd.RangeIndex(len(selected)))
     for c in FACTOR_COLUMNS:
-        if c in assessed_df.columns and c not in posture.columns:
+        if c in assessed_df.columns:
             if c in ("load_mode", "coupling"):
                 factors[c] = assessed_df[c].astype("string").to_numpy()
             else:
                 factors[c] = pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64)
-    ref_scores = score_posture(pd.concat([posture, factors], axis=1), settings=scoring)
+    posture, ref_scores = _reference_scores(ref_world[selected], times, factors, scoring)
+    factors = factors.drop(columns=[c for c in factors.columns if c in posture.columns])
 
     by_angle = {}
     pooled = []
-    differences: dict[str, np.ndarray] = {}
-    for c in ANGLE_COLUMNS:
-        if c not in posture.columns:
-            continue
-        ref_deg = np.degrees(posture[c].to_numpy(np.float64))
-        ours = (
-            pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64)
-            if c in assessed_df.columns
-            else np.full(len(ref_deg), np.nan)
-        )
-        d = (ours - ref_deg + 180.0) % 360.0 - 180.0
-        differences[c] = d
+    differences = _angle_differences(assessed_df, posture)
+    for c, d in differences.items():
+        ref_deg = posture[c].to_numpy(np.float64)
         row = angle_stats(d, reported_sd(assessed_df, c))
-        row["missing_assessment"] = int((~np.isfinite(ours)).sum())
+        row["missing_assessment"] = int((~np.isfinite(_csv_numbers(assessed_df, c))).sum())
         row["missing_reference"] = int((~np.isfinite(ref_deg)).sum())
         if row["missing_reference"] == len(ref_deg):
             row["why_missing"] = "the reference's markers do not define this angle (no counterpart of a joint it needs)"
@@ -545,21 +650,7 @@ def evaluate_reference(
     compared_scores = [c for c in list(SCORE_SCALES) + list(PART_SCALES) if c in ref_scores.columns]
     expected = expected_reference_agreement(posture, factors, differences, ref_scores, compared_scores, scoring)
     for c in compared_scores:
-        a = (
-            pd.to_numeric(assessed_df[c], errors="coerce").to_numpy(np.float64)
-            if c in assessed_df.columns
-            else np.full(len(ref_scores), np.nan)
-        )
-        b = pd.to_numeric(ref_scores[c], errors="coerce").to_numpy(np.float64)
-        if c in SCORE_SCALES:
-            scale = SCORE_SCALES[c]
-        else:
-            lo, hi = PART_SCALES[c]
-            seen = np.concatenate([a[np.isfinite(a)], b[np.isfinite(b)]])
-            if len(seen):
-                lo, hi = min(lo, int(seen.min())), max(hi, int(seen.max()))
-            scale = tuple(range(lo, hi + 1))
-        scores[c] = _agreement(a, b, scale)
+        scores[c] = _score_pair(assessed_df, ref_scores, c)
         scores[c]["expected_exact_agreement_pct"] = expected[c]
     scores["expected_definition"] = (
         "expected_exact_agreement_pct: exact agreement of the reference's scores with those of the "
@@ -568,6 +659,9 @@ def evaluate_reference(
         "difference counts as 0): how much agreement differences of this size leave wherever they fall"
     )
     parts = {c: scores[c]["exact_agreement_pct"] for c in PART_SCALES if c in scores}
+    definitions["without_constant_offsets"] = _without_offsets(
+        pts[selected], ref_world[selected], times, factors, scoring, assessed_df, list(parts)
+    )
     scores["parts_exact_agreement_pct"] = parts
 
     # --- frames -----------------------------------------------------------------------------------
@@ -725,16 +819,36 @@ def format_reference(ev: Mapping[str, Any]) -> str:
         x, y, z = (v + 0.0 if v is not None else float("nan") for v in r["mean_offset_world_mm"])
         label = f"{j} ({r['reference_marker']})"
         lines.append(f"  {label:<30} {x:+7.1f} {y:+7.1f} {z:+7.1f}   rms {r['rms_mm']}")
-    lines.append("Angles (assessment - reference, degrees): mean absolute difference, bias, frames")
+    defs = ev.get("definitions", {})
+    without = defs.get("without_constant_offsets", {})
+    if defs.get("segments"):
+        lines.append("Segment lengths (median over the compared frames; assessment / reference mm, ratio):")
+        for limb, r in defs["segments"].items():
+            lines.append(
+                f"  {limb:<18} {r['assessment_median_mm']:7.1f} / {r['reference_median_mm']:7.1f}   {r['ratio']:.3f}"
+            )
+    if without.get("offsets_heading_mm"):
+        lines.append("Joint offsets in the person's heading frame (median; forward, left, up, mm):")
+        for j, (fwd, left, up) in without["offsets_heading_mm"].items():
+            lines.append(f"  {j:<30} {fwd:+7.1f} {left:+7.1f} {up:+7.1f}")
+    lines.append(
+        "Angles (assessment - reference, degrees): mean absolute difference, bias, frames; "
+        "then against the reference moved by those offsets (what a constant definition difference leaves)"
+    )
     for c, r in an["by_angle"].items():
         if r["n"]:
-            lines.append(f"  {c:<28} MAD {r['mae_deg']:6.2f}  bias {r['bias_deg']:+6.2f}  n {r['n']}" + _sd_cover(r))
+            w = without.get("angles", {}).get(c)
+            rest = f"  | offsets removed: MAD {w['mae_deg']:6.2f}  bias {w['bias_deg']:+6.2f}" if w and w["n"] else ""
+            lines.append(
+                f"  {c:<28} MAD {r['mae_deg']:6.2f}  bias {r['bias_deg']:+6.2f}  n {r['n']}" + _sd_cover(r) + rest
+            )
     skipped = [c for c, r in an["by_angle"].items() if not r["n"]]
     if skipped:
         lines.append(f"  not compared (not measured on one side): {', '.join(skipped)}")
     lines.append(
         "Scores: exact agreement %, within one %, kappa (linear), pairs; expected: the exact agreement "
-        "that this run's angle differences leave (moved in time)"
+        "that this run's angle differences leave (moved in time); offsets removed: the exact agreement "
+        "against the reference moved by the joints' constant offsets"
     )
     for c in list(SCORE_SCALES) + list(PART_SCALES):
         if c in sc and isinstance(sc[c], dict):
@@ -746,6 +860,11 @@ def format_reference(ev: Mapping[str, Any]) -> str:
                     + (
                         f"  expected {r['expected_exact_agreement_pct']:.1f}"
                         if "expected_exact_agreement_pct" in r
+                        else ""
+                    )
+                    + (
+                        f"  offsets removed {without['parts_exact_agreement_pct'][c]:.1f}"
+                        if c in without.get("parts_exact_agreement_pct", {})
                         else ""
                     )
                 )

@@ -110,6 +110,62 @@ def test_known_definition_offset_is_reported_exactly(trc, world, tmp_path):
     assert thigh["ratio"] > 1.0
 
 
+def heading_by_yaw(points_world):
+    """(n, 3, 3) columns forward, left, up from the yaw of the hip line (written apart from the
+    product's heading frame): left = (cos yaw, sin yaw, 0), forward = (sin yaw, -cos yaw, 0)."""
+    line = points_world[:, JOINT_INDEX["left_hip"]] - points_world[:, JOINT_INDEX["right_hip"]]
+    yaw = np.arctan2(line[:, 1], line[:, 0])
+    zero, one = np.zeros_like(yaw), np.ones_like(yaw)
+    forward = np.stack([np.sin(yaw), -np.cos(yaw), zero], axis=-1)
+    left = np.stack([np.cos(yaw), np.sin(yaw), zero], axis=-1)
+    up = np.stack([zero, zero, one], axis=-1)
+    return np.stack([forward, left, up], axis=-1)
+
+
+#: Offsets (forward, left, up; m) that turn the reference's joints into another definition.
+DEFINITION_OFFSETS = {
+    "left_hip": (0.0, 0.0, -0.035),
+    "right_hip": (0.010, 0.0, -0.035),
+    "left_knee": (0.020, 0.0, 0.015),
+    "left_shoulder": (0.010, -0.020, 0.0),
+}
+
+
+def test_a_constant_offset_in_the_heading_frame_is_explained_and_noise_is_not(trc, world, tmp_path, capsys):
+    """An 'assessment' that is the reference with some joints moved by constant offsets in the
+    person's heading frame differs from it in the trunk and the left knee; against the reference
+    moved by the offsets that evaluate finds, it agrees to the CSV's rounding, and the offsets are
+    the ones put in. Seeded noise of 15 mm per coordinate is not explained away."""
+    frames = heading_by_yaw(world)
+    moved = world.copy()
+    for joint, offset in DEFINITION_OFFSETS.items():
+        moved[:, JOINT_INDEX[joint]] += frames @ np.array(offset)
+    out = make_results(tmp_path / "out", [(1, np.arange(100), moved)], fps=60.0)
+    assert cli.main(["evaluate", "--results", str(out), "--reference", str(trc), "--reference-axes", "z,x,y"]) == 0
+    printed = capsys.readouterr().out
+    assert "Segment lengths" in printed and "offsets removed" in printed
+    ev = json.loads((out / "evaluation_reference.json").read_text())
+    without = ev["definitions"]["without_constant_offsets"]
+    for joint, offset in DEFINITION_OFFSETS.items():
+        np.testing.assert_allclose(without["offsets_heading_mm"][joint], 1000 * np.array(offset), atol=0.05)
+    np.testing.assert_allclose(without["offsets_heading_mm"]["right_knee"], 0.0, atol=0.05)
+    for angle in ("trunk_flexion", "trunk_side_bend", "trunk_twist", "left_knee_flexion"):
+        assert ev["angles"]["by_angle"][angle]["mae_deg"] > 0.5
+        assert without["angles"][angle]["mae_deg"] < 0.01
+    # The parts the reference defines (no neck or wrists in this TRC: None).
+    parts = {c: v for c, v in ev["scores"]["parts_exact_agreement_pct"].items() if v is not None}
+    assert len(parts) == 12 and min(parts.values()) < 100.0
+    assert all(without["parts_exact_agreement_pct"][c] == 100.0 for c in parts)
+
+    noisy = world + np.random.default_rng(3).normal(0.0, 0.015, world.shape)
+    out = make_results(tmp_path / "noisy", [(1, np.arange(100), noisy)], fps=60.0)
+    ev = evaluate_reference(out, trc, axes="z,x,y")
+    without = ev["definitions"]["without_constant_offsets"]
+    for angle in ("trunk_flexion", "left_knee_flexion", "right_elbow_flexion"):
+        before, after = ev["angles"]["by_angle"][angle]["mae_deg"], without["angles"][angle]["mae_deg"]
+        assert before > 1.0 and after > 0.8 * before
+
+
 def test_identity_switch_and_a_second_person(trc, world, tmp_path):
     other = world[::-1] + np.array([2.5, 0.0, 0.0])  # someone else, 2.5 m away, moving differently
     people = [(1, np.arange(50), world[:50]), (2, np.arange(50, 100), world[50:]), (3, np.arange(100), other)]
