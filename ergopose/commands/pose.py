@@ -115,7 +115,7 @@ docs/pose-command.md."""
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "pose",
-        help="find the people in one video and write their 2D keypoints to a CSV file (no session needed)",
+        help="find the people in one video or folder of images and write their 2D keypoints (CSV, Parquet, COCO JSON, an overlay; no session needed)",
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
