@@ -82,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
     for line in table_lines(session, people):
         print(line)
     rescore.warn_unused(session, people, progress)
+    rescore.warn_headcount(session, folder, people, progress)
     return 0
 
 

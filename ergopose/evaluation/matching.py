@@ -117,6 +117,7 @@ def matching_section(inp: EvaluationInputs, person: np.ndarray) -> tuple[dict, d
         "identity_switches_sustained": int(sustained),
         "sustained_min_frames": hold,
         "reported_as": dict(inp.reported),
+        "reported_workers": sorted({inp.reported[identity_name(w)] for w in tf.workers}),
         "named_by_stature": _naming(inp, person),
         "rows": int(len(tf)),
         "rows_matched": int(matched.sum()),

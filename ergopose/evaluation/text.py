@@ -36,8 +36,10 @@ def format_evaluation(ev: dict) -> str:
         )
     m = ev["matching"]
     lines += ["", "Identities"]
+    reported = m.get("reported_workers", m["tracked_workers"])
+    as_reported = f" (reported as {len(reported)} after naming)" if len(reported) != len(m["tracked_workers"]) else ""
     lines.append(
-        f"  tracked {len(m['tracked_workers'])} worker id(s) for {len(m['ground_truth_workers'])} simulated "
+        f"  tracked {len(m['tracked_workers'])} worker id(s){as_reported} for {len(m['ground_truth_workers'])} simulated "
         f"worker(s); identity switches: {m['identity_switches']} ({m['identity_switches_sustained']} "
         f"holding at least {m['sustained_min_frames']} frames); rows matched to another worker than "
         f"their id's: {m['rows_matched_to_another_worker_than_the_mapping']} of {m['rows_matched']}"
@@ -45,7 +47,7 @@ def format_evaluation(ev: dict) -> str:
     nb = m["named_by_stature"]
     if nb["ids"]:
         lines.append(
-            "  named after settings workers by stature: "
+            "  named (names.toml or stature): "
             + ", ".join(f"{t} -> {w}" for t, w in nb["ids"].items())
             + f"; right person in {_f(nb['correct_pct'], '.1f', ' %')} of their rows"
         )

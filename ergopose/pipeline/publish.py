@@ -30,6 +30,7 @@ from ergopose.ergonomics.export import (
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.pipeline.aggregate import ReportWorker
 from ergopose.pipeline.guard import fingerprint_of
+from ergopose.pipeline.headcount import SamePerson
 from ergopose.pipeline.inputs import ModelUse
 from ergopose.pipeline.names import NAMES_FILE
 from ergopose.pipeline.score import CSV_DIR, SCORED_DIR
@@ -152,6 +153,7 @@ def publish(
         skipped,
         unused=named.unused,
         window=named.tracks.window,
+        same_person=named.same_person,
     )
     swap_outputs(stage, out_dir)
     return Outputs(index_html=out_dir / index.name, session_csv=out_dir / CSV_DIR / SESSION_CSV, workers=tuple(outputs))
@@ -209,6 +211,7 @@ def write_report(
     skipped: tuple[SkippedFrames, ...] = (),
     unused: Sequence[str] = (),
     window: Window | None = None,
+    same_person: Sequence[SamePerson] = (),
 ) -> Path:
     """Store the report results (ergopose.report.results) and render the pages.
 
@@ -216,7 +219,8 @@ def write_report(
 
     skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
     unused: settings ids whose task inputs reach no reported worker (every worker's assumptions
-    say so).
+    say so). same_person: pairs of reported workers most likely one worker, when more were tracked
+    than the settings say the area holds (both workers' assumptions say so).
     """
     worker_records = []
     for s in scored:
@@ -249,7 +253,11 @@ def write_report(
         ),
         floor=floor,
         workers=_with_identities(
-            adapters.worker_infos(session, [s.worker_id for s in scored], csv_files), ident, session, unused
+            adapters.worker_infos(session, [s.worker_id for s in scored], csv_files),
+            ident,
+            session,
+            unused,
+            same_person,
         ),
         csv_files=(
             DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
@@ -282,10 +290,17 @@ def calibration_check(session: Session) -> check.CheckReport | None:
     return check.measure_bar(session.calibrated_cameras, pixels, spec.length_m, labels=labels)
 
 
-def _with_identities(infos: Sequence[Any], ident: Any, session: Session, unused: Sequence[str] = ()) -> tuple[Any, ...]:
+def _with_identities(
+    infos: Sequence[Any],
+    ident: Any,
+    session: Session,
+    unused: Sequence[str] = (),
+    same_person: Sequence[SamePerson] = (),
+) -> tuple[Any, ...]:
     """Each worker's assumptions, plus how the tracked person was matched to the settings' worker
-    (names.toml or stature; ident: ergopose.pipeline.names.Naming or identify.Identification) and
-    which settings ids' task inputs reach nobody."""
+    (names.toml or stature; ident: ergopose.pipeline.names.Naming or identify.Identification),
+    which settings ids' task inputs reach nobody, and which other worker this one most likely is
+    when more were tracked than the area holds (same_person)."""
     members = getattr(ident, "members", {})
     named: frozenset[str] = getattr(ident, "named", frozenset())
     out = []
@@ -323,6 +338,20 @@ def _with_identities(infos: Sequence[Any], ident: Any, session: Session, unused:
                     source=f"{session.settings_path.name} stature_m",
                 )
             )
+        for pair in same_person:
+            if info.worker_id in (pair.first, pair.second):
+                other = pair.second if info.worker_id == pair.first else pair.first
+                extras.append(
+                    Assumption(
+                        item="who this is",
+                        value=f"most likely the same worker as {other}: more people were tracked than the "
+                        f"area holds, and the two were followed at the same time in {pair.together} of "
+                        f"the {pair.shorter} frames of the shorter one ({pair.together_pct:.0f} %); if "
+                        "so, give both one name with 'ergopose workers --name'",
+                        applies_to="this worker's share of the shift (the other's frames are not in it)",
+                        source=f"{session.settings_path.name} [reconstruction] expected_workers",
+                    )
+                )
         if unused:
             extras.append(
                 Assumption(

@@ -23,7 +23,7 @@ import pyarrow.parquet as pq
 
 from ergopose.atomic import write_text
 from ergopose.errors import InputError
-from ergopose.pipeline import guard, names
+from ergopose.pipeline import guard, headcount, names
 from ergopose.pipeline.assess import score_and_publish
 from ergopose.pipeline.inputs import ModelUse, scoring_settings
 from ergopose.pipeline.track import stored_tracks
@@ -260,6 +260,26 @@ def warn_unused(session: Session, people: Sequence[TrackedPerson], progress: Pro
     return unused
 
 
+def warn_headcount(
+    session: Session, folder: Path, people: Sequence[TrackedPerson], progress: ProgressCallback | None
+) -> tuple[headcount.SamePerson, ...]:
+    """Warn (through ``progress``) when ``people`` are reported as more workers than the settings
+    say the area holds, naming the pairs most likely one worker (:mod:`ergopose.pipeline.headcount`)."""
+    members: dict[str, list[str]] = {}
+    for p in people:
+        members.setdefault(p.reported_id, []).append(p.tracked_id)
+    path = ResultStore(folder).tracks_path
+    return headcount.check_headcount(
+        session,
+        path,
+        int(session.reconstruction.expected_workers),
+        members,
+        {p.tracked_id: p.stature_m for p in people},
+        part_of_day.Window.from_dict(read_metadata(path).get("window")),
+        progress,
+    )
+
+
 __all__ = [
     "TrackedPerson",
     "tracked_people",
@@ -270,4 +290,5 @@ __all__ = [
     "tracked_ids",
     "clock",
     "warn_unused",
+    "warn_headcount",
 ]

@@ -148,6 +148,7 @@ def test_names_given_by_stature_are_checked_and_their_task_factors_used(small_se
     ev = _evaluate(small_session, out)
     m = ev["matching"]
     assert m["reported_as"] == {"worker_1": "w2", "worker_2": "w1"}
+    assert m["reported_workers"] == ["w1", "w2"]
     assert m["named_by_stature"]["correct_pct"] == 100.0 and m["named_by_stature"]["rows"] == 2 * gt.n_frames
     # the true scores use the named workers' loads, exactly as the pipeline did: full agreement
     assert ev["scores"]["rula_grand"]["off_edge"]["exact_agreement_pct"] == 100.0

@@ -107,7 +107,8 @@ def _csv_bytes(out: Path) -> dict[str, bytes]:
 
 @pytest.mark.slow
 def test_task_inputs_for_ids_nobody_has_are_named_in_a_warning_and_the_report(assessed):
-    session, out, _, warnings = assessed
+    session, out, _, notes = assessed
+    warnings = [n for n in notes if "applied to nobody" in n]
     assert len(warnings) == 1
     assert "[workers.w1], [workers.w2]" in warnings[0] and "ergopose workers" in warnings[0]
     assert "worker_1, worker_2, worker_3" in warnings[0]
@@ -172,7 +173,7 @@ def test_naming_applies_the_task_inputs_and_the_scores_change(copy, capsys):
         == 0
     )
     err = capsys.readouterr().err
-    assert "applied to nobody" not in err
+    assert "applied to nobody" not in err and "expected_workers" not in err
     assert names.load_names(session) == {"worker_1": "Anna", "worker_2": "w2", "worker_3": "w2"}
     assert sorted(p.name for p in (out / "csv").glob("*_frames.csv")) == ["w1_frames.csv", "w2_frames.csv"]
     assert sorted(p.name for p in out.glob("worker-*.html")) == ["worker-w1.html", "worker-w2.html"]
@@ -188,6 +189,32 @@ def test_naming_applies_the_task_inputs_and_the_scores_change(copy, capsys):
     assert (w2["reba_load"].dropna() == W2_REBA_LOAD).all()
     session_json = (out / "results" / "session.json").read_text(encoding="utf-8")
     assert "worker_2 and worker_3 (scored as one worker)" in session_json and '"Anna"' in session_json
+
+
+@pytest.mark.slow
+def test_more_people_than_the_area_holds_names_the_likeliest_pair(assessed, copy, capsys):
+    """The area holds 2 workers (simulate writes expected_workers = 2); the second worker is tracked
+    as worker_2, then worker_3 (never at the same time), worker_1 throughout: the warning, the
+    report and the listing name worker_3 with worker_2; once both have one name, nothing is said."""
+    _, out, frames, notes = assessed
+    excess = [n for n in notes if "expected_workers" in n]
+    assert len(excess) == 1
+    assert "expected_workers = 2, but 3 people were tracked (worker_1, worker_2, worker_3)" in excess[0]
+    half = frames // 2
+    assert f"worker_3 with worker_2 (followed at the same time in 0 of the {half} frames" in excess[0]
+    assert "--name worker_2=NAME --name worker_3=NAME" in excess[0]
+    session_json = (out / "results" / "session.json").read_text(encoding="utf-8")
+    assert session_json.count("most likely the same worker as") == 2
+    assert "most likely the same worker as worker_3" in session_json
+    assert "most likely the same worker as worker_2" in session_json
+
+    session, out, _ = copy
+    assert cli.main(["workers", "--session", str(session), "--results", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert err.count("expected_workers = 2, but 3 people") == 1 and "worker_3 with worker_2" in err
+    names.write_names(session, {"worker_2": "Ana", "worker_3": "Ana"})
+    assert cli.main(["workers", "--session", str(session), "--results", str(out)]) == 0
+    assert "expected_workers" not in capsys.readouterr().err
 
 
 @pytest.mark.slow
