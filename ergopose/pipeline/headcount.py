@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from ergopose.pipeline.names import tracker_number
@@ -61,14 +62,27 @@ class SamePerson:
 
 def frames_by_id(tracks_path: Path, members: Mapping[str, Sequence[str]]) -> dict[str, np.ndarray]:
     """{reported id: the sorted frames in which any of its tracked ids has a row} from the tracks
-    table (one joint's rows read; every tracked frame has a row for every joint)."""
-    table = pq.read_table(tracks_path, columns=["worker", "frame"], filters=[("joint", "==", "left_hip")])
-    worker = np.asarray(table.column("worker").to_pylist(), dtype=str)
-    frame = table.column("frame").to_numpy().astype(np.int64)
-    out = {}
-    for reported, tracked in members.items():
-        out[reported] = np.unique(frame[np.isin(worker, list(tracked))])
-    return out
+    table, read in batches (one joint's rows; every tracked frame has a row for every joint), so a
+    whole shift's table is never in memory at once."""
+    reported_of = {t: r for r, ids in members.items() for t in ids}
+    seen: dict[str, np.ndarray] = {r: np.zeros(0, bool) for r in members}
+    for batch in pq.ParquetFile(tracks_path).iter_batches(batch_size=1 << 20, columns=["worker", "frame", "joint"]):
+        rows = batch.filter(pc.equal(batch.column("joint"), "left_hip"))
+        if rows.num_rows == 0:
+            continue
+        worker = np.asarray(rows.column("worker").to_pylist(), dtype=str)
+        frame = rows.column("frame").to_numpy().astype(np.int64)
+        for tracked in np.unique(worker):
+            reported = reported_of.get(str(tracked))
+            if reported is None:
+                continue
+            f = frame[worker == tracked]
+            mask = seen[reported]
+            if len(mask) <= f.max():
+                mask = np.concatenate([mask, np.zeros(int(f.max()) + 1 - len(mask), bool)])
+            mask[f] = True
+            seen[reported] = mask
+    return {r: np.flatnonzero(m).astype(np.int64) for r, m in seen.items()}
 
 
 def likely_same(
