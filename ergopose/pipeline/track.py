@@ -300,8 +300,10 @@ def name_workers(
     session: Session, tracks: Tracks, progress: ProgressCallback | None, window: Window | None = None
 ) -> NamedTracks:
     """Who is who: the session's names.toml, then the stature match, then the tracker's pseudonym
-    (:mod:`ergopose.pipeline.names`); names of names.toml that are not a tracked id and settings
-    ids whose task inputs reach nobody are named in warnings.
+    (:mod:`ergopose.pipeline.names`); names of names.toml that are not a tracked id, settings ids
+    whose task inputs reach nobody, and more reported people than the settings say the area holds
+    (with the pairs most likely one worker, :mod:`ergopose.pipeline.headcount`) are named in
+    warnings.
 
     window: score only the frames of this part of the day (default: the tracks' own window,
     ``ergopose assess --start/--end``; else all); only the workers tracked within it are kept."""
