@@ -140,6 +140,27 @@ def excess_message(
     return text
 
 
+def report_notice(expected: int, reported: Sequence[str], pairs: Sequence[SamePerson]) -> str:
+    """The report's notice for more reported workers than the area holds (one sentence or two)."""
+    text = (
+        f"the settings say the area holds {expected} worker{'s' if expected != 1 else ''}, but "
+        f"{len(reported)} people are reported here ({', '.join(reported)}): some are most likely one worker "
+        "followed under two ids, or a visitor."
+    )
+    if pairs:
+        text += (
+            " Most likely one worker: "
+            + "; ".join(
+                f"{p.first} and {p.second} (followed at the same time in {p.together_pct:.0f} % of the "
+                "shorter one's frames)"
+                for p in pairs
+            )
+            + ". If so, give both one name with 'ergopose workers --name' (docs/workers.md); until then "
+            "each is reported as a worker of their own, with part of the shift."
+        )
+    return text
+
+
 def check_headcount(
     session: Session,
     tracks_path: Path,
@@ -174,4 +195,12 @@ def check_headcount(
     return pairs
 
 
-__all__ = ["check_headcount", "MAX_TOGETHER", "SamePerson", "excess_message", "frames_by_id", "likely_same"]
+__all__ = [
+    "check_headcount",
+    "MAX_TOGETHER",
+    "SamePerson",
+    "excess_message",
+    "frames_by_id",
+    "likely_same",
+    "report_notice",
+]

@@ -30,7 +30,7 @@ from ergopose.ergonomics.export import (
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.pipeline.aggregate import ReportWorker
 from ergopose.pipeline.guard import fingerprint_of
-from ergopose.pipeline.headcount import SamePerson
+from ergopose.pipeline.headcount import SamePerson, report_notice
 from ergopose.pipeline.inputs import ModelUse
 from ergopose.pipeline.names import NAMES_FILE
 from ergopose.pipeline.score import CSV_DIR, SCORED_DIR
@@ -220,7 +220,8 @@ def write_report(
     skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
     unused: settings ids whose task inputs reach no reported worker (every worker's assumptions
     say so). same_person: pairs of reported workers most likely one worker, when more were tracked
-    than the settings say the area holds (both workers' assumptions say so).
+    than the settings say the area holds (both workers' assumptions say so; every page's header
+    carries the notice).
     """
     worker_records = []
     for s in scored:
@@ -235,6 +236,9 @@ def write_report(
         )
         worker_records.append((summary, diag, s.timeline))
     floor = _floor_plan(session)
+    expected = int(session.reconstruction.expected_workers)
+    reported = [s.worker_id for s in scored]
+    notices = (report_notice(expected, reported, same_person),) if expected and len(reported) > expected else ()
     info = SessionInfo(
         session_id=session.path.resolve().name,
         title=_title(session, window),
@@ -265,6 +269,7 @@ def write_report(
         ),
         fingerprint=fingerprint_of(session),
         skipped_frames=tuple(skipped),
+        notices=notices,
     )
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, session_results(info, worker_records), progress=progress)

@@ -247,7 +247,8 @@ class SessionInfo:
     workers: every worker, in report order. csv_files: session-wide CSV files (the session
     summary). fingerprint: the recording's fingerprint (ergopose.pipeline.guard; None in results
     written before it existed). skipped_frames: per camera with skipped frames, which (empty when
-    every frame was read).
+    every frame was read). notices: what a reader must know before the figures, one sentence
+    each (e.g. more people tracked than the area holds; empty when nothing).
     """
 
     session_id: str
@@ -268,6 +269,7 @@ class SessionInfo:
     csv_files: tuple[DataFile, ...] = ()
     fingerprint: str | None = None
     skipped_frames: tuple[SkippedFrames, ...] = ()
+    notices: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         ids = [w.worker_id for w in self.workers]

@@ -53,7 +53,8 @@ class SessionHeader:
 
     title: session title (or its id). session_id: folder name. site: where (may be empty).
     when: date and clock times, or a sentence that they are unknown. duration: length in words.
-    generated: which ergopose version wrote the results, and when.
+    generated: which ergopose version wrote the results, and when. notices: what a reader must
+    know before the figures (SessionInfo.notices), shown on every page under the header.
     """
 
     title: str
@@ -62,6 +63,7 @@ class SessionHeader:
     when: str
     duration: str
     generated: str
+    notices: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ def session_header(s: SessionInfo) -> SessionHeader:
         when=when,
         duration=f"{fmt_duration(s.duration_s)} ({s.frames:,} frames at {s.fps:g} frames per second)",
         generated=f"Results written {s.created} by ergopose {s.ergopose_version}.",
+        notices=s.notices,
     )
 
 

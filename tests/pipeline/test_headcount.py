@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ergopose.pipeline.headcount import MAX_TOGETHER, excess_message, likely_same
+from ergopose.pipeline.headcount import MAX_TOGETHER, excess_message, likely_same, report_notice
 
 
 def test_the_pair_followed_together_least_is_one_worker():
@@ -65,3 +65,12 @@ def test_the_warning_names_the_command_or_says_there_is_no_pair():
     assert "'ergopose workers --session day1 --name worker_1=NAME --name worker_2=NAME'" in text
     text = excess_message(Path("day1"), "settings.toml", 1, ["worker_1", "worker_2"], ())
     assert "no two of them were followed apart often enough" in text
+
+
+def test_the_reports_notice():
+    frames = {"worker_1": np.arange(0, 50), "worker_2": np.arange(0, 100), "worker_3": np.arange(40, 100)}
+    pairs = likely_same(frames, expected=2)
+    text = report_notice(2, list(frames), pairs)
+    assert text.startswith("the settings say the area holds 2 workers, but 3 people are reported here")
+    assert "worker_1 and worker_3 (followed at the same time in 20 % of the shorter one's frames)" in text
+    assert report_notice(1, ["worker_1", "worker_2"], ()).endswith("or a visitor.")

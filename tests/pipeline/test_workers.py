@@ -207,6 +207,9 @@ def test_more_people_than_the_area_holds_names_the_likeliest_pair(assessed, copy
     assert session_json.count("most likely the same worker as") == 2
     assert "most likely the same worker as worker_3" in session_json
     assert "most likely the same worker as worker_2" in session_json
+    index = (out / "index.html").read_text(encoding="utf-8")
+    assert "Before reading the figures:</strong> the settings say the area holds 2 workers, but 3 people" in index
+    assert "worker_2 and worker_3 (followed at the same time in 0 %" in index
 
     session, out, _ = copy
     assert cli.main(["workers", "--session", str(session), "--results", str(out)]) == 0
@@ -215,6 +218,8 @@ def test_more_people_than_the_area_holds_names_the_likeliest_pair(assessed, copy
     names.write_names(session, {"worker_2": "Ana", "worker_3": "Ana"})
     assert cli.main(["workers", "--session", str(session), "--results", str(out)]) == 0
     assert "expected_workers" not in capsys.readouterr().err
+    rescore.rescore(load_session(session, check_videos=False), out)
+    assert "Before reading the figures" not in (out / "index.html").read_text(encoding="utf-8")
 
 
 @pytest.mark.slow

@@ -104,6 +104,13 @@ TASK_RULA = {
 }
 
 
+#: The synthetic session's notice (shown under every page's header).
+SYNTHETIC_NOTICE = (
+    "the settings say the area holds 2 workers, but more people are reported here: W2 and W3 are most "
+    "likely one worker followed under two ids (followed at the same time in 4 % of the shorter one's frames)."
+)
+
+
 def _kind(station_name: str) -> str:
     for k in ("shelf", "table", "pallet", "rest"):
         if station_name.startswith(k):
@@ -543,6 +550,7 @@ def synthetic_session(
         floor=floor_plan_from_scene(scene, cams),
         workers=tuple(infos),
         csv_files=(DataFile("Session summary", "csv/session-summary.csv"),) if csv else (),
+        notices=(SYNTHETIC_NOTICE,),
     )
     return session, results
 

@@ -73,6 +73,18 @@ def test_headline_numbers_come_from_the_frames(rendered_report):
 
 
 @pytest.mark.slow
+def test_the_sessions_notices_stand_under_every_pages_header(rendered_report):
+    folder, session, _, _ = rendered_report
+    assert session.notices
+    pages = ["index.html", "print.html"] + [worker_page_name(w.worker_id) for w in session.workers]
+    for name in pages:
+        text = (folder / name).read_text(encoding="utf-8")
+        header = text[text.index('<header class="page">') : text.index("</header>")]
+        for notice in session.notices:
+            assert "Before reading the figures:</strong> " + str(markupsafe.escape(notice)) in header, name
+
+
+@pytest.mark.slow
 def test_pages_are_self_contained_and_small(rendered_report):
     folder, session, workers, files = rendered_report
     assert set(files.sizes) == {"index.html", "print.html"} | {worker_page_name(w.worker_id) for w in session.workers}

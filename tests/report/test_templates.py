@@ -104,6 +104,7 @@ def test_example_contexts_have_both_branches(example_contexts):
         assert getattr(worker, name), name
     printed = example_contexts[pages.PrintPage]
     assert all(w.worst for w in printed.workers) and any(w.more for w in printed.workers) is False
+    assert all(ctx.session.notices for ctx in example_contexts.values())
 
 
 @pytest.mark.slow
