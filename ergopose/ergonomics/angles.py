@@ -305,6 +305,15 @@ def _p(points: np.ndarray, name: str) -> np.ndarray:
     return points[:, JOINT_INDEX[name], :]
 
 
+def pelvis_frames(points_world: np.ndarray) -> FloatArray:
+    """(F, 3, 3) the pelvis frame of each frame of ``points_world`` (F, 33, 3): columns forward,
+    left and up (world up; left = the hip line made level, forward = left x up). It turns with the
+    person's heading only; NaN where a hip is missing."""
+    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (points_world.shape[0], 3))
+    left = _perp_unit(_p(points_world, "left_hip") - _p(points_world, "right_hip"), up)
+    return _frame(np.cross(left, up), left, up)
+
+
 #: Frames processed at a time: the (C, 3) intermediates then stay in the CPU cache.
 CHUNK_FRAMES = 8192
 
@@ -413,16 +422,12 @@ def shoulder_heights(points_world: np.ndarray) -> np.ndarray:
 
 def _frame_local(pts: np.ndarray, s: AngleSettings) -> dict[str, np.ndarray]:
     """Everything that depends on one frame only, for a block of frames (C, 33, 3)."""
-    n = pts.shape[0]
     out: dict[str, np.ndarray] = {}
-    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (n, 3))
 
     # Pelvis frame: left = hip line made level, forward = left x up.
     l_hip, r_hip = _p(pts, "left_hip"), _p(pts, "right_hip")
     mid_hip = 0.5 * (l_hip + r_hip)
-    pelvis_left = _perp_unit(l_hip - r_hip, up)
-    pelvis_fwd = np.cross(pelvis_left, up)
-    pelvis = _frame(pelvis_fwd, pelvis_left, up)
+    pelvis = pelvis_frames(pts)
 
     # Trunk frame: z = mid-hip -> mid-shoulder, y = shoulder line made perpendicular to z.
     l_sh, r_sh = _p(pts, "left_shoulder"), _p(pts, "right_shoulder")

@@ -43,7 +43,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from ergopose.ergonomics.angles import joint_angles
+from ergopose.ergonomics.angles import joint_angles, pelvis_frames
 from ergopose.ergonomics.export import STEPS_SUFFIX
 from ergopose.ergonomics.posture import ANGLE_COLUMNS
 from ergopose.ergonomics.scoring import score_posture
@@ -291,31 +291,17 @@ def _pairs(points: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 # ------------------------------------------------------------------------------------------ evaluate
 
 
-def heading_frames(points_world: np.ndarray) -> np.ndarray:
-    """(n, 3, 3) the person's heading frame in each frame of ``points_world`` (n, 33, 3): columns
-    forward, left and up (world up; left = the hip line made level, forward = left x up, as the
-    pelvis frame of :mod:`ergopose.ergonomics.angles`). NaN where a hip is missing."""
-    up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (len(points_world), 3))
-    hip_line = points_world[:, JOINT_INDEX["left_hip"]] - points_world[:, JOINT_INDEX["right_hip"]]
-    hip_line = hip_line - np.einsum("ni,ni->n", hip_line, up)[:, None] * up
-    length = np.linalg.norm(hip_line, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        left = hip_line / np.where(length > 1e-9, length, np.nan)[:, None]
-    forward = np.cross(left, up)
-    return np.stack([forward, left, up], axis=-1)
-
-
 def definition_offsets(points_world: np.ndarray, ref_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """How a constant difference of keypoint definitions would place the reference.
 
     points_world, ref_world: (n, J, 3) the compared rows of the assessment and the aligned
     reference. Returns each joint's median offset (assessment - reference) in the reference
-    person's heading frame (:func:`heading_frames`; (J, 3) forward, left, up in metres, NaN where
+    person's heading frame (:func:`ergopose.ergonomics.angles.pelvis_frames`; (J, 3) forward, left, up in metres, NaN where
     the joint has no pair), and the reference with those offsets added in every frame ((n, J, 3);
     a joint without an offset, or a frame without a heading, is left as it was). A difference
     that is only a constant offset of some joints in the heading frame disappears against the
     moved reference; a difference that varies from frame to frame (error) does not."""
-    frames = heading_frames(ref_world)
+    frames = pelvis_frames(ref_world)
     local = np.einsum("nij,nJi->nJj", frames, points_world - ref_world)
     pairs = np.isfinite(local).all(-1).any(0)
     offsets = np.full(local.shape[1:], np.nan)

@@ -60,6 +60,20 @@ class SamePerson:
         )
 
 
+@dataclass(frozen=True)
+class Excess:
+    """More people reported than the area holds: expected (the settings' ``expected_workers``),
+    reported (the reported ids followed, in tracker order) and the pairs most likely one worker."""
+
+    expected: int
+    reported: tuple[str, ...]
+    pairs: tuple[SamePerson, ...]
+
+    def notice(self) -> str:
+        """The report's notice (one sentence or two)."""
+        return report_notice(self.expected, self.reported, self.pairs)
+
+
 def frames_by_id(tracks_path: Path, members: Mapping[str, Sequence[str]]) -> dict[str, np.ndarray]:
     """{reported id: the sorted frames in which any of its tracked ids has a row} from the tracks
     table, read in batches (one joint's rows; every tracked frame has a row for every joint), so a
@@ -169,22 +183,22 @@ def check_headcount(
     statures: Mapping[str, float | None],
     window: Window | None,
     progress: ProgressCallback | None,
-) -> tuple[SamePerson, ...]:
+) -> Excess | None:
     """When more people are reported than ``expected`` (the settings' ``expected_workers``) says
     the area holds: a warning through ``progress`` naming the pairs most likely one worker, and
-    those pairs (empty otherwise).
+    the :class:`Excess` (None otherwise).
 
     members: {reported id: its tracked ids}. statures: {tracked id: measured stature (m) or None}.
     window: only the frames of this part of the day count (None: all)."""
     if not expected or len(members) <= expected:
-        return ()
+        return None
     members = dict(sorted(members.items(), key=lambda kv: min(tracker_number(t) for t in kv[1])))
     frames = frames_by_id(tracks_path, members)
     if window is not None:
         frames = {r: f[window.mask(f, session.fps)] for r, f in frames.items()}
     frames = {r: f for r, f in frames.items() if len(f)}
     if len(frames) <= expected:
-        return ()
+        return None
     reported_statures = {}
     for r, ids in members.items():
         known = [float(v) for t in ids if (v := statures.get(t)) is not None and math.isfinite(float(v))]
@@ -192,10 +206,11 @@ def check_headcount(
             reported_statures[r] = float(np.mean(known))
     pairs = likely_same(frames, expected, reported_statures)
     warn(progress, excess_message(session.path, session.settings_path.name, expected, list(frames), pairs))
-    return pairs
+    return Excess(expected=expected, reported=tuple(frames), pairs=pairs)
 
 
 __all__ = [
+    "Excess",
     "check_headcount",
     "MAX_TOGETHER",
     "SamePerson",

@@ -30,7 +30,7 @@ from ergopose.ergonomics.export import (
 from ergopose.ergonomics.settings import ScoringSettings
 from ergopose.pipeline.aggregate import ReportWorker
 from ergopose.pipeline.guard import fingerprint_of
-from ergopose.pipeline.headcount import SamePerson, report_notice
+from ergopose.pipeline.headcount import Excess, SamePerson
 from ergopose.pipeline.inputs import ModelUse
 from ergopose.pipeline.names import NAMES_FILE
 from ergopose.pipeline.score import CSV_DIR, SCORED_DIR
@@ -153,7 +153,7 @@ def publish(
         skipped,
         unused=named.unused,
         window=named.tracks.window,
-        same_person=named.same_person,
+        excess=named.excess,
     )
     swap_outputs(stage, out_dir)
     return Outputs(index_html=out_dir / index.name, session_csv=out_dir / CSV_DIR / SESSION_CSV, workers=tuple(outputs))
@@ -211,7 +211,7 @@ def write_report(
     skipped: tuple[SkippedFrames, ...] = (),
     unused: Sequence[str] = (),
     window: Window | None = None,
-    same_person: Sequence[SamePerson] = (),
+    excess: Excess | None = None,
 ) -> Path:
     """Store the report results (ergopose.report.results) and render the pages.
 
@@ -219,9 +219,9 @@ def write_report(
 
     skipped: the video frames skipped (:func:`ergopose.pipeline.skipped.skipped_records`).
     unused: settings ids whose task inputs reach no reported worker (every worker's assumptions
-    say so). same_person: pairs of reported workers most likely one worker, when more were tracked
-    than the settings say the area holds (both workers' assumptions say so; every page's header
-    carries the notice).
+    say so). excess: more workers reported than the settings say the area holds, with the pairs
+    most likely one worker (every page's header carries the notice; both workers of a pair say
+    so in their assumptions).
     """
     worker_records = []
     for s in scored:
@@ -236,9 +236,6 @@ def write_report(
         )
         worker_records.append((summary, diag, s.timeline))
     floor = _floor_plan(session)
-    expected = int(session.reconstruction.expected_workers)
-    reported = [s.worker_id for s in scored]
-    notices = (report_notice(expected, reported, same_person),) if expected and len(reported) > expected else ()
     info = SessionInfo(
         session_id=session.path.resolve().name,
         title=_title(session, window),
@@ -261,7 +258,7 @@ def write_report(
             ident,
             session,
             unused,
-            same_person,
+            excess.pairs if excess is not None else (),
         ),
         csv_files=(
             DataFile("Session summary (CSV)", f"{CSV_DIR}/{SESSION_CSV}"),
@@ -269,7 +266,7 @@ def write_report(
         ),
         fingerprint=fingerprint_of(session),
         skipped_frames=tuple(skipped),
-        notices=notices,
+        notices=(excess.notice(),) if excess is not None else (),
     )
     save_results(out_dir, info, worker_records)
     files = render_report(out_dir, session_results(info, worker_records), progress=progress)

@@ -262,7 +262,7 @@ def warn_unused(session: Session, people: Sequence[TrackedPerson], progress: Pro
 
 def warn_headcount(
     session: Session, folder: Path, people: Sequence[TrackedPerson], progress: ProgressCallback | None
-) -> tuple[headcount.SamePerson, ...]:
+) -> headcount.Excess | None:
     """Warn (through ``progress``) when ``people`` are reported as more workers than the settings
     say the area holds, naming the pairs most likely one worker (:mod:`ergopose.pipeline.headcount`)."""
     members: dict[str, list[str]] = {}

@@ -20,7 +20,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from ergopose.errors import InputError
-from ergopose.pipeline.headcount import SamePerson, check_headcount
+from ergopose.pipeline.headcount import Excess, check_headcount
 from ergopose.pipeline.names import (
     NAMES_FILE,
     load_names,
@@ -291,9 +291,9 @@ class NamedTracks:
     tracks: Tracks
     naming: Any
     unused: tuple[str, ...]
-    #: pairs of reported ids most likely one worker, when more people are reported than the
-    #: settings say the area holds (:mod:`ergopose.pipeline.headcount`)
-    same_person: tuple[SamePerson, ...] = ()
+    #: more people reported than the settings say the area holds, with the pairs most likely one
+    #: worker (:mod:`ergopose.pipeline.headcount`); None when not
+    excess: Excess | None = None
 
 
 def name_workers(
@@ -329,7 +329,7 @@ def name_workers(
     if unused:
         warn(progress, unused_message(session, unused, tracked_ids=tracked))
     statures = {t: v.get("stature_estimate_m") for t, v in tracks.worker_summary.items()}
-    same = check_headcount(
+    excess = check_headcount(
         session, tracks.path, int(tracks.recon.expected_workers), naming.members, statures, tracks.window, progress
     )
-    return NamedTracks(session=session, tracks=tracks, naming=naming, unused=tuple(unused), same_person=same)
+    return NamedTracks(session=session, tracks=tracks, naming=naming, unused=tuple(unused), excess=excess)
